@@ -1,0 +1,131 @@
+"""The ``crowdmotion`` command: parses arguments, calls the API, prints. No simulation here."""
+
+from __future__ import annotations
+
+import argparse
+import sys
+from importlib import resources
+from pathlib import Path
+
+from crowdmotion import __version__
+
+
+def builtin_scenarios() -> list[Path]:
+    """The scenario files shipped with the package (the papers' scenes)."""
+    folder = resources.files("crowdmotion") / "scenarios"
+    return sorted(Path(str(p)) for p in folder.iterdir() if p.name.endswith(".toml"))
+
+
+def _headline(summary: dict) -> str:
+    parts = [f"{summary['agents']} agents", f"{summary['frames']} frames",
+             f"agent overlaps {summary['agent_agent_overlaps']}",
+             f"obstacle penetrations {summary['agent_obstacle_penetrations']}"]
+    if "arrival_rate" in summary:
+        parts.append(f"arrived {summary['arrival_rate']:.0%}")
+    return ", ".join(parts)
+
+
+def cmd_run(args) -> int:
+    from crowdmotion.outputs import write_run
+    from crowdmotion.scenario import load_scenario, run_scenario
+
+    sc = load_scenario(args.scenario)
+    out = Path(args.output or Path("out") / sc.spec.name)
+    result = run_scenario(sc, seed=args.seed, progress=not args.quiet)
+    files = write_run(result, out)
+    print(f"{sc.spec.name}: {_headline(result.summary)}")
+    for f in files:
+        print(f"  wrote {f}")
+    return 0
+
+
+def cmd_demo(args) -> int:
+    from crowdmotion.outputs import write_run
+    from crowdmotion.scenario import load_scenario, run_scenario
+
+    root = Path(args.output)
+    names = set(args.only or [])
+    for path in builtin_scenarios():
+        sc = load_scenario(path)
+        if names and sc.spec.name not in names:
+            continue
+        print(f"running {sc.spec.name}: {sc.spec.description}", flush=True)
+        result = run_scenario(sc, progress=not args.quiet)
+        write_run(result, root / sc.spec.name)
+        print(f"  {_headline(result.summary)}")
+    print(f"demo output in {root.resolve()}/ (trajectories.parquet, summary.json, paths.png, values.png per scene)")
+    return 0
+
+
+def cmd_validate(args) -> int:
+    from crowdmotion.scenario import load_scenario
+
+    sc = load_scenario(args.scenario)
+    n = sum(g.count for g in sc.groups)
+    print(f"{args.scenario}: OK: {sc.scene.dim}D scene, {len(sc.scene.obstacles)} obstacles, "
+          f"{len(sc.groups)} groups, {n} agents, method {sc.method}")
+    return 0
+
+
+def cmd_bench(args) -> int:
+    from crowdmotion.mdp.benchmark import print_tables, run_paper_tables
+
+    if args.method != "mdp":
+        print(f"no benchmark for method {args.method!r}", file=sys.stderr)
+        return 2
+    rows = run_paper_tables(reference=not args.no_reference, repeats=args.repeats, progress=not args.quiet)
+    print_tables(rows)
+    return 0
+
+
+def cmd_list(args) -> int:
+    from crowdmotion.scenario import load_scenario
+
+    for path in builtin_scenarios():
+        sc = load_scenario(path)
+        print(f"{sc.spec.name:28s} {path}\n    {sc.spec.description}")
+    return 0
+
+
+def main(argv=None) -> int:
+    parser = argparse.ArgumentParser(prog="crowdmotion", description="Collision-free crowd and group motion.")
+    parser.add_argument("--version", action="version", version=f"crowdmotion {__version__}")
+    sub = parser.add_subparsers(dest="command", required=True)
+
+    p = sub.add_parser("run", help="run a scenario file and write its outputs")
+    p.add_argument("scenario")
+    p.add_argument("-o", "--output", help="output folder (default ./out/<scenario name>)")
+    p.add_argument("--seed", type=int, help="override the scenario's seed")
+    p.add_argument("-q", "--quiet", action="store_true", help="no progress bar")
+    p.set_defaults(func=cmd_run)
+
+    p = sub.add_parser("demo", help="run the built-in scenes (offline, no arguments needed)")
+    p.add_argument("-o", "--output", default="crowdmotion-demo")
+    p.add_argument("--only", nargs="*", help="names of built-in scenes to run")
+    p.add_argument("-q", "--quiet", action="store_true")
+    p.set_defaults(func=cmd_demo)
+
+    p = sub.add_parser("validate", help="check a scenario file and report every problem")
+    p.add_argument("scenario")
+    p.set_defaults(func=cmd_validate)
+
+    p = sub.add_parser("bench", help="reproduce the papers' timing tables")
+    p.add_argument("method", choices=["mdp"])
+    p.add_argument("--no-reference", action="store_true", help="skip the slow plain-Python solvers")
+    p.add_argument("--repeats", type=int, default=3, help="runs per timing (the paper used 3)")
+    p.add_argument("-q", "--quiet", action="store_true")
+    p.set_defaults(func=cmd_bench)
+
+    p = sub.add_parser("scenarios", help="list the built-in scenarios")
+    p.set_defaults(func=cmd_list)
+
+    args = parser.parse_args(argv)
+    try:
+        return args.func(args)
+    except (ValueError, FileNotFoundError, MemoryError, OSError) as exc:
+        print(f"crowdmotion: error: {exc}", file=sys.stderr)
+        return 2
+
+
+if __name__ == "__main__":  # pragma: no cover
+    sys.exit(main())

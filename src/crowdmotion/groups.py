@@ -1,0 +1,200 @@
+"""Groups of agents: how many, where they spawn, where they go, and their body/speed."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from typing import Any, Sequence, Union
+
+import numpy as np
+
+from crowdmotion.geometry import as_points, finite_array
+
+
+class Region:
+    """An area (2D) or volume (3D) that agents spawn in or head for."""
+
+    dim: int
+
+    @property
+    def center(self) -> np.ndarray:  # pragma: no cover - overridden
+        raise NotImplementedError
+
+    def contains(self, points) -> np.ndarray:  # pragma: no cover - overridden
+        raise NotImplementedError
+
+    def sample(self, count: int, rng: np.random.Generator) -> np.ndarray:  # pragma: no cover
+        """``count`` points drawn uniformly inside the region, shape (count, dim)."""
+        raise NotImplementedError
+
+
+class Points(Region):
+    """An explicit list of positions, one per agent (spawn) or candidate goals."""
+
+    def __init__(self, points):
+        p = finite_array(points, "Points.points")
+        if p.ndim != 2 or p.shape[1] not in (2, 3) or len(p) == 0:
+            raise ValueError(f"Points.points must be a non-empty list of 2D or 3D points, got shape {p.shape}")
+        self.points = p
+        self.dim = p.shape[1]
+
+    @property
+    def center(self):
+        return self.points.mean(axis=0)
+
+    def contains(self, points):
+        p = as_points(points, self.dim)
+        return np.any(np.all(np.isclose(p[..., None, :], self.points), axis=-1), axis=-1)
+
+    def sample(self, count, rng):
+        if count > len(self.points):
+            raise ValueError(f"Points holds {len(self.points)} positions but {count} agents need one each")
+        return self.points[:count].copy()
+
+    def __repr__(self):
+        return f"Points({self.points.tolist()})"
+
+
+class Rect(Region):
+    """Axis-aligned rectangle (2D) or box (3D): ``Rect(lower, upper)``."""
+
+    def __init__(self, lower: Sequence[float], upper: Sequence[float]):
+        lo = finite_array(lower, "Rect.lower").ravel()
+        hi = finite_array(upper, "Rect.upper").ravel()
+        if lo.shape != hi.shape or lo.size not in (2, 3):
+            raise ValueError(f"Rect corners must both have 2 or 3 coordinates, got {list(lo)}, {list(hi)}")
+        if np.any(hi < lo):
+            raise ValueError(f"Rect.upper must not be below Rect.lower, got lower={list(lo)} upper={list(hi)}")
+        self.lower, self.upper, self.dim = lo, hi, lo.size
+
+    @property
+    def center(self):
+        return (self.lower + self.upper) / 2
+
+    def contains(self, points):
+        p = as_points(points, self.dim)
+        return np.all((p >= self.lower) & (p <= self.upper), axis=-1)
+
+    def sample(self, count, rng):
+        return rng.uniform(self.lower, self.upper, size=(count, self.dim))
+
+    def __repr__(self):
+        return f"Rect({self.lower.tolist()}, {self.upper.tolist()})"
+
+
+class Disc(Region):
+    """Disc (2D) or ball (3D): ``Disc(center, radius)``."""
+
+    def __init__(self, center: Sequence[float], radius: float):
+        c = finite_array(center, "Disc.center").ravel()
+        if c.size not in (2, 3):
+            raise ValueError(f"Disc.center must have 2 or 3 coordinates, got {list(c)}")
+        r = float(radius)
+        if not np.isfinite(r) or r <= 0:
+            raise ValueError(f"Disc.radius must be a positive number, got {radius!r}")
+        self._center, self.radius, self.dim = c, r, c.size
+
+    @property
+    def center(self):
+        return self._center
+
+    def contains(self, points):
+        p = as_points(points, self.dim)
+        return np.linalg.norm(p - self._center, axis=-1) <= self.radius
+
+    def sample(self, count, rng):
+        d = rng.normal(size=(count, self.dim))
+        d /= np.linalg.norm(d, axis=1, keepdims=True)
+        r = self.radius * rng.uniform(size=(count, 1)) ** (1.0 / self.dim)
+        return self._center + d * r
+
+    def __repr__(self):
+        return f"Disc({self._center.tolist()}, {self.radius})"
+
+
+class MovingTarget:
+    """A goal that moves: keyframes ``(times, positions)`` linearly interpolated."""
+
+    def __init__(self, times, positions):
+        t = finite_array(times, "MovingTarget.times").ravel()
+        p = finite_array(positions, "MovingTarget.positions")
+        if p.ndim != 2 or p.shape[0] != t.size or p.shape[1] not in (2, 3):
+            raise ValueError(f"MovingTarget.positions must have shape ({t.size}, 2 or 3), got {p.shape}")
+        if t.size == 0 or np.any(np.diff(t) <= 0):
+            raise ValueError(f"MovingTarget.times must be non-empty and increasing, got {t.tolist()}")
+        self.times, self.positions, self.dim = t, p, p.shape[1]
+
+    @property
+    def center(self):
+        return self.positions[-1]
+
+    def at(self, t):
+        t = np.asarray(t, dtype=float)
+        return np.stack([np.interp(t, self.times, self.positions[:, k]) for k in range(self.dim)], axis=-1)
+
+
+Goal = Union[Rect, Disc, Points, MovingTarget]
+
+
+def as_region(value, what: str) -> Region | MovingTarget:
+    """A Region (or MovingTarget) from a Region, or from a bare point (a one-point Region)."""
+    if isinstance(value, (Region, MovingTarget)):
+        return value
+    p = finite_array(value, what).ravel()
+    if p.size not in (2, 3):
+        raise ValueError(f"{what} must be a point with 2 or 3 coordinates or a region, got {value!r}")
+    return Points(p[None, :])
+
+
+@dataclass
+class Group:
+    """A named set of agents with a spawn region, a goal and per-agent body/speed.
+
+    Parameters
+    ----------
+    name : str            group name, used in outputs and reports
+    count : int           number of agents
+    spawn : Region        where agents start (Points, Rect, Disc) or a point
+    goal : Region         where they go (Rect, Disc, Points, a point, or MovingTarget)
+    radius : float        body radius in metres (bounding circle/sphere)
+    max_speed : float     metres per second
+    pref_speed : float    preferred walking speed, metres per second
+    attributes : dict     method-specific extras (personality, formation template, ...)
+    """
+
+    name: str
+    count: int
+    spawn: Any
+    goal: Any
+    radius: float = 0.25
+    max_speed: float = 1.5
+    pref_speed: float = 1.3
+    attributes: dict = field(default_factory=dict)
+
+    def __post_init__(self):
+        if not isinstance(self.name, str) or not self.name:
+            raise ValueError(f"Group.name must be a non-empty string, got {self.name!r}")
+        where = f"Group {self.name!r}"
+        if isinstance(self.count, bool) or not isinstance(self.count, (int, np.integer)) or self.count <= 0:
+            raise ValueError(f"{where}: count must be a positive integer, got {self.count!r}")
+        self.count = int(self.count)
+        for attr in ("radius", "max_speed", "pref_speed"):
+            v = getattr(self, attr)
+            try:
+                fv = float(v)
+            except (TypeError, ValueError):
+                raise ValueError(f"{where}: {attr} must be a positive number, got {v!r}") from None
+            if not np.isfinite(fv) or fv <= 0:
+                raise ValueError(f"{where}: {attr} must be a positive number, got {v!r}")
+            setattr(self, attr, fv)
+        if self.pref_speed > self.max_speed:
+            raise ValueError(f"{where}: pref_speed {self.pref_speed} exceeds max_speed {self.max_speed}")
+        self.spawn = as_region(self.spawn, f"{where}: spawn")
+        self.goal = as_region(self.goal, f"{where}: goal")
+        if isinstance(self.spawn, MovingTarget):
+            raise ValueError(f"{where}: spawn cannot be a moving target")
+        if self.spawn.dim != self.goal.dim:
+            raise ValueError(f"{where}: spawn is {self.spawn.dim}D but goal is {self.goal.dim}D")
+
+    @property
+    def dim(self) -> int:
+        return self.spawn.dim

@@ -1,0 +1,84 @@
+"""Long-form table (frame, time, agent, group, x, y, z, radius, active) <-> Trajectories."""
+
+from __future__ import annotations
+
+import json
+
+import numpy as np
+import pyarrow as pa
+
+from crowdmotion.trajectories import Trajectories
+
+COLUMNS = ("frame", "time", "agent", "group", "x", "y", "z", "radius", "active")
+
+
+def to_table(traj: Trajectories) -> pa.Table:
+    """One row per (frame, agent); z is null for 2D runs."""
+    t, n, d = traj.positions.shape
+    frame = np.repeat(np.arange(t, dtype=np.int64), n)
+    pos = traj.positions.reshape(t * n, d)
+    z = pa.array(pos[:, 2]) if d == 3 else pa.nulls(t * n, pa.float64())
+    return pa.table(
+        {
+            "frame": frame,
+            "time": frame * traj.dt,
+            "agent": np.tile(traj.ids, t),
+            "group": pa.array(np.tile(traj.group.astype(str), t)),
+            "x": pos[:, 0],
+            "y": pos[:, 1],
+            "z": z,
+            "radius": np.tile(traj.radius, t),
+            "active": traj.active_mask.reshape(-1),
+        }
+    )
+
+
+def from_table(table: pa.Table, metadata: dict | None = None) -> Trajectories:
+    """Inverse of :func:`to_table`; rows may come in any order."""
+    missing = [c for c in ("frame", "agent", "x", "y") if c not in table.column_names]
+    if missing:
+        raise ValueError(f"trajectory table lacks columns {missing}; it has {table.column_names}")
+    frame = table["frame"].to_numpy().astype(np.int64)
+    agent = table["agent"].to_numpy().astype(np.int64)
+    ids, col = np.unique(agent, return_inverse=True)
+    frames, row = np.unique(frame, return_inverse=True)
+    t, n = len(frames), len(ids)
+    if len(frame) != t * n:
+        raise ValueError(f"trajectory table has {len(frame)} rows, expected frames x agents = {t} x {n}")
+    has_z = "z" in table.column_names and table["z"].null_count < len(table)
+    d = 3 if has_z else 2
+    pos = np.empty((t, n, d))
+    pos[row, col, 0] = table["x"].to_numpy()
+    pos[row, col, 1] = table["y"].to_numpy()
+    if has_z:
+        pos[row, col, 2] = table["z"].to_numpy()
+    active = None
+    if "active" in table.column_names:
+        a = np.empty((t, n), dtype=bool)
+        a[row, col] = table["active"].to_numpy(zero_copy_only=False)
+        active = None if a.all() else a
+    group = np.empty(n, dtype=object)
+    group[col] = table["group"].to_pylist() if "group" in table.column_names else "agents"
+    radius = np.zeros(n)
+    if "radius" in table.column_names:
+        radius[col] = table["radius"].to_numpy()
+    if "time" in table.column_names and t > 1:
+        times = np.empty(t)
+        times[row] = table["time"].to_numpy()
+        dt = float(np.median(np.diff(times)))
+    else:
+        dt = float((metadata or {}).get("dt", 1.0))
+    return Trajectories(pos, dt, ids=ids, group=group, radius=radius, active=active, metadata=metadata or {})
+
+
+def metadata_json(traj: Trajectories) -> str:
+    """Metadata as JSON, numpy values turned into plain lists/numbers."""
+    return json.dumps({**traj.metadata, "dt": traj.dt}, default=_plain)
+
+
+def _plain(obj):
+    if isinstance(obj, np.ndarray):
+        return obj.tolist()
+    if isinstance(obj, np.generic):
+        return obj.item()
+    return str(obj)

@@ -1,0 +1,66 @@
+"""The MDP method as the scenario runner and CLI see it: run + progress + summary."""
+
+from __future__ import annotations
+
+import numpy as np
+from tqdm.auto import tqdm
+
+from crowdmotion import metrics
+from crowdmotion.mdp.simulate import MDPParams, MDPRun, run
+
+Params = MDPParams
+
+
+def goal_test(result: MDPRun):
+    """``positions -> (N,) bool``: who stands on a cell of their own group's goal."""
+    grid = result.grid
+    field_of = result.field_of
+    masks = []
+    for gc in result.goal_cells:
+        m = np.zeros(grid.shape, dtype=bool)
+        m[tuple(gc.T)] = True
+        masks.append(m)
+    masks = np.stack(masks)
+
+    def reached(pos):
+        cells = np.clip(grid.cell_of(pos), 0, np.array(grid.shape) - 1)
+        return masks[(field_of, *cells.T)]
+
+    return reached
+
+
+def run_scenario(scene, groups, params: MDPParams, rng, progress: bool = True):
+    with tqdm(total=params.max_steps, desc="mdp steps", unit="step", disable=not progress, delay=1.0,
+              leave=False) as bar:
+        result = run(scene, groups, params, rng, progress=lambda done: bar.update(done - bar.n))
+    traj = result.trajectories
+    summary = metrics.summary(traj, scene, goal_test(result))
+    field_of = result.field_of
+    last = result.grid.cell_of(traj.positions[-1])
+    last = np.clip(last, 0, np.array(result.grid.shape) - 1)
+    dist = -result.values[(field_of, *last.T)] * result.grid.cell_size
+    summary.update({
+        "method": "mdp",
+        "cell_size_m": result.grid.cell_size,
+        "grid_shape": list(result.grid.shape),
+        "steps": traj.metadata["steps"],
+        "unreachable_agents": result.unreachable.tolist(),
+        "mean_final_path_distance_to_goal_m": float(np.mean(dist[np.isfinite(dist)])) if np.isfinite(dist).any() else None,
+        "max_final_path_distance_to_goal_m": float(np.max(dist[np.isfinite(dist)])) if np.isfinite(dist).any() else None,
+    })
+    return traj, result, summary
+
+
+def write_plots(scene, result: MDPRun, out, which, title: str = "") -> list:
+    """The MDP run's figures: ``paths`` over the scene and the ``values`` field of group 0."""
+    from crowdmotion.render import plot_paths, plot_values
+
+    written = []
+    goals = np.concatenate([result.grid.centers(gc) for gc in result.goal_cells])
+    if "paths" in which:
+        written.append(plot_paths(result.trajectories, scene, out / "paths.png", title=title, goals=goals))
+    if "values" in which:
+        written.append(plot_values(result.values[0], out / "values.png", result.grid.cell_size,
+                                   tuple(result.grid.origin), title=f"{title}: state values",
+                                   goal_cells=result.goal_cells[0]))
+    return written

@@ -1,0 +1,83 @@
+"""The action set of the grid MDP: 8 moves in 2D, 26 in 3D (paper §1.2), with their costs."""
+
+from __future__ import annotations
+
+from functools import lru_cache
+from itertools import product
+
+import numpy as np
+
+
+@lru_cache(maxsize=None)
+def move_offsets(dim: int) -> np.ndarray:
+    """All unit moves of a ``dim``-dimensional grid, shape (3**dim - 1, dim), int64.
+
+    The paper's action set A: 8 moves in 2D, 26 in 3D (8 at the same height, 9 above,
+    9 below).
+    """
+    if dim not in (2, 3):
+        raise ValueError(f"dim must be 2 or 3, got {dim!r}")
+    offs = [o for o in product((-1, 0, 1), repeat=dim) if any(o)]
+    out = np.array(offs, dtype=np.int64)
+    out.setflags(write=False)
+    return out
+
+
+@lru_cache(maxsize=None)
+def move_costs(dim: int) -> np.ndarray:
+    """Euclidean length of each move in cells: 1, sqrt(2) or sqrt(3).
+
+    The paper's reward for a free move is the negative of this length (§1.2, R).
+    """
+    out = np.sqrt(np.abs(move_offsets(dim)).sum(axis=1).astype(np.float64))
+    out.setflags(write=False)
+    return out
+
+
+@lru_cache(maxsize=None)
+def swept_offsets(dim: int) -> tuple[tuple[tuple[int, ...], ...], ...]:
+    """For each move, the other cells its straight line sweeps past.
+
+    A diagonal move touches every cell reached by a non-empty proper subset of its
+    non-zero components (2 cells for a 2D diagonal, 2 or 6 for a 3D one). With corner
+    cutting off, a move is allowed only if all of them are free.
+    """
+    result = []
+    for off in move_offsets(dim):
+        nz = [i for i in range(dim) if off[i] != 0]
+        subs = []
+        for mask in product((0, 1), repeat=len(nz)):
+            if 0 < sum(mask) < len(nz):
+                sub = [0] * dim
+                for bit, axis in zip(mask, nz):
+                    if bit:
+                        sub[axis] = int(off[axis])
+                subs.append(tuple(sub))
+        result.append(tuple(subs))
+    return tuple(result)
+
+
+def flat_move_tables(
+    strides: np.ndarray, corner_cutting: bool
+) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """Flat-index move tables for a padded grid with the given flat ``strides``.
+
+    Returns ``(offsets, costs, vectors, swept, swept_count)``: ``offsets[m]`` the flat
+    offset of move m, ``costs[m]`` its length, ``vectors[m]`` its (dim,) vector,
+    ``swept[m, :swept_count[m]]`` the flat offsets of the cells it sweeps past (none when
+    corner cutting is allowed).
+    """
+    strides = np.asarray(strides, dtype=np.int64)
+    dim = len(strides)
+    offs = move_offsets(dim)
+    flat = offs @ strides
+    sw = swept_offsets(dim)
+    width = max(len(s) for s in sw)
+    swept = np.zeros((len(offs), width), dtype=np.int64)
+    count = np.zeros(len(offs), dtype=np.int64)
+    if not corner_cutting:
+        for m, subs in enumerate(sw):
+            for j, sub in enumerate(subs):
+                swept[m, j] = int(np.dot(sub, strides))
+            count[m] = len(subs)
+    return flat, move_costs(dim).copy(), offs.astype(np.float64), swept, count

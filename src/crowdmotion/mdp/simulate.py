@@ -1,0 +1,263 @@
+"""MDP crowd runs on a Scene: rasterise, solve per goal, Algorithm 3, world-space output."""
+
+from __future__ import annotations
+
+from dataclasses import asdict, dataclass
+from typing import Callable, Literal, Sequence
+
+import numpy as np
+
+from crowdmotion.groups import Disc, Group, MovingTarget, Points, Rect
+from crowdmotion.mdp.grid import GridMap, mark_obstacle, max_radius, min_cell_size, rasterise
+from crowdmotion.mdp.solvers import METHODS, solve, value_iteration
+from crowdmotion.mdp.trajectory import Walker, check_tau
+from crowdmotion.scene import Scene
+from crowdmotion.trajectories import Trajectories
+
+
+@dataclass(frozen=True)
+class MDPParams:
+    """Parameters of an MDP run (paper 000, Liu & Du 2019).
+
+    Attributes
+    ----------
+    cell_size : grid cell edge in metres; None = just over sqrt(2) x the largest agent
+        diameter (the paper's rule, §1.2)
+    solver : "fast" (exact), or a paper reference solver "vi", "hvi", "ivi", "dijkstra"
+    theta : θ, Algorithm 1's stopping threshold (paper: 1.0)
+    tau : τ, the Boltzmann temperature of eq. (4) (paper: 1)
+    max_steps : maxLength of Algorithm 3
+    forbid_crossing : reject moves that pass closer than two radii mid-step
+    corner_cutting : False (default for scenes) = diagonal moves only past free cells,
+        so an agent's body never clips an obstacle's corner; True = the paper's rule
+    despawn : remove agents that reach the goal so that others can take the goal cells
+    stop_when_done : end the run early once every agent has arrived (or is stuck)
+    replan_every : with moving obstacles, re-solve the values every this many steps
+    lookahead : ... marking the cells the obstacles cover over this many steps ahead
+    smoothing : None (cell centres, one frame per step), "linear" or "catmull-rom"
+        resampling to ``fps``; the result is audited for collisions either way
+    fps : frame rate of the smoothed output
+    """
+
+    cell_size: float | None = None
+    solver: Literal["fast", "vi", "hvi", "ivi", "dijkstra"] = "fast"
+    theta: float = 1.0
+    tau: float = 1.0
+    max_steps: int = 400
+    forbid_crossing: bool = True
+    corner_cutting: bool = False
+    despawn: bool = False
+    stop_when_done: bool = True
+    replan_every: int = 4
+    lookahead: int = 4
+    smoothing: Literal["linear", "catmull-rom"] | None = None
+    fps: float = 24.0
+
+    def __post_init__(self):
+        if self.solver not in METHODS:
+            raise ValueError(f"mdp.solver must be one of {METHODS}, got {self.solver!r}")
+        check_tau(self.tau)
+        for name in ("max_steps", "replan_every", "lookahead"):
+            v = getattr(self, name)
+            if isinstance(v, bool) or not isinstance(v, int) or v < (0 if name == "lookahead" else 1):
+                raise ValueError(f"mdp.{name} must be a positive integer, got {v!r}")
+        if self.cell_size is not None and not (np.isfinite(self.cell_size) and self.cell_size > 0):
+            raise ValueError(f"mdp.cell_size must be a positive number of metres, got {self.cell_size!r}")
+        if self.smoothing not in (None, "linear", "catmull-rom"):
+            raise ValueError(f"mdp.smoothing must be None, 'linear' or 'catmull-rom', got {self.smoothing!r}")
+        if not (np.isfinite(self.fps) and self.fps > 0):
+            raise ValueError(f"mdp.fps must be positive, got {self.fps!r}")
+
+
+@dataclass
+class MDPRun:
+    """Everything a scene run produced, for plots and reports."""
+
+    trajectories: Trajectories
+    grid: GridMap
+    values: np.ndarray  # (groups, *grid) final value field of each group's goal
+    goal_cells: list[np.ndarray]
+    unreachable: np.ndarray  # agent indices whose start could not reach their goal
+    field_of: np.ndarray  # group (value field) index of each agent
+
+
+def cell_size_for(groups: Sequence[Group], params: MDPParams) -> float:
+    r = max(g.radius for g in groups)
+    need = min_cell_size(r)
+    if params.cell_size is None:
+        return need * 1.001
+    if params.cell_size <= need:
+        raise ValueError(
+            f"mdp.cell_size {params.cell_size} m is too small for agents of radius {r} m: the paper "
+            f"needs cell > sqrt(2) x diameter = {need:.4f} m"
+        )
+    return float(params.cell_size)
+
+
+def region_cells(grid: GridMap, region, what: str) -> np.ndarray:
+    """Free cells whose centre lies in ``region`` (or the cell of each point for Points)."""
+    if isinstance(region, MovingTarget):
+        raise ValueError(f"{what}: the MDP method needs a fixed goal, not a moving target")
+    if isinstance(region, Points):
+        cells = grid.cell_of(region.points)
+        for p, c in zip(region.points, cells):
+            if not grid.in_grid(c):
+                raise ValueError(f"{what}: point {p.tolist()} lies outside the scene")
+            if grid.occupancy[tuple(c)]:
+                raise ValueError(f"{what}: point {p.tolist()} lies in an obstacle (cell {tuple(c)})")
+        return cells
+    centers = grid.all_centers().reshape(-1, grid.dim)
+    inside = region.contains(centers) & (grid.occupancy.ravel() == 0)
+    cells = np.stack(np.unravel_index(np.flatnonzero(inside), grid.shape), axis=1)
+    if len(cells) == 0:
+        raise ValueError(f"{what}: region {region!r} holds no free grid cell (cell size {grid.cell_size:.3f} m)")
+    return cells
+
+
+def spawn_cells(grid: GridMap, group: Group, taken: set, rng: np.random.Generator) -> np.ndarray:
+    what = f"group {group.name!r} spawn"
+    if isinstance(group.spawn, Points):
+        if len(group.spawn.points) != group.count:
+            raise ValueError(f"{what}: {len(group.spawn.points)} points given for {group.count} agents")
+        cells = region_cells(grid, group.spawn, what)
+    else:
+        cand = region_cells(grid, group.spawn, what)
+        cand = np.array([c for c in cand if tuple(c) not in taken])
+        if len(cand) < group.count:
+            raise ValueError(f"{what}: {group.count} agents need distinct free cells but the region has {len(cand)}")
+        cells = cand[rng.choice(len(cand), size=group.count, replace=False)]
+    for c in cells:
+        if tuple(c) in taken:
+            raise ValueError(f"{what}: two agents would share the cell {tuple(c)}")
+        taken.add(tuple(c))
+    return cells
+
+
+def solve_field(occupancy, goals, params: MDPParams, previous=None) -> np.ndarray:
+    if params.solver == "vi" and previous is not None:  # warm start the paper's Algorithm 1
+        return value_iteration(occupancy, [tuple(g) for g in goals], params.theta, params.corner_cutting,
+                               init=previous)[0]
+    return solve(occupancy, [tuple(g) for g in goals], params.solver, params.theta, params.corner_cutting)
+
+
+def run(scene: Scene, groups: Sequence[Group], params: MDPParams, rng: np.random.Generator,
+        progress: Callable[[int], None] | None = None) -> MDPRun:
+    """Run the MDP method on a scene; ``progress(steps_done)`` is called after each chunk."""
+    if not groups:
+        raise ValueError("at least one group is needed")
+    for g in groups:
+        if g.dim != scene.dim:
+            raise ValueError(f"group {g.name!r} is {g.dim}D but the scene is {scene.dim}D")
+    cell = cell_size_for(groups, params)
+    static = rasterise(scene, cell, moving=False)
+    grid = rasterise(scene, cell, t=0.0)
+    goal_cells = [region_cells(grid, g.goal, f"group {g.name!r} goal") for g in groups]
+    taken: set = set()
+    starts = np.concatenate([spawn_cells(grid, g, taken, rng) for g in groups])
+    field_of = np.repeat(np.arange(len(groups)), [g.count for g in groups])
+    masks = []
+    for gc in goal_cells:
+        m = np.zeros(grid.shape, dtype=bool)
+        m[tuple(gc.T)] = True
+        masks.append(m)
+    speed = min(g.pref_speed for g in groups)
+    dt = cell / speed
+    r_cells = max(g.radius for g in groups) / cell
+    walker = Walker(grid.occupancy, starts, masks, field_of, params.corner_cutting, min(r_cells, max_radius(1.0)))
+    moving = scene.moving_obstacles
+    values = None
+    cells_out = [starts[None]]
+    active_out = [np.ones((1, len(starts)), dtype=bool)]
+    done = 0
+    while done < params.max_steps:
+        chunk = min(params.replan_every if moving else 64, params.max_steps - done)
+        if values is None or moving:
+            occ = static.occupancy.copy()
+            for ob in moving:  # current cells and those covered over the look-ahead
+                for k in range(params.lookahead + 1):
+                    tmp = GridMap(occ, cell, static.origin)
+                    mark_obstacle(tmp, ob, (done + k) * dt)
+            prev = values
+            values = np.stack([
+                solve_field(occ, [c for c in gc if not occ[tuple(c)]] or gc, params,
+                            None if prev is None else prev[k])
+                for k, gc in enumerate(goal_cells)
+            ])
+            walker.set_blocked(occ)
+            walker.set_values(values)
+        c, a = walker.advance(chunk, rng, params.tau, params.forbid_crossing, params.despawn)
+        cells_out.append(c)
+        active_out.append(a)
+        done += chunk
+        if progress is not None:
+            progress(done)
+        if params.stop_when_done and not moving and _all_settled(walker, masks, values):
+            break
+    cells = np.concatenate(cells_out)
+    active = np.concatenate(active_out)
+    positions = grid.centers(cells)
+    start_values = values[(field_of, *starts.T)] if values is not None else np.zeros(len(starts))
+    unreachable = np.flatnonzero(~np.isfinite(start_values))
+    radius = np.concatenate([np.full(g.count, g.radius) for g in groups])
+    names = np.concatenate([np.full(g.count, g.name, dtype=object) for g in groups])
+    traj = Trajectories(
+        positions, dt, group=names, radius=radius, active=None if active.all() else active,
+        metadata={"method": "mdp", "params": asdict(params), "cell_size": cell, "grid_shape": list(grid.shape),
+                  "steps": int(len(cells) - 1), "unreachable_agents": unreachable.tolist(),
+                  "scene": scene.to_dict()},
+    )
+    if params.smoothing is not None:
+        traj = resample(traj, params.fps, params.smoothing)
+    return MDPRun(traj, grid, values, goal_cells, unreachable, field_of)
+
+
+def _all_settled(walker: Walker, masks, values) -> bool:
+    """Every agent despawned, on a goal cell, or unable to reach one."""
+    cells = walker.cells
+    for i, c in enumerate(cells):
+        if not walker.active[i]:
+            continue
+        f = walker.field_of[i]
+        if not masks[f][tuple(c)] and np.isfinite(values[f][tuple(c)]):
+            return False
+    return True
+
+
+def simulate(scene: Scene, groups: Sequence[Group], params: MDPParams | None = None,
+             rng: np.random.Generator | None = None) -> Trajectories:
+    """The MDP method's entry point: ``simulate(scene, groups, params, rng) -> Trajectories``."""
+    params = MDPParams() if params is None else params
+    rng = np.random.default_rng() if rng is None else rng
+    return run(scene, groups, params, rng).trajectories
+
+
+def resample(traj: Trajectories, fps: float, kind: str) -> Trajectories:
+    """Resample one-frame-per-step trajectories to ``fps`` frames per second.
+
+    ``"linear"`` keeps the straight moves (and so their collision-freedom);
+    ``"catmull-rom"`` passes a uniform Catmull-Rom spline through the cell centres, which
+    rounds corners and must be re-audited (the run summary does so).
+    """
+    t_old = traj.times
+    n_new = int(np.floor(t_old[-1] * fps + 1e-9)) + 1
+    t_new = np.arange(n_new) / fps
+    u = t_new / traj.dt  # position in steps
+    k = np.minimum(np.floor(u).astype(int), traj.n_frames - 2) if traj.n_frames > 1 else np.zeros(n_new, int)
+    s = (u - k)[:, None, None]
+    P = traj.positions
+    if traj.n_frames == 1:
+        pos = np.repeat(P, n_new, axis=0)
+    elif kind == "linear":
+        pos = P[k] * (1 - s) + P[k + 1] * s
+    else:
+        p0 = P[np.maximum(k - 1, 0)]
+        p1, p2 = P[k], P[k + 1]
+        p3 = P[np.minimum(k + 2, traj.n_frames - 1)]
+        pos = 0.5 * ((2 * p1) + (-p0 + p2) * s + (2 * p0 - 5 * p1 + 4 * p2 - p3) * s**2
+                     + (-p0 + 3 * p1 - 3 * p2 + p3) * s**3)
+    active = None
+    if traj.active is not None:
+        active = traj.active[np.minimum(np.ceil(u - 1e-9).astype(int), traj.n_frames - 1)]
+    meta = {**traj.metadata, "resampled": {"fps": fps, "kind": kind, "step_dt": traj.dt}}
+    return Trajectories(pos, 1.0 / fps, ids=traj.ids, group=traj.group, radius=traj.radius, active=active,
+                        metadata=meta)

@@ -1,0 +1,44 @@
+"""Method name -> method: the only place that knows every method."""
+
+from __future__ import annotations
+
+import importlib
+from dataclasses import dataclass
+from typing import Any
+
+# name -> module exposing ``Params`` (frozen dataclass) and
+# ``run_scenario(scene, groups, params, rng, progress) -> (Trajectories, extras, summary)``
+_METHODS = {"mdp": "crowdmotion.mdp.adapter"}
+
+
+@dataclass(frozen=True)
+class Method:
+    name: str
+    module: Any
+
+    @property
+    def params_type(self):
+        return self.module.Params
+
+    def run(self, scene, groups, params, rng, progress: bool = True):
+        return self.module.run_scenario(scene, groups, params, rng, progress)
+
+
+def available() -> list[str]:
+    return sorted(_METHODS)
+
+
+def get_method(name: str) -> Method:
+    if name not in _METHODS:
+        raise ValueError(f"unknown method {name!r}; available: {available()}")
+    return Method(name, importlib.import_module(_METHODS[name]))
+
+
+def method_params(name: str, block: dict):
+    """The method's parameter object from its scenario block (errors name ``method.field``)."""
+    cls = get_method(name).params_type
+    try:
+        return cls(**block)
+    except (TypeError, ValueError) as exc:
+        msg = str(exc)
+        raise ValueError(msg if msg.startswith(f"{name}.") else f"{name}: {msg}") from None

@@ -1,0 +1,142 @@
+"""Matplotlib figures: agent paths over the scene, and MDP value fields."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import matplotlib
+
+matplotlib.use("Agg")
+import matplotlib.pyplot as plt  # noqa: E402
+import numpy as np  # noqa: E402
+from matplotlib import patches  # noqa: E402
+
+from crowdmotion.io.atomic import atomic_path  # noqa: E402
+from crowdmotion.scene import Box, Circle, Polygon, Scene, Sphere  # noqa: E402
+from crowdmotion.trajectories import Trajectories  # noqa: E402
+
+
+def _save(fig, path: Path) -> Path:
+    path = Path(path)
+    with atomic_path(path) as tmp:
+        fig.savefig(tmp, dpi=120, format="png", bbox_inches="tight")
+    plt.close(fig)
+    return path
+
+
+def _draw_obstacles_2d(ax, scene: Scene, t: float = 0.0) -> None:
+    for ob in scene.obstacles:
+        shift = ob.offset(t)
+        style = dict(facecolor="0.35", edgecolor="0.1", alpha=0.5 if ob.is_moving else 0.85, zorder=2)
+        if isinstance(ob, Circle):
+            ax.add_patch(patches.Circle(ob.center + shift, ob.radius, **style))
+        elif isinstance(ob, Box):
+            lo = ob.lower + shift
+            ax.add_patch(patches.Rectangle(lo, *(ob.upper - ob.lower), **style))
+        elif isinstance(ob, Polygon):
+            ax.add_patch(patches.Polygon(ob.vertices + shift, closed=True, **style))
+        if ob.is_moving:
+            ax.plot(ob.path.positions[:, 0], ob.path.positions[:, 1], "k--", lw=1, zorder=2)
+
+
+def _group_colours(traj: Trajectories) -> dict:
+    names = list(dict.fromkeys(traj.group.tolist()))
+    cmap = plt.get_cmap("tab10")
+    return {n: cmap(i % 10) for i, n in enumerate(names)}
+
+
+def plot_paths(traj: Trajectories, scene: Scene, path, title: str = "", goals=None) -> Path:
+    """Every agent's path (start ○, end ●) over the scene's obstacles; 2D or 3D."""
+    colours = _group_colours(traj)
+    act = traj.active_mask
+    if traj.dim == 2:
+        fig, ax = plt.subplots(figsize=(8, 8 * (scene.upper[1] - scene.lower[1]) / (scene.upper[0] - scene.lower[0]) + 0.8))
+        _draw_obstacles_2d(ax, scene)
+        for i in range(traj.n_agents):
+            p = traj.positions[act[:, i], i]
+            c = colours[traj.group[i]]
+            ax.plot(p[:, 0], p[:, 1], "-", color=c, lw=0.8, alpha=0.7, zorder=3)
+            ax.plot(*p[0], "o", mfc="none", mec=c, ms=4, zorder=4)
+            ax.add_patch(patches.Circle(p[-1], traj.radius[i], color=c, zorder=5))
+        if goals is not None:
+            g = np.atleast_2d(goals)
+            ax.plot(g[:, 0], g[:, 1], "s", color="gold", alpha=0.35, ms=6, zorder=1, label="goal")
+        ax.set_xlim(scene.lower[0], scene.upper[0])
+        ax.set_ylim(scene.lower[1], scene.upper[1])
+        ax.set_aspect("equal")
+        ax.set_xlabel("x (m)")
+        ax.set_ylabel("y (m)")
+    else:
+        fig = plt.figure(figsize=(9, 8))
+        ax = fig.add_subplot(projection="3d")
+        for ob in scene.obstacles:
+            if isinstance(ob, Sphere):
+                u, v = np.mgrid[0 : 2 * np.pi : 24j, 0 : np.pi : 12j]
+                ax.plot_surface(ob.center[0] + ob.radius * np.cos(u) * np.sin(v),
+                                ob.center[1] + ob.radius * np.sin(u) * np.sin(v),
+                                ob.center[2] + ob.radius * np.cos(v), color="0.5", alpha=0.35)
+            elif isinstance(ob, Box):
+                _box_3d(ax, ob.lower, ob.upper)
+        for i in range(traj.n_agents):
+            p = traj.positions[act[:, i], i]
+            c = colours[traj.group[i]]
+            ax.plot(p[:, 0], p[:, 1], p[:, 2], "-", color=c, lw=0.8, alpha=0.8)
+            ax.scatter(*p[-1], color=c, s=12)
+        if goals is not None:
+            g = np.atleast_2d(goals)
+            ax.scatter(g[:, 0], g[:, 1], g[:, 2], marker="*", color="gold", edgecolor="k", s=200)
+        ax.set_xlim(scene.lower[0], scene.upper[0])
+        ax.set_ylim(scene.lower[1], scene.upper[1])
+        ax.set_zlim(scene.lower[2], scene.upper[2])
+        ax.set_xlabel("x (m)")
+        ax.set_ylabel("y (m)")
+        ax.set_zlabel("z (m)")
+    handles = [patches.Patch(color=c, label=n) for n, c in colours.items()]
+    ax.legend(handles=handles, loc="upper left", fontsize=8)
+    ax.set_title(title or f"{traj.n_agents} agents, {traj.n_frames} frames")
+    return _save(fig, path)
+
+
+def _box_3d(ax, lo, hi) -> None:
+    from mpl_toolkits.mplot3d.art3d import Poly3DCollection
+
+    x0, y0, z0 = lo
+    x1, y1, z1 = hi
+    faces = [
+        [(x0, y0, z0), (x1, y0, z0), (x1, y1, z0), (x0, y1, z0)],
+        [(x0, y0, z1), (x1, y0, z1), (x1, y1, z1), (x0, y1, z1)],
+        [(x0, y0, z0), (x1, y0, z0), (x1, y0, z1), (x0, y0, z1)],
+        [(x0, y1, z0), (x1, y1, z0), (x1, y1, z1), (x0, y1, z1)],
+        [(x0, y0, z0), (x0, y1, z0), (x0, y1, z1), (x0, y0, z1)],
+        [(x1, y0, z0), (x1, y1, z0), (x1, y1, z1), (x1, y0, z1)],
+    ]
+    ax.add_collection3d(Poly3DCollection(faces, facecolor="0.5", edgecolor="0.2", alpha=0.3))
+
+
+def plot_values(values: np.ndarray, path, cell_size: float = 1.0, origin=(0.0, 0.0), title: str = "",
+                goal_cells=None) -> Path:
+    """Heat map of the distance to goal |v(s)| (obstacles dark, unreachable hatched).
+
+    3D fields show the horizontal slice through the first goal cell.
+    """
+    v = np.asarray(values, dtype=float)
+    note = ""
+    if v.ndim == 3:
+        k = int(goal_cells[0][2]) if goal_cells is not None else v.shape[2] // 2
+        v = v[:, :, k]
+        note = f" (slice z = {k})"
+    dist = np.where(np.isfinite(v), -v, np.nan)
+    fig, ax = plt.subplots(figsize=(8, 8 * v.shape[1] / v.shape[0] + 0.8))
+    extent = (origin[0], origin[0] + v.shape[0] * cell_size, origin[1], origin[1] + v.shape[1] * cell_size)
+    cmap = plt.get_cmap("viridis").with_extremes(bad="0.15")
+    im = ax.imshow(dist.T, origin="lower", extent=extent, cmap=cmap, interpolation="nearest")
+    if np.isfinite(dist).any():
+        ax.contour(dist.T, levels=12, colors="w", linewidths=0.5, alpha=0.6, origin="lower", extent=extent)
+    if goal_cells is not None:
+        g = (np.asarray(goal_cells)[:, :2] + 0.5) * cell_size + np.asarray(origin[:2])
+        ax.plot(g[:, 0], g[:, 1], "*", color="gold", mec="k", ms=10)
+    fig.colorbar(im, ax=ax, label="path distance to goal |v(s)| (cells)", shrink=0.8)
+    ax.set_title((title or "MDP state values") + note)
+    ax.set_xlabel("x (m)")
+    ax.set_ylabel("y (m)")
+    return _save(fig, path)

@@ -1,0 +1,136 @@
+"""Trajectories: the one output type every method returns and every exporter reads."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+
+@dataclass
+class Trajectories:
+    """Agent positions sampled at a fixed time step.
+
+    Attributes
+    ----------
+    positions : (T, N, D) float64   world positions, metres
+    dt : float                      seconds between frames
+    ids : (N,) int64                agent ids
+    group : (N,) str                group name of each agent
+    radius : (N,) float64           body radius of each agent, metres
+    active : (T, N) bool or None    False once an agent has arrived/despawned
+    metadata : dict                 method, parameters, seed, scene, library version, ...
+    """
+
+    positions: np.ndarray
+    dt: float
+    ids: np.ndarray | None = None
+    group: np.ndarray | None = None
+    radius: np.ndarray | None = None
+    active: np.ndarray | None = None
+    metadata: dict[str, Any] = field(default_factory=dict)
+
+    def __post_init__(self):
+        p = np.asarray(self.positions, dtype=np.float64)
+        if p.ndim != 3 or p.shape[2] not in (2, 3):
+            raise ValueError(f"Trajectories.positions must have shape (T, N, 2 or 3), got {p.shape}")
+        self.positions = p
+        t, n, _ = p.shape
+        if not (np.isfinite(self.dt) and self.dt > 0):
+            raise ValueError(f"Trajectories.dt must be a positive number of seconds, got {self.dt!r}")
+        self.dt = float(self.dt)
+        self.ids = np.arange(n, dtype=np.int64) if self.ids is None else np.asarray(self.ids, dtype=np.int64)
+        self.group = (
+            np.full(n, "agents", dtype=object) if self.group is None else np.asarray(self.group, dtype=object)
+        )
+        r = 0.0 if self.radius is None else self.radius
+        self.radius = np.broadcast_to(np.asarray(r, dtype=np.float64), (n,)).copy()
+        for name, arr in (("ids", self.ids), ("group", self.group), ("radius", self.radius)):
+            if arr.shape != (n,):
+                raise ValueError(f"Trajectories.{name} must have shape ({n},), got {arr.shape}")
+        if self.active is not None:
+            self.active = np.asarray(self.active, dtype=bool)
+            if self.active.shape != (t, n):
+                raise ValueError(f"Trajectories.active must have shape ({t}, {n}), got {self.active.shape}")
+
+    # ---- shape -------------------------------------------------------------------
+    @property
+    def n_frames(self) -> int:
+        return self.positions.shape[0]
+
+    @property
+    def n_agents(self) -> int:
+        return self.positions.shape[1]
+
+    @property
+    def dim(self) -> int:
+        return self.positions.shape[2]
+
+    @property
+    def times(self) -> np.ndarray:
+        """Time of each frame, seconds."""
+        return np.arange(self.n_frames) * self.dt
+
+    @property
+    def active_mask(self) -> np.ndarray:
+        """(T, N) bool, all True when no mask was given."""
+        if self.active is None:
+            return np.ones(self.positions.shape[:2], dtype=bool)
+        return self.active
+
+    # ---- derived -----------------------------------------------------------------
+    @property
+    def velocity(self) -> np.ndarray:
+        """(T, N, D) velocity over the step that starts at each frame (last repeats)."""
+        v = np.zeros_like(self.positions)
+        if self.n_frames > 1:
+            v[:-1] = np.diff(self.positions, axis=0) / self.dt
+            v[-1] = v[-2]
+        return v
+
+    @property
+    def speed(self) -> np.ndarray:
+        """(T, N) speed, metres per second."""
+        return np.linalg.norm(self.velocity, axis=-1)
+
+    @property
+    def heading(self) -> np.ndarray:
+        """(T, N) heading angle in the x-y plane, radians; held while an agent stands."""
+        v = self.velocity
+        ang = np.arctan2(v[..., 1], v[..., 0])
+        moving = np.linalg.norm(v[..., :2], axis=-1) > 1e-12
+        out = np.zeros_like(ang)
+        for t in range(self.n_frames):  # hold last heading while standing
+            prev = out[t - 1] if t else np.zeros(self.n_agents)
+            out[t] = np.where(moving[t], ang[t], prev)
+        return out
+
+    def select(self, agents=None, frames=None) -> "Trajectories":
+        """A sub-set of agents and/or frames (indices or boolean masks)."""
+        a = slice(None) if agents is None else agents
+        f = slice(None) if frames is None else frames
+        return Trajectories(
+            positions=self.positions[f][:, a],
+            dt=self.dt,
+            ids=self.ids[a],
+            group=self.group[a],
+            radius=self.radius[a],
+            active=None if self.active is None else self.active[f][:, a],
+            metadata=dict(self.metadata),
+        )
+
+    # ---- files -------------------------------------------------------------------
+    def save(self, path: str | Path) -> Path:
+        """Write to ``.parquet`` or ``.csv`` (long form), atomically. Returns the path."""
+        from crowdmotion.io import write_trajectories
+
+        return write_trajectories(self, path)
+
+    @classmethod
+    def load(cls, path: str | Path) -> "Trajectories":
+        """Read a file written by :meth:`save`."""
+        from crowdmotion.io import read_trajectories
+
+        return read_trajectories(path)

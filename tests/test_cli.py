@@ -1,0 +1,30 @@
+"""The crowdmotion command, as a user runs it."""
+
+import json
+
+from crowdmotion.cli import main
+from tests.test_scenario import GOOD
+
+
+def test_validate_run_and_errors(tmp_path, capsys):
+    path = tmp_path / "s.toml"
+    path.write_text(GOOD)
+    assert main(["validate", str(path)]) == 0
+    assert "OK" in capsys.readouterr().out
+    out = tmp_path / "out"
+    assert main(["run", str(path), "-o", str(out), "--seed", "4", "-q"]) == 0
+    summary = json.loads((out / "summary.json").read_text())
+    assert summary["seed"] == 4 and summary["agent_agent_overlaps"] == 0
+    assert (out / "trajectories.parquet").is_file() and (out / "paths.png").is_file()
+    bad = tmp_path / "bad.toml"
+    bad.write_text(GOOD.replace("count = 4", "count = 0"))
+    assert main(["validate", str(bad)]) == 2
+    assert "groups.0.count" in capsys.readouterr().err
+    assert main(["run", str(tmp_path / "missing.toml")]) == 2
+
+
+def test_demo_writes_pictures(tmp_path, capsys):
+    assert main(["demo", "-o", str(tmp_path), "--only", "mdp_drones_3d", "-q"]) == 0
+    assert (tmp_path / "mdp_drones_3d" / "paths.png").stat().st_size > 10_000
+    assert (tmp_path / "mdp_drones_3d" / "values.png").is_file()
+    assert str(tmp_path) in capsys.readouterr().out

@@ -1,0 +1,71 @@
+"""Continuous-time audit against closed-form cases: overlaps between frames are found."""
+
+import numpy as np
+import pytest
+
+from crowdmotion import Box, Circle, Polygon, Scene, Sphere, Trajectories
+from crowdmotion.metrics import collision_audit, path_length
+
+
+def two_frames(a0, a1, b0=None, b1=None, radius=0.5):
+    pts = [[a0], [a1]] if b0 is None else [[a0, b0], [a1, b1]]
+    return Trajectories(np.array(pts, dtype=float), dt=1.0, radius=radius)
+
+
+def test_agents_crossing_between_frames_are_caught():
+    # frames show them 10 m apart; at t = 0.5 s they are at the same point
+    tr = two_frames([-5, 0], [5, 0], [5, 0], [-5, 0])
+    rep = collision_audit(tr)
+    assert rep.agent_agent == 1
+    assert rep.worst_agent_agent == pytest.approx(1.0)
+    assert rep.events[0].time == pytest.approx(0.5)
+
+
+def test_parallel_agents_two_radii_apart_do_not_overlap():
+    tr = two_frames([0, 0], [5, 0], [0, 1.0], [5, 1.0])
+    assert collision_audit(tr).agent_agent == 0
+    tr = two_frames([0, 0], [5, 0], [0, 0.9], [5, 0.9])
+    assert collision_audit(tr).worst_agent_agent == pytest.approx(0.1)
+
+
+def test_inactive_agents_are_ignored():
+    tr = two_frames([-5, 0], [5, 0], [5, 0], [-5, 0])
+    tr.active = np.array([[True, True], [True, False]])
+    assert collision_audit(tr).agent_agent == 0
+
+
+@pytest.mark.parametrize("ob,depth", [
+    (Circle([0, 0.3], 1.0), 0.8),            # passes 0.3 from the centre: 1 - 0.3 + 0.1 radius
+    (Box([-1, 0.3], [1, 2]), 0.1 - 0.3 + 0.0),  # box 0.3 above the path, agent radius 0.1 -> clear
+    (Polygon([[-1, -0.05], [1, -0.05], [0, 2]]), None),  # path runs through the triangle
+])
+def test_segment_through_obstacle_between_frames(ob, depth):
+    tr = two_frames([-5, 0], [5, 0], radius=0.1)
+    rep = collision_audit(tr, Scene(([-10, -10], [10, 10]), [ob]))
+    if depth is not None and depth <= 0:
+        assert rep.agent_obstacle == 0
+    else:
+        assert rep.agent_obstacle == 1
+        if depth is not None:
+            assert rep.worst_agent_obstacle == pytest.approx(depth, abs=1e-6)
+
+
+def test_box_corner_clearance_is_exact():
+    # the line x + y = 3 passes the box corner (1, 1) at sqrt(0.5); radius 0.8 overlaps by 0.8 - 0.7071
+    tr = two_frames([3, 0], [0, 3], radius=0.8)
+    rep = collision_audit(tr, Scene(([-10, -10], [10, 10]), [Box([-1, -1], [1, 1])]))
+    assert rep.agent_obstacle == 1
+    assert rep.worst_agent_obstacle == pytest.approx(0.8 - np.sqrt(0.5), abs=1e-9)
+
+
+def test_moving_obstacle_hits_a_standing_agent():
+    ob = Sphere([0, 0, 0], 1.0, path=([0, 1], [[-5, 0, 0], [5, 0, 0]]))
+    tr = two_frames([0, 0.5, 0], [0, 0.5, 0], radius=0.25)
+    rep = collision_audit(tr, Scene(([-10] * 3, [10] * 3), [ob]))
+    assert rep.agent_obstacle == 1
+    assert rep.worst_agent_obstacle == pytest.approx(0.75)
+
+
+def test_path_length_counts_active_steps():
+    tr = Trajectories(np.array([[[0, 0]], [[3, 4]], [[3, 4]]], float), dt=1.0)
+    assert path_length(tr)[0] == pytest.approx(5.0)
