@@ -72,7 +72,7 @@ def fast_values(grid: np.ndarray, goals: Sequence[tuple[int, ...]], corner_cutti
     offsets, costs, _, swept, count = flat_move_tables(strides, corner_cutting)
     dist = np.full(blocked.size, np.inf)
     g = np.array([int(np.dot(np.add(t, PAD), strides)) for t in goals], dtype=np.int64)
-    bucket_distances(blocked, dist, g, offsets, costs, swept, count, int(strides[0]))
+    bucket_distances(blocked, dist, g, offsets, costs, swept, count, int(strides[0]), grid.ndim == 3)
     v = -interior(dist, shape)
     return np.ascontiguousarray(v)
 
