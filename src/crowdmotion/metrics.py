@@ -216,3 +216,145 @@ def summary(traj: Trajectories, scene: Scene | None = None, goal_reached=None, t
         out["arrival_rate"] = float(arrived.mean()) if traj.n_agents else 0.0
         out["mean_time_to_goal_s"] = float(np.nanmean(t)) if arrived.any() else None
     return out
+
+
+# ---- per-group behaviour (lateral spread, turning, density, mixing) -------------------------
+DENSITY_RADIUS = 2.0  # metres: local density counts neighbours within this distance
+MIX_RADIUS = 2.0  # metres: neighbours whose group is compared for mixing
+CONTACT_RADIUS = 5.0  # metres: an agent interacts with another group within this distance
+MAX_SAMPLED_FRAMES = 200
+
+
+def _first_last(traj: Trajectories) -> tuple[np.ndarray, np.ndarray]:
+    """Each agent's first and last active frame index."""
+    act = traj.active_mask
+    first = np.argmax(act, axis=0)
+    last = traj.n_frames - 1 - np.argmax(act[::-1], axis=0)
+    return first, last
+
+
+def local_density(traj: Trajectories, frames: np.ndarray, radius: float = DENSITY_RADIUS):
+    """Per sampled frame: (agent indices, density in agents/m², speed) of active agents.
+
+    Density is the number of other active agents within ``radius`` over the disc area.
+    """
+    act = traj.active_mask
+    speed = traj.speed
+    out = []
+    for f in frames:
+        idx = np.flatnonzero(act[f])
+        if len(idx) < 2:
+            continue
+        p = traj.positions[f, idx, :2]
+        counts = np.asarray(cKDTree(p).query_ball_point(p, radius, return_length=True)) - 1
+        out.append((f, idx, counts / (np.pi * radius**2), speed[f, idx]))
+    return out
+
+
+def group_report(traj: Trajectories) -> dict:
+    """Per-group behaviour measures from trajectories alone (any method).
+
+    For each group: ``lateral_spread_m`` (frame-mean standard deviation of positions
+    across the group's travel direction), ``lateral_deviation_m`` (mean of each agent's
+    largest distance from its own start-to-end line), ``heading_change_rate_rad_s``
+    (mean |Δheading| / dt while walking), ``mean_speed_mps``, ``speed_density_slope``
+    (least-squares slope of speed against local density, m/s per agent/m²) with the
+    density-binned speeds, ``mixing_index`` (share of neighbours within 2 m from other
+    groups, over agent-frames with another group within 5 m), ``same_group_neighbors``
+    (same-group agents within 2 m at those moments), ``time_to_goal_s`` (mean time at
+    which agents left; None when nobody left) and ``path_length_ratio`` (path length over
+    start-to-end distance).
+    """
+    act = traj.active_mask
+    pos = traj.positions[..., :2]
+    first, last = _first_last(traj)
+    n_idx = np.arange(traj.n_agents)
+    start, end = pos[first, n_idx], pos[last, n_idx]
+    lengths = path_length(traj)
+    walked = act[:-1] & act[1:] if traj.n_frames > 1 else np.zeros((0, traj.n_agents), bool)
+    speed = traj.speed
+    heading = traj.heading
+    frames = np.unique(np.linspace(0, traj.n_frames - 1, min(traj.n_frames, MAX_SAMPLED_FRAMES)).astype(int))
+    dens = local_density(traj, frames)
+    groups = traj.group
+    names = list(dict.fromkeys(groups.tolist()))
+    mixing = {g: [] for g in names}
+    same = {g: [] for g in names}
+    dens_speed = {g: ([], []) for g in names}
+    code = np.array([names.index(g) for g in groups.tolist()], dtype=np.int64)
+    for f, idx, rho, sp in dens:
+        p = pos[f, idx]
+        gi = code[idx]
+        tree = cKDTree(p)
+        other_near = np.zeros(len(idx))
+        same_near = np.zeros(len(idx))
+        pairs = tree.query_pairs(MIX_RADIUS, output_type="ndarray")
+        if len(pairs):
+            diff = (gi[pairs[:, 0]] != gi[pairs[:, 1]]).astype(float)
+            for col in (0, 1):
+                other_near += np.bincount(pairs[:, col], diff, len(idx))
+                same_near += np.bincount(pairs[:, col], 1.0 - diff, len(idx))
+        contact = np.zeros(len(idx), dtype=bool)
+        far = tree.query_pairs(CONTACT_RADIUS, output_type="ndarray")
+        if len(far):
+            cross = far[gi[far[:, 0]] != gi[far[:, 1]]]
+            contact[cross.ravel()] = True
+        for k, g in enumerate(names):
+            mine = gi == k
+            dens_speed[g][0].extend(rho[mine].tolist())
+            dens_speed[g][1].extend(sp[mine].tolist())
+            m = mine & contact
+            same[g].extend(same_near[m].tolist())
+            total = same_near[m] + other_near[m]
+            mixing[g].extend((other_near[m][total > 0] / total[total > 0]).tolist())
+    report = {}
+    for g in names:
+        sel = np.flatnonzero(groups == g)
+        travel = (end[sel] - start[sel]).mean(axis=0)
+        norm = np.linalg.norm(travel)
+        u = travel / norm if norm > 0 else np.array([1.0, 0.0])
+        nrm = np.array([-u[1], u[0]])
+        lat = pos[:, sel] @ nrm
+        a = act[:, sel]
+        spreads = [lat[t, a[t]].std() for t in range(traj.n_frames) if a[t].sum() >= 2]
+        d_own = end[sel] - start[sel]
+        l_own = np.linalg.norm(d_own, axis=1)
+        dev = []
+        for j, i in enumerate(sel):
+            if l_own[j] <= 1e-9:
+                continue
+            dhat = d_own[j] / l_own[j]
+            rel = pos[first[i]:last[i] + 1, i] - start[i]
+            dev.append(np.abs(rel[:, 0] * dhat[1] - rel[:, 1] * dhat[0]).max())
+        w = walked[:, sel]
+        moving = w & (speed[:-1, sel] > 0.05) & (speed[1:, sel] > 0.05)
+        if traj.n_frames > 2:
+            dth = np.angle(np.exp(1j * (heading[1:, sel] - heading[:-1, sel])))[:-1]
+            turn = np.abs(dth)[moving[:-1]] / traj.dt if moving.shape[0] > 1 else np.zeros(0)
+        else:
+            turn = np.zeros(0)
+        rho, sp = (np.asarray(x, dtype=float) for x in dens_speed[g])
+        slope = float(np.polyfit(rho, sp, 1)[0]) if len(rho) > 2 and np.ptp(rho) > 0 else None
+        bins = [0.0, 0.25, 0.5, 1.0, 2.0, np.inf]
+        table = []
+        for lo, hi in zip(bins[:-1], bins[1:]):
+            m = (rho >= lo) & (rho < hi)
+            if m.any():
+                table.append({"density_min": lo, "density_max": None if np.isinf(hi) else hi,
+                              "samples": int(m.sum()), "mean_speed_mps": float(sp[m].mean())})
+        left = ~act[-1, sel] & act.any(axis=0)[sel]
+        ratio = lengths[sel][l_own > 1e-6] / l_own[l_own > 1e-6]
+        report[g] = {
+            "agents": int(len(sel)),
+            "lateral_spread_m": float(np.mean(spreads)) if spreads else 0.0,
+            "lateral_deviation_m": float(np.mean(dev)) if dev else 0.0,
+            "heading_change_rate_rad_s": float(turn.mean()) if turn.size else 0.0,
+            "mean_speed_mps": float(speed[:-1, sel][w].mean()) if w.any() else 0.0,
+            "speed_density_slope": slope,
+            "speed_by_density": table,
+            "mixing_index": float(np.mean(mixing[g])) if mixing[g] else None,
+            "same_group_neighbors": float(np.mean(same[g])) if same[g] else None,
+            "time_to_goal_s": float(np.mean(last[sel][left] * traj.dt)) if left.any() else None,
+            "path_length_ratio": float(ratio.mean()) if ratio.size else None,
+        }
+    return report

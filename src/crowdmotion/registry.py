@@ -8,7 +8,7 @@ from typing import Any
 
 # name -> module exposing ``Params`` (frozen dataclass) and
 # ``run_scenario(scene, groups, params, rng, progress) -> (Trajectories, extras, summary)``
-_METHODS = {"mdp": "crowdmotion.mdp.adapter"}
+_METHODS = {"mdp": "crowdmotion.mdp.adapter", "rvo": "crowdmotion.rvo.adapter"}
 
 
 @dataclass(frozen=True)

@@ -1,7 +1,7 @@
 """Scenario TOML files: schema (pydantic), loading with field-named errors, and running.
 
 A scenario is one TOML file: ``[scene]`` (bounds, obstacles), ``[[groups]]``,
-``method`` with its own parameter block (``[mdp]``), ``seed`` and ``[output]``. Nothing
+``method`` with its own parameter block (``[mdp]``, ``[rvo]``), ``seed`` and ``[output]``. Nothing
 in the file is ever executed. Each method adds its block here without changing the rest.
 """
 
@@ -99,8 +99,24 @@ class MovingRegion(_Model):
     positions: list[Coord]
 
 
-RegionSpec = Annotated[Union[PointRegion, PointsRegion, RectRegion, DiscRegion, MovingRegion],
-                       Field(discriminator="shape")]
+class RingRegion(_Model):
+    """Spawn only: the group's agents evenly spaced on a circle (the antipodal-circle scene)."""
+
+    shape: Literal["ring"]
+    center: Annotated[list[float], Field(min_length=2, max_length=2)]
+    radius: PosFloat
+    phase_deg: Annotated[float, Field(allow_inf_nan=False)] = 0.0
+
+
+class AntipodalRegion(_Model):
+    """Goal only: each agent heads for the mirror image of its start through ``center``."""
+
+    shape: Literal["antipodal"]
+    center: Coord
+
+
+RegionSpec = Annotated[Union[PointRegion, PointsRegion, RectRegion, DiscRegion, MovingRegion, RingRegion,
+                             AntipodalRegion], Field(discriminator="shape")]
 
 
 class GroupSpec(_Model):
@@ -111,7 +127,18 @@ class GroupSpec(_Model):
     radius: PosFloat = 0.25
     max_speed: PosFloat = 1.5
     pref_speed: PosFloat = 1.3
+    personality: str | list[float] | dict[str, Any] | None = None
     attributes: dict[str, Any] = {}
+
+    @field_validator("personality")
+    @classmethod
+    def _personality(cls, v):
+        if v is None:
+            return v
+        from crowdmotion.rvo.personality import sample_personalities
+
+        sample_personalities(v, 1, np.random.default_rng(0))  # raises naming the bad entry
+        return v
 
 
 class MDPSpec(_Model):
@@ -132,6 +159,24 @@ class MDPSpec(_Model):
     fps: PosFloat = 24.0
 
 
+class RVOSpec(_Model):
+    """The ``[rvo]`` block: fields of :class:`crowdmotion.rvo.RVOParams`."""
+
+    time_step: PosFloat = 0.25
+    max_steps: Annotated[int, Field(gt=0, le=1_000_000)] = 2000
+    max_neighbors: Annotated[int, Field(ge=0, le=10_000)] = 10
+    neighbor_dist: PosFloat = 10.0
+    samples: Annotated[int, Field(gt=0, le=10_000)] = 50
+    safety: Annotated[float, Field(ge=0, allow_inf_nan=False)] = 5.0
+    dominant: Literal["abs", "max"] = "abs"
+    guidance: Literal["auto", "direct", "field"] = "auto"
+    field_cell: PosFloat | None = None
+    remove_on_arrival: bool = True
+    arrival_radius: PosFloat = 0.5
+    goal_assignment: Literal["sample", "shift"] = "sample"
+    spawn_gap: Annotated[float, Field(ge=0, allow_inf_nan=False)] = 0.05
+
+
 class OutputSpec(_Model):
     formats: list[Literal["parquet", "csv"]] = ["parquet"]
     plots: list[Literal["paths", "values"]] = ["paths", "values"]
@@ -140,11 +185,12 @@ class OutputSpec(_Model):
 class ScenarioSpec(_Model):
     name: str = "scenario"
     description: str = ""
-    method: Literal["mdp"]
+    method: Literal["mdp", "rvo"]
     seed: Annotated[int, Field(ge=0)] = 0
     scene: SceneSpec
     groups: list[GroupSpec] = Field(min_length=1)
     mdp: MDPSpec = MDPSpec()
+    rvo: RVOSpec = RVOSpec()
     output: OutputSpec = OutputSpec()
 
     @field_validator("groups")
@@ -167,6 +213,18 @@ class ScenarioSpec(_Model):
                 for c in coords:
                     if len(c) != dim:
                         raise ValueError(f"groups.{i}.{part}: coordinates {c} are not {dim}D like the scene")
+        return self
+
+    @model_validator(mode="after")
+    def _special_regions(self):
+        for i, g in enumerate(self.groups):
+            if isinstance(g.goal, RingRegion):
+                raise ValueError(f"groups.{i}.goal: a ring is a spawn shape, not a goal")
+            if isinstance(g.spawn, AntipodalRegion):
+                raise ValueError(f"groups.{i}.spawn: 'antipodal' is a goal shape, not a spawn")
+            if isinstance(g.goal, AntipodalRegion) and not isinstance(g.spawn, (RingRegion, PointsRegion, PointRegion)):
+                raise ValueError(f"groups.{i}.goal: an antipodal goal needs fixed start points "
+                                 f"(spawn shape ring, points or point), got spawn shape {g.spawn.shape!r}")
         return self
 
 
@@ -202,6 +260,24 @@ def _fmt_errors(err: ValidationError, source: str) -> str:
     return "\n".join(lines)
 
 
+def ring_points(center, radius: float, count: int, phase_deg: float = 0.0) -> np.ndarray:
+    """``count`` points evenly spaced on a circle, the first at ``phase_deg``."""
+    ang = np.deg2rad(phase_deg) + 2 * np.pi * np.arange(count) / count
+    return np.asarray(center, dtype=float) + radius * np.stack([np.cos(ang), np.sin(ang)], axis=1)
+
+
+def _spawn(spec, count: int) -> Any:
+    if isinstance(spec, RingRegion):
+        return G.Points(ring_points(spec.center, spec.radius, count, spec.phase_deg))
+    return _region(spec)
+
+
+def _goal(spec, spawn) -> Any:
+    if isinstance(spec, AntipodalRegion):
+        return G.Points(2 * np.asarray(spec.center, dtype=float) - spawn.points)
+    return _region(spec)
+
+
 def _region(spec) -> Any:
     if isinstance(spec, PointRegion):
         return G.Points([spec.position])
@@ -212,6 +288,13 @@ def _region(spec) -> Any:
     if isinstance(spec, DiscRegion):
         return G.Disc(spec.center, spec.radius)
     return G.MovingTarget(spec.times, spec.positions)
+
+
+def _attributes(g: GroupSpec) -> dict:
+    out = dict(g.attributes)
+    if g.personality is not None:
+        out["personality"] = g.personality
+    return out
 
 
 def _obstacle(spec) -> S.Obstacle:
@@ -241,9 +324,10 @@ def build(spec: ScenarioSpec, source: str = "scenario") -> Scenario:
         groups = []
         for i, g in enumerate(spec.groups):
             try:
-                groups.append(G.Group(name=g.name, count=g.count, spawn=_region(g.spawn), goal=_region(g.goal),
+                spawn = _spawn(g.spawn, g.count)
+                groups.append(G.Group(name=g.name, count=g.count, spawn=spawn, goal=_goal(g.goal, spawn),
                                       radius=g.radius, max_speed=g.max_speed, pref_speed=g.pref_speed,
-                                      attributes=dict(g.attributes)))
+                                      attributes=_attributes(g)))
             except ValueError as exc:
                 raise ScenarioError(f"{source}: groups.{i}: {exc}") from None
         scenario = Scenario(spec, scene, groups)

@@ -1,0 +1,434 @@
+"""Numba kernels of the sampling RVO step: uniform grid, k nearest neighbours, time to
+collision, candidate choice (paper eq. (3)), the step's safety check and guidance.
+
+Everything here works on flat float64/int64 arrays in 2D; the Python side
+(:mod:`crowdmotion.rvo.simulator`) owns the state and calls these once per step.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from numba import njit, prange
+
+INF = np.inf
+# a candidate whose obstacle time to collision is below dt·(1 + SLACK) would reach the
+# obstacle within the step: it is inadmissible (hard constraint)
+SLACK = 1e-6
+
+
+# ---- counter-based random numbers: same seed -> same samples, whatever the threads ------
+@njit(inline="always")
+def _mix(z):
+    z = (z ^ (z >> np.uint64(30))) * np.uint64(0xBF58476D1CE4E5B9)
+    z = (z ^ (z >> np.uint64(27))) * np.uint64(0x94D049BB133111EB)
+    return z ^ (z >> np.uint64(31))
+
+
+@njit(inline="always")
+def _uniform(key, i, k):
+    """U[0, 1) from (step key, agent, draw): SplitMix64 of a combined counter."""
+    z = _mix(key ^ (np.uint64(i) * np.uint64(0x9E3779B97F4A7C15)))
+    z = _mix(z ^ (np.uint64(k) * np.uint64(0xD1B54A32D192ED03) + np.uint64(0x632BE59BD9B4E019)))
+    return np.float64(z >> np.uint64(11)) * (1.0 / 9007199254740992.0)
+
+
+# ---- uniform grid -----------------------------------------------------------------------
+@njit(cache=True)
+def build_grid(pos, active, origin_x, origin_y, h, nx, ny):
+    """Counting sort of active agents into an nx × ny grid of cell edge h.
+
+    Returns ``cell_start`` (nx·ny + 1) and ``items`` (agent indices, cell by cell).
+    """
+    n = pos.shape[0]
+    counts = np.zeros(nx * ny + 1, dtype=np.int64)
+    cell = np.full(n, -1, dtype=np.int64)
+    for i in range(n):
+        if not active[i]:
+            continue
+        cx = min(max(int((pos[i, 0] - origin_x) / h), 0), nx - 1)
+        cy = min(max(int((pos[i, 1] - origin_y) / h), 0), ny - 1)
+        c = cx * ny + cy
+        cell[i] = c
+        counts[c + 1] += 1
+    for c in range(nx * ny):
+        counts[c + 1] += counts[c]
+    fill = counts[:-1].copy()
+    items = np.empty(counts[-1], dtype=np.int64)
+    for i in range(n):
+        c = cell[i]
+        if c >= 0:
+            items[fill[c]] = i
+            fill[c] += 1
+    return counts, items
+
+
+@njit(cache=True)
+def _knn(i, pos, m, dmax, cell_start, items, origin_x, origin_y, h, nx, ny, out_idx, out_d2):
+    """The ≤ m nearest agents to i within dmax, sorted by distance; returns how many."""
+    px, py = pos[i, 0], pos[i, 1]
+    cx = min(max(int((px - origin_x) / h), 0), nx - 1)
+    cy = min(max(int((py - origin_y) / h), 0), ny - 1)
+    count = 0
+    d2max = dmax * dmax
+    if m <= 0:
+        return 0
+    ring = 0
+    while True:
+        x0, x1, y0, y1 = cx - ring, cx + ring, cy - ring, cy + ring
+        if x0 < 0 and y0 < 0 and x1 >= nx and y1 >= ny:
+            break
+        for gx in range(max(x0, 0), min(x1, nx - 1) + 1):
+            edge_x = gx == x0 or gx == x1
+            for gy in range(max(y0, 0), min(y1, ny - 1) + 1):
+                if not edge_x and gy != y0 and gy != y1:
+                    continue
+                c = gx * ny + gy
+                for s in range(cell_start[c], cell_start[c + 1]):
+                    j = items[s]
+                    if j == i:
+                        continue
+                    dx = pos[j, 0] - px
+                    dy = pos[j, 1] - py
+                    d2 = dx * dx + dy * dy
+                    if d2 >= d2max:
+                        continue
+                    if count == m and d2 >= out_d2[m - 1]:
+                        continue
+                    k = count if count < m else m - 1
+                    while k > 0 and out_d2[k - 1] > d2:
+                        out_d2[k] = out_d2[k - 1]
+                        out_idx[k] = out_idx[k - 1]
+                        k -= 1
+                    out_d2[k] = d2
+                    out_idx[k] = j
+                    if count < m:
+                        count += 1
+        # every agent not yet seen is at least ring·h away
+        reach = ring * h
+        if reach >= dmax:
+            break
+        if count == m and reach * reach >= out_d2[m - 1]:
+            break
+        ring += 1
+    return count
+
+
+# ---- time to collision ------------------------------------------------------------------
+@njit(inline="always")
+def _ray_disc(px, py, vx, vy, r):
+    """First t ≥ 0 at which p + v·t enters the disc of radius r at the origin (0 if inside)."""
+    c = px * px + py * py - r * r
+    if c < 0.0:
+        return 0.0
+    b = px * vx + py * vy
+    if b >= 0.0:
+        return INF
+    a = vx * vx + vy * vy
+    disc = b * b - a * c
+    if disc <= 0.0:
+        return INF
+    return (-b - np.sqrt(disc)) / a
+
+
+@njit(inline="always")
+def _ray_capsule(px, py, vx, vy, ax, ay, bx, by, r):
+    """First t ≥ 0 at which p + v·t comes within r of the segment ab (0 if already)."""
+    t = min(_ray_disc(px - ax, py - ay, vx, vy, r), _ray_disc(px - bx, py - by, vx, vy, r))
+    ex, ey = bx - ax, by - ay
+    l2 = ex * ex + ey * ey
+    if l2 <= 0.0:
+        return t
+    ln = np.sqrt(l2)
+    nx_, ny_ = -ey / ln, ex / ln
+    qx, qy = px - ax, py - ay
+    s = (qx * ex + qy * ey) / l2
+    hgt = qx * nx_ + qy * ny_
+    if abs(hgt) < r and 0.0 <= s <= 1.0:
+        return 0.0
+    hv = vx * nx_ + vy * ny_
+    tt = INF
+    if hgt > 0.0 and hv < 0.0:
+        tt = (hgt - r) / (-hv)
+    elif hgt < 0.0 and hv > 0.0:
+        tt = (-hgt - r) / hv
+    if tt < t:
+        s2 = ((qx + vx * tt) * ex + (qy + vy * tt) * ey) / l2
+        if 0.0 <= s2 <= 1.0:
+            t = tt
+    return t
+
+
+@njit(inline="always")
+def _point_segment_distance(px, py, ax, ay, bx, by):
+    ex, ey = bx - ax, by - ay
+    l2 = ex * ex + ey * ey
+    s = 0.0 if l2 <= 0.0 else min(max(((px - ax) * ex + (py - ay) * ey) / l2, 0.0), 1.0)
+    dx, dy = px - ax - s * ex, py - ay - s * ey
+    return np.sqrt(dx * dx + dy * dy)
+
+
+@njit(cache=True)
+def _obstacle_time(px, py, cx_, cy_, r, circ_c, circ_r, circ_v, near_c, n_near_c,
+                   seg_a, seg_b, seg_v, near_s, n_near_s):
+    """Least time to collision of the candidate (cx_, cy_) against the nearby obstacles:
+    (against static ones, against moving ones)."""
+    t_static = INF
+    t_moving = INF
+    for q in range(n_near_c):
+        o = near_c[q]
+        tt = _ray_disc(px - circ_c[o, 0], py - circ_c[o, 1], cx_ - circ_v[o, 0], cy_ - circ_v[o, 1], circ_r[o] + r)
+        if circ_v[o, 0] == 0.0 and circ_v[o, 1] == 0.0:
+            t_static = min(t_static, tt)
+        else:
+            t_moving = min(t_moving, tt)
+    for q in range(n_near_s):
+        o = near_s[q]
+        tt = _ray_capsule(px, py, cx_ - seg_v[o, 0], cy_ - seg_v[o, 1],
+                          seg_a[o, 0], seg_a[o, 1], seg_b[o, 0], seg_b[o, 1], r)
+        if seg_v[o, 0] == 0.0 and seg_v[o, 1] == 0.0:
+            t_static = min(t_static, tt)
+        else:
+            t_moving = min(t_moving, tt)
+    return t_static, t_moving
+
+
+@njit(parallel=True, cache=True)
+def choose_velocities(pos, vel, vpref, aim_dist, radius, vmax, max_nb, nb_dist, samples, safety, active,
+                      cell_start, items, origin_x, origin_y, h, nx, ny,
+                      circ_c, circ_r, circ_v, seg_a, seg_b, seg_v, dt, key,
+                      out_vel, out_tc, out_nb, out_forced):
+    """Sampling RVO for every active agent at once (simultaneous, order-independent).
+
+    For agent i the candidates are v_pref, the current velocity, standing still and
+    ``samples[i]`` velocities drawn uniformly in the disc of radius ``vmax[i]``. For each
+    candidate v′, tc is the least time to collision over the ≤ M nearest neighbours within
+    D — along the reciprocal velocity 2v′ − v_i − v_j against the disc r_i + r_j — and over
+    obstacles along v′ (relative to the obstacle's own velocity); an obstacle that v′ would
+    reach only after covering ``aim_dist`` — the distance to the goal, or to the next
+    visible way-point of the guidance field — does not count: the agent stops or turns
+    there, so a wall behind that point is no threat. The choice minimises
+    penalty(v′) = w_i / tc(v′) + ‖v_pref − v′‖ (paper eq. (3); tc = ∞ gives 0) among the
+    candidates that reach no obstacle within the step. If none qualifies (a moving obstacle
+    bearing down) the choice is forced: the least penalty among candidates that at least
+    keep out of static obstacles (standing still always does). Writes ``out_vel``, the
+    chosen tc, the neighbour count and whether the choice was forced.
+    """
+    n = pos.shape[0]
+    mcap = 1
+    for i in range(n):
+        if max_nb[i] > mcap:
+            mcap = max_nb[i]
+    n_circ = circ_c.shape[0]
+    n_seg = seg_a.shape[0]
+    for i in prange(n):
+        if not active[i]:
+            out_vel[i, 0] = 0.0
+            out_vel[i, 1] = 0.0
+            continue
+        idx = np.empty(mcap, dtype=np.int64)
+        d2 = np.empty(mcap, dtype=np.float64)
+        k = _knn(i, pos, max_nb[i], nb_dist[i], cell_start, items, origin_x, origin_y, h, nx, ny, idx, d2)
+        out_nb[i] = k
+        px, py = pos[i, 0], pos[i, 1]
+        ri = radius[i]
+        vm = vmax[i]
+        # obstacles worth testing: within perception D or what the step could reach
+        near_c = np.empty(n_circ, dtype=np.int64)
+        nc = 0
+        for o in range(n_circ):
+            vo = np.sqrt(circ_v[o, 0] ** 2 + circ_v[o, 1] ** 2)
+            reach = max(nb_dist[i], 2.0 * (vm + vo) * dt) + ri + circ_r[o]
+            dx, dy = px - circ_c[o, 0], py - circ_c[o, 1]
+            if dx * dx + dy * dy <= reach * reach:
+                near_c[nc] = o
+                nc += 1
+        near_s = np.empty(n_seg, dtype=np.int64)
+        ns = 0
+        for o in range(n_seg):
+            vo = np.sqrt(seg_v[o, 0] ** 2 + seg_v[o, 1] ** 2)
+            reach = max(nb_dist[i], 2.0 * (vm + vo) * dt) + ri
+            if _point_segment_distance(px, py, seg_a[o, 0], seg_a[o, 1], seg_b[o, 0], seg_b[o, 1]) <= reach:
+                near_s[ns] = o
+                ns += 1
+        best_pen = INF
+        best_any = INF
+        bx, by, btc = 0.0, 0.0, INF
+        ax_, ay_, atc = 0.0, 0.0, INF
+        vix, viy = vel[i, 0], vel[i, 1]
+        wx, wy = vpref[i, 0], vpref[i, 1]
+        total = samples[i] + 3
+        for cnd in range(total):
+            if cnd == 0:
+                cx_, cy_ = wx, wy
+            elif cnd == 1:
+                cx_, cy_ = vix, viy
+            elif cnd == 2:
+                cx_, cy_ = 0.0, 0.0
+            else:
+                rr = vm * np.sqrt(_uniform(key, i, 2 * cnd))
+                ang = 2.0 * np.pi * _uniform(key, i, 2 * cnd + 1)
+                cx_, cy_ = rr * np.cos(ang), rr * np.sin(ang)
+            sp = np.sqrt(cx_ * cx_ + cy_ * cy_)
+            if sp > vm:  # the current velocity or v_pref may exceed a lowered max speed
+                cx_ *= vm / sp
+                cy_ *= vm / sp
+            t_static, t_moving = _obstacle_time(px, py, cx_, cy_, ri, circ_c, circ_r, circ_v, near_c, nc,
+                                                seg_a, seg_b, seg_v, near_s, ns)
+            t_obs = min(t_static, t_moving)
+            tc = t_obs
+            if t_obs < INF and sp > 0.0 and t_obs * min(sp, vm) > aim_dist[i]:
+                tc = INF
+            for q in range(k):
+                j = idx[q]
+                tt = _ray_disc(px - pos[j, 0], py - pos[j, 1], 2.0 * cx_ - vix - vel[j, 0],
+                               2.0 * cy_ - viy - vel[j, 1], ri + radius[j])
+                if tt < tc:
+                    tc = tt
+            dvx, dvy = wx - cx_, wy - cy_
+            dev = np.sqrt(dvx * dvx + dvy * dvy)
+            if tc == INF:
+                pen = dev
+            elif tc <= 1e-12:
+                pen = safety[i] * 1e12 + dev
+            else:
+                pen = safety[i] / tc + dev  # eq. (3)
+            if t_static >= dt * (1.0 + SLACK):
+                if t_moving >= dt * (1.0 + SLACK) and pen < best_pen:
+                    best_pen, bx, by, btc = pen, cx_, cy_, tc
+                if pen < best_any:
+                    best_any, ax_, ay_, atc = pen, cx_, cy_, tc
+        if best_pen < INF:
+            out_vel[i, 0], out_vel[i, 1], out_tc[i] = bx, by, btc
+            out_forced[i] = False
+        else:
+            out_vel[i, 0], out_vel[i, 1], out_tc[i] = ax_, ay_, atc
+            out_forced[i] = True
+
+
+@njit(parallel=True, cache=True)
+def step_conflicts(pos, vel, radius, active, stopped, priority, cell_start, items, origin_x, origin_y, h, nx, ny,
+                   dt, out):
+    """Which moving agents must stand still so that nobody touches during this step.
+
+    Agent i is flagged when its straight move would bring it closer than r_i + r_j to
+    an agent j that is standing or has the higher ``priority`` (ties: the higher index).
+    Flagging the lower-priority agent of each pair, over and over until nothing changes,
+    ends with no conflicting pair. Positions move linearly over the step (as the
+    continuous audit assumes); only approaching pairs count, so agents already touching
+    may still move apart. ``h`` must be at least the largest r_i + r_j + (‖v_i‖ + ‖v_j‖)·dt
+    so that the 3 × 3 cells suffice. Returns how many agents were flagged.
+    """
+    n = pos.shape[0]
+    for i in prange(n):
+        out[i] = False
+        if not active[i] or stopped[i]:
+            continue
+        px, py = pos[i, 0], pos[i, 1]
+        cx = min(max(int((px - origin_x) / h), 0), nx - 1)
+        cy = min(max(int((py - origin_y) / h), 0), ny - 1)
+        hit = False
+        for gx in range(max(cx - 1, 0), min(cx + 1, nx - 1) + 1):
+            for gy in range(max(cy - 1, 0), min(cy + 1, ny - 1) + 1):
+                c = gx * ny + gy
+                for s in range(cell_start[c], cell_start[c + 1]):
+                    j = items[s]
+                    if j == i:
+                        continue
+                    if not stopped[j] and (priority[j] < priority[i] or (priority[j] == priority[i] and j < i)):
+                        continue  # j yields to i
+                    wx, wy = pos[j, 0] - px, pos[j, 1] - py
+                    ux, uy = (vel[j, 0] - vel[i, 0]) * dt, (vel[j, 1] - vel[i, 1]) * dt
+                    uu = ux * ux + uy * uy
+                    s_ = 0.0 if uu <= 0.0 else min(max(-(wx * ux + wy * uy) / uu, 0.0), 1.0)
+                    if s_ <= 0.0:
+                        continue  # not approaching
+                    mx, my = wx + s_ * ux, wy + s_ * uy
+                    rr = radius[i] + radius[j]
+                    if mx * mx + my * my < rr * rr * (1.0 + 1e-9):
+                        hit = True
+                        break
+                if hit:
+                    break
+            if hit:
+                break
+        out[i] = hit
+    total = 0
+    for i in range(n):
+        if out[i]:
+            total += 1
+    return total
+
+
+# ---- guidance: line of sight and the distance field ---------------------------------------
+@njit(inline="always")
+def _segments_distance(px, py, qx, qy, ax, ay, bx, by):
+    """Least distance between segments pq and ab."""
+    # proper intersection -> 0
+    d1x, d1y = qx - px, qy - py
+    d2x, d2y = bx - ax, by - ay
+    den = d1x * d2y - d1y * d2x
+    if den != 0.0:
+        s = ((ax - px) * d2y - (ay - py) * d2x) / den
+        t = ((ax - px) * d1y - (ay - py) * d1x) / den
+        if 0.0 <= s <= 1.0 and 0.0 <= t <= 1.0:
+            return 0.0
+    return min(min(_point_segment_distance(px, py, ax, ay, bx, by), _point_segment_distance(qx, qy, ax, ay, bx, by)),
+               min(_point_segment_distance(ax, ay, px, py, qx, qy), _point_segment_distance(bx, by, px, py, qx, qy)))
+
+
+@njit(cache=True)
+def _clear(px, py, qx, qy, r, circ_c, circ_r, seg_a, seg_b):
+    """Whether a body of radius r can walk straight from p to q past every obstacle."""
+    for o in range(circ_c.shape[0]):
+        if _point_segment_distance(circ_c[o, 0], circ_c[o, 1], px, py, qx, qy) < circ_r[o] + r:
+            return False
+    for o in range(seg_a.shape[0]):
+        if _segments_distance(px, py, qx, qy, seg_a[o, 0], seg_a[o, 1], seg_b[o, 0], seg_b[o, 1]) < r:
+            return False
+    return True
+
+
+@njit(parallel=True, cache=True)
+def line_of_sight(pos, goal, radius, active, circ_c, circ_r, seg_a, seg_b, out):
+    """Whether the straight walk from each agent to its goal keeps clear of every obstacle."""
+    n = pos.shape[0]
+    for i in prange(n):
+        out[i] = True if not active[i] else _clear(pos[i, 0], pos[i, 1], goal[i, 0], goal[i, 1], radius[i],
+                                                   circ_c, circ_r, seg_a, seg_b)
+
+
+@njit(parallel=True, cache=True)
+def field_directions(pos, field_of, dist, origin_x, origin_y, cell, window, use, radius,
+                     circ_c, circ_r, seg_a, seg_b, out):
+    """Offset to the next aim point along an exact distance field, for agents with ``use``.
+
+    ``dist`` is (F, nx, ny) metres to the nearest goal cell (inf where blocked). The agent
+    aims at the window cell c (within ``window`` cells) minimising dist[c] + ‖centre(c) − p‖
+    among the cells it can walk to in a straight line: a look-ahead on the shortest path
+    that turns the field's 8 directions into smooth headings without cutting corners.
+    """
+    n = pos.shape[0]
+    gx_n, gy_n = dist.shape[1], dist.shape[2]
+    for i in prange(n):
+        out[i, 0] = 0.0
+        out[i, 1] = 0.0
+        if not use[i]:
+            continue
+        f = field_of[i]
+        px, py = pos[i, 0], pos[i, 1]
+        cx = int(np.floor((px - origin_x) / cell))
+        cy = int(np.floor((py - origin_y) / cell))
+        best = INF
+        bx, by = 0.0, 0.0
+        for gx in range(max(cx - window, 0), min(cx + window, gx_n - 1) + 1):
+            for gy in range(max(cy - window, 0), min(cy + window, gy_n - 1) + 1):
+                d = dist[f, gx, gy]
+                if d == INF:
+                    continue
+                ex = origin_x + (gx + 0.5) * cell - px
+                ey = origin_y + (gy + 0.5) * cell - py
+                cost = d + np.sqrt(ex * ex + ey * ey)
+                if cost < best and _clear(px, py, px + ex, py + ey, radius[i], circ_c, circ_r, seg_a, seg_b):
+                    best, bx, by = cost, ex, ey
+        out[i, 0] = bx
+        out[i, 1] = by

@@ -1,0 +1,336 @@
+"""The interactive RVO simulator: add agents, step, read positions and velocities."""
+
+from __future__ import annotations
+
+import numpy as np
+from scipy.spatial import cKDTree
+
+from crowdmotion.geometry import finite_array
+from crowdmotion.groups import MovingTarget
+from crowdmotion.rvo import _kernels as K
+from crowdmotion.rvo.guidance import DistanceFields, distance_fields, preferred_velocities
+from crowdmotion.rvo.obstacles import ObstacleSet
+from crowdmotion.rvo.personality import PARAM_KEYS, params_for_vectors, sample_personalities
+from crowdmotion.scene import Scene
+
+# used when neither a value nor a personality is given: the neutral set of Table 4's
+# O pair (mid-way between O+ and O−), rounded
+DEFAULTS = {"max_neighbors": 10, "neighbor_dist": 10.0, "samples": 50, "safety": 5.0}
+
+
+def _per_agent(value, n: int, name: str, integer: bool = False, minimum: float = 0.0,
+               strict: bool = True) -> np.ndarray:
+    """Broadcast a scalar or (n,) array, checking it is finite and above ``minimum``."""
+    try:
+        arr = np.asarray(value, dtype=float)
+    except (TypeError, ValueError):
+        raise ValueError(f"{name} must be a number or {n} numbers, got {value!r}") from None
+    if arr.ndim > 1 or (arr.ndim == 1 and arr.shape[0] != n):
+        raise ValueError(f"{name} must be a number or {n} numbers (one per agent), got shape {arr.shape}")
+    arr = np.broadcast_to(arr, (n,)).copy()
+    bad = ~np.isfinite(arr) | ((arr <= minimum) if strict else (arr < minimum))
+    if integer:
+        bad |= arr != np.round(arr)
+    if bad.any():
+        i = int(np.flatnonzero(bad)[0])
+        need = f"{'>' if strict else '>='} {minimum:g}" + (" whole" if integer else "")
+        raise ValueError(f"{name} must be {need}, got {float(arr[i])!r} for agent {i}")
+    return arr.astype(np.int64) if integer else arr
+
+
+class Simulator:
+    """Sampling RVO (van den Berg, Lin & Manocha 2008) with per-agent parameters.
+
+    ``sim = Simulator(scene, time_step=0.25)``, then ``sim.add_agents(...)`` and
+    ``sim.step()``. Positions and velocities are (N, 2) arrays over every agent ever
+    added; ``sim.active`` says who is still walking.
+
+    Parameters
+    ----------
+    scene : Scene
+        2D scene; its obstacles (static or keyframed) are avoided.
+    time_step : float
+        Seconds per step (the paper's simulation step).
+    guidance : "auto", "direct" or "field"
+        How v_pref is found: straight at the goal, or along an exact MDP distance field
+        whenever the straight line is blocked ("auto": the field if the scene has static
+        obstacles).
+    remove_on_arrival : bool
+        Agents within ``arrival_radius`` of their goal leave the simulation (default);
+        otherwise they stay there as obstacles to the others.
+    arrival_radius : float
+        Metres from the goal point at which an agent counts as arrived.
+    field_cell : float, optional
+        Cell edge of the guidance field (default: the largest agent radius, coarsened
+        for very large scenes).
+    rng : numpy.random.Generator, optional
+        Source of the candidate samples (default ``default_rng(0)``).
+    """
+
+    def __init__(self, scene: Scene, time_step: float = 0.25, guidance: str = "auto",
+                 remove_on_arrival: bool = True, arrival_radius: float = 0.5,
+                 field_cell: float | None = None, rng: np.random.Generator | None = None):
+        if not isinstance(scene, Scene):
+            raise TypeError(f"scene must be a crowdmotion.Scene, got {scene!r}")
+        if not (np.isfinite(time_step) and time_step > 0):
+            raise ValueError(f"time_step must be a positive number of seconds, got {time_step!r}")
+        if guidance not in ("auto", "direct", "field"):
+            raise ValueError(f"guidance must be 'auto', 'direct' or 'field', got {guidance!r}")
+        if not (np.isfinite(arrival_radius) and arrival_radius > 0):
+            raise ValueError(f"arrival_radius must be a positive number of metres, got {arrival_radius!r}")
+        self.scene = scene
+        self.dt = float(time_step)
+        self.guidance = guidance
+        self.remove_on_arrival = bool(remove_on_arrival)
+        self.arrival_radius = float(arrival_radius)
+        self.field_cell = field_cell
+        self.rng = np.random.default_rng(0) if rng is None else rng
+        self.obstacles = ObstacleSet(scene)
+        self.time = 0.0
+        self.steps = 0
+        n0 = (0, 2)
+        self.positions = np.zeros(n0)
+        self.velocities = np.zeros(n0)
+        self.goals = np.zeros(n0)
+        self.active = np.zeros(0, dtype=bool)
+        self.arrival_time = np.zeros(0)
+        self.group = np.zeros(0, dtype=np.int64)
+        self.params = {k: np.zeros(0, dtype=np.int64 if k in ("max_neighbors", "samples") else float)
+                       for k in PARAM_KEYS}
+        for k in ("radius", "max_speed", "pref_speed"):
+            self.params[k] = np.zeros(0)
+        self.personality = np.zeros((0, 5))
+        self._targets: list[tuple[MovingTarget, np.ndarray]] = []
+        self._goal_regions: list = []
+        self._fields: DistanceFields | None = None
+        self._fields_stale = True
+        self.stats = {"safety_stops": 0, "forced_choices": 0, "agent_steps": 0}
+
+    # ---- agents ------------------------------------------------------------------------
+    @property
+    def n_agents(self) -> int:
+        return len(self.positions)
+
+    def add_agents(self, positions, goals, radius=0.25, max_speed=1.5, pref_speed=1.3,
+                   neighbor_dist=None, max_neighbors=None, samples=None, safety=None,
+                   personality=None, goal_region=None) -> np.ndarray:
+        """Add agents; every parameter is a scalar or one value per agent.
+
+        Parameters
+        ----------
+        positions : (N, 2) start positions, metres.
+        goals : (N, 2) or (2,) goal points, or a MovingTarget they all chase.
+        radius, max_speed, pref_speed : body radius (m), v_max and |v_pref| (m/s).
+        neighbor_dist : D, metres: neighbours farther away are ignored.
+        max_neighbors : M: at most this many nearest neighbours are considered.
+        samples : N_sample: random candidate velocities per step.
+        safety : w in eq. (3): the weight of 1 / time-to-collision in the penalty.
+        personality : a pole name ("O+"), an OCEAN 5-vector, (N, 5) vectors, or a
+            distribution mapping; sets M, D, N_sample and w from Table 4 (then those four
+            must not be given as well).
+        goal_region : the group's goal region, used to build the guidance field (default:
+            the goal points).
+
+        Returns
+        -------
+        (N,) int array of the new agents' ids (their rows in ``positions``).
+        """
+        pos = finite_array(positions, "positions")
+        if pos.ndim != 2 or pos.shape[1] != 2 or len(pos) == 0:
+            raise ValueError(f"positions must be a non-empty (N, 2) array, got shape {pos.shape}")
+        n = len(pos)
+        target = goals if isinstance(goals, MovingTarget) else None
+        if target is not None:
+            if target.dim != 2:
+                raise ValueError("goals: a 2D moving target is needed")
+            goal = np.tile(target.at(self.time), (n, 1))
+        else:
+            goal = finite_array(goals, "goals")
+            if goal.shape == (2,):
+                goal = np.tile(goal, (n, 1))
+            if goal.shape != (n, 2):
+                raise ValueError(f"goals must be (2,) or ({n}, 2), got shape {goal.shape}")
+        rad = _per_agent(radius, n, "radius")
+        vmax = _per_agent(max_speed, n, "max_speed")
+        vpref = _per_agent(pref_speed, n, "pref_speed")
+        over = np.flatnonzero(vpref > vmax)
+        if len(over):
+            i = int(over[0])
+            raise ValueError(f"pref_speed {vpref[i]} exceeds max_speed {vmax[i]} for agent {i}")
+        given = {"neighbor_dist": neighbor_dist, "max_neighbors": max_neighbors, "samples": samples,
+                 "safety": safety}
+        if personality is not None:
+            clash = [k for k, v in given.items() if v is not None]
+            if clash:
+                raise ValueError(f"personality sets {clash}; give either a personality or those parameters")
+            psi = np.asarray(personality, dtype=float) if _is_matrix(personality) else \
+                sample_personalities(personality, n, self.rng)
+            if psi.shape != (n, 5):
+                raise ValueError(f"personality must be one OCEAN vector or ({n}, 5) vectors, got shape {psi.shape}")
+            given = params_for_vectors(psi)
+        else:
+            psi = np.full((n, 5), np.nan)
+            given = {k: DEFAULTS[k] if v is None else v for k, v in given.items()}
+        per = {
+            "neighbor_dist": _per_agent(given["neighbor_dist"], n, "neighbor_dist"),
+            "max_neighbors": _per_agent(given["max_neighbors"], n, "max_neighbors", integer=True, strict=False),
+            "samples": _per_agent(given["samples"], n, "samples", integer=True),
+            "safety": _per_agent(given["safety"], n, "safety", strict=False),
+            "radius": rad, "max_speed": vmax, "pref_speed": vpref,
+        }
+        self._check_placement(pos, rad)
+        start = self.n_agents
+        ids = np.arange(start, start + n)
+        self.positions = np.concatenate([self.positions, pos])
+        self.velocities = np.concatenate([self.velocities, np.zeros((n, 2))])
+        self.goals = np.concatenate([self.goals, goal])
+        self.active = np.concatenate([self.active, np.ones(n, dtype=bool)])
+        self.arrival_time = np.concatenate([self.arrival_time, np.full(n, np.nan)])
+        self.personality = np.concatenate([self.personality, psi])
+        for k, v in per.items():
+            self.params[k] = np.concatenate([self.params[k], v])
+        self._goal_regions.append(goal_region if goal_region is not None else _points_region(goal))
+        self.group = np.concatenate([self.group, np.full(n, len(self._goal_regions) - 1)])
+        if target is not None:
+            self._targets.append((target, ids))
+        self._fields_stale = True
+        return ids
+
+    def _check_placement(self, pos: np.ndarray, rad: np.ndarray) -> None:
+        """Refuse agents that start inside an obstacle, outside the bounds or overlapping another."""
+        inside = np.minimum(pos - self.scene.lower, self.scene.upper - pos).min(axis=1) - rad
+        bad = np.flatnonzero(inside < 0)
+        if len(bad):
+            i = int(bad[0])
+            raise ValueError(f"agent {self.n_agents + i} at {pos[i].tolist()} (radius {rad[i]}) does not fit inside "
+                             f"the scene bounds {self.scene.lower.tolist()}-{self.scene.upper.tolist()}")
+        clear = self.scene.obstacle_distance(pos, self.time) - rad
+        bad = np.flatnonzero(clear < 0)
+        if len(bad):
+            i = int(bad[0])
+            raise ValueError(f"agent {self.n_agents + i} at {pos[i].tolist()} starts inside an obstacle "
+                             f"(penetration {-clear[i]:.3f} m)")
+        live = np.flatnonzero(self.active)
+        allpos = np.concatenate([self.positions[live], pos])
+        allrad = np.concatenate([self.params["radius"][live], rad])
+        ids = np.concatenate([live, self.n_agents + np.arange(len(pos))])
+        pairs = cKDTree(allpos).query_pairs(2 * allrad.max(), output_type="ndarray")
+        if len(pairs):
+            d = np.linalg.norm(allpos[pairs[:, 0]] - allpos[pairs[:, 1]], axis=1)
+            hit = np.flatnonzero(d < allrad[pairs[:, 0]] + allrad[pairs[:, 1]])
+            if len(hit):
+                a, b = pairs[hit[0]]
+                raise ValueError(f"agents {ids[a]} and {ids[b]} start overlapped: centres {d[hit[0]]:.3f} m apart, "
+                                 f"radii sum {allrad[a] + allrad[b]:.3f} m")
+
+    # ---- stepping ----------------------------------------------------------------------
+    def _use_field(self) -> bool:
+        if self.guidance == "field":
+            return True
+        return self.guidance == "auto" and bool(self.scene.static_obstacles)
+
+    def _ensure_fields(self) -> None:
+        if not self._fields_stale:
+            return
+        self._fields = None
+        if self._use_field() and self.n_agents:
+            self._fields = distance_fields(self.scene, self._goal_regions, float(self.params["radius"].max()),
+                                           self.field_cell)
+        self._fields_stale = False
+
+    def preferred_velocities(self) -> np.ndarray:
+        """(N, 2) v_pref of every agent now (zero for agents that left)."""
+        return self._guidance()[0]
+
+    def _guidance(self) -> tuple[np.ndarray, np.ndarray]:
+        self._ensure_fields()
+        for target, ids in self._targets:
+            self.goals[ids] = target.at(self.time)
+        prims = self.obstacles.at(self.time, self.dt)
+        v, aim = preferred_velocities(self.positions, self.goals, self.params["pref_speed"], self.active, self.dt,
+                                      self._fields, self.group, prims, self.params["radius"])
+        v[~self.active] = 0.0
+        return v, aim
+
+    def _grid(self):
+        """A uniform grid over the active agents, cells wide enough for the step check."""
+        live = np.flatnonzero(self.active)
+        p = self.positions[live]
+        lo, hi = p.min(axis=0), p.max(axis=0)
+        reach = 2 * self.params["radius"][live].max() + 2 * self.params["max_speed"][live].max() * self.dt
+        extent = np.maximum(hi - lo, 1e-9)
+        h = max(reach, float(np.sqrt(np.prod(extent) / len(live))) * 1.5)
+        while np.prod(np.floor(extent / h) + 1) > 4 * len(live) + 16:
+            h *= 1.5
+        nx, ny = (np.floor(extent / h) + 1).astype(np.int64)
+        start, items = K.build_grid(self.positions, self.active, float(lo[0]), float(lo[1]), h, int(nx), int(ny))
+        return start, items, float(lo[0]), float(lo[1]), float(h), int(nx), int(ny)
+
+    def step(self) -> None:
+        """Advance every agent by one time step (all choose at once, then all move)."""
+        n = self.n_agents
+        if n == 0 or not self.active.any():
+            self.time += self.dt
+            self.steps += 1
+            return
+        vpref, aim = self._guidance()
+        grid = self._grid()
+        prims = self.obstacles.at(self.time, self.dt)
+        new = np.zeros((n, 2))
+        tc = np.empty(n)
+        nb = np.zeros(n, dtype=np.int64)
+        forced = np.zeros(n, dtype=bool)
+        key = np.uint64(self.rng.integers(0, 2**63 - 1))
+        p = self.params
+        K.choose_velocities(self.positions, self.velocities, vpref, aim, p["radius"], p["max_speed"],
+                            p["max_neighbors"], p["neighbor_dist"], p["samples"], p["safety"], self.active,
+                            *grid, prims.circ_c, prims.circ_r, prims.circ_v, prims.seg_a, prims.seg_b,
+                            prims.seg_v, self.dt, key, new, tc, nb, forced)
+        # safety: of two agents that would touch during the step, the one with the lower
+        # (random, per step) priority stands still instead; repeated until none would
+        stopped = np.zeros(n, dtype=bool)
+        conflict = np.zeros(n, dtype=bool)
+        priority = self.rng.random(n)
+        while K.step_conflicts(self.positions, new, p["radius"], self.active, stopped, priority, *grid, self.dt,
+                               conflict):
+            stopped |= conflict
+            new[conflict] = 0.0
+        self.stats["safety_stops"] += int(stopped.sum())
+        self.stats["forced_choices"] += int(forced[self.active].sum())
+        self.stats["agent_steps"] += int(self.active.sum())
+        self.positions = self.positions + new * self.dt
+        self.velocities = new
+        self.time += self.dt
+        self.steps += 1
+        self._arrivals()
+
+    def _arrivals(self) -> None:
+        d = np.linalg.norm(self.goals - self.positions, axis=1)
+        now = self.active & (d <= self.arrival_radius) & np.isnan(self.arrival_time)
+        self.arrival_time[now] = self.time
+        if self.remove_on_arrival:
+            self.active &= ~now
+            self.velocities[now] = 0.0
+
+    @property
+    def arrived(self) -> np.ndarray:
+        """(N,) whether each agent has reached its goal."""
+        return ~np.isnan(self.arrival_time)
+
+    @property
+    def present(self) -> np.ndarray:
+        """Agents to draw in the current frame: still walking, or arriving this very step."""
+        return self.active | (self.arrival_time == self.time)
+
+
+def _is_matrix(value) -> bool:
+    try:
+        return np.asarray(value, dtype=float).ndim == 2
+    except (TypeError, ValueError):
+        return False
+
+
+def _points_region(goal: np.ndarray):
+    from crowdmotion.groups import Points
+
+    return Points(np.unique(goal, axis=0))

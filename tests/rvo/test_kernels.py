@@ -1,0 +1,80 @@
+"""RVO kernels against closed forms and scipy: time to collision, k nearest neighbours."""
+
+import numpy as np
+import pytest
+from scipy.spatial import cKDTree
+
+from crowdmotion.rvo import _kernels as K
+
+
+def test_ray_disc_head_on_and_miss():
+    # from x = -10 at 1 m/s toward a disc of radius 1 at the origin: contact at t = 9
+    assert K._ray_disc(-10.0, 0.0, 1.0, 0.0, 1.0) == pytest.approx(9.0)
+    # offset by 0.6: contact where x = -sqrt(1 - 0.36) = -0.8, t = 9.2
+    assert K._ray_disc(-10.0, 0.6, 1.0, 0.0, 1.0) == pytest.approx(10 - 0.8)
+    assert K._ray_disc(-10.0, 1.5, 1.0, 0.0, 1.0) == np.inf  # passes by
+    assert K._ray_disc(-10.0, 0.0, -1.0, 0.0, 1.0) == np.inf  # moving away
+    assert K._ray_disc(0.5, 0.0, 1.0, 0.0, 1.0) == 0.0  # already inside
+
+
+def test_ray_capsule_face_end_and_parallel():
+    # body r = 0.5 falling onto the segment (-1,0)-(1,0) from y = 2 at 1 m/s: t = 1.5
+    assert K._ray_capsule(0.0, 2.0, 0.0, -1.0, -1.0, 0.0, 1.0, 0.0, 0.5) == pytest.approx(1.5)
+    # approaching the end point (1, 0) along the axis from x = 4: t = 4 - 1 - 0.5
+    assert K._ray_capsule(4.0, 0.0, -1.0, 0.0, -1.0, 0.0, 1.0, 0.0, 0.5) == pytest.approx(2.5)
+    # moving parallel 0.6 above the segment never touches
+    assert K._ray_capsule(-3.0, 0.6, 1.0, 0.0, -1.0, 0.0, 1.0, 0.0, 0.5) == np.inf
+    # brushing the end cap: passes at height 0.3 beyond the end -> hits the rounded cap
+    t = K._ray_capsule(1.2, 3.0, 0.0, -1.0, -1.0, 0.0, 1.0, 0.0, 0.5)
+    assert t == pytest.approx(3.0 - np.sqrt(0.25 - 0.04))
+
+
+@pytest.mark.parametrize("m,dmax", [(1, 100.0), (5, 3.0), (10, 1.0), (20, 50.0)])
+def test_knn_matches_ckdtree(m, dmax):
+    rng = np.random.default_rng(m)
+    pos = rng.uniform(0, 30, size=(400, 2))
+    active = rng.random(400) > 0.1
+    h = 1.7
+    lo = pos[active].min(axis=0)
+    nx, ny = (np.floor((pos[active].max(axis=0) - lo) / h) + 1).astype(int)
+    start, items = K.build_grid(pos, active, lo[0], lo[1], h, nx, ny)
+    live = np.flatnonzero(active)
+    tree = cKDTree(pos[live])
+    idx = np.empty(m, dtype=np.int64)
+    d2 = np.empty(m)
+    for i in live[:60]:
+        k = K._knn(i, pos, m, dmax, start, items, lo[0], lo[1], h, nx, ny, idx, d2)
+        dd, jj = tree.query(pos[i], k=m + 1, distance_upper_bound=dmax)
+        ref = [(d, live[j]) for d, j in zip(np.atleast_1d(dd), np.atleast_1d(jj)) if np.isfinite(d) and live[j] != i][:m]
+        assert k == len(ref)
+        assert np.allclose(np.sqrt(d2[:k]), [d for d, _ in ref])
+
+
+def _choose(pos, vel, vpref, samples=20, safety=5.0, segs=None):
+    n = len(pos)
+    active = np.ones(n, dtype=bool)
+    h = 5.0
+    lo = pos.min(axis=0)
+    nx, ny = (np.floor((pos.max(axis=0) - lo) / h) + 1).astype(int)
+    start, items = K.build_grid(pos, active, lo[0], lo[1], h, nx, ny)
+    seg_a = np.zeros((0, 2)) if segs is None else segs[0]
+    seg_b = np.zeros((0, 2)) if segs is None else segs[1]
+    out = np.zeros((n, 2))
+    K.choose_velocities(pos, vel, vpref, np.full(n, 100.0), np.full(n, 0.5), np.full(n, 1.5), np.full(n, 10),
+                        np.full(n, 10.0), np.full(n, samples), np.full(n, safety), active, start, items,
+                        lo[0], lo[1], h, nx, ny, np.zeros((0, 2)), np.zeros(0), np.zeros((0, 2)), seg_a, seg_b,
+                        np.zeros_like(seg_a), 0.25, np.uint64(7), out, np.zeros(n), np.zeros(n, dtype=np.int64),
+                        np.zeros(n, dtype=bool))
+    return out
+
+
+def test_lone_agent_takes_its_preferred_velocity():
+    out = _choose(np.array([[0.0, 0.0]]), np.zeros((1, 2)), np.array([[1.2, 0.3]]))
+    assert np.allclose(out[0], [1.2, 0.3])
+
+
+def test_wall_ahead_within_the_step_is_never_chosen():
+    # a wall 0.6 m ahead of a body of radius 0.5: v_pref of 1.3 m/s would reach it in 0.077 s
+    segs = (np.array([[0.6, -5.0]]), np.array([[0.6, 5.0]]))
+    out = _choose(np.array([[0.0, 0.0]]), np.zeros((1, 2)), np.array([[1.3, 0.0]]), samples=200, segs=segs)
+    assert out[0, 0] * 0.25 <= 0.1 + 1e-9

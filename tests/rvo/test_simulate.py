@@ -1,0 +1,144 @@
+"""RVO crowds: the antipodal circle, head-on pairs, obstacles, guidance, determinism, bad input."""
+
+import numpy as np
+import pytest
+
+import crowdmotion as cm
+from crowdmotion import rvo
+from crowdmotion.metrics import collision_audit
+from crowdmotion.trajectories import Trajectories
+
+
+def _run(sim, max_steps=3000):
+    frames, present = [sim.positions.copy()], [sim.present.copy()]
+    while sim.active.any() and sim.steps < max_steps:
+        sim.step()
+        frames.append(sim.positions.copy())
+        present.append(sim.present.copy())
+    return Trajectories(np.array(frames), sim.dt, radius=sim.params["radius"], active=np.array(present))
+
+
+def _circle(seed, n=200, radius=40.0):
+    ang = 2 * np.pi * np.arange(n) / n
+    pos = radius * np.c_[np.cos(ang), np.sin(ang)]
+    scene = cm.Scene(bounds=([-45, -45], [45, 45]))
+    sim = rvo.Simulator(scene, time_step=0.25, rng=np.random.default_rng(seed))
+    sim.add_agents(pos, -pos, radius=0.5, max_speed=1.5, pref_speed=1.3)
+    return scene, sim
+
+
+@pytest.fixture(scope="module")
+def circle_runs():
+    out = []
+    for seed in (1, 1, 2):
+        scene, sim = _circle(seed)
+        out.append((scene, sim, _run(sim)))
+    return out
+
+
+def test_antipodal_circle_all_arrive_without_contact(circle_runs):
+    scene, sim, traj = circle_runs[0]
+    assert sim.arrived.all()
+    report = collision_audit(traj, scene, tolerance=0.01 * 0.5)
+    assert report.agent_agent == 0 and report.agent_obstacle == 0
+    # and really no contact at all, not only within the tolerance
+    assert collision_audit(traj, scene).agent_agent == 0
+    # everyone crossed the centre: each walked at least the 80 m diameter
+    assert np.all(np.linalg.norm(traj.positions[-1] - traj.positions[0], axis=1) > 79)
+
+
+def test_same_seed_same_paths_other_seed_other_paths(circle_runs):
+    (_, _, a), (_, _, b), (_, _, c) = circle_runs
+    assert np.array_equal(a.positions, b.positions)
+    assert a.positions.shape != c.positions.shape or not np.array_equal(a.positions, c.positions)
+
+
+def test_two_agents_head_on_pass_without_touching():
+    scene = cm.Scene(bounds=([-10, -5], [10, 5]))
+    sim = rvo.Simulator(scene, time_step=0.1, rng=np.random.default_rng(0))
+    sim.add_agents([[-6, 0], [6, 0]], [[6, 0], [-6, 0]], radius=0.4)
+    traj = _run(sim, 1000)
+    assert sim.arrived.all()
+    assert collision_audit(traj, scene).agent_agent == 0
+    a, b = traj.positions[:, 0], traj.positions[:, 1]
+    both = traj.active.all(axis=1)
+    gap = np.linalg.norm(a[both] - b[both], axis=1)
+    assert gap.min() >= 0.8 - 1e-9
+    # they passed each other (swapped sides), sidestepping rather than stopping
+    assert a[-1, 0] > 5 and b[-1, 0] < -5
+    assert np.abs(traj.positions[:, :, 1]).max() > 0.2
+
+
+def test_obstacles_of_every_shape_are_never_penetrated():
+    scene = cm.Scene(bounds=([0, 0], [30, 20]), obstacles=[
+        cm.Circle([10, 10], 2.0), cm.Box([15, 3], [17, 9]), cm.Polygon([[20, 12], [24, 14], [21, 17]]),
+        cm.Circle([13.5, 18], 0.8, path=([0, 40], [[13.5, 18], [13.5, 2]])),
+    ])
+    rng = np.random.default_rng(3)
+    sim = rvo.Simulator(scene, time_step=0.2, rng=rng)
+    ys = np.linspace(2, 18, 12)
+    sim.add_agents(np.c_[np.full(12, 2.0), ys], np.c_[np.full(12, 28.0), ys[::-1]], radius=0.3)
+    sim.add_agents(np.c_[np.full(12, 28.0), ys], np.c_[np.full(12, 2.0), ys], radius=0.3)
+    traj = _run(sim, 2000)
+    report = collision_audit(traj, scene)
+    assert report.agent_obstacle == 0 and report.agent_agent == 0
+    assert sim.arrived.mean() >= 0.95
+
+
+def test_guidance_field_routes_round_a_wall_that_blocks_direct_walking():
+    # a pocket: a wall across most of the street with a lip that traps anyone walking straight
+    scene = cm.Scene(bounds=([0, 0], [20, 10]), obstacles=[cm.Box([9, 0], [10, 8.5]), cm.Box([6, 7.5], [9, 8.5])])
+    out = {}
+    for guidance in ("direct", "field"):
+        sim = rvo.Simulator(scene, time_step=0.25, guidance=guidance, rng=np.random.default_rng(0))
+        sim.add_agents([[3, 3], [3, 5], [4, 2]], [[17, 3], [17, 5], [16, 2]], radius=0.3)
+        traj = _run(sim, 600)
+        out[guidance] = sim.arrived.mean()
+        assert collision_audit(traj, scene).clean
+    assert out["field"] == 1.0 and out["direct"] < 1.0
+
+
+def test_agents_may_stay_at_their_goal():
+    scene = cm.Scene(bounds=([0, 0], [10, 10]))
+    sim = rvo.Simulator(scene, remove_on_arrival=False)
+    sim.add_agents([[1, 1]], [[3, 1]])
+    for _ in range(40):
+        sim.step()
+    assert sim.arrived.all() and sim.active.all()
+    assert np.linalg.norm(sim.positions[0] - [3, 1]) <= 0.5
+
+
+@pytest.mark.parametrize("kwargs,words", [
+    ({"radius": -0.2}, "radius must be > 0, got -0.2 for agent 0"),
+    ({"max_speed": float("nan")}, "max_speed"),
+    ({"pref_speed": 2.0, "max_speed": 1.0}, "pref_speed 2.0 exceeds max_speed 1.0"),
+    ({"personality": "Z-"}, "unknown personality trait 'Z-'"),
+    ({"personality": [0, 0, 0, 0, 2]}, "ψN must lie in [-1, 1]"),
+    ({"personality": "O+", "safety": 2.0}, "give either a personality or those parameters"),
+    ({"samples": 2.5}, "samples must be > 0 whole"),
+])
+def test_bad_agent_parameters_are_named(kwargs, words):
+    sim = rvo.Simulator(cm.Scene(bounds=([0, 0], [10, 10])))
+    with pytest.raises(ValueError) as e:
+        sim.add_agents([[1, 1], [3, 3]], [[9, 9], [8, 8]], **kwargs)
+    assert words in str(e.value)
+    assert sim.n_agents == 0
+
+
+def test_overlapping_or_buried_starts_are_refused():
+    scene = cm.Scene(bounds=([0, 0], [10, 10]), obstacles=[cm.Circle([5, 5], 1.0)])
+    sim = rvo.Simulator(scene)
+    with pytest.raises(ValueError, match="agents 0 and 1 start overlapped"):
+        sim.add_agents([[1, 1], [1.3, 1]], [[9, 9], [8, 8]], radius=0.25)
+    with pytest.raises(ValueError, match="agent 0 at .* starts inside an obstacle"):
+        sim.add_agents([[5.5, 5]], [[9, 9]])
+
+
+def test_personality_sets_table4_parameters_per_agent():
+    sim = rvo.Simulator(cm.Scene(bounds=([0, 0], [10, 10])))
+    sim.add_agents([[1, 1], [3, 3]], [[9, 9], [8, 8]], personality="C+")
+    sim.add_agents([[5, 1]], [[5, 9]], personality=[0, 0, 0, 0, -1])
+    assert sim.params["max_neighbors"].tolist() == [20, 20, 5]
+    assert sim.params["neighbor_dist"].tolist() == [20.0, 20.0, 5.0]
+    assert sim.params["samples"].tolist() == [50, 50, 25]
+    assert sim.params["safety"].tolist() == [1.0, 1.0, 7.5]
