@@ -11,6 +11,8 @@ import numpy as np
 from numba import njit, prange
 
 INF = np.inf
+GOLDEN_COS = float(np.cos(np.pi * (3.0 - np.sqrt(5.0))))
+GOLDEN_SIN = float(np.sin(np.pi * (3.0 - np.sqrt(5.0))))
 # a candidate whose obstacle time to collision is below dt·(1 + SLACK) would reach the
 # obstacle within the step: it is inadmissible (hard constraint)
 SLACK = 1e-6
@@ -103,8 +105,9 @@ def _knn(i, pos, m, dmax, cell_start, items, origin_x, origin_y, h, nx, ny, out_
                     out_idx[k] = j
                     if count < m:
                         count += 1
-        # every agent not yet seen is at least ring·h away
-        reach = ring * h
+        # every agent not yet seen lies outside the searched block of cells
+        reach = min(min(px - (origin_x + (cx - ring) * h), origin_x + (cx + ring + 1) * h - px),
+                    min(py - (origin_y + (cy - ring) * h), origin_y + (cy + ring + 1) * h - py))
         if reach >= dmax:
             break
         if count == m and reach * reach >= out_d2[m - 1]:
@@ -167,7 +170,7 @@ def _point_segment_distance(px, py, ax, ay, bx, by):
     return np.sqrt(dx * dx + dy * dy)
 
 
-@njit(cache=True)
+@njit(inline="always")
 def _obstacle_time(px, py, cx_, cy_, r, circ_c, circ_r, circ_v, near_c, n_near_c,
                    seg_a, seg_b, seg_v, near_s, n_near_s):
     """Least time to collision of the candidate (cx_, cy_) against the nearby obstacles:
@@ -200,7 +203,8 @@ def choose_velocities(pos, vel, vpref, aim_dist, radius, vmax, max_nb, nb_dist, 
     """Sampling RVO for every active agent at once (simultaneous, order-independent).
 
     For agent i the candidates are v_pref, the current velocity, standing still and
-    ``samples[i]`` velocities drawn uniformly in the disc of radius ``vmax[i]``. For each
+    ``samples[i]`` random velocities in the disc of radius ``vmax[i]`` (stratified: a
+    randomly turned and shifted sunflower pattern). For each
     candidate v′, tc is the least time to collision over the ≤ M nearest neighbours within
     D — along the reciprocal velocity 2v′ − v_i − v_j against the disc r_i + r_j — and over
     obstacles along v′ (relative to the obstacle's own velocity); an obstacle that v′ would
@@ -220,143 +224,222 @@ def choose_velocities(pos, vel, vpref, aim_dist, radius, vmax, max_nb, nb_dist, 
             mcap = max_nb[i]
     n_circ = circ_c.shape[0]
     n_seg = seg_a.shape[0]
-    for i in prange(n):
-        if not active[i]:
-            out_vel[i, 0] = 0.0
-            out_vel[i, 1] = 0.0
-            continue
+    block = 256
+    for blk in prange((n + block - 1) // block):
+        # scratch space once per block of agents, not once per agent
         idx = np.empty(mcap, dtype=np.int64)
         d2 = np.empty(mcap, dtype=np.float64)
-        k = _knn(i, pos, max_nb[i], nb_dist[i], cell_start, items, origin_x, origin_y, h, nx, ny, idx, d2)
-        out_nb[i] = k
-        px, py = pos[i, 0], pos[i, 1]
-        ri = radius[i]
-        vm = vmax[i]
-        # obstacles worth testing: within perception D or what the step could reach
+        rel = np.empty((mcap, 5), dtype=np.float64)
         near_c = np.empty(n_circ, dtype=np.int64)
-        nc = 0
-        for o in range(n_circ):
-            vo = np.sqrt(circ_v[o, 0] ** 2 + circ_v[o, 1] ** 2)
-            reach = max(nb_dist[i], 2.0 * (vm + vo) * dt) + ri + circ_r[o]
-            dx, dy = px - circ_c[o, 0], py - circ_c[o, 1]
-            if dx * dx + dy * dy <= reach * reach:
-                near_c[nc] = o
-                nc += 1
         near_s = np.empty(n_seg, dtype=np.int64)
-        ns = 0
-        for o in range(n_seg):
-            vo = np.sqrt(seg_v[o, 0] ** 2 + seg_v[o, 1] ** 2)
-            reach = max(nb_dist[i], 2.0 * (vm + vo) * dt) + ri
-            if _point_segment_distance(px, py, seg_a[o, 0], seg_a[o, 1], seg_b[o, 0], seg_b[o, 1]) <= reach:
-                near_s[ns] = o
-                ns += 1
-        best_pen = INF
-        best_any = INF
-        bx, by, btc = 0.0, 0.0, INF
-        ax_, ay_, atc = 0.0, 0.0, INF
-        vix, viy = vel[i, 0], vel[i, 1]
-        wx, wy = vpref[i, 0], vpref[i, 1]
-        total = samples[i] + 3
-        for cnd in range(total):
-            if cnd == 0:
-                cx_, cy_ = wx, wy
-            elif cnd == 1:
-                cx_, cy_ = vix, viy
-            elif cnd == 2:
-                cx_, cy_ = 0.0, 0.0
-            else:
-                rr = vm * np.sqrt(_uniform(key, i, 2 * cnd))
-                ang = 2.0 * np.pi * _uniform(key, i, 2 * cnd + 1)
-                cx_, cy_ = rr * np.cos(ang), rr * np.sin(ang)
-            sp = np.sqrt(cx_ * cx_ + cy_ * cy_)
-            if sp > vm:  # the current velocity or v_pref may exceed a lowered max speed
-                cx_ *= vm / sp
-                cy_ *= vm / sp
+        for i in range(blk * block, min(n, (blk + 1) * block)):
+            _choose_one(i, pos, vel, vpref, aim_dist, radius, vmax, max_nb, nb_dist, samples, safety, active,
+                        cell_start, items, origin_x, origin_y, h, nx, ny, circ_c, circ_r, circ_v, seg_a, seg_b,
+                        seg_v, dt, key, out_vel, out_tc, out_nb, out_forced, idx, d2, rel, near_c, near_s)
+
+
+@njit(cache=True)
+def _choose_one(i, pos, vel, vpref, aim_dist, radius, vmax, max_nb, nb_dist, samples, safety, active,
+                cell_start, items, origin_x, origin_y, h, nx, ny, circ_c, circ_r, circ_v, seg_a, seg_b,
+                seg_v, dt, key, out_vel, out_tc, out_nb, out_forced, idx, d2, rel, near_c, near_s):
+    """One agent's choice for :func:`choose_velocities`, with caller-owned scratch arrays."""
+    n_circ = circ_c.shape[0]
+    n_seg = seg_a.shape[0]
+    if not active[i]:
+        out_vel[i, 0] = 0.0
+        out_vel[i, 1] = 0.0
+        return
+    k = _knn(i, pos, max_nb[i], nb_dist[i], cell_start, items, origin_x, origin_y, h, nx, ny, idx, d2)
+    out_nb[i] = k
+    px, py = pos[i, 0], pos[i, 1]
+    ri = radius[i]
+    vm = vmax[i]
+    # obstacles worth testing: within perception D or what the step could reach
+    nc = 0
+    for o in range(n_circ):
+        vo = np.sqrt(circ_v[o, 0] ** 2 + circ_v[o, 1] ** 2)
+        reach = max(nb_dist[i], 2.0 * (vm + vo) * dt) + ri + circ_r[o]
+        dx, dy = px - circ_c[o, 0], py - circ_c[o, 1]
+        if dx * dx + dy * dy <= reach * reach:
+            near_c[nc] = o
+            nc += 1
+    ns = 0
+    for o in range(n_seg):
+        vo = np.sqrt(seg_v[o, 0] ** 2 + seg_v[o, 1] ** 2)
+        reach = max(nb_dist[i], 2.0 * (vm + vo) * dt) + ri
+        if _point_segment_distance(px, py, seg_a[o, 0], seg_a[o, 1], seg_b[o, 0], seg_b[o, 1]) <= reach:
+            near_s[ns] = o
+            ns += 1
+    best_pen = INF
+    best_any = INF
+    bx, by, btc = 0.0, 0.0, INF
+    ax_, ay_, atc = 0.0, 0.0, INF
+    vix, viy = vel[i, 0], vel[i, 1]
+    wx, wy = vpref[i, 0], vpref[i, 1]
+    w_i = safety[i]
+    # per-neighbour constants of the reciprocal ray p_i + (2v' - v_i - v_j) t
+    for q in range(k):
+        j = idx[q]
+        rel[q, 0] = px - pos[j, 0]
+        rel[q, 1] = py - pos[j, 1]
+        rr_ = ri + radius[j]
+        rel[q, 2] = rel[q, 0] * rel[q, 0] + rel[q, 1] * rel[q, 1] - rr_ * rr_
+        rel[q, 3] = -vix - vel[j, 0]
+        rel[q, 4] = -viy - vel[j, 1]
+    # random samples: a sunflower pattern of N_sample points filling the disc of radius
+    # v_max, turned by a random angle and shifted by a random radial offset each step, so
+    # every sample is uniform on the disc and together they cover it evenly
+    n_s = samples[i]
+    offset = _uniform(key, i, 0)
+    phi = 2.0 * np.pi * _uniform(key, i, 1)
+    ca, sa = np.cos(phi), np.sin(phi)
+    for cnd in range(n_s + 3):
+        if cnd == 0:
+            cx_, cy_ = wx, wy
+        elif cnd == 1:
+            cx_, cy_ = vix, viy
+        elif cnd == 2:
+            cx_, cy_ = 0.0, 0.0
+        else:
+            m_ = cnd - 3
+            frac = (m_ + offset) / n_s
+            rr = vm * np.sqrt(frac)
+            cx_, cy_ = rr * ca, rr * sa
+            ca, sa = ca * GOLDEN_COS - sa * GOLDEN_SIN, sa * GOLDEN_COS + ca * GOLDEN_SIN
+        sp = np.sqrt(cx_ * cx_ + cy_ * cy_)
+        if sp > vm:  # the current velocity or v_pref may exceed a lowered max speed
+            cx_ *= vm / sp
+            cy_ *= vm / sp
+            sp = vm
+        dvx, dvy = wx - cx_, wy - cy_
+        dev = np.sqrt(dvx * dvx + dvy * dvy)
+        if dev >= best_pen:
+            continue  # its penalty cannot beat the best admissible candidate
+        t_static, t_moving = INF, INF
+        if nc + ns > 0:
             t_static, t_moving = _obstacle_time(px, py, cx_, cy_, ri, circ_c, circ_r, circ_v, near_c, nc,
                                                 seg_a, seg_b, seg_v, near_s, ns)
-            t_obs = min(t_static, t_moving)
-            tc = t_obs
-            if t_obs < INF and sp > 0.0 and t_obs * min(sp, vm) > aim_dist[i]:
-                tc = INF
-            for q in range(k):
-                j = idx[q]
-                tt = _ray_disc(px - pos[j, 0], py - pos[j, 1], 2.0 * cx_ - vix - vel[j, 0],
-                               2.0 * cy_ - viy - vel[j, 1], ri + radius[j])
-                if tt < tc:
-                    tc = tt
-            dvx, dvy = wx - cx_, wy - cy_
-            dev = np.sqrt(dvx * dvx + dvy * dvy)
-            if tc == INF:
-                pen = dev
-            elif tc <= 1e-12:
-                pen = safety[i] * 1e12 + dev
-            else:
-                pen = safety[i] / tc + dev  # eq. (3)
-            if t_static >= dt * (1.0 + SLACK):
-                if t_moving >= dt * (1.0 + SLACK) and pen < best_pen:
-                    best_pen, bx, by, btc = pen, cx_, cy_, tc
-                if pen < best_any:
-                    best_any, ax_, ay_, atc = pen, cx_, cy_, tc
-        if best_pen < INF:
-            out_vel[i, 0], out_vel[i, 1], out_tc[i] = bx, by, btc
-            out_forced[i] = False
+        t_obs = min(t_static, t_moving)
+        tc = t_obs
+        if t_obs < INF and sp > 0.0 and t_obs * sp > aim_dist[i]:
+            tc = INF
+        limit = -1.0 if best_pen == INF else w_i / max(best_pen - dev, 1e-300)
+        for q in range(k):
+            vrx = 2.0 * cx_ + rel[q, 3]
+            vry = 2.0 * cy_ + rel[q, 4]
+            b = rel[q, 0] * vrx + rel[q, 1] * vry
+            c0 = rel[q, 2]
+            if c0 < 0.0:
+                tc = 0.0
+                break
+            if b >= 0.0:
+                continue
+            a = vrx * vrx + vry * vry
+            disc = b * b - a * c0
+            if disc <= 0.0:
+                continue
+            tt = (-b - np.sqrt(disc)) / a
+            if tt < tc:
+                tc = tt
+                if tc < limit:
+                    break  # already worse than the best: w/tc + dev >= best
+        if tc == INF:
+            pen = dev
+        elif tc <= 1e-12:
+            pen = w_i * 1e12 + dev
         else:
-            out_vel[i, 0], out_vel[i, 1], out_tc[i] = ax_, ay_, atc
-            out_forced[i] = True
+            pen = w_i / tc + dev  # eq. (3)
+        if t_static >= dt * (1.0 + SLACK):
+            if t_moving >= dt * (1.0 + SLACK) and pen < best_pen:
+                best_pen, bx, by, btc = pen, cx_, cy_, tc
+            if pen < best_any:
+                best_any, ax_, ay_, atc = pen, cx_, cy_, tc
+    if best_pen < INF:
+        out_vel[i, 0], out_vel[i, 1], out_tc[i] = bx, by, btc
+        out_forced[i] = False
+    else:
+        out_vel[i, 0], out_vel[i, 1], out_tc[i] = ax_, ay_, atc
+        out_forced[i] = True
+
+
+@njit(inline="always")
+def _conflict(i, pos, vel, radius, stopped, priority, cell_start, items, origin_x, origin_y, h, nx, ny, dt):
+    """Whether agent i's straight move this step would touch an agent that does not yield to it."""
+    px, py = pos[i, 0], pos[i, 1]
+    cx = min(max(int((px - origin_x) / h), 0), nx - 1)
+    cy = min(max(int((py - origin_y) / h), 0), ny - 1)
+    for gx in range(max(cx - 1, 0), min(cx + 1, nx - 1) + 1):
+        for gy in range(max(cy - 1, 0), min(cy + 1, ny - 1) + 1):
+            c = gx * ny + gy
+            for s in range(cell_start[c], cell_start[c + 1]):
+                j = items[s]
+                if j == i:
+                    continue
+                if not stopped[j] and (priority[j] < priority[i] or (priority[j] == priority[i] and j < i)):
+                    continue  # j yields to i
+                wx, wy = pos[j, 0] - px, pos[j, 1] - py
+                ux, uy = (vel[j, 0] - vel[i, 0]) * dt, (vel[j, 1] - vel[i, 1]) * dt
+                proj = wx * ux + wy * uy
+                if proj >= 0.0:
+                    continue  # not approaching
+                uu = ux * ux + uy * uy
+                s_ = min(-proj / uu, 1.0)
+                mx, my = wx + s_ * ux, wy + s_ * uy
+                rr = radius[i] + radius[j]
+                if mx * mx + my * my < rr * rr * (1.0 + 1e-9):
+                    return True
+    return False
 
 
 @njit(parallel=True, cache=True)
-def step_conflicts(pos, vel, radius, active, stopped, priority, cell_start, items, origin_x, origin_y, h, nx, ny,
-                   dt, out):
-    """Which moving agents must stand still so that nobody touches during this step.
+def resolve_conflicts(pos, vel, radius, active, priority, cell_start, items, origin_x, origin_y, h, nx, ny, dt,
+                      stopped):
+    """Make agents stand still until no two would touch during this step; returns how many
+    had to stop.
 
-    Agent i is flagged when its straight move would bring it closer than r_i + r_j to
-    an agent j that is standing or has the higher ``priority`` (ties: the higher index).
-    Flagging the lower-priority agent of each pair, over and over until nothing changes,
-    ends with no conflicting pair. Positions move linearly over the step (as the
-    continuous audit assumes); only approaching pairs count, so agents already touching
-    may still move apart. ``h`` must be at least the largest r_i + r_j + (‖v_i‖ + ‖v_j‖)·dt
-    so that the 3 × 3 cells suffice. Returns how many agents were flagged.
+    Agent i must stop when its straight move would bring it closer than r_i + r_j to an
+    agent j that is standing or has the higher ``priority`` (ties: the higher index). A
+    parallel pass flags every such agent among the moving ones; a serial work list then
+    stops them and re-examines the moving agents around each newly stopped one. Moving
+    agents never change velocity, so a pair of them that did not conflict at first never
+    will, and every pair with a stopped agent is examined after that agent stopped: at
+    the end no pair conflicts. Positions move linearly over the step (as the continuous
+    audit assumes); only approaching pairs count. ``h`` must be at least the largest
+    r_i + r_j + (‖v_i‖ + ‖v_j‖)·dt so that the 3 × 3 cells around an agent suffice.
+    ``vel`` is modified in place (zero for stopped agents); ``stopped`` receives who
+    stands still (by choice or by this rule).
     """
     n = pos.shape[0]
+    flagged = np.zeros(n, dtype=np.bool_)
+    for i in prange(n):  # agents that chose to stand are standing: they cannot yield
+        stopped[i] = active[i] and vel[i, 0] == 0.0 and vel[i, 1] == 0.0
     for i in prange(n):
-        out[i] = False
-        if not active[i] or stopped[i]:
+        if active[i] and not stopped[i]:
+            flagged[i] = _conflict(i, pos, vel, radius, stopped, priority, cell_start, items, origin_x, origin_y,
+                                   h, nx, ny, dt)
+    work = list(np.flatnonzero(flagged))
+    count = 0
+    while len(work) > 0:
+        j = work.pop()
+        if stopped[j]:
             continue
-        px, py = pos[i, 0], pos[i, 1]
-        cx = min(max(int((px - origin_x) / h), 0), nx - 1)
-        cy = min(max(int((py - origin_y) / h), 0), ny - 1)
-        hit = False
+        stopped[j] = True
+        vel[j, 0] = 0.0
+        vel[j, 1] = 0.0
+        count += 1
+        cx = min(max(int((pos[j, 0] - origin_x) / h), 0), nx - 1)
+        cy = min(max(int((pos[j, 1] - origin_y) / h), 0), ny - 1)
         for gx in range(max(cx - 1, 0), min(cx + 1, nx - 1) + 1):
             for gy in range(max(cy - 1, 0), min(cy + 1, ny - 1) + 1):
                 c = gx * ny + gy
                 for s in range(cell_start[c], cell_start[c + 1]):
-                    j = items[s]
-                    if j == i:
+                    i = items[s]
+                    if stopped[i]:
                         continue
-                    if not stopped[j] and (priority[j] < priority[i] or (priority[j] == priority[i] and j < i)):
-                        continue  # j yields to i
-                    wx, wy = pos[j, 0] - px, pos[j, 1] - py
-                    ux, uy = (vel[j, 0] - vel[i, 0]) * dt, (vel[j, 1] - vel[i, 1]) * dt
-                    uu = ux * ux + uy * uy
-                    s_ = 0.0 if uu <= 0.0 else min(max(-(wx * ux + wy * uy) / uu, 0.0), 1.0)
-                    if s_ <= 0.0:
-                        continue  # not approaching
-                    mx, my = wx + s_ * ux, wy + s_ * uy
-                    rr = radius[i] + radius[j]
-                    if mx * mx + my * my < rr * rr * (1.0 + 1e-9):
-                        hit = True
-                        break
-                if hit:
-                    break
-            if hit:
-                break
-        out[i] = hit
-    total = 0
-    for i in range(n):
-        if out[i]:
-            total += 1
-    return total
+                    if _conflict(i, pos, vel, radius, stopped, priority, cell_start, items, origin_x, origin_y,
+                                 h, nx, ny, dt):
+                        work.append(i)
+    return count
 
 
 # ---- guidance: line of sight and the distance field ---------------------------------------

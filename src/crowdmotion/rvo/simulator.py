@@ -287,15 +287,10 @@ class Simulator:
                             *grid, prims.circ_c, prims.circ_r, prims.circ_v, prims.seg_a, prims.seg_b,
                             prims.seg_v, self.dt, key, new, tc, nb, forced)
         # safety: of two agents that would touch during the step, the one with the lower
-        # (random, per step) priority stands still instead; repeated until none would
+        # (random, per step) priority stands still instead, until none would
         stopped = np.zeros(n, dtype=bool)
-        conflict = np.zeros(n, dtype=bool)
-        priority = self.rng.random(n)
-        while K.step_conflicts(self.positions, new, p["radius"], self.active, stopped, priority, *grid, self.dt,
-                               conflict):
-            stopped |= conflict
-            new[conflict] = 0.0
-        self.stats["safety_stops"] += int(stopped.sum())
+        self.stats["safety_stops"] += K.resolve_conflicts(self.positions, new, p["radius"], self.active,
+                                                          self.rng.random(n), *grid, self.dt, stopped)
         self.stats["forced_choices"] += int(forced[self.active].sum())
         self.stats["agent_steps"] += int(self.active.sum())
         self.positions = self.positions + new * self.dt
