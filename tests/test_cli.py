@@ -28,3 +28,22 @@ def test_demo_writes_pictures(tmp_path, capsys):
     assert (tmp_path / "mdp_drones_3d" / "paths.png").stat().st_size > 10_000
     assert (tmp_path / "mdp_drones_3d" / "values.png").is_file()
     assert str(tmp_path) in capsys.readouterr().out
+
+
+def test_rvo_run_then_report(tmp_path, capsys):
+    from tests.test_scenario import RVO
+
+    path = tmp_path / "street.toml"
+    path.write_text(RVO.replace("max_steps = 50", "max_steps = 400"))
+    out = tmp_path / "out"
+    assert main(["run", str(path), "-o", str(out), "-q"]) == 0
+    summary = json.loads((out / "summary.json").read_text())
+    assert summary["method"] == "rvo" and set(summary["groups"]) == {"a", "ring"}
+    assert summary["agent_agent_overlaps"] == 0 and summary["arrival_rate"] == 1.0
+    capsys.readouterr()
+    assert main(["report", str(out)]) == 0
+    printed = capsys.readouterr().out
+    assert "ring" in printed and "mixing" in printed
+    report = json.loads((out / "report.json").read_text())
+    assert report["a"]["agents"] == 5
+    assert main(["report", str(tmp_path / "nowhere")]) == 2

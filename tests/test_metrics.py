@@ -69,3 +69,63 @@ def test_moving_obstacle_hits_a_standing_agent():
 def test_path_length_counts_active_steps():
     tr = Trajectories(np.array([[[0, 0]], [[3, 4]], [[3, 4]]], float), dt=1.0)
     assert path_length(tr)[0] == pytest.approx(5.0)
+
+
+# ---- per-group behaviour report -------------------------------------------------------------
+def _walk(starts, velocity, frames=11, dt=0.5, group=None):
+    from crowdmotion.trajectories import Trajectories
+
+    t = np.arange(frames)[:, None, None] * dt
+    pos = np.asarray(starts, float)[None] + t * np.asarray(velocity, float)
+    return Trajectories(pos, dt, group=group)
+
+
+def test_group_report_straight_parallel_walkers():
+    from crowdmotion.metrics import group_report
+
+    rep = group_report(_walk([[0, 0], [0, 2]], [[1.0, 0.0], [1.0, 0.0]]))["agents"]
+    assert rep["lateral_spread_m"] == pytest.approx(1.0)  # std of {0, 2}
+    assert rep["lateral_deviation_m"] == pytest.approx(0.0)
+    assert rep["heading_change_rate_rad_s"] == pytest.approx(0.0)
+    assert rep["mean_speed_mps"] == pytest.approx(1.0)
+    assert rep["path_length_ratio"] == pytest.approx(1.0)
+    assert rep["time_to_goal_s"] is None  # nobody left the scene
+
+
+def test_group_report_zigzag_turn_rate_and_deviation():
+    from crowdmotion.metrics import group_report
+    from crowdmotion.trajectories import Trajectories
+
+    # alternate 45° up and 45° down: every frame turns by 90°, and the path swings 0.5 m
+    steps = np.array([[0.5, 0.5] if k % 2 == 0 else [0.5, -0.5] for k in range(10)])
+    pos = np.concatenate([[[0.0, 0.0]], np.cumsum(steps, axis=0)])[:, None, :]
+    rep = group_report(Trajectories(pos, 0.5))["agents"]
+    assert rep["heading_change_rate_rad_s"] == pytest.approx((np.pi / 2) / 0.5)
+    assert rep["lateral_deviation_m"] == pytest.approx(0.5)
+    assert rep["path_length_ratio"] == pytest.approx(np.sqrt(2.0))  # 10 diagonal steps over 5 m
+
+
+def test_group_report_mixing_counts_other_group_neighbours():
+    from crowdmotion.metrics import group_report
+
+    # A at (0,0), (1,0); B at (0,1): A0 sees A1 and B0, A1 sees A0 and B0, B0 sees only A
+    traj = _walk([[0, 0], [1, 0], [0, 1]], [[0.1, 0]] * 3, frames=3, group=["A", "A", "B"])
+    rep = group_report(traj)
+    assert rep["A"]["mixing_index"] == pytest.approx(0.5)
+    assert rep["B"]["mixing_index"] == pytest.approx(1.0)
+    assert rep["A"]["same_group_neighbors"] == pytest.approx(1.0)
+    assert rep["B"]["same_group_neighbors"] == pytest.approx(0.0)
+
+
+def test_group_report_sees_crowded_agents_walk_slower():
+    from crowdmotion.metrics import group_report
+
+    rng = np.random.default_rng(0)
+    dense = rng.uniform(0, 3, size=(30, 2))
+    sparse = np.c_[np.linspace(50, 200, 10), np.zeros(10)]
+    starts = np.concatenate([dense, sparse])
+    vel = np.concatenate([np.full((30, 2), [0.3, 0.0]), np.full((10, 2), [1.5, 0.0])])
+    rep = group_report(_walk(starts, vel))["agents"]
+    assert rep["speed_density_slope"] < 0
+    speeds = [row["mean_speed_mps"] for row in rep["speed_by_density"]]
+    assert speeds[0] == pytest.approx(1.5) and speeds[-1] == pytest.approx(0.3)

@@ -1,5 +1,6 @@
 """Scenario files: errors name the field and the value; nothing executes."""
 
+import numpy as np
 import pytest
 
 from crowdmotion.scenario import ScenarioError, parse_scenario
@@ -51,3 +52,51 @@ def test_cell_size_too_small_is_named():
     sc = parse_scenario(GOOD.replace("max_steps = 30", "max_steps = 30\ncell_size = 0.1"))
     with pytest.raises(ValueError, match="mdp.cell_size 0.1"):
         run_scenario(sc, progress=False)
+
+
+RVO = """
+name = "street"
+method = "rvo"
+[scene]
+bounds = [[0, 0], [30, 10]]
+[[groups]]
+name = "a"
+count = 5
+personality = "A+"
+spawn = { shape = "rect", lower = [1, 1], upper = [5, 9] }
+goal = { shape = "rect", lower = [25, 1], upper = [29, 9] }
+[[groups]]
+name = "ring"
+count = 6
+personality = { distribution = "trig", theta_low = [0, 0, 0, 0, -1.5], theta_high = [0, 0, 0, 0, 1.5] }
+spawn = { shape = "ring", center = [15, 5], radius = 3 }
+goal = { shape = "antipodal", center = [15, 5] }
+[rvo]
+max_steps = 50
+goal_assignment = "shift"
+"""
+
+
+def test_rvo_scenario_with_personalities_ring_and_antipodal_goal():
+    sc = parse_scenario(RVO)
+    assert sc.params.max_steps == 50 and sc.params.goal_assignment == "shift"
+    ring = sc.groups[1]
+    assert np.allclose(np.linalg.norm(ring.spawn.points - [15, 5], axis=1), 3)
+    assert np.allclose(ring.goal.points, 2 * np.array([15, 5]) - ring.spawn.points)
+    assert sc.groups[0].attributes["personality"] == "A+"
+
+
+@pytest.mark.parametrize("old,new,words", [
+    ('personality = "A+"', 'personality = "B+"', ["groups.0.personality", "unknown personality trait 'B+'"]),
+    ('personality = "A+"', "personality = [0, 0, 3, 0, 0]", ["groups.0.personality", "ψE must lie in [-1, 1]"]),
+    ("max_steps = 50", "max_steps = 0", ["rvo.max_steps", "0"]),
+    ('goal = { shape = "antipodal", center = [15, 5] }', 'goal = { shape = "ring", center = [1, 1], radius = 1 }',
+     ["groups.1.goal", "ring is a spawn shape"]),
+    ('spawn = { shape = "rect", lower = [1, 1], upper = [5, 9] }', 'spawn = { shape = "disc", center = [3, 5], radius = 1 }\ngoal2 = 1',
+     ["groups.0.goal2"]),
+])
+def test_rvo_scenario_errors_name_the_field(old, new, words):
+    with pytest.raises(ScenarioError) as e:
+        parse_scenario(RVO.replace(old, new))
+    for w in words:
+        assert w in str(e.value)

@@ -78,6 +78,40 @@ def cmd_bench(args) -> int:
     return 0
 
 
+def _find_trajectories(out: Path) -> Path:
+    if out.is_file():
+        return out
+    for name in ("trajectories.parquet", "trajectories.csv"):
+        if (out / name).is_file():
+            return out / name
+    raise FileNotFoundError(f"no trajectories.parquet or trajectories.csv in {out}")
+
+
+def cmd_report(args) -> int:
+    import json
+
+    from crowdmotion.io.atomic import atomic_path
+    from crowdmotion.metrics import group_report
+    from crowdmotion.trajectories import Trajectories
+
+    path = _find_trajectories(Path(args.output))
+    report = group_report(Trajectories.load(path))
+    cols = [("agents", "agents", "{:d}"), ("lateral_spread_m", "spread m", "{:.2f}"),
+            ("lateral_deviation_m", "deviation m", "{:.2f}"), ("heading_change_rate_rad_s", "turn rad/s", "{:.3f}"),
+            ("mean_speed_mps", "speed m/s", "{:.2f}"), ("speed_density_slope", "speed/density", "{:.3f}"),
+            ("mixing_index", "mixing", "{:.2f}"), ("same_group_neighbors", "same-group nb", "{:.2f}"),
+            ("time_to_goal_s", "to goal s", "{:.1f}"), ("path_length_ratio", "path ratio", "{:.3f}")]
+    print(f"{'group':12s}" + "".join(f"{h:>15s}" for _, h, _ in cols))
+    for name, row in report.items():
+        cells = ["-" if row[k] is None else fmt.format(row[k]) for k, _, fmt in cols]
+        print(f"{name:12s}" + "".join(f"{c:>15s}" for c in cells))
+    dest = path.parent / "report.json"
+    with atomic_path(dest) as tmp:
+        tmp.write_text(json.dumps(report, indent=2))
+    print(f"wrote {dest}")
+    return 0
+
+
 def cmd_list(args) -> int:
     from crowdmotion.scenario import load_scenario
 
@@ -115,6 +149,10 @@ def main(argv=None) -> int:
     p.add_argument("--repeats", type=int, default=3, help="runs per timing (the paper used 3)")
     p.add_argument("-q", "--quiet", action="store_true")
     p.set_defaults(func=cmd_bench)
+
+    p = sub.add_parser("report", help="per-group behaviour report of a run's trajectories")
+    p.add_argument("output", help="a run's output folder (or a trajectories file)")
+    p.set_defaults(func=cmd_report)
 
     p = sub.add_parser("scenarios", help="list the built-in scenarios")
     p.set_defaults(func=cmd_list)
