@@ -140,3 +140,36 @@ def plot_values(values: np.ndarray, path, cell_size: float = 1.0, origin=(0.0, 0
     ax.set_xlabel("x (m)")
     ax.set_ylabel("y (m)")
     return _save(fig, path)
+
+
+REPORT_PANELS = (
+    ("lateral_spread_m", "lateral spread (m)"),
+    ("heading_change_rate_rad_s", "heading change (rad/s)"),
+    ("mixing_index", "mixing with the other group"),
+    ("same_group_neighbors", "same-group neighbours within 2 m"),
+)
+
+
+def plot_group_report(rows: dict, path, title: str = "", panels=REPORT_PANELS) -> Path:
+    """Bar charts of per-group measures (``metrics.group_report`` rows, or their means).
+
+    ``rows`` maps a group label to a dict of measures; a value may be a number or a
+    ``(mean, std)`` pair, drawn with an error bar.
+    """
+    labels = list(rows)
+    fig, axes = plt.subplots(1, len(panels), figsize=(3.6 * len(panels), 3.4))
+    axes = np.atleast_1d(axes)
+    colours = ["tab:blue" if lab.endswith("+") else "tab:orange" if lab.endswith("-") else "tab:gray"
+               for lab in labels]
+    for ax, (key, name) in zip(axes, panels):
+        vals = [rows[lab].get(key) for lab in labels]
+        mean = [np.nan if v is None else (v[0] if isinstance(v, (tuple, list)) else v) for v in vals]
+        err = [0.0 if v is None or not isinstance(v, (tuple, list)) else v[1] for v in vals]
+        ax.bar(range(len(labels)), mean, yerr=err, color=colours, capsize=3)
+        ax.set_xticks(range(len(labels)), labels, rotation=0, fontsize=8)
+        ax.set_title(name, fontsize=9)
+        ax.grid(axis="y", alpha=0.3)
+    if title:
+        fig.suptitle(title)
+    fig.tight_layout()
+    return _save(fig, path)
