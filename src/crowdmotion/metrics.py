@@ -233,24 +233,6 @@ def _first_last(traj: Trajectories) -> tuple[np.ndarray, np.ndarray]:
     return first, last
 
 
-def local_density(traj: Trajectories, frames: np.ndarray, radius: float = DENSITY_RADIUS):
-    """Per sampled frame: (agent indices, density in agents/m², speed) of active agents.
-
-    Density is the number of other active agents within ``radius`` over the disc area.
-    """
-    act = traj.active_mask
-    speed = traj.speed
-    out = []
-    for f in frames:
-        idx = np.flatnonzero(act[f])
-        if len(idx) < 2:
-            continue
-        p = traj.positions[f, idx, :2]
-        counts = np.asarray(cKDTree(p).query_ball_point(p, radius, return_length=True)) - 1
-        out.append((f, idx, counts / (np.pi * radius**2), speed[f, idx]))
-    return out
-
-
 def group_report(traj: Trajectories) -> dict:
     """Per-group behaviour measures from trajectories alone (any method).
 
@@ -275,17 +257,23 @@ def group_report(traj: Trajectories) -> dict:
     speed = traj.speed
     heading = traj.heading
     frames = np.unique(np.linspace(0, traj.n_frames - 1, min(traj.n_frames, MAX_SAMPLED_FRAMES)).astype(int))
-    dens = local_density(traj, frames)
     groups = traj.group
     names = list(dict.fromkeys(groups.tolist()))
     mixing = {g: [] for g in names}
     same = {g: [] for g in names}
     dens_speed = {g: ([], []) for g in names}
     code = np.array([names.index(g) for g in groups.tolist()], dtype=np.int64)
-    for f, idx, rho, sp in dens:
+    for f in frames:  # one tree per sampled frame serves density, mixing and contact
+        idx = np.flatnonzero(act[f])
+        if len(idx) < 2:
+            continue
         p = pos[f, idx]
         gi = code[idx]
         tree = cKDTree(p)
+        # local density: other active agents within DENSITY_RADIUS over the disc area
+        rho = (np.asarray(tree.query_ball_point(p, DENSITY_RADIUS, return_length=True)) - 1) / (
+            np.pi * DENSITY_RADIUS**2)
+        sp = speed[f, idx]
         other_near = np.zeros(len(idx))
         same_near = np.zeros(len(idx))
         pairs = tree.query_pairs(MIX_RADIUS, output_type="ndarray")

@@ -199,7 +199,7 @@ def _obstacle_time(px, py, cx_, cy_, r, circ_c, circ_r, circ_v, near_c, n_near_c
 def choose_velocities(pos, vel, vpref, aim_dist, radius, vmax, max_nb, nb_dist, samples, safety, active,
                       cell_start, items, origin_x, origin_y, h, nx, ny,
                       circ_c, circ_r, circ_v, seg_a, seg_b, seg_v, dt, key,
-                      out_vel, out_tc, out_nb, out_forced):
+                      out_vel, out_forced):
     """Sampling RVO for every active agent at once (simultaneous, order-independent).
 
     For agent i the candidates are v_pref, the current velocity, standing still and
@@ -214,8 +214,8 @@ def choose_velocities(pos, vel, vpref, aim_dist, radius, vmax, max_nb, nb_dist, 
     penalty(v′) = w_i / tc(v′) + ‖v_pref − v′‖ (paper eq. (3); tc = ∞ gives 0) among the
     candidates that reach no obstacle within the step. If none qualifies (a moving obstacle
     bearing down) the choice is forced: the least penalty among candidates that at least
-    keep out of static obstacles (standing still always does). Writes ``out_vel``, the
-    chosen tc, the neighbour count and whether the choice was forced.
+    keep out of static obstacles (standing still always does). Writes ``out_vel`` and
+    whether the choice was forced.
     """
     n = pos.shape[0]
     mcap = 1
@@ -235,13 +235,13 @@ def choose_velocities(pos, vel, vpref, aim_dist, radius, vmax, max_nb, nb_dist, 
         for i in range(blk * block, min(n, (blk + 1) * block)):
             _choose_one(i, pos, vel, vpref, aim_dist, radius, vmax, max_nb, nb_dist, samples, safety, active,
                         cell_start, items, origin_x, origin_y, h, nx, ny, circ_c, circ_r, circ_v, seg_a, seg_b,
-                        seg_v, dt, key, out_vel, out_tc, out_nb, out_forced, idx, d2, rel, near_c, near_s)
+                        seg_v, dt, key, out_vel, out_forced, idx, d2, rel, near_c, near_s)
 
 
 @njit(cache=True)
 def _choose_one(i, pos, vel, vpref, aim_dist, radius, vmax, max_nb, nb_dist, samples, safety, active,
                 cell_start, items, origin_x, origin_y, h, nx, ny, circ_c, circ_r, circ_v, seg_a, seg_b,
-                seg_v, dt, key, out_vel, out_tc, out_nb, out_forced, idx, d2, rel, near_c, near_s):
+                seg_v, dt, key, out_vel, out_forced, idx, d2, rel, near_c, near_s):
     """One agent's choice for :func:`choose_velocities`, with caller-owned scratch arrays."""
     n_circ = circ_c.shape[0]
     n_seg = seg_a.shape[0]
@@ -250,7 +250,6 @@ def _choose_one(i, pos, vel, vpref, aim_dist, radius, vmax, max_nb, nb_dist, sam
         out_vel[i, 1] = 0.0
         return
     k = _knn(i, pos, max_nb[i], nb_dist[i], cell_start, items, origin_x, origin_y, h, nx, ny, idx, d2)
-    out_nb[i] = k
     px, py = pos[i, 0], pos[i, 1]
     ri = radius[i]
     vm = vmax[i]
@@ -272,8 +271,8 @@ def _choose_one(i, pos, vel, vpref, aim_dist, radius, vmax, max_nb, nb_dist, sam
             ns += 1
     best_pen = INF
     best_any = INF
-    bx, by, btc = 0.0, 0.0, INF
-    ax_, ay_, atc = 0.0, 0.0, INF
+    bx, by = 0.0, 0.0
+    ax_, ay_ = 0.0, 0.0
     vix, viy = vel[i, 0], vel[i, 1]
     wx, wy = vpref[i, 0], vpref[i, 1]
     w_i = safety[i]
@@ -351,14 +350,14 @@ def _choose_one(i, pos, vel, vpref, aim_dist, radius, vmax, max_nb, nb_dist, sam
             pen = w_i / tc + dev  # eq. (3)
         if t_static >= dt * (1.0 + SLACK):
             if t_moving >= dt * (1.0 + SLACK) and pen < best_pen:
-                best_pen, bx, by, btc = pen, cx_, cy_, tc
+                best_pen, bx, by = pen, cx_, cy_
             if pen < best_any:
-                best_any, ax_, ay_, atc = pen, cx_, cy_, tc
+                best_any, ax_, ay_ = pen, cx_, cy_
     if best_pen < INF:
-        out_vel[i, 0], out_vel[i, 1], out_tc[i] = bx, by, btc
+        out_vel[i, 0], out_vel[i, 1] = bx, by
         out_forced[i] = False
     else:
-        out_vel[i, 0], out_vel[i, 1], out_tc[i] = ax_, ay_, atc
+        out_vel[i, 0], out_vel[i, 1] = ax_, ay_
         out_forced[i] = True
 
 
@@ -392,8 +391,7 @@ def _conflict(i, pos, vel, radius, stopped, priority, cell_start, items, origin_
 
 
 @njit(parallel=True, cache=True)
-def resolve_conflicts(pos, vel, radius, active, priority, cell_start, items, origin_x, origin_y, h, nx, ny, dt,
-                      stopped):
+def resolve_conflicts(pos, vel, radius, active, priority, cell_start, items, origin_x, origin_y, h, nx, ny, dt):
     """Make agents stand still until no two would touch during this step; returns how many
     had to stop.
 
@@ -406,11 +404,11 @@ def resolve_conflicts(pos, vel, radius, active, priority, cell_start, items, ori
     the end no pair conflicts. Positions move linearly over the step (as the continuous
     audit assumes); only approaching pairs count. ``h`` must be at least the largest
     r_i + r_j + (‖v_i‖ + ‖v_j‖)·dt so that the 3 × 3 cells around an agent suffice.
-    ``vel`` is modified in place (zero for stopped agents); ``stopped`` receives who
-    stands still (by choice or by this rule).
+    ``vel`` is modified in place (zero for stopped agents).
     """
     n = pos.shape[0]
     flagged = np.zeros(n, dtype=np.bool_)
+    stopped = np.empty(n, dtype=np.bool_)
     for i in prange(n):  # agents that chose to stand are standing: they cannot yield
         stopped[i] = active[i] and vel[i, 0] == 0.0 and vel[i, 1] == 0.0
     for i in prange(n):

@@ -151,7 +151,8 @@ def sample_personalities(spec, count: int, rng: np.random.Generator, what: str =
     """(count, 5) OCEAN vectors from a group's personality spec.
 
     ``spec`` is a pole name (every agent that pole at full strength), a 5-vector (every
-    agent the same), or a mapping with ``distribution``:
+    agent the same), ``(count, 5)`` vectors (one per agent), or a mapping with
+    ``distribution``:
 
     - ``"trig"``: θk ~ U(theta_low[k], theta_high[k]) within [−π/2, π/2], ψk by eq. (2)
       mapped to [−1, 1] (:func:`trig_generator`);
@@ -165,6 +166,11 @@ def sample_personalities(spec, count: int, rng: np.random.Generator, what: str =
         return np.tile(v, (count, 1))
     if isinstance(spec, Mapping):
         return _sample_distribution(dict(spec), count, rng, what)
+    if np.ndim(spec) == 2:
+        rows = np.array([check_vector(v, f"{what}[{i}]") for i, v in enumerate(spec)]).reshape(-1, 5)
+        if len(rows) != count:
+            raise ValueError(f"{what} must be one OCEAN vector or ({count}, 5) vectors, got {len(rows)} rows")
+        return rows
     return np.tile(check_vector(spec, what), (count, 1))
 
 

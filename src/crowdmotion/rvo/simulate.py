@@ -9,7 +9,7 @@ import numpy as np
 
 from crowdmotion import __version__
 from crowdmotion.groups import Disc, Group, MovingTarget, Points, Rect
-from crowdmotion.rvo.personality import PARAM_KEYS, params_for_vectors, sample_personalities
+from crowdmotion.rvo.personality import PARAM_KEYS, sample_personalities
 from crowdmotion.rvo.simulator import Simulator
 from crowdmotion.scene import Scene
 from crowdmotion.trajectories import Trajectories
@@ -131,7 +131,8 @@ def goal_points(group: Group, starts: np.ndarray, assignment: str, rng: np.rando
 def build_simulator(scene: Scene, groups: Sequence[Group], params: RVOParams, rng: np.random.Generator) -> Simulator:
     """A Simulator holding every group's agents, placed and personalised."""
     sim = Simulator(scene, params.time_step, guidance=params.guidance, remove_on_arrival=params.remove_on_arrival,
-                    arrival_radius=params.arrival_radius, field_cell=params.field_cell, rng=rng)
+                    arrival_radius=params.arrival_radius, field_cell=params.field_cell, dominant=params.dominant,
+                    rng=rng)
     placed = np.zeros((0, 2))
     placed_r = np.zeros(0)
     for k, g in enumerate(groups):
@@ -140,22 +141,15 @@ def build_simulator(scene: Scene, groups: Sequence[Group], params: RVOParams, rn
         starts = spawn_positions(scene, g, placed, placed_r, params.spawn_gap, rng)
         goals = goal_points(g, starts, params.goal_assignment, rng)
         persona = g.attributes.get("personality")
-        kw = {}
-        if persona is None:
-            kw = {key: g.attributes.get(key, getattr(params, key)) for key in PARAM_KEYS}
-        else:
-            try:
-                psi = sample_personalities(persona, g.count, rng, f"groups.{k}.personality")
-                kw = params_for_vectors(psi, params.dominant)
-            except ValueError as exc:
-                raise ValueError(f"groups.{k} ({g.name!r}): {exc}") from None
         try:
-            ids = sim.add_agents(starts, goals, radius=g.radius, max_speed=g.max_speed, pref_speed=g.pref_speed,
-                                 goal_region=g.goal, **kw)
+            if persona is None:
+                kw = {key: g.attributes.get(key, getattr(params, key)) for key in PARAM_KEYS}
+            else:
+                kw = {"personality": sample_personalities(persona, g.count, rng, f"groups.{k}.personality")}
+            sim.add_agents(starts, goals, radius=g.radius, max_speed=g.max_speed, pref_speed=g.pref_speed,
+                           goal_region=g.goal, **kw)
         except ValueError as exc:
             raise ValueError(f"groups.{k} ({g.name!r}): {exc}") from None
-        if persona is not None:
-            sim.personality[ids] = psi
         placed = np.vstack([placed, starts])
         placed_r = np.append(placed_r, np.full(len(starts), g.radius))
     return sim

@@ -63,13 +63,16 @@ class Simulator:
     field_cell : float, optional
         Cell edge of the guidance field (default: the largest agent radius, coarsened
         for very large scenes).
+    dominant : "abs" or "max"
+        How a personality's dominant trait is chosen (see ``personality.dominant_trait``).
     rng : numpy.random.Generator, optional
         Source of the candidate samples (default ``default_rng(0)``).
     """
 
     def __init__(self, scene: Scene, time_step: float = 0.25, guidance: str = "auto",
                  remove_on_arrival: bool = True, arrival_radius: float = 0.5,
-                 field_cell: float | None = None, rng: np.random.Generator | None = None):
+                 field_cell: float | None = None, dominant: str = "abs",
+                 rng: np.random.Generator | None = None):
         if not isinstance(scene, Scene):
             raise TypeError(f"scene must be a crowdmotion.Scene, got {scene!r}")
         if not (np.isfinite(time_step) and time_step > 0):
@@ -78,12 +81,15 @@ class Simulator:
             raise ValueError(f"guidance must be 'auto', 'direct' or 'field', got {guidance!r}")
         if not (np.isfinite(arrival_radius) and arrival_radius > 0):
             raise ValueError(f"arrival_radius must be a positive number of metres, got {arrival_radius!r}")
+        if dominant not in ("abs", "max"):
+            raise ValueError(f"dominant must be 'abs' or 'max', got {dominant!r}")
         self.scene = scene
         self.dt = float(time_step)
         self.guidance = guidance
         self.remove_on_arrival = bool(remove_on_arrival)
         self.arrival_radius = float(arrival_radius)
         self.field_cell = field_cell
+        self.dominant = dominant
         self.rng = np.random.default_rng(0) if rng is None else rng
         self.obstacles = ObstacleSet(scene)
         self.time = 0.0
@@ -163,11 +169,8 @@ class Simulator:
             clash = [k for k, v in given.items() if v is not None]
             if clash:
                 raise ValueError(f"personality sets {clash}; give either a personality or those parameters")
-            psi = np.asarray(personality, dtype=float) if _is_matrix(personality) else \
-                sample_personalities(personality, n, self.rng)
-            if psi.shape != (n, 5):
-                raise ValueError(f"personality must be one OCEAN vector or ({n}, 5) vectors, got shape {psi.shape}")
-            given = params_for_vectors(psi)
+            psi = sample_personalities(personality, n, self.rng)
+            given = params_for_vectors(psi, self.dominant)
         else:
             psi = np.full((n, 5), np.nan)
             given = {k: DEFAULTS[k] if v is None else v for k, v in given.items()}
@@ -240,13 +243,13 @@ class Simulator:
 
     def preferred_velocities(self) -> np.ndarray:
         """(N, 2) v_pref of every agent now (zero for agents that left)."""
-        return self._guidance()[0]
+        return self._guidance(self.obstacles.at(self.time, self.dt))[0]
 
-    def _guidance(self) -> tuple[np.ndarray, np.ndarray]:
+    def _guidance(self, prims) -> tuple[np.ndarray, np.ndarray]:
+        """v_pref and the distance to each agent's aim point, with obstacles placed now."""
         self._ensure_fields()
         for target, ids in self._targets:
             self.goals[ids] = target.at(self.time)
-        prims = self.obstacles.at(self.time, self.dt)
         v, aim = preferred_velocities(self.positions, self.goals, self.params["pref_speed"], self.active, self.dt,
                                       self._fields, self.group, prims, self.params["radius"])
         v[~self.active] = 0.0
@@ -273,24 +276,21 @@ class Simulator:
             self.time += self.dt
             self.steps += 1
             return
-        vpref, aim = self._guidance()
-        grid = self._grid()
         prims = self.obstacles.at(self.time, self.dt)
+        vpref, aim = self._guidance(prims)
+        grid = self._grid()
         new = np.zeros((n, 2))
-        tc = np.empty(n)
-        nb = np.zeros(n, dtype=np.int64)
         forced = np.zeros(n, dtype=bool)
         key = np.uint64(self.rng.integers(0, 2**63 - 1))
         p = self.params
         K.choose_velocities(self.positions, self.velocities, vpref, aim, p["radius"], p["max_speed"],
                             p["max_neighbors"], p["neighbor_dist"], p["samples"], p["safety"], self.active,
                             *grid, prims.circ_c, prims.circ_r, prims.circ_v, prims.seg_a, prims.seg_b,
-                            prims.seg_v, self.dt, key, new, tc, nb, forced)
+                            prims.seg_v, self.dt, key, new, forced)
         # safety: of two agents that would touch during the step, the one with the lower
         # (random, per step) priority stands still instead, until none would
-        stopped = np.zeros(n, dtype=bool)
         self.stats["safety_stops"] += K.resolve_conflicts(self.positions, new, p["radius"], self.active,
-                                                          self.rng.random(n), *grid, self.dt, stopped)
+                                                          self.rng.random(n), *grid, self.dt)
         self.stats["forced_choices"] += int(forced[self.active].sum())
         self.stats["agent_steps"] += int(self.active.sum())
         self.positions = self.positions + new * self.dt
@@ -316,13 +316,6 @@ class Simulator:
     def present(self) -> np.ndarray:
         """Agents to draw in the current frame: still walking, or arriving this very step."""
         return self.active | (self.arrival_time == self.time)
-
-
-def _is_matrix(value) -> bool:
-    try:
-        return np.asarray(value, dtype=float).ndim == 2
-    except (TypeError, ValueError):
-        return False
 
 
 def _points_region(goal: np.ndarray):
