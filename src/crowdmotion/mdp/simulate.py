@@ -12,7 +12,7 @@ from crowdmotion.mdp.grid import GridMap, mark_obstacle, max_radius, min_cell_si
 from crowdmotion.mdp.solvers import METHODS, solve, value_iteration
 from crowdmotion.mdp.trajectory import Walker, check_tau
 from crowdmotion.scene import Scene
-from crowdmotion.trajectories import Trajectories
+from crowdmotion.trajectories import Trajectories, resample
 
 
 @dataclass(frozen=True)
@@ -229,35 +229,3 @@ def simulate(scene: Scene, groups: Sequence[Group], params: MDPParams | None = N
     params = MDPParams() if params is None else params
     rng = np.random.default_rng() if rng is None else rng
     return run(scene, groups, params, rng).trajectories
-
-
-def resample(traj: Trajectories, fps: float, kind: str) -> Trajectories:
-    """Resample one-frame-per-step trajectories to ``fps`` frames per second.
-
-    ``"linear"`` keeps the straight moves (and so their collision-freedom);
-    ``"catmull-rom"`` passes a uniform Catmull-Rom spline through the cell centres, which
-    rounds corners and must be re-audited (the run summary does so).
-    """
-    t_old = traj.times
-    n_new = int(np.floor(t_old[-1] * fps + 1e-9)) + 1
-    t_new = np.arange(n_new) / fps
-    u = t_new / traj.dt  # position in steps
-    k = np.minimum(np.floor(u).astype(int), traj.n_frames - 2) if traj.n_frames > 1 else np.zeros(n_new, int)
-    s = (u - k)[:, None, None]
-    P = traj.positions
-    if traj.n_frames == 1:
-        pos = np.repeat(P, n_new, axis=0)
-    elif kind == "linear":
-        pos = P[k] * (1 - s) + P[k + 1] * s
-    else:
-        p0 = P[np.maximum(k - 1, 0)]
-        p1, p2 = P[k], P[k + 1]
-        p3 = P[np.minimum(k + 2, traj.n_frames - 1)]
-        pos = 0.5 * ((2 * p1) + (-p0 + p2) * s + (2 * p0 - 5 * p1 + 4 * p2 - p3) * s**2
-                     + (-p0 + 3 * p1 - 3 * p2 + p3) * s**3)
-    active = None
-    if traj.active is not None:
-        active = traj.active[np.minimum(np.ceil(u - 1e-9).astype(int), traj.n_frames - 1)]
-    meta = {**traj.metadata, "resampled": {"fps": fps, "kind": kind, "step_dt": traj.dt}}
-    return Trajectories(pos, 1.0 / fps, ids=traj.ids, group=traj.group, radius=traj.radius, active=active,
-                        metadata=meta)

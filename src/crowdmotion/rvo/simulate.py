@@ -9,6 +9,7 @@ import numpy as np
 
 from crowdmotion import __version__
 from crowdmotion.groups import Disc, Group, MovingTarget, Points, Rect
+from crowdmotion.placement import spawn_positions
 from crowdmotion.rvo.personality import PARAM_KEYS, sample_personalities
 from crowdmotion.rvo.simulator import Simulator
 from crowdmotion.scene import Scene
@@ -67,42 +68,6 @@ class RVOParams:
                 raise ValueError(f"rvo.{name} must be one of {allowed}, got {getattr(self, name)!r}")
         if self.field_cell is not None and not (np.isfinite(self.field_cell) and self.field_cell > 0):
             raise ValueError(f"rvo.field_cell must be a positive number of metres, got {self.field_cell!r}")
-
-
-def spawn_positions(scene: Scene, group: Group, placed: np.ndarray, placed_r: np.ndarray, gap: float,
-                    rng: np.random.Generator) -> np.ndarray:
-    """Non-overlapping start positions in the group's spawn region, clear of obstacles.
-
-    Points are used as given (overlaps are then reported by the simulator); regions are
-    sampled with rejection, in batches, keeping ``gap`` metres between bodies.
-    """
-    what = f"group {group.name!r} spawn"
-    r = group.radius
-    if isinstance(group.spawn, Points):
-        if len(group.spawn.points) != group.count:
-            raise ValueError(f"{what}: {len(group.spawn.points)} points given for {group.count} agents")
-        return group.spawn.points.copy()
-    n0 = len(placed)
-    pts = np.empty((n0 + group.count, 2))
-    rads = np.empty(n0 + group.count)
-    pts[:n0], rads[:n0] = placed, placed_r
-    m = n0
-    tries = 0
-    while m < n0 + group.count:
-        tries += 1
-        if tries > 200:
-            raise ValueError(f"{what}: could not place {group.count} agents of radius {r} m without overlap in "
-                             f"{group.spawn!r} (placed {m - n0}); enlarge the region or reduce the count")
-        cand = group.spawn.sample(4 * (n0 + group.count - m) + 8, rng)
-        cand = cand[scene.obstacle_distance(cand, 0.0) >= r + gap]
-        for c in cand:
-            if m == n0 + group.count:
-                break
-            if m and np.any(np.linalg.norm(pts[:m] - c, axis=1) < rads[:m] + r + gap):
-                continue
-            pts[m], rads[m] = c, r
-            m += 1
-    return pts[n0:].copy()
 
 
 def goal_points(group: Group, starts: np.ndarray, assignment: str, rng: np.random.Generator):
