@@ -3,7 +3,7 @@
 import numpy as np
 import pytest
 
-from crowdmotion.scenario import ScenarioError, parse_scenario
+from crowdmotion.scenario import ScenarioError, parse_scenario, run_scenario
 
 GOOD = """
 name = "t"
@@ -98,5 +98,56 @@ def test_rvo_scenario_with_personalities_ring_and_antipodal_goal():
 def test_rvo_scenario_errors_name_the_field(old, new, words):
     with pytest.raises(ScenarioError) as e:
         parse_scenario(RVO.replace(old, new))
+    for w in words:
+        assert w in str(e.value)
+
+
+PSO = """
+method = "pso"
+seed = 3
+[scene]
+bounds = [[-40, -40], [40, 40]]
+obstacles = [{ shape = "circle", center = [10, 0], radius = 2 }]
+[[groups]]
+name = "s"
+count = 12
+spawn = { shape = "rect", lower = [-30, -30], upper = [30, 30] }
+goal = { shape = "point", position = [0, 0] }
+[pso]
+iterations = 80
+v_max = [0.5, 0.5]
+[pso.obstacle_field]
+count = 4
+radius = 1.5
+layout = "grouped"
+"""
+
+
+def test_pso_scenario_block_is_the_api_params():
+    from crowdmotion.pso import PSOParams
+
+    sc = parse_scenario(PSO)
+    assert isinstance(sc.params, PSOParams)
+    assert sc.params.iterations == 80 and sc.params.obstacle_field.layout == "grouped"
+    result = run_scenario(sc, progress=False)
+    assert result.summary["generated_obstacles"] == 4
+    assert len(result.extras.scene.obstacles) == 5
+    assert result.summary["agent_obstacle_penetrations"] == 0
+
+
+@pytest.mark.parametrize("old,new,words", [
+    ("iterations = 80", "iterations = 0", ["pso.iterations", "greater than 0", "got 0"]),
+    ("v_max = [0.5, 0.5]", "v_max = [0.5, -1]", ["pso.v_max.1", "got -1"]),
+    ("v_max = [0.5, 0.5]", "v_max = [0.5]\nthreshold = nan", ["pso.threshold"]),
+    ('layout = "grouped"', 'layout = "ring"', ["pso.obstacle_field.layout", "'ring'"]),
+    ("v_max = [0.5, 0.5]", "v_max = [0.5, 0.5]\nconstriction = true", ["pso", "c1 + c2 > 4"]),
+    ('obstacles = [{ shape = "circle", center = [10, 0], radius = 2 }]',
+     'obstacles = [{ shape = "polygon", vertices = [[5, 5], [8, 5], [6, 9]] }]', ["scene.obstacles.0 is a polygon"]),
+    ("position = [0, 0]", "position = [10, 0.5]", ["covered by an obstacle"]),
+])
+def test_pso_scenario_errors_name_the_field(old, new, words):
+    with pytest.raises(ScenarioError) as e:
+        sc = parse_scenario(PSO.replace(old, new))
+        run_scenario(sc, progress=False)
     for w in words:
         assert w in str(e.value)

@@ -20,9 +20,12 @@ def test_builtin_scene_is_clean_and_gathers(name):
         # everyone ends at or next to the goal area: within a few cells of path distance
         assert s["max_final_path_distance_to_goal_m"] <= 4 * s["cell_size_m"] + 1e-9, s
         assert s["arrival_rate"] >= 0.8
-    else:  # rvo: everyone reaches their own goal point
+    elif result.scenario.method == "rvo":  # everyone reaches their own goal point
         assert s["arrival_rate"] == 1.0, s
         assert set(s["groups"]) == {g.name for g in result.scenario.groups}
+    else:  # pso: every group gathers (threshold or the group arrival rule)
+        assert s["arrival_rate"] == 1.0, s
+        assert all(s["groups_gathered"].values()), s["groups_gathered"]
 
 
 def test_seed_gives_diversity_and_reproducibility():

@@ -6,9 +6,30 @@ Shared by every method that places bodies in continuous space (RVO, PSO).
 from __future__ import annotations
 
 import numpy as np
+from scipy.spatial import cKDTree
 
 from crowdmotion.groups import Group, Points
 from crowdmotion.scene import Scene
+
+
+def _greedy_clear(cand: np.ndarray, r: float, gap: float, placed: np.ndarray, placed_r: np.ndarray) -> np.ndarray:
+    """Mask of candidates kept when taken in order, each dropped if it overlaps a placed
+    body or an earlier kept candidate (bodies ``gap`` apart)."""
+    keep = np.ones(len(cand), dtype=bool)
+    if len(placed):
+        reach = r + float(placed_r.max()) + gap
+        near = cKDTree(cand).sparse_distance_matrix(cKDTree(placed), reach, output_type="coo_matrix")
+        bad = near.data < r + placed_r[near.col] + gap
+        keep[near.row[bad]] = False
+    pairs = cKDTree(cand).query_pairs(2 * r + gap, output_type="ndarray")
+    if len(pairs):
+        d = np.linalg.norm(cand[pairs[:, 0]] - cand[pairs[:, 1]], axis=1)
+        pairs = pairs[d < 2 * r + gap]
+        pairs = pairs[np.lexsort((pairs[:, 0], pairs[:, 1]))]  # by later index: earlier fates are settled
+        for a, b in pairs:
+            if keep[a] and keep[b]:
+                keep[b] = False
+    return keep
 
 
 def spawn_positions(scene: Scene, group: Group, placed: np.ndarray, placed_r: np.ndarray, gap: float,
@@ -29,29 +50,18 @@ def spawn_positions(scene: Scene, group: Group, placed: np.ndarray, placed_r: np
             raise ValueError(f"{what}: {len(group.spawn.points)} points given for {group.count} agents")
         return group.spawn.points.copy()
     placed = np.asarray(placed, dtype=float).reshape(-1, dim)
-    n0 = len(placed)
-    pts = np.empty((n0 + group.count, dim))
-    rads = np.empty(n0 + group.count)
-    pts[:n0], rads[:n0] = placed, placed_r
-    m = n0
-    tries = 0
-    while m < n0 + group.count:
-        tries += 1
-        if tries > 200:
-            raise ValueError(f"{what}: could not place {group.count} agents of radius {r} m without overlap in "
-                             f"{group.spawn!r} (placed {m - n0}); enlarge the region or reduce the count")
-        cand = group.spawn.sample(4 * (n0 + group.count - m) + 8, rng)
+    placed_r = np.asarray(placed_r, dtype=float).reshape(-1)
+    out = np.empty((0, dim))
+    for _ in range(200):
+        need = group.count - len(out)
+        if need == 0:
+            return out
+        cand = group.spawn.sample(4 * need + 8, rng)
         cand = cand[scene.obstacle_distance(cand, 0.0) >= r + gap]
-        if overlap:
-            take = cand[: n0 + group.count - m]
-            pts[m:m + len(take)], rads[m:m + len(take)] = take, r
-            m += len(take)
-            continue
-        for c in cand:
-            if m == n0 + group.count:
-                break
-            if m and np.any(np.linalg.norm(pts[:m] - c, axis=1) < rads[:m] + r + gap):
-                continue
-            pts[m], rads[m] = c, r
-            m += 1
-    return pts[n0:].copy()
+        if not overlap and len(cand):
+            others = np.concatenate([placed, out])
+            others_r = np.concatenate([placed_r, np.full(len(out), r)])
+            cand = cand[_greedy_clear(cand, r, gap, others, others_r)]
+        out = np.concatenate([out, cand[:need]])
+    raise ValueError(f"{what}: could not place {group.count} agents of radius {r} m without overlap in "
+                     f"{group.spawn!r} (placed {len(out)}); enlarge the region or reduce the count")

@@ -6,9 +6,14 @@ import importlib
 from dataclasses import dataclass
 from typing import Any
 
+from pydantic import ValidationError
+
+from crowdmotion._validation import error_lines
+
 # name -> module exposing ``Params`` (frozen dataclass) and
-# ``run_scenario(scene, groups, params, rng, progress) -> (Trajectories, extras, summary)``
-_METHODS = {"mdp": "crowdmotion.mdp.adapter", "rvo": "crowdmotion.rvo.adapter"}
+# ``run_scenario(scene, groups, params, rng, progress) -> (Trajectories, extras, summary)``; optional
+# ``check_scenario(scene, groups, params)`` (refuses a scenario at load) and ``write_plots``
+_METHODS = {"mdp": "crowdmotion.mdp.adapter", "rvo": "crowdmotion.rvo.adapter", "pso": "crowdmotion.pso.adapter"}
 
 
 @dataclass(frozen=True)
@@ -39,6 +44,8 @@ def method_params(name: str, block: dict):
     cls = get_method(name).params_type
     try:
         return cls(**block)
+    except ValidationError as exc:
+        raise ValueError("; ".join(error_lines(exc, name))) from None
     except (TypeError, ValueError) as exc:
         msg = str(exc)
         raise ValueError(msg if msg.startswith(f"{name}.") else f"{name}: {msg}") from None

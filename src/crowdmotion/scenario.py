@@ -1,7 +1,7 @@
 """Scenario TOML files: schema (pydantic), loading with field-named errors, and running.
 
 A scenario is one TOML file: ``[scene]`` (bounds, obstacles), ``[[groups]]``,
-``method`` with its own parameter block (``[mdp]``, ``[rvo]``), ``seed`` and ``[output]``. Nothing
+``method`` with its own parameter block (``[mdp]``, ``[rvo]``, ``[pso]``), ``seed`` and ``[output]``. Nothing
 in the file is ever executed. Each method adds its block here without changing the rest.
 """
 
@@ -16,6 +16,8 @@ import numpy as np
 from pydantic import BaseModel, ConfigDict, Field, ValidationError, field_validator, model_validator
 
 from crowdmotion import groups as G
+from crowdmotion._validation import error_lines
+from crowdmotion.pso.params import PSOParams
 from crowdmotion import scene as S
 
 
@@ -185,12 +187,13 @@ class OutputSpec(_Model):
 class ScenarioSpec(_Model):
     name: str = "scenario"
     description: str = ""
-    method: Literal["mdp", "rvo"]
+    method: Literal["mdp", "rvo", "pso"]
     seed: Annotated[int, Field(ge=0)] = 0
     scene: SceneSpec
     groups: list[GroupSpec] = Field(min_length=1)
     mdp: MDPSpec = MDPSpec()
     rvo: RVOSpec = RVOSpec()
+    pso: PSOParams = PSOParams()
     output: OutputSpec = OutputSpec()
 
     @field_validator("groups")
@@ -249,15 +252,7 @@ class Scenario:
 
 
 def _fmt_errors(err: ValidationError, source: str) -> str:
-    lines = [f"{source}: {err.error_count()} problem(s)"]
-    for e in err.errors():
-        loc = ".".join(str(x) for x in e["loc"])
-        value = e.get("input")
-        shown = repr(value)
-        if len(shown) > 80:
-            shown = shown[:77] + "..."
-        lines.append(f"  {loc or '(top level)'}: {e['msg']} (got {shown})")
-    return "\n".join(lines)
+    return "\n".join([f"{source}: {err.error_count()} problem(s)"] + ["  " + line for line in error_lines(err)])
 
 
 def ring_points(center, radius: float, count: int, phase_deg: float = 0.0) -> np.ndarray:
@@ -332,7 +327,12 @@ def build(spec: ScenarioSpec, source: str = "scenario") -> Scenario:
                 raise ScenarioError(f"{source}: groups.{i}: {exc}") from None
         scenario = Scenario(spec, scene, groups)
         try:
-            scenario.params  # validates the method block once more, in the method's terms
+            params = scenario.params  # validates the method block once more, in the method's terms
+            from crowdmotion.registry import get_method
+
+            check = getattr(get_method(spec.method).module, "check_scenario", None)
+            if check is not None:
+                check(scene, groups, params)
         except ValueError as exc:
             raise ScenarioError(f"{source}: {exc}") from None
         return scenario

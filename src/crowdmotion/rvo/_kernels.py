@@ -10,28 +10,14 @@ from __future__ import annotations
 import numpy as np
 from numba import njit, prange
 
+from crowdmotion._rng import uniform as _uniform
+
 INF = np.inf
 GOLDEN_COS = float(np.cos(np.pi * (3.0 - np.sqrt(5.0))))
 GOLDEN_SIN = float(np.sin(np.pi * (3.0 - np.sqrt(5.0))))
 # a candidate whose obstacle time to collision is below dt·(1 + SLACK) would reach the
 # obstacle within the step: it is inadmissible (hard constraint)
 SLACK = 1e-6
-
-
-# ---- counter-based random numbers: same seed -> same samples, whatever the threads ------
-@njit(inline="always")
-def _mix(z):
-    z = (z ^ (z >> np.uint64(30))) * np.uint64(0xBF58476D1CE4E5B9)
-    z = (z ^ (z >> np.uint64(27))) * np.uint64(0x94D049BB133111EB)
-    return z ^ (z >> np.uint64(31))
-
-
-@njit(inline="always")
-def _uniform(key, i, k):
-    """U[0, 1) from (step key, agent, draw): SplitMix64 of a combined counter."""
-    z = _mix(key ^ (np.uint64(i) * np.uint64(0x9E3779B97F4A7C15)))
-    z = _mix(z ^ (np.uint64(k) * np.uint64(0xD1B54A32D192ED03) + np.uint64(0x632BE59BD9B4E019)))
-    return np.float64(z >> np.uint64(11)) * (1.0 / 9007199254740992.0)
 
 
 # ---- uniform grid -----------------------------------------------------------------------

@@ -5,6 +5,7 @@ from __future__ import annotations
 import numpy as np
 from scipy.spatial import cKDTree
 
+from crowdmotion._rng import step_key
 from crowdmotion.geometry import finite_array
 from crowdmotion.groups import MovingTarget
 from crowdmotion.rvo import _kernels as K
@@ -281,7 +282,7 @@ class Simulator:
         grid = self._grid()
         new = np.zeros((n, 2))
         forced = np.zeros(n, dtype=bool)
-        key = np.uint64(self.rng.integers(0, 2**63 - 1))
+        key = step_key(self.rng)
         p = self.params
         K.choose_velocities(self.positions, self.velocities, vpref, aim, p["radius"], p["max_speed"],
                             p["max_neighbors"], p["neighbor_dist"], p["samples"], p["safety"], self.active,

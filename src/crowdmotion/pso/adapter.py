@@ -1,0 +1,64 @@
+"""The particle-swarm method as the scenario runner and CLI see it: run, progress bar,
+summary, figures."""
+
+from __future__ import annotations
+
+import numpy as np
+from tqdm.auto import tqdm
+
+from crowdmotion import metrics
+from crowdmotion.groups import MovingTarget
+from crowdmotion.pso.obstacles import ObstacleArrays
+from crowdmotion.pso.params import PSOParams
+from crowdmotion.pso.simulate import PSORun, run
+
+Params = PSOParams
+
+
+def check_scenario(scene, groups, params: PSOParams) -> None:
+    """Problems a scenario can be refused for before running: obstacle kinds, v_max axes,
+    targets covered by an obstacle."""
+    ObstacleArrays.from_scene(scene)
+    params.axis_vmax(scene.dim)
+    for i, g in enumerate(groups):
+        points = g.goal.positions if isinstance(g.goal, MovingTarget) else np.asarray(g.goal.center)[None]
+        clear = scene.obstacle_distance(points, 0.0)
+        if np.any(clear < g.radius):
+            bad = points[int(np.argmin(clear))].tolist()
+            raise ValueError(f"groups.{i}.goal: the target {bad} is covered by an obstacle "
+                             f"(clearance {clear.min():.3g} m < radius {g.radius} m)")
+
+
+def run_scenario(scene, groups, params: PSOParams, rng, progress: bool = True):
+    with tqdm(desc="pso iterations", unit="it", disable=not progress, delay=1.0, leave=False) as bar:
+        result = run(scene, groups, params, rng, progress=bar.update)
+    sr = result.swarm_run
+    traj = result.trajectories
+    summary = metrics.summary(traj, result.scene)
+    names = np.array(result.group_names, dtype=object)[sr.swarm]
+    arrived = sr.arrival_iteration >= 0
+    summary.update({
+        "method": "pso",
+        "iterations": int(sr.paths.shape[0] - 1),
+        "arrival_rate": sr.arrival_rate,
+        "within_threshold_rate": float(sr.within_threshold().mean()),
+        "mean_time_to_goal_s": float(sr.arrival_iteration[arrived].mean() * sr.iteration_time) if arrived.any()
+        else None,
+        "groups_gathered": {n: bool(sr.stopped[names == n].all()) for n in result.group_names},
+        "rules": dict(sr.stats),
+        "generated_obstacles": len(result.scene.obstacles) - len(scene.obstacles),
+        "groups": metrics.group_report(traj),
+    })
+    return traj, result, summary
+
+
+def write_plots(scene, result: PSORun, out, which, title: str = "") -> list:
+    """``paths``: every particle's path over the scene (generated obstacles included),
+    with the targets (a moving target's positions at each update) as stars/squares."""
+    from crowdmotion.render import plot_paths
+
+    written = []
+    if "paths" in which:
+        targets = np.unique(result.swarm_run.targets.reshape(-1, result.scene.dim), axis=0)
+        written.append(plot_paths(result.trajectories, result.scene, out / "paths.png", title=title, goals=targets))
+    return written

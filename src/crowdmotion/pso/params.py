@@ -1,0 +1,122 @@
+"""Parameters of the particle-swarm method: one pydantic model, used as the scenario's
+``[pso]`` block and by the Python API alike, so both validate the same way."""
+
+from __future__ import annotations
+
+import math
+from typing import Annotated, Literal
+
+from pydantic import BaseModel, ConfigDict, Field, ValidationError, model_validator
+
+from crowdmotion._validation import error_lines
+
+PosFloat = Annotated[float, Field(gt=0, allow_inf_nan=False)]
+NonNeg = Annotated[float, Field(ge=0, allow_inf_nan=False)]
+Coord = Annotated[list[float], Field(min_length=2, max_length=3)]
+
+
+class _Model(BaseModel):
+    model_config = ConfigDict(extra="forbid", frozen=True)
+
+
+class ObstacleField(_Model):
+    """Sphere (3D) / circle (2D) obstacles generated from the seed, as in the paper's panel.
+
+    ``layout = "random"`` scatters ``count`` obstacles of ``radius`` uniformly over the
+    region between the start range and the target; ``"grouped"`` places them in
+    ``clusters`` clumps of ``spread`` metres around random cluster centres. ``lower`` /
+    ``upper`` bound the region (default: the box spanned by the groups' spawn regions and
+    targets). Obstacles never cover a target or a spawn point: they keep ``clear`` metres
+    (default: radius + threshold + 1) from each target.
+    """
+
+    count: Annotated[int, Field(gt=0, le=100_000)]
+    radius: PosFloat
+    layout: Literal["random", "grouped"] = "random"
+    clusters: Annotated[int, Field(gt=0, le=10_000)] = 3
+    spread: PosFloat | None = None
+    lower: Coord | None = None
+    upper: Coord | None = None
+    clear: NonNeg | None = None
+
+
+class PSOParams(_Model):
+    """The particle-swarm method's parameters; defaults are the paper's (§3, Fig. 4).
+
+    iterations : int          [k] iterations per target update (gathering: in all)
+    w, c1, c2 : float         inertia and acceleration constants; w = 1 is the 1995 form
+    constriction : bool       Clerc's constriction χ = 2/|2 − φ − √(φ² − 4φ)|, φ = c1 + c2 > 4
+    v_max : [float]           per-axis velocity clamp, units per iteration (2D uses x, y)
+    threshold : float         a particle this close to its target stops
+    iteration_time : float    seconds per iteration (the path's time base)
+    fps : float | None        output frame rate (None: one frame per iteration)
+    avoid_obstacles : bool    the redirect rule, eqs. (4)–(5), against obstacles
+    detection : float         obstacle detection range: clearance, metres
+    avoid_agents : bool       the same rule against other particles, nearest-to-target first
+    avoid_radius : float      [r] particles within this distance are considered
+    avoid_angle_deg : float   [θ] ... if their direction is within θ of the velocity
+    separation : bool         the final separation step (moves cut short before a contact)
+    join_gap : float          with avoid_agents: a particle this close to a gathered particle
+                              of its group, inside the group's gathering radius, has gathered
+                              too (the group arrival rule, see ``swarm.gather_radius``)
+    gather_slack : float      the gathering radius is threshold + slack × the radius of the
+                              ball the group's bodies fill when densely packed
+    stop_when_done : bool     end a gathering once every particle has stopped
+    max_iterations : int      hard cap on iterations in one run
+    spawn_gap : float         extra clearance between sampled start positions
+    obstacle_field : ObstacleField | None  obstacles generated from the seed
+    """
+
+    iterations: Annotated[int, Field(gt=0, le=1_000_000)] = 100
+    w: NonNeg = 1.0
+    c1: NonNeg = 2.0
+    c2: NonNeg = 2.0
+    constriction: bool = False
+    v_max: Annotated[list[PosFloat], Field(min_length=1, max_length=3)] = [0.5, 0.5, 0.5]
+    threshold: PosFloat = 0.5
+    iteration_time: PosFloat = 0.25
+    fps: PosFloat | None = 24.0
+    avoid_obstacles: bool = True
+    detection: NonNeg = 1.0
+    avoid_agents: bool = True
+    avoid_radius: PosFloat = 1.0
+    avoid_angle_deg: Annotated[float, Field(gt=0, le=180, allow_inf_nan=False)] = 45.0
+    separation: bool = True
+    join_gap: NonNeg = 0.25
+    gather_slack: Annotated[float, Field(ge=1, allow_inf_nan=False)] = 1.5
+    stop_when_done: bool = True
+    max_iterations: Annotated[int, Field(gt=0, le=10_000_000)] = 100_000
+    spawn_gap: NonNeg = 0.05
+    obstacle_field: ObstacleField | None = None
+
+    @model_validator(mode="after")
+    def _constriction(self):
+        if self.constriction and self.c1 + self.c2 <= 4:
+            raise ValueError(f"constriction needs c1 + c2 > 4 (e.g. 2.05 each), got c1={self.c1}, c2={self.c2}")
+        return self
+
+    @property
+    def chi(self) -> float:
+        """The constriction factor (1 without constriction)."""
+        if not self.constriction:
+            return 1.0
+        phi = self.c1 + self.c2
+        return 2.0 / abs(2.0 - phi - math.sqrt(phi * phi - 4.0 * phi))
+
+    def axis_vmax(self, dim: int) -> list[float]:
+        """v_max for ``dim`` axes: a single value applies to every axis."""
+        v = list(self.v_max)
+        if len(v) == 1:
+            return v * dim
+        if len(v) < dim:
+            raise ValueError(f"pso.v_max has {len(v)} entries but the scene is {dim}D, got {v}")
+        return v[:dim]
+
+
+def make_params(params: PSOParams | None = None, **overrides) -> PSOParams:
+    """``params`` with ``overrides`` applied; errors name ``pso.field`` and the value."""
+    try:
+        base = {} if params is None else params.model_dump()
+        return PSOParams(**{**base, **overrides})
+    except ValidationError as exc:
+        raise ValueError("; ".join(error_lines(exc, "pso"))) from None

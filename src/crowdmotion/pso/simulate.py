@@ -1,0 +1,107 @@
+"""The particle-swarm method on a Scene and its Groups: one swarm per group, all stepped
+together (each group is an obstacle to the others), output as Trajectories."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Callable, Sequence
+
+import numpy as np
+
+from crowdmotion.groups import Disc, Group, MovingTarget, Points, Rect
+from crowdmotion.placement import spawn_positions
+from crowdmotion.pso.obstacles import obstacle_field
+from crowdmotion.pso.params import PSOParams, make_params
+from crowdmotion.pso.swarm import Swarm, SwarmRun, _record, _result, follow_schedule
+from crowdmotion.scene import Scene
+from crowdmotion.trajectories import Trajectories
+
+
+@dataclass
+class PSORun:
+    """``trajectories`` (resampled to ``params.fps``), the raw ``swarm_run`` (one frame per
+    iteration), and the ``scene`` that was used (generated obstacles included)."""
+
+    trajectories: Trajectories
+    swarm_run: SwarmRun
+    scene: Scene
+    group_names: list[str]
+
+
+def _region_box(region) -> tuple[np.ndarray, np.ndarray]:
+    if isinstance(region, Rect):
+        return region.lower, region.upper
+    if isinstance(region, Disc):
+        return region.center - region.radius, region.center + region.radius
+    if isinstance(region, Points):
+        return region.points.min(axis=0), region.points.max(axis=0)
+    return region.positions.min(axis=0), region.positions.max(axis=0)  # MovingTarget
+
+
+def _target(group: Group, t: float = 0.0) -> np.ndarray:
+    """A swarm has one target: a point goal, a region's centre, or a moving target at t."""
+    if isinstance(group.goal, MovingTarget):
+        return group.goal.at(t)
+    return np.asarray(group.goal.center, float)
+
+
+def run(scene: Scene, groups: Sequence[Group], params: PSOParams | None = None,
+        rng: np.random.Generator | None = None, progress: Callable[[int], None] | None = None) -> PSORun:
+    """Gather or follow for every group; returns the run with its Trajectories.
+
+    Groups with a fixed goal gather on its centre for ``params.iterations`` iterations (or
+    until every particle has stopped); groups with a moving goal follow it, the target
+    being read every ``params.iterations`` iterations (see :func:`crowdmotion.pso.follow`).
+    """
+    params = make_params(params) if not isinstance(params, PSOParams) else params
+    rng = np.random.default_rng() if rng is None else rng
+    if not groups:
+        raise ValueError("pso: at least one group is needed")
+    dim = scene.dim
+    targets0 = np.array([_target(g) for g in groups]).reshape(len(groups), dim)
+    obstacles = list(scene.obstacles)
+    if params.obstacle_field is not None:
+        boxes = [_region_box(g.spawn) for g in groups] + [_region_box(g.goal) if isinstance(g.goal, MovingTarget)
+                                                          else (t, t) for g, t in zip(groups, targets0)]
+        lo = np.min([b[0] for b in boxes], axis=0)
+        hi = np.max([b[1] for b in boxes], axis=0)
+        moving_targets = [g.goal.positions for g in groups if isinstance(g.goal, MovingTarget)]
+        keep_clear = np.concatenate([targets0, *moving_targets]) if moving_targets else targets0
+        obstacles += obstacle_field(params.obstacle_field, dim, lo, hi, keep_clear, params.threshold, rng)
+    used = Scene(scene.bounds, obstacles)
+    xs, rs, sw = np.empty((0, dim)), np.empty(0), []
+    for gi, g in enumerate(groups):
+        try:
+            p = spawn_positions(used, g, xs, rs, params.spawn_gap, rng, overlap=not params.avoid_agents)
+        except ValueError as exc:
+            raise ValueError(f"pso: {exc}") from None
+        xs, rs = np.concatenate([xs, p]), np.concatenate([rs, np.full(len(p), g.radius)])
+        sw += [gi] * len(p)
+    swarm = Swarm(xs, np.array(sw), targets0, rs, params, used, rng)
+    moving = np.array([isinstance(g.goal, MovingTarget) for g in groups])
+    k = params.iterations
+    frames, targets = [swarm.x.copy()], [swarm.target.copy()]
+    if moving.any():
+        ends = max(g.goal.times[-1] for g in groups if isinstance(g.goal, MovingTarget))
+        starts = min(g.goal.times[0] for g in groups if isinstance(g.goal, MovingTarget))
+        times = follow_schedule(MovingTarget([starts, max(ends, starts + 1e-9)], np.zeros((2, dim))), k,
+                                params.iteration_time)
+        for u, t in enumerate(times):
+            if u:
+                swarm.retarget(np.array([_target(g, t) for g in groups]), which=moving)
+            _record(swarm, min(k, params.max_iterations + 1 - len(frames)), frames, targets, progress)
+            if len(frames) > params.max_iterations:
+                break
+    else:
+        until = (lambda s: s.done) if params.stop_when_done else None
+        if not (until and swarm.done):
+            _record(swarm, min(k, params.max_iterations), frames, targets, progress, until)
+    result = _result(swarm, frames, targets)
+    names = [g.name for g in groups]
+    return PSORun(result.trajectories(names, params.fps), result, used, names)
+
+
+def simulate(scene: Scene, groups: Sequence[Group], params: PSOParams | None = None,
+             rng: np.random.Generator | None = None) -> Trajectories:
+    """The particle-swarm method end to end: ``pso.simulate(scene, groups, params, rng) -> Trajectories``."""
+    return run(scene, groups, params, np.random.default_rng(0) if rng is None else rng).trajectories

@@ -1,0 +1,386 @@
+"""The particle-swarm engine: many swarms stepped together, and the paper's behaviours
+``gather`` (group gathering, Fig. 5) and ``follow`` (target following, Fig. 6).
+
+Canonical PSO (Kennedy & Eberhart 1995), as SPEC §3 fixes the paper's model: each
+particle has position x, velocity v, personal best p (its closest position to the
+target so far) and its swarm's best g::
+
+    v ← χ·(w·v + c1·r1·(p − x) + c2·r2·(g − x)),   each component clamped to ±v_max
+    x ← x + v                                       (the iterates are the path)
+
+with r1, r2 ~ U(0, 1) per axis. Obstacle and agent avoidance redirect the step by the
+paper's eqs. (4)–(5) (see :mod:`crowdmotion.pso._kernels`).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from typing import Callable, Sequence
+
+import numpy as np
+
+from crowdmotion._rng import step_key
+from crowdmotion.geometry import finite_array
+from crowdmotion.groups import Group, MovingTarget, Points, Rect
+from crowdmotion.placement import spawn_positions
+from crowdmotion.pso import _kernels as K
+from crowdmotion.pso.obstacles import ObstacleArrays, obstacle_field
+from crowdmotion.pso.params import PSOParams, make_params
+from crowdmotion.scene import Obstacle, Scene
+from crowdmotion.trajectories import Trajectories
+
+COUNTER_NAMES = ("obstacle_redirects", "degenerate_redirects", "agent_redirects", "rule_conflicts",
+                 "separation_truncations", "separation_stops", "obstacle_stops", "joins")
+
+
+class Swarm:
+    """Particle swarms (one per target) stepped together in one scene.
+
+    Parameters
+    ----------
+    starts : (N, D) start positions of all particles
+    swarm_of : (N,) int, swarm index of each particle (0 .. G-1)
+    targets : (G, D) target of each swarm
+    radius : body radius, one value or (N,)
+    params : :class:`PSOParams` (defaults: the paper's)
+    scene : bounds and obstacles (circles/spheres, boxes); default: open bounds round
+        the starts and targets
+    rng : numpy Generator (the seed of every draw)
+    """
+
+    def __init__(self, starts, swarm_of, targets, radius=0.25, params: PSOParams | None = None,
+                 scene: Scene | None = None, rng: np.random.Generator | None = None):
+        self.params = params = PSOParams() if params is None else params
+        x = finite_array(starts, "starts")
+        if x.ndim != 2 or x.shape[1] not in (2, 3):
+            raise ValueError(f"starts must have shape (N, 2 or 3), got {x.shape}")
+        n, d = x.shape
+        if n == 0:
+            raise ValueError("a swarm needs at least one particle, got 0")
+        tg = finite_array(targets, "targets").reshape(-1, d) if np.size(targets) % d == 0 else None
+        if tg is None:
+            raise ValueError(f"targets must be {d}D points like the starts, got {np.asarray(targets).tolist()}")
+        sw = np.asarray(swarm_of, dtype=np.int64).reshape(-1)
+        if sw.shape != (n,) or sw.min() < 0 or sw.max() >= len(tg):
+            raise ValueError(f"swarm_of must give each of the {n} particles a swarm in 0..{len(tg) - 1}")
+        r = finite_array(radius, "radius").reshape(-1)
+        r = np.broadcast_to(r, (n,)).astype(float) if r.size in (1, n) else None
+        if r is None or np.any(r <= 0):
+            raise ValueError(f"radius must be positive, one value or one per particle, got {radius!r}")
+        self.scene = scene if scene is not None else default_scene(x, tg, r.max())
+        if self.scene.dim != d:
+            raise ValueError(f"the scene is {self.scene.dim}D but the particles are {d}D")
+        self.obstacles = ObstacleArrays.from_scene(self.scene)
+        self._check_targets(tg, r.max())
+        clear = self.scene.obstacle_distance(x, 0.0) - r
+        if np.any(clear < 0):
+            i = int(np.argmin(clear))
+            raise ValueError(f"particle {i} starts inside an obstacle at {x[i].tolist()}")
+        self.rng = np.random.default_rng() if rng is None else rng
+        self.dim, self.n, self.n_swarms = d, n, len(tg)
+        self.vmax = np.asarray(params.axis_vmax(d), float)
+        self.x, self.swarm, self.radius, self.target = x.copy(), sw, r, tg.copy()
+        self.v = self.rng.uniform(-self.vmax, self.vmax, size=(n, d))
+        self.stopped = np.zeros(n, bool)
+        self.arrival_iteration = np.full(n, -1, np.int64)
+        self.iteration = 0
+        self.counters = np.zeros(K.N_COUNTERS, np.int64)
+        self._reset_memory(np.ones(self.n_swarms, bool))
+        counts = np.bincount(sw, minlength=self.n_swarms)
+        rmax = np.zeros(self.n_swarms)
+        np.maximum.at(rmax, sw, r)
+        self.gather_radius = gather_radius(counts, rmax, d, params.threshold, params.gather_slack)
+        lo, hi = self.scene.bounds
+        s_max = float(np.linalg.norm(self.vmax))
+        self._reach = max(params.avoid_radius + s_max, 2 * float(r.max()) + 2 * s_max)
+        h = max(self._reach, float(np.max(hi - lo)) / (4.0 * n + 64) ** (1.0 / d))
+        self._grid = (lo.astype(float).copy(), h, np.maximum(1, np.ceil((hi - lo) / h)).astype(np.int64))
+
+    # ---- targets -----------------------------------------------------------------------
+    def _check_targets(self, targets, r):
+        clear = self.scene.obstacle_distance(targets, 0.0)
+        bad = np.flatnonzero(clear < r)
+        if len(bad):
+            g = int(bad[0])
+            raise ValueError(f"the target of swarm {g}, {targets[g].tolist()}, is covered by an obstacle "
+                             f"(clearance {clear[g]:.3g} < particle radius {r:g})")
+        inside = self.scene.contains(targets)
+        if not inside.all():
+            g = int(np.flatnonzero(~inside)[0])
+            raise ValueError(f"the target of swarm {g}, {targets[g].tolist()}, lies outside the scene bounds")
+
+    def _reset_memory(self, which: np.ndarray) -> None:
+        """Personal bests become the current positions; swarm bests are recomputed."""
+        if not hasattr(self, "pb"):
+            self.pb, self.pbd = self.x.copy(), np.full(self.n, np.inf)
+            self.gb, self.gbd = self.target.copy(), np.full(self.n_swarms, np.inf)
+        sel = which[self.swarm]
+        dist = np.linalg.norm(self.x - self.target[self.swarm], axis=1)
+        self.pb[sel], self.pbd[sel] = self.x[sel], dist[sel]
+        self.gbd[which] = np.inf
+        K.update_bests(self.x, self.pb, self.pbd, self.gb, self.gbd, self.swarm, self.target,
+                       np.zeros(self.n, bool), 0.0, self.stopped, self.arrival_iteration, self.iteration)
+        arrived = sel & (dist <= self.params.threshold)
+        self.stopped[sel] = arrived[sel]
+        self.arrival_iteration[sel] = np.where(arrived[sel], self.iteration, -1)
+
+    def retarget(self, targets, which=None) -> None:
+        """Move the targets of the swarms in ``which`` (all by default): their memories are
+        reset to the current positions and their particles start moving again."""
+        tg = finite_array(targets, "targets").reshape(-1, self.dim)
+        mask = np.ones(self.n_swarms, bool) if which is None else np.asarray(which, bool)
+        self._check_targets(tg[mask], float(self.radius.max()))
+        self.target[mask] = tg[mask]
+        self._reset_memory(mask)
+
+    # ---- one iteration ------------------------------------------------------------------
+    @property
+    def done(self) -> bool:
+        return bool(self.stopped.all())
+
+    def iterate(self) -> None:
+        """One PSO iteration of every swarm, with the avoidance rules the params switch on."""
+        p = self.params
+        moving = ~self.stopped
+        key = step_key(self.rng)
+        K.propose_velocities(self.x, self.v, self.pb, self.gb, self.swarm, moving, p.w, p.c1, p.c2, p.chi,
+                             self.vmax, key)
+        ob = self.obstacles
+        joined = np.zeros(self.n, bool)
+        has_obstacles = len(ob.sr) + len(ob.bl) > 0
+        if p.avoid_agents or has_obstacles:
+            dist = np.empty(self.n)
+            K.target_distances(self.x, self.swarm, self.target, dist)
+            idx = np.flatnonzero(moving)
+            order = idx[np.argsort(dist[idx], kind="stable")]
+            origin, h, dims = self._grid
+            start, items = K.build_grid(self.x, origin, h, dims)
+            newx = self.x.copy()
+            lo, hi = self.scene.bounds
+            K.avoid_and_commit(order, self.x, self.v, newx, self.radius, self.swarm, self.stopped, joined,
+                               p.avoid_obstacles, p.avoid_agents, p.avoid_agents and p.separation, p.detection,
+                               p.avoid_radius, float(np.cos(np.deg2rad(p.avoid_angle_deg))), p.join_gap,
+                               self.target, self.gather_radius,
+                               ob.sc, ob.sr, ob.bl, ob.bu, lo.astype(float),
+                               hi.astype(float), origin, h, dims, start, items, self._reach, key, self.counters)
+            self.x = newx
+        else:
+            lo, hi = self.scene.bounds
+            new = np.clip(self.x + self.v, lo + self.radius[:, None], hi - self.radius[:, None])
+            self.v = new - self.x
+            self.x = new
+        self.iteration += 1
+        K.update_bests(self.x, self.pb, self.pbd, self.gb, self.gbd, self.swarm, self.target, moving,
+                       p.threshold, self.stopped, self.arrival_iteration, self.iteration)
+        if p.avoid_agents:
+            newly = joined & ~self.stopped
+            self.stopped |= newly
+            self.arrival_iteration[newly] = self.iteration
+
+    @property
+    def stats(self) -> dict:
+        """Counts of the avoidance rules and guards so far (see :data:`COUNTER_NAMES`)."""
+        out = {name: int(c) for name, c in zip(COUNTER_NAMES, self.counters)}
+        out["particle_iterations"] = int(self.iteration * self.n)
+        return out
+
+
+PACKING_DENSITY = {2: np.pi / (2 * np.sqrt(3)), 3: np.pi / (3 * np.sqrt(2))}
+
+
+def gather_radius(count, radius, dim: int, threshold: float, slack: float) -> np.ndarray:
+    """The group arrival rule's radius: bodies cannot all sit within the threshold of one
+    point, so a group gathers within R = threshold + slack · r · (N / φ)^(1/D), where
+    r (N/φ)^(1/D) is the radius of the ball that N bodies fill at the densest packing
+    density φ (0.9069 for discs, 0.7405 for balls)."""
+    count = np.asarray(count, float)
+    return threshold + slack * np.asarray(radius, float) * (count / PACKING_DENSITY[dim]) ** (1.0 / dim)
+
+
+def default_scene(starts, targets, radius: float, obstacles: Sequence[Obstacle] = ()) -> Scene:
+    """Bounds round the starts and targets, padded by a quarter of their extent (≥ 5 m)."""
+    pts = np.concatenate([np.asarray(starts, float), np.asarray(targets, float)])
+    lo, hi = pts.min(axis=0), pts.max(axis=0)
+    pad = np.maximum(0.25 * (hi - lo), 5.0) + radius
+    return Scene(bounds=(lo - pad, hi + pad), obstacles=list(obstacles))
+
+
+# ---- results -----------------------------------------------------------------------------
+@dataclass
+class SwarmRun:
+    """A swarm run: the iterates and what happened.
+
+    paths : (T, N, D)      positions after each iteration (frame 0: the starts)
+    swarm : (N,) int       swarm of each particle
+    targets : (T, G, D)    each swarm's target at each frame
+    stopped : (N,) bool    particles that had arrived (threshold, or gathered) at the end
+    arrival_iteration : (N,) int   iteration of arrival, -1 if never
+    radius : (N,)          body radii
+    scene : Scene          the scene, generated obstacles included
+    stats : dict           rule and guard counts
+    iteration_time : float seconds per iteration
+    """
+
+    paths: np.ndarray
+    swarm: np.ndarray
+    targets: np.ndarray
+    stopped: np.ndarray
+    arrival_iteration: np.ndarray
+    radius: np.ndarray
+    scene: Scene
+    params: PSOParams
+    stats: dict = field(default_factory=dict)
+    iteration_time: float = 0.25
+
+    @property
+    def arrival_rate(self) -> float:
+        return float(self.stopped.mean())
+
+    def within_threshold(self, frame: int = -1) -> np.ndarray:
+        """(N,) bool: particle within the threshold of its swarm's target at ``frame``."""
+        d = np.linalg.norm(self.paths[frame] - self.targets[frame][self.swarm], axis=1)
+        return d <= self.params.threshold
+
+    def trajectories(self, group_names: Sequence[str] | None = None, fps: float | None = None) -> Trajectories:
+        """World-space :class:`Trajectories`, one frame per iteration or resampled to ``fps``."""
+        from crowdmotion import __version__
+        from crowdmotion.trajectories import resample
+
+        names = np.array(list(group_names) if group_names is not None
+                         else [f"swarm{g}" for g in range(self.targets.shape[1])], dtype=object)
+        traj = Trajectories(self.paths, self.iteration_time, group=names[self.swarm], radius=self.radius,
+                            metadata={"method": "pso", "params": self.params.model_dump(),
+                                      "scene": self.scene.to_dict(), "version": __version__,
+                                      "iterations": int(self.paths.shape[0] - 1), "stats": dict(self.stats)})
+        return traj if fps is None else resample(traj, fps, "linear")
+
+
+def _record(swarm: Swarm, n: int, frames: list, targets: list, progress: Callable[[int], None] | None,
+            until: Callable[[Swarm], bool] | None = None) -> None:
+    for _ in range(n):
+        swarm.iterate()
+        frames.append(swarm.x.copy())
+        targets.append(swarm.target.copy())
+        if progress is not None:
+            progress(1)
+        if until is not None and until(swarm):
+            break
+
+
+def _result(swarm: Swarm, frames: list, targets: list) -> SwarmRun:
+    return SwarmRun(np.array(frames), swarm.swarm.copy(), np.array(targets), swarm.stopped.copy(),
+                    swarm.arrival_iteration.copy(), swarm.radius.copy(), swarm.scene, swarm.params,
+                    swarm.stats, swarm.params.iteration_time)
+
+
+# ---- the paper's behaviours ----------------------------------------------------------------
+def _start_box(start_range, dim: int) -> tuple[np.ndarray, np.ndarray]:
+    if np.ndim(start_range) == 0:
+        r = float(start_range)
+        if not (np.isfinite(r) and r > 0):
+            raise ValueError(f"start_range must be a positive number (the box ±start_range), got {start_range!r}")
+        return np.full(dim, -r), np.full(dim, r)
+    lo, hi = (finite_array(c, "start_range").reshape(-1) for c in start_range)
+    if lo.shape != (dim,) or hi.shape != (dim,) or np.any(hi <= lo):
+        raise ValueError(f"start_range must be a number or a ({dim}D lower, upper) box, got {start_range!r}")
+    return lo, hi
+
+
+def _setup(targets, n_particles, start_range, starts, obstacles, radius, params, rng, bounds, later=None):
+    """Scene (with generated obstacles), starts and swarm indices for gather/follow;
+    ``later`` are target positions still to come (kept clear and inside the bounds)."""
+    tg = finite_array(targets, "target")
+    tg = tg.reshape(1, -1) if tg.ndim == 1 else tg
+    if tg.ndim != 2 or tg.shape[1] not in (2, 3) or len(tg) == 0:
+        raise ValueError(f"target must be a 2D/3D point or a (G, D) array of them, got shape {tg.shape}")
+    d = tg.shape[1]
+    if int(n_particles) != n_particles or n_particles < 1:
+        raise ValueError(f"n_particles must be a positive whole number, got {n_particles!r}")
+    n_particles = int(n_particles)
+    r = float(radius)
+    if not (np.isfinite(r) and r > 0):
+        raise ValueError(f"radius must be a positive number, got {radius!r}")
+    lo, hi = _start_box(start_range, d)
+    obs = list(obstacles.obstacles) if isinstance(obstacles, Scene) else list(obstacles or [])
+    if params.obstacle_field is not None:
+        region_lo, region_hi = np.minimum(lo, tg.min(0)), np.maximum(hi, tg.max(0))
+        clear = tg if later is None else np.concatenate([tg, later])
+        obs += obstacle_field(params.obstacle_field, d, region_lo, region_hi, clear, params.threshold, rng)
+    if isinstance(obstacles, Scene):
+        scene = Scene(obstacles.bounds, obs)
+    elif bounds is not None:
+        scene = Scene(bounds, obs)
+    else:
+        box = np.stack([lo, hi])
+        scene = default_scene(box, tg if later is None else np.concatenate([tg, later]), r, obs)
+    if starts is not None:
+        x = finite_array(starts, "starts").reshape(-1, d)
+        if len(x) % len(tg):
+            raise ValueError(f"starts: {len(x)} positions do not split evenly over {len(tg)} swarms")
+        per = len(x) // len(tg)
+    else:
+        per = n_particles
+        x = np.empty((0, d))
+        for g in range(len(tg)):
+            grp = Group(name=f"swarm{g}", count=per, spawn=Rect(lo, hi), goal=Points(tg[g][None]), radius=r)
+            x = np.concatenate([x, spawn_positions(scene, grp, x, np.full(len(x), r), params.spawn_gap, rng,
+                                                   overlap=not params.avoid_agents)])
+    return scene, x, np.repeat(np.arange(len(tg)), per), tg
+
+
+def gather(target=(0.0, 0.0, 0.0), n_particles: int = 30, *, start_range=30.0, starts=None, obstacles=None,
+           radius: float = 0.25, bounds=None, params: PSOParams | None = None, rng=None,
+           progress: Callable[[int], None] | None = None, **overrides) -> SwarmRun:
+    """Group gathering (paper Fig. 5): particles spread over the start range converge on
+    the target; a particle within ``params.threshold`` stops.
+
+    ``target`` is one point or a (G, D) array: G swarms of ``n_particles`` run at once.
+    ``start_range`` is the paper's ±30 box (a number) or a (lower, upper) box; ``starts``
+    overrides it with explicit positions (N, D), swarms in consecutive blocks.
+    ``obstacles`` is a Scene (its bounds are used) or a list of Circle/Sphere/Box.
+    Keyword ``overrides`` set any :class:`PSOParams` field (``iterations=200``, ...).
+    Runs ``params.iterations`` iterations, fewer when every particle has stopped.
+    """
+    params = make_params(params, **overrides)
+    rng = np.random.default_rng() if rng is None else rng
+    scene, x, sw, tg = _setup(target, n_particles, start_range, starts, obstacles, radius, params, rng, bounds)
+    swarm = Swarm(x, sw, tg, radius, params, scene, rng)
+    frames, targets = [swarm.x.copy()], [swarm.target.copy()]
+    until = (lambda s: s.done) if params.stop_when_done else None
+    if not (until and swarm.done):
+        _record(swarm, min(params.iterations, params.max_iterations), frames, targets, progress, until)
+    return _result(swarm, frames, targets)
+
+
+def follow_schedule(path: MovingTarget, iterations_per_update: int, iteration_time: float) -> np.ndarray:
+    """Times of the target updates: every k iterations from the path's start to its end."""
+    period = iterations_per_update * iteration_time
+    n_updates = int(np.ceil((path.times[-1] - path.times[0]) / period - 1e-9)) + 1
+    return path.times[0] + period * np.arange(n_updates)
+
+
+def follow(target_path, n_particles: int = 30, *, start_range=30.0, starts=None, obstacles=None,
+           radius: float = 0.25, bounds=None, params: PSOParams | None = None, rng=None,
+           progress: Callable[[int], None] | None = None, **overrides) -> SwarmRun:
+    """Target following (paper Fig. 6): the target moves along ``target_path`` (a
+    :class:`MovingTarget` or ``(times, positions)`` keyframes, seconds); it is read every
+    ``params.iterations`` iterations (k, the paper's 50–100), and the swarm runs k
+    iterations towards each new position. One iteration lasts ``params.iteration_time``
+    seconds, so a larger k samples the target's motion more coarsely and loses its
+    detail (the paper's Fig. 2). After the last update the swarm runs k more iterations.
+    """
+    params = make_params(params, **overrides)
+    rng = np.random.default_rng() if rng is None else rng
+    path = target_path if isinstance(target_path, MovingTarget) else MovingTarget(*target_path)
+    times = follow_schedule(path, params.iterations, params.iteration_time)
+    scene, x, sw, tg = _setup(path.at(times[0]), n_particles, start_range, starts, obstacles, radius, params,
+                              rng, bounds, later=path.positions)
+    swarm = Swarm(x, sw, tg, radius, params, scene, rng)
+    frames, targets = [swarm.x.copy()], [swarm.target.copy()]
+    for u, t in enumerate(times):
+        if u:
+            swarm.retarget(path.at(t)[None])
+        _record(swarm, params.iterations, frames, targets, progress)
+        if len(frames) > params.max_iterations:
+            break
+    return _result(swarm, frames, targets)
