@@ -56,6 +56,17 @@ def propose_velocities(x, v, pb, gb, gid, moving, w, c1, c2, chi, vmax, key):
 
 
 @njit(parallel=True, cache=True)
+def advance_free(x, v, radius, lo, hi):
+    """x ← x + v with the body kept inside the bounds (no avoidance); v becomes the move."""
+    n, d = x.shape
+    for i in prange(n):
+        for a in range(d):
+            end = min(max(x[i, a] + v[i, a], lo[a] + radius[i]), hi[a] - radius[i])
+            v[i, a] = end - x[i, a]
+            x[i, a] = end
+
+
+@njit(parallel=True, cache=True)
 def update_bests(x, pb, pbd, gb, gbd, gid, target, moving, threshold, stopped, arrival_iter, iteration):
     """Personal best = closest position to the swarm's target so far; swarm best = best of
     those; a moving particle within ``threshold`` of its target stops."""
@@ -219,37 +230,105 @@ def segment_clear(p, k, r, sc, sr, bl, bu, tmp):
 
 
 @njit(cache=True)
-def _obstacle_to_avoid(p, k, r, detection, sc, sr, bl, bu, q, u):
-    """The obstacle whose detection range the next position p + k enters while the particle
-    approaches it; writes u = (its closest point to p) − p. Returns False when none."""
+def _segment_clear_listed(p, k, r, sc, sr, bl, bu, tmp, ob_items, s0, s1):
+    """segment_clear over the obstacles listed in ob_items[s0:s1] (j ≥ 0 sphere, −j−1 box)."""
+    for s in range(s0, s1):
+        j = ob_items[s]
+        if j >= 0:
+            if _segment_point_distance(p, k, sc, j) < sr[j] + r:
+                return False
+        elif _segment_box_clearance(p, k, bl, bu, -j - 1, tmp) < r:
+            return False
+    return True
+
+
+@njit(cache=True)
+def build_obstacle_grid(sc, sr, bl, bu, expand, origin, h, dims):
+    """CSR (start, items) of the obstacles whose bounding box, grown by ``expand``, meets
+    each cell: a particle within ``expand`` of an obstacle finds it in its own cell.
+    Items: j ≥ 0 for sphere j, −j−1 for box j."""
+    d = origin.shape[0]
+    ncell = 1
+    for a in range(d):
+        ncell *= dims[a]
+    m = sr.shape[0] + bl.shape[0]
+    lo_c = np.empty((m, 3), np.int64)
+    hi_c = np.zeros((m, 3), np.int64)
+    for o in range(m):
+        for a in range(d):
+            if o < sr.shape[0]:
+                lo_v, hi_v = sc[o, a] - sr[o] - expand, sc[o, a] + sr[o] + expand
+            else:
+                lo_v, hi_v = bl[o - sr.shape[0], a] - expand, bu[o - sr.shape[0], a] + expand
+            lo_c[o, a] = _cell_coord(lo_v, origin[a], h, dims[a])
+            hi_c[o, a] = _cell_coord(hi_v, origin[a], h, dims[a])
+        if d == 2:
+            lo_c[o, 2] = 0
+    start = np.zeros(ncell + 1, np.int64)
+    for o in range(m):
+        for z in range(lo_c[o, 2], hi_c[o, 2] + 1):
+            for y in range(lo_c[o, 1], hi_c[o, 1] + 1):
+                for x in range(lo_c[o, 0], hi_c[o, 0] + 1):
+                    start[x + dims[0] * (y + (dims[1] * z if d == 3 else 0)) + 1] += 1
+    for c in range(ncell):
+        start[c + 1] += start[c]
+    items = np.empty(start[ncell], np.int64)
+    cursor = start[:-1].copy()
+    for o in range(m):
+        code = o if o < sr.shape[0] else -(o - sr.shape[0]) - 1
+        for z in range(lo_c[o, 2], hi_c[o, 2] + 1):
+            for y in range(lo_c[o, 1], hi_c[o, 1] + 1):
+                for x in range(lo_c[o, 0], hi_c[o, 0] + 1):
+                    c = x + dims[0] * (y + (dims[1] * z if d == 3 else 0))
+                    items[cursor[c]] = code
+                    cursor[c] += 1
+    return start, items
+
+
+@njit(inline="always")
+def _cell_of(p, origin, h, dims):
+    c = 0
+    for a in range(p.shape[0] - 1, -1, -1):
+        c = c * dims[a] + _cell_coord(p[a], origin[a], h, dims[a])
+    return c
+
+
+@njit(cache=True)
+def _obstacle_to_avoid(p, k, r, detection, sc, sr, bl, bu, q, u, ob_items, s0, s1):
+    """Of the obstacles listed in ob_items[s0:s1], the one whose detection range the next
+    position p + k enters while the particle approaches it; writes u = (its closest point
+    to p) − p. Returns False when there is none."""
     d = p.shape[0]
     for a in range(d):
         q[a] = p[a] + k[a]
     best = np.inf
     found = False
-    for j in range(sc.shape[0]):
-        dq = 0.0
-        ku = 0.0
-        for a in range(d):
-            dq += (q[a] - sc[j, a]) ** 2
-            ku += k[a] * (sc[j, a] - p[a])
-        clear = np.sqrt(dq) - sr[j] - r
-        if clear < detection and ku > 0.0 and clear < best:
-            best = clear
-            found = True
-            for a in range(d):
-                u[a] = sc[j, a] - p[a]
-    for j in range(bl.shape[0]):
-        clear = _box_dist(q, bl, bu, j) - r
-        if clear < detection and clear < best:
+    for s in range(s0, s1):
+        j = ob_items[s]
+        if j >= 0:
+            dq = 0.0
             ku = 0.0
             for a in range(d):
-                ku += k[a] * (min(max(p[a], bl[j, a]), bu[j, a]) - p[a])
-            if ku > 0.0:
+                dq += (q[a] - sc[j, a]) ** 2
+                ku += k[a] * (sc[j, a] - p[a])
+            clear = np.sqrt(dq) - sr[j] - r
+            if clear < detection and ku > 0.0 and clear < best:
                 best = clear
                 found = True
                 for a in range(d):
-                    u[a] = min(max(p[a], bl[j, a]), bu[j, a]) - p[a]
+                    u[a] = sc[j, a] - p[a]
+        else:
+            b = -j - 1
+            clear = _box_dist(q, bl, bu, b) - r
+            if clear < detection and clear < best:
+                ku = 0.0
+                for a in range(d):
+                    ku += k[a] * (min(max(p[a], bl[b, a]), bu[b, a]) - p[a])
+                if ku > 0.0:
+                    best = clear
+                    found = True
+                    for a in range(d):
+                        u[a] = min(max(p[a], bl[b, a]), bu[b, a]) - p[a]
     return found
 
 
@@ -361,7 +440,7 @@ def _first_contact(i, p, k, x, newx, radius, nb, cnt):
 @njit(cache=True)
 def avoid_and_commit(order, x, v, newx, radius, gid, stopped, joined, avoid_obstacles, avoid_agents,
                      separation, detection, avoid_radius, cos_theta, join_gap, target, gather_radius,
-                     sc, sr, bl, bu, lo, hi,
+                     sc, sr, bl, bu, ob_start, ob_items, lo, hi,
                      origin, h, dims, start, items, reach, key, counters):
     """Move each particle of ``order`` (nearest to its target first) by v, after:
 
@@ -385,7 +464,7 @@ def avoid_and_commit(order, x, v, newx, radius, gid, stopped, joined, avoid_obst
     n, d = x.shape
     p = np.empty(d)
     k = np.empty(d)
-    u = np.empty(d)
+    u = np.empty(d)  # obstacles come from ob_start/ob_items: those near p's cell
     q = np.empty(d)
     tmp = np.empty(d)
     out = np.empty(d)
@@ -396,7 +475,9 @@ def avoid_and_commit(order, x, v, newx, radius, gid, stopped, joined, avoid_obst
             p[a] = x[i, a]
             k[a] = v[i, a]
         cnt = _near(p, x, origin, h, dims, start, items, reach, nb)
-        if avoid_obstacles and _obstacle_to_avoid(p, k, radius[i], detection, sc, sr, bl, bu, q, u):
+        cell = _cell_of(p, origin, h, dims)
+        s0, s1 = ob_start[cell], ob_start[cell + 1]
+        if avoid_obstacles and _obstacle_to_avoid(p, k, radius[i], detection, sc, sr, bl, bu, q, u, ob_items, s0, s1):
             if redirect(k, u, uniform(key, i, 100), uniform(key, i, 101), out):
                 counters[DEGENERATE] += 1
             for a in range(d):
@@ -434,7 +515,7 @@ def avoid_and_commit(order, x, v, newx, radius, gid, stopped, joined, avoid_obst
         for a in range(d):
             end = min(max(p[a] + k[a], lo[a] + radius[i]), hi[a] - radius[i])
             k[a] = end - p[a] if lo[a] + radius[i] <= hi[a] - radius[i] else 0.0
-        if not segment_clear(p, k, radius[i], sc, sr, bl, bu, tmp):
+        if not _segment_clear_listed(p, k, radius[i], sc, sr, bl, bu, tmp, ob_items, s0, s1):
             counters[OBSTACLE_STOPS] += 1
             for a in range(d):
                 k[a] = 0.0

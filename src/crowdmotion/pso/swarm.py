@@ -95,6 +95,11 @@ class Swarm:
         self._reach = max(params.avoid_radius + s_max, 2 * float(r.max()) + 2 * s_max)
         h = max(self._reach, float(np.max(hi - lo)) / (4.0 * n + 64) ** (1.0 / d))
         self._grid = (lo.astype(float).copy(), h, np.maximum(1, np.ceil((hi - lo) / h)).astype(np.int64))
+        self._lo, self._hi = lo.astype(float).copy(), hi.astype(float).copy()
+        self.moved = 0
+        ob = self.obstacles
+        expand = params.detection + float(r.max()) + s_max
+        self._obstacle_grid = K.build_obstacle_grid(ob.sc, ob.sr, ob.bl, ob.bu, expand, *self._grid)
 
     # ---- targets -----------------------------------------------------------------------
     def _check_targets(self, targets, r):
@@ -142,6 +147,7 @@ class Swarm:
         """One PSO iteration of every swarm, with the avoidance rules the params switch on."""
         p = self.params
         moving = ~self.stopped
+        self.moved += int(moving.sum())
         key = step_key(self.rng)
         K.propose_velocities(self.x, self.v, self.pb, self.gb, self.swarm, moving, p.w, p.c1, p.c2, p.chi,
                              self.vmax, key)
@@ -156,19 +162,15 @@ class Swarm:
             origin, h, dims = self._grid
             start, items = K.build_grid(self.x, origin, h, dims)
             newx = self.x.copy()
-            lo, hi = self.scene.bounds
+            lo, hi = self._lo, self._hi
             K.avoid_and_commit(order, self.x, self.v, newx, self.radius, self.swarm, self.stopped, joined,
                                p.avoid_obstacles, p.avoid_agents, p.avoid_agents and p.separation, p.detection,
                                p.avoid_radius, float(np.cos(np.deg2rad(p.avoid_angle_deg))), p.join_gap,
                                self.target, self.gather_radius,
-                               ob.sc, ob.sr, ob.bl, ob.bu, lo.astype(float),
-                               hi.astype(float), origin, h, dims, start, items, self._reach, key, self.counters)
+                               ob.sc, ob.sr, ob.bl, ob.bu, *self._obstacle_grid, lo, hi, origin, h, dims, start, items, self._reach, key, self.counters)
             self.x = newx
         else:
-            lo, hi = self.scene.bounds
-            new = np.clip(self.x + self.v, lo + self.radius[:, None], hi - self.radius[:, None])
-            self.v = new - self.x
-            self.x = new
+            K.advance_free(self.x, self.v, self.radius, self._lo, self._hi)
         self.iteration += 1
         K.update_bests(self.x, self.pb, self.pbd, self.gb, self.gbd, self.swarm, self.target, moving,
                        p.threshold, self.stopped, self.arrival_iteration, self.iteration)
@@ -182,6 +184,7 @@ class Swarm:
         """Counts of the avoidance rules and guards so far (see :data:`COUNTER_NAMES`)."""
         out = {name: int(c) for name, c in zip(COUNTER_NAMES, self.counters)}
         out["particle_iterations"] = int(self.iteration * self.n)
+        out["moving_particle_iterations"] = self.moved
         return out
 
 
