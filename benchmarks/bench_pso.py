@@ -150,8 +150,9 @@ def main():
             go()
             best = min(best, time.perf_counter() - t)
         s = sw.stats
-        print(f"| {name} | {best * 1e3:.0f} ms | {s['moving_particle_iterations']:,} | "
-              f"{s['obstacle_redirects'] + s['agent_redirects']:,} | {s['separation_truncations'] + s['separation_stops']:,} |")
+        redirects = s["obstacle_redirects"] + s["agent_redirects"]
+        cuts = s["separation_truncations"] + s["separation_stops"]
+        print(f"| {name} | {best * 1e3:.0f} ms | {s['moving_particle_iterations']:,} | {redirects:,} | {cuts:,} |")
 
 
 if __name__ == "__main__":

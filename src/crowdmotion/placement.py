@@ -65,3 +65,14 @@ def spawn_positions(scene: Scene, group: Group, placed: np.ndarray, placed_r: np
         out = np.concatenate([out, cand[:need]])
     raise ValueError(f"{what}: could not place {group.count} agents of radius {r} m without overlap in "
                      f"{group.spawn!r} (placed {len(out)}); enlarge the region or reduce the count")
+
+
+def spawn_groups(scene: Scene, groups, gap: float, rng: np.random.Generator, overlap: bool = False):
+    """Start positions of every group in turn, each clear of the groups placed before it:
+    (positions (N, dim), radius (N,), group index (N,))."""
+    xs, rs, gi = np.empty((0, scene.dim)), np.empty(0), []
+    for k, g in enumerate(groups):
+        p = spawn_positions(scene, g, xs, rs, gap, rng, overlap=overlap)
+        xs, rs = np.concatenate([xs, p]), np.concatenate([rs, np.full(len(p), g.radius)])
+        gi += [k] * len(p)
+    return xs, rs, np.array(gi, dtype=np.int64)

@@ -134,7 +134,7 @@ def test_following_with_too_many_iterations_per_update_loses_the_target_detail()
 
 def test_follow_schedule_reads_the_target_every_k_iterations():
     path = MovingTarget([0.0, 10.0], [[0, 0], [10, 0]])
-    np.testing.assert_allclose(pso.follow_schedule(path, 8, 0.25), [0, 2, 4, 6, 8, 10])
+    np.testing.assert_allclose(pso.follow_schedule(0.0, 10.0, 8, 0.25), [0, 2, 4, 6, 8, 10])
     run = pso.follow(path, n_particles=5, rng=np.random.default_rng(0), iterations=8, avoid_agents=False)
     assert run.paths.shape[0] == 6 * 8 + 1
     np.testing.assert_allclose(run.targets[9, 0], [2.0, 0.0])

@@ -4,12 +4,24 @@ obstacle / agent avoidance on canonical PSO, many swarms at once.
 >>> from crowdmotion import pso
 >>> run = pso.gather(target=(0, 0, 0), n_particles=30, rng=np.random.default_rng(1))  # doctest: +SKIP
 >>> traj = pso.simulate(scene, groups, pso.PSOParams(), rng)                           # doctest: +SKIP
+
+Names load on first use, so that ``crowdmotion.pso.params`` (the scenario schema) can be
+imported without compiling or loading the numba kernels.
 """
 
-from crowdmotion.pso.obstacles import ObstacleArrays, obstacle_field
-from crowdmotion.pso.params import ObstacleField, PSOParams, make_params
-from crowdmotion.pso.simulate import PSORun, run, simulate
-from crowdmotion.pso.swarm import COUNTER_NAMES, Swarm, SwarmRun, follow, follow_schedule, gather
+import importlib
 
-__all__ = ["PSOParams", "ObstacleField", "make_params", "Swarm", "SwarmRun", "gather", "follow", "follow_schedule",
-           "simulate", "run", "PSORun", "obstacle_field", "ObstacleArrays", "COUNTER_NAMES"]
+_EXPORTS = {
+    "PSOParams": "params", "ObstacleField": "params", "make_params": "params",
+    "ObstacleArrays": "obstacles", "obstacle_field": "obstacles",
+    "PSORun": "simulate", "run": "simulate", "simulate": "simulate",
+    "COUNTER_NAMES": "swarm", "Swarm": "swarm", "SwarmRun": "swarm", "follow": "swarm",
+    "follow_schedule": "swarm", "gather": "swarm",
+}
+__all__ = sorted(_EXPORTS)
+
+
+def __getattr__(name):
+    if name not in _EXPORTS:
+        raise AttributeError(f"module 'crowdmotion.pso' has no attribute {name!r}")
+    return getattr(importlib.import_module(f"crowdmotion.pso.{_EXPORTS[name]}"), name)

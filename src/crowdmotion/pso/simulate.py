@@ -9,10 +9,10 @@ from typing import Callable, Sequence
 import numpy as np
 
 from crowdmotion.groups import Disc, Group, MovingTarget, Points, Rect
-from crowdmotion.placement import spawn_positions
+from crowdmotion.placement import spawn_groups
 from crowdmotion.pso.obstacles import obstacle_field
 from crowdmotion.pso.params import PSOParams, make_params
-from crowdmotion.pso.swarm import Swarm, SwarmRun, _record, _result, follow_schedule
+from crowdmotion.pso.swarm import Swarm, SwarmRun, drive, follow_schedule
 from crowdmotion.scene import Scene
 from crowdmotion.trajectories import Trajectories
 
@@ -69,34 +69,18 @@ def run(scene: Scene, groups: Sequence[Group], params: PSOParams | None = None,
         keep_clear = np.concatenate([targets0, *moving_targets]) if moving_targets else targets0
         obstacles += obstacle_field(params.obstacle_field, dim, lo, hi, keep_clear, params.threshold, rng)
     used = Scene(scene.bounds, obstacles)
-    xs, rs, sw = np.empty((0, dim)), np.empty(0), []
-    for gi, g in enumerate(groups):
-        try:
-            p = spawn_positions(used, g, xs, rs, params.spawn_gap, rng, overlap=not params.avoid_agents)
-        except ValueError as exc:
-            raise ValueError(f"pso: {exc}") from None
-        xs, rs = np.concatenate([xs, p]), np.concatenate([rs, np.full(len(p), g.radius)])
-        sw += [gi] * len(p)
-    swarm = Swarm(xs, np.array(sw), targets0, rs, params, used, rng)
+    try:
+        xs, rs, sw = spawn_groups(used, groups, params.spawn_gap, rng, overlap=not params.avoid_agents)
+    except ValueError as exc:
+        raise ValueError(f"pso: {exc}") from None
+    swarm = Swarm(xs, sw, targets0, rs, params, used, rng)
     moving = np.array([isinstance(g.goal, MovingTarget) for g in groups])
-    k = params.iterations
-    frames, targets = [swarm.x.copy()], [swarm.target.copy()]
+    schedule = None
     if moving.any():
-        ends = max(g.goal.times[-1] for g in groups if isinstance(g.goal, MovingTarget))
-        starts = min(g.goal.times[0] for g in groups if isinstance(g.goal, MovingTarget))
-        times = follow_schedule(MovingTarget([starts, max(ends, starts + 1e-9)], np.zeros((2, dim))), k,
-                                params.iteration_time)
-        for u, t in enumerate(times):
-            if u:
-                swarm.retarget(np.array([_target(g, t) for g in groups]), which=moving)
-            _record(swarm, min(k, params.max_iterations + 1 - len(frames)), frames, targets, progress)
-            if len(frames) > params.max_iterations:
-                break
-    else:
-        until = (lambda s: s.done) if params.stop_when_done else None
-        if not (until and swarm.done):
-            _record(swarm, min(k, params.max_iterations), frames, targets, progress, until)
-    result = _result(swarm, frames, targets)
+        paths = [g.goal for g in groups if isinstance(g.goal, MovingTarget)]
+        schedule = follow_schedule(min(p.times[0] for p in paths), max(p.times[-1] for p in paths), params.iterations,
+                                   params.iteration_time)
+    result = drive(swarm, schedule, lambda t: np.array([_target(g, t) for g in groups]), moving, progress)
     names = [g.name for g in groups]
     return PSORun(result.trajectories(names, params.fps), result, used, names)
 

@@ -22,7 +22,7 @@ import numpy as np
 from crowdmotion._rng import step_key
 from crowdmotion.geometry import finite_array
 from crowdmotion.groups import Group, MovingTarget, Points, Rect
-from crowdmotion.placement import spawn_positions
+from crowdmotion.placement import spawn_groups
 from crowdmotion.pso import _kernels as K
 from crowdmotion.pso.obstacles import ObstacleArrays, obstacle_field
 from crowdmotion.pso.params import PSOParams, make_params
@@ -85,6 +85,8 @@ class Swarm:
         self.arrival_iteration = np.full(n, -1, np.int64)
         self.iteration = 0
         self.counters = np.zeros(K.N_COUNTERS, np.int64)
+        self.pb, self.pbd = self.x.copy(), np.full(n, np.inf)
+        self.gb, self.gbd = self.target.copy(), np.full(self.n_swarms, np.inf)
         self._reset_memory(np.ones(self.n_swarms, bool))
         counts = np.bincount(sw, minlength=self.n_swarms)
         rmax = np.zeros(self.n_swarms)
@@ -94,8 +96,8 @@ class Swarm:
         s_max = float(np.linalg.norm(self.vmax))
         self._reach = max(params.avoid_radius + s_max, 2 * float(r.max()) + 2 * s_max)
         h = max(self._reach, float(np.max(hi - lo)) / (4.0 * n + 64) ** (1.0 / d))
-        self._grid = (lo.astype(float).copy(), h, np.maximum(1, np.ceil((hi - lo) / h)).astype(np.int64))
         self._lo, self._hi = lo.astype(float).copy(), hi.astype(float).copy()
+        self._grid = (self._lo, h, np.maximum(1, np.ceil((hi - lo) / h)).astype(np.int64))
         self.moved = 0
         ob = self.obstacles
         expand = params.detection + float(r.max()) + s_max
@@ -116,9 +118,6 @@ class Swarm:
 
     def _reset_memory(self, which: np.ndarray) -> None:
         """Personal bests become the current positions; swarm bests are recomputed."""
-        if not hasattr(self, "pb"):
-            self.pb, self.pbd = self.x.copy(), np.full(self.n, np.inf)
-            self.gb, self.gbd = self.target.copy(), np.full(self.n_swarms, np.inf)
         sel = which[self.swarm]
         dist = np.linalg.norm(self.x - self.target[self.swarm], axis=1)
         self.pb[sel], self.pbd[sel] = self.x[sel], dist[sel]
@@ -167,7 +166,8 @@ class Swarm:
                                p.avoid_obstacles, p.avoid_agents, p.avoid_agents and p.separation, p.detection,
                                p.avoid_radius, float(np.cos(np.deg2rad(p.avoid_angle_deg))), p.join_gap,
                                self.target, self.gather_radius,
-                               ob.sc, ob.sr, ob.bl, ob.bu, *self._obstacle_grid, lo, hi, origin, h, dims, start, items, self._reach, key, self.counters)
+                               ob.sc, ob.sr, ob.bl, ob.bu, *self._obstacle_grid, lo, hi, origin, h, dims, start,
+                               items, self._reach, key, self.counters)
             self.x = newx
         else:
             K.advance_free(self.x, self.v, self.radius, self._lo, self._hi)
@@ -270,10 +270,31 @@ def _record(swarm: Swarm, n: int, frames: list, targets: list, progress: Callabl
             break
 
 
-def _result(swarm: Swarm, frames: list, targets: list) -> SwarmRun:
+def drive(swarm: Swarm, schedule=None, targets_at: Callable[[float], np.ndarray] | None = None, which=None,
+          progress: Callable[[int], None] | None = None) -> SwarmRun:
+    """Run a swarm and record its iterates (never more than ``params.max_iterations``).
+
+    Without a ``schedule``: ``params.iterations`` iterations, fewer once every particle
+    has stopped (``stop_when_done``). With one (times of the target updates, see
+    :func:`follow_schedule`): at each time after the first the swarms in ``which`` get
+    ``targets_at(t)`` as their targets, then ``params.iterations`` iterations run.
+    """
+    p = swarm.params
+    frames, targets = [swarm.x.copy()], [swarm.target.copy()]
+    if schedule is None:
+        until = (lambda s: s.done) if p.stop_when_done else None
+        if not (until and swarm.done):
+            _record(swarm, min(p.iterations, p.max_iterations), frames, targets, progress, until)
+    else:
+        for u, t in enumerate(schedule):
+            if u:
+                swarm.retarget(targets_at(t), which=which)
+            _record(swarm, min(p.iterations, p.max_iterations + 1 - len(frames)), frames, targets, progress)
+            if len(frames) > p.max_iterations:
+                break
     return SwarmRun(np.array(frames), swarm.swarm.copy(), np.array(targets), swarm.stopped.copy(),
-                    swarm.arrival_iteration.copy(), swarm.radius.copy(), swarm.scene, swarm.params,
-                    swarm.stats, swarm.params.iteration_time)
+                    swarm.arrival_iteration.copy(), swarm.radius.copy(), swarm.scene, p, swarm.stats,
+                    p.iteration_time)
 
 
 # ---- the paper's behaviours ----------------------------------------------------------------
@@ -323,11 +344,9 @@ def _setup(targets, n_particles, start_range, starts, obstacles, radius, params,
         per = len(x) // len(tg)
     else:
         per = n_particles
-        x = np.empty((0, d))
-        for g in range(len(tg)):
-            grp = Group(name=f"swarm{g}", count=per, spawn=Rect(lo, hi), goal=Points(tg[g][None]), radius=r)
-            x = np.concatenate([x, spawn_positions(scene, grp, x, np.full(len(x), r), params.spawn_gap, rng,
-                                                   overlap=not params.avoid_agents)])
+        groups = [Group(name=f"swarm{g}", count=per, spawn=Rect(lo, hi), goal=Points(tg[g][None]), radius=r)
+                  for g in range(len(tg))]
+        x = spawn_groups(scene, groups, params.spawn_gap, rng, overlap=not params.avoid_agents)[0]
     return scene, x, np.repeat(np.arange(len(tg)), per), tg
 
 
@@ -347,19 +366,14 @@ def gather(target=(0.0, 0.0, 0.0), n_particles: int = 30, *, start_range=30.0, s
     params = make_params(params, **overrides)
     rng = np.random.default_rng() if rng is None else rng
     scene, x, sw, tg = _setup(target, n_particles, start_range, starts, obstacles, radius, params, rng, bounds)
-    swarm = Swarm(x, sw, tg, radius, params, scene, rng)
-    frames, targets = [swarm.x.copy()], [swarm.target.copy()]
-    until = (lambda s: s.done) if params.stop_when_done else None
-    if not (until and swarm.done):
-        _record(swarm, min(params.iterations, params.max_iterations), frames, targets, progress, until)
-    return _result(swarm, frames, targets)
+    return drive(Swarm(x, sw, tg, radius, params, scene, rng), progress=progress)
 
 
-def follow_schedule(path: MovingTarget, iterations_per_update: int, iteration_time: float) -> np.ndarray:
-    """Times of the target updates: every k iterations from the path's start to its end."""
+def follow_schedule(start: float, end: float, iterations_per_update: int, iteration_time: float) -> np.ndarray:
+    """Times of the target updates: every k iterations from ``start`` until ``end`` is read."""
     period = iterations_per_update * iteration_time
-    n_updates = int(np.ceil((path.times[-1] - path.times[0]) / period - 1e-9)) + 1
-    return path.times[0] + period * np.arange(n_updates)
+    n_updates = int(np.ceil((end - start) / period - 1e-9)) + 1
+    return start + period * np.arange(n_updates)
 
 
 def follow(target_path, n_particles: int = 30, *, start_range=30.0, starts=None, obstacles=None,
@@ -375,15 +389,7 @@ def follow(target_path, n_particles: int = 30, *, start_range=30.0, starts=None,
     params = make_params(params, **overrides)
     rng = np.random.default_rng() if rng is None else rng
     path = target_path if isinstance(target_path, MovingTarget) else MovingTarget(*target_path)
-    times = follow_schedule(path, params.iterations, params.iteration_time)
+    times = follow_schedule(path.times[0], path.times[-1], params.iterations, params.iteration_time)
     scene, x, sw, tg = _setup(path.at(times[0]), n_particles, start_range, starts, obstacles, radius, params,
                               rng, bounds, later=path.positions)
-    swarm = Swarm(x, sw, tg, radius, params, scene, rng)
-    frames, targets = [swarm.x.copy()], [swarm.target.copy()]
-    for u, t in enumerate(times):
-        if u:
-            swarm.retarget(path.at(t)[None])
-        _record(swarm, params.iterations, frames, targets, progress)
-        if len(frames) > params.max_iterations:
-            break
-    return _result(swarm, frames, targets)
+    return drive(Swarm(x, sw, tg, radius, params, scene, rng), times, lambda t: path.at(t)[None], progress=progress)
