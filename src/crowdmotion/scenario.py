@@ -18,6 +18,7 @@ from pydantic import BaseModel, ConfigDict, Field, ValidationError, field_valida
 from crowdmotion import groups as G
 from crowdmotion._validation import error_lines
 from crowdmotion.pso.params import PSOParams
+from crowdmotion.rvo.params import RVOParams
 from crowdmotion import scene as S
 
 
@@ -161,24 +162,6 @@ class MDPSpec(_Model):
     fps: PosFloat = 24.0
 
 
-class RVOSpec(_Model):
-    """The ``[rvo]`` block: fields of :class:`crowdmotion.rvo.RVOParams`."""
-
-    time_step: PosFloat = 0.25
-    max_steps: Annotated[int, Field(gt=0, le=1_000_000)] = 2000
-    max_neighbors: Annotated[int, Field(ge=0, le=10_000)] = 10
-    neighbor_dist: PosFloat = 10.0
-    samples: Annotated[int, Field(gt=0, le=10_000)] = 50
-    safety: Annotated[float, Field(ge=0, allow_inf_nan=False)] = 5.0
-    dominant: Literal["abs", "max"] = "abs"
-    guidance: Literal["auto", "direct", "field"] = "auto"
-    field_cell: PosFloat | None = None
-    remove_on_arrival: bool = True
-    arrival_radius: PosFloat = 0.5
-    goal_assignment: Literal["sample", "shift"] = "sample"
-    spawn_gap: Annotated[float, Field(ge=0, allow_inf_nan=False)] = 0.05
-
-
 class OutputSpec(_Model):
     formats: list[Literal["parquet", "csv"]] = ["parquet"]
     plots: list[Literal["paths", "values"]] = ["paths", "values"]
@@ -192,7 +175,7 @@ class ScenarioSpec(_Model):
     scene: SceneSpec
     groups: list[GroupSpec] = Field(min_length=1)
     mdp: MDPSpec = MDPSpec()
-    rvo: RVOSpec = RVOSpec()
+    rvo: RVOParams = RVOParams()
     pso: PSOParams = PSOParams()
     output: OutputSpec = OutputSpec()
 

@@ -9,7 +9,7 @@ Names load on first use, so that ``crowdmotion.pso.params`` (the scenario schema
 imported without compiling or loading the numba kernels.
 """
 
-import importlib
+from crowdmotion._lazy import lazy_exports
 
 _EXPORTS = {
     "PSOParams": "params", "ObstacleField": "params", "make_params": "params",
@@ -18,10 +18,4 @@ _EXPORTS = {
     "COUNTER_NAMES": "swarm", "Swarm": "swarm", "SwarmRun": "swarm", "follow": "swarm",
     "follow_schedule": "swarm", "gather": "swarm",
 }
-__all__ = sorted(_EXPORTS)
-
-
-def __getattr__(name):
-    if name not in _EXPORTS:
-        raise AttributeError(f"module 'crowdmotion.pso' has no attribute {name!r}")
-    return getattr(importlib.import_module(f"crowdmotion.pso.{_EXPORTS[name]}"), name)
+__getattr__, __all__ = lazy_exports(__name__, _EXPORTS)

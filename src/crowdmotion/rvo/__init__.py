@@ -3,21 +3,17 @@
 ``Simulator`` steps a sampling-RVO crowd interactively; ``simulate`` runs a Scene and
 its Groups to Trajectories; ``personality_params`` maps an OCEAN personality to the
 RVO parameters of Table 4.
+
+Names load on first use, so that ``crowdmotion.rvo.params`` (the scenario schema) can be
+imported without loading the numba kernels.
 """
 
-from crowdmotion.rvo.personality import (
-    TABLE4,
-    TRAITS,
-    dominant_trait,
-    personality_params,
-    sample_personalities,
-    trig_generator,
-)
-from crowdmotion.rvo.simulate import RVOParams, RVORun, run, simulate
-from crowdmotion.rvo.simulator import Simulator
+from crowdmotion._lazy import lazy_exports
 
-Params = RVOParams
-
-__all__ = ["TABLE4", "TRAITS", "dominant_trait", "personality_params", "sample_personalities", "trig_generator",
-           "Simulator",
-           "RVOParams", "RVORun", "Params", "run", "simulate"]
+_EXPORTS = {
+    "TABLE4": "personality", "TRAITS": "personality", "dominant_trait": "personality",
+    "personality_params": "personality", "sample_personalities": "personality", "trig_generator": "personality",
+    "Simulator": "simulator", "RVOParams": "params", "Params": "params",
+    "RVORun": "simulate", "run": "simulate", "simulate": "simulate",
+}
+__getattr__, __all__ = lazy_exports(__name__, _EXPORTS)

@@ -6,7 +6,8 @@ import numpy as np
 from tqdm.auto import tqdm
 
 from crowdmotion import metrics
-from crowdmotion.rvo.simulate import RVOParams, RVORun, run
+from crowdmotion.rvo.params import RVOParams
+from crowdmotion.rvo.simulate import RVORun, run
 
 Params = RVOParams
 

@@ -2,72 +2,19 @@
 
 from __future__ import annotations
 
-from dataclasses import asdict, dataclass
-from typing import Callable, Literal, Sequence
+from dataclasses import dataclass
+from typing import Callable, Sequence
 
 import numpy as np
 
 from crowdmotion import __version__
 from crowdmotion.groups import Disc, Group, MovingTarget, Points, Rect
 from crowdmotion.placement import spawn_positions
+from crowdmotion.rvo.params import RVOParams
 from crowdmotion.rvo.personality import PARAM_KEYS, sample_personalities
 from crowdmotion.rvo.simulator import Simulator
 from crowdmotion.scene import Scene
 from crowdmotion.trajectories import Trajectories
-
-
-@dataclass(frozen=True)
-class RVOParams:
-    """Parameters of the RVO method (paper symbols in brackets).
-
-    time_step : float        simulation step Δt, seconds
-    max_steps : int          stop after this many steps even if agents are still walking
-    max_neighbors : int      [M] nearest neighbours considered (groups without a personality)
-    neighbor_dist : float    [D] metres within which neighbours count
-    samples : int            [N_sample] random candidate velocities per agent and step
-    safety : float           [w] weight of 1/tc in the penalty, eq. (3)
-    dominant : "abs"|"max"   f(ψ): largest |ψk| (default) or the paper's literal max ψk
-    guidance : str           "auto", "direct" or "field" (exact MDP distance field)
-    field_cell : float|None  guidance grid cell, metres (default: agent radius)
-    remove_on_arrival : bool agents leave once within arrival_radius of their goal
-    arrival_radius : float   metres
-    goal_assignment : str    how region goals become points: "sample" (uniform in the goal
-                             region) or "shift" (start + goal centre − spawn centre,
-                             clamped into the region: everyone walks straight across)
-    spawn_gap : float        extra clearance, metres, between agents sampled in a region
-    """
-
-    time_step: float = 0.25
-    max_steps: int = 2000
-    max_neighbors: int = 10
-    neighbor_dist: float = 10.0
-    samples: int = 50
-    safety: float = 5.0
-    dominant: Literal["abs", "max"] = "abs"
-    guidance: Literal["auto", "direct", "field"] = "auto"
-    field_cell: float | None = None
-    remove_on_arrival: bool = True
-    arrival_radius: float = 0.5
-    goal_assignment: Literal["sample", "shift"] = "sample"
-    spawn_gap: float = 0.05
-
-    def __post_init__(self):
-        checks = {
-            "time_step": self.time_step > 0, "max_steps": self.max_steps >= 1,
-            "max_neighbors": self.max_neighbors >= 0, "neighbor_dist": self.neighbor_dist > 0,
-            "samples": self.samples >= 1, "safety": self.safety >= 0, "arrival_radius": self.arrival_radius > 0,
-            "spawn_gap": self.spawn_gap >= 0,
-        }
-        for name, ok in checks.items():
-            v = getattr(self, name)
-            if not ok or not np.isfinite(v):
-                raise ValueError(f"rvo.{name} is out of range: got {v!r}")
-        for name, allowed in (("dominant", ("abs", "max")), ("guidance", ("auto", "direct", "field")),
-                              ("goal_assignment", ("sample", "shift"))):
-            if getattr(self, name) not in allowed:
-                raise ValueError(f"rvo.{name} must be one of {allowed}, got {getattr(self, name)!r}")
-        if self.field_cell is not None and not (np.isfinite(self.field_cell) and self.field_cell > 0):
-            raise ValueError(f"rvo.field_cell must be a positive number of metres, got {self.field_cell!r}")
 
 
 def goal_points(group: Group, starts: np.ndarray, assignment: str, rng: np.random.Generator):
@@ -145,7 +92,7 @@ def run(scene: Scene, groups: Sequence[Group], params: RVOParams, rng: np.random
     traj = Trajectories(
         np.array(frames), params.time_step, group=names[sim.group], radius=sim.params["radius"],
         active=None if active.all() else active,
-        metadata={"method": "rvo", "params": asdict(params), "scene": scene.to_dict(), "version": __version__,
+        metadata={"method": "rvo", "params": params.model_dump(), "scene": scene.to_dict(), "version": __version__,
                   "steps": sim.steps, "stats": dict(sim.stats),
                   "personality": sim.personality.tolist()},
     )

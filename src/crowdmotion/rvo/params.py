@@ -1,0 +1,50 @@
+"""Parameters of the RVO method: one pydantic model, used as the scenario's ``[rvo]``
+block and by the Python API alike, so both validate the same way."""
+
+from __future__ import annotations
+
+from typing import Annotated, Literal
+
+from pydantic import BaseModel, ConfigDict, Field
+
+PosFloat = Annotated[float, Field(gt=0, allow_inf_nan=False)]
+
+
+class RVOParams(BaseModel):
+    """Parameters of the RVO method (paper symbols in brackets).
+
+    time_step : float        simulation step Δt, seconds
+    max_steps : int          stop after this many steps even if agents are still walking
+    max_neighbors : int      [M] nearest neighbours considered (groups without a personality)
+    neighbor_dist : float    [D] metres within which neighbours count
+    samples : int            [N_sample] random candidate velocities per agent and step
+    safety : float           [w] weight of 1/tc in the penalty, eq. (3)
+    dominant : "abs"|"max"   f(ψ): largest |ψk| (default) or the paper's literal max ψk
+    guidance : str           "auto", "direct" or "field" (exact MDP distance field)
+    field_cell : float|None  guidance grid cell, metres (default: agent radius)
+    remove_on_arrival : bool agents leave once within arrival_radius of their goal
+    arrival_radius : float   metres
+    goal_assignment : str    how region goals become points: "sample" (uniform in the goal
+                             region) or "shift" (start + goal centre − spawn centre,
+                             clamped into the region: everyone walks straight across)
+    spawn_gap : float        extra clearance, metres, between agents sampled in a region
+    """
+
+    model_config = ConfigDict(extra="forbid", frozen=True)
+
+    time_step: PosFloat = 0.25
+    max_steps: Annotated[int, Field(gt=0, le=1_000_000)] = 2000
+    max_neighbors: Annotated[int, Field(ge=0, le=10_000)] = 10
+    neighbor_dist: PosFloat = 10.0
+    samples: Annotated[int, Field(gt=0, le=10_000)] = 50
+    safety: Annotated[float, Field(ge=0, allow_inf_nan=False)] = 5.0
+    dominant: Literal["abs", "max"] = "abs"
+    guidance: Literal["auto", "direct", "field"] = "auto"
+    field_cell: PosFloat | None = None
+    remove_on_arrival: bool = True
+    arrival_radius: PosFloat = 0.5
+    goal_assignment: Literal["sample", "shift"] = "sample"
+    spawn_gap: Annotated[float, Field(ge=0, allow_inf_nan=False)] = 0.05
+
+
+Params = RVOParams
