@@ -218,18 +218,6 @@ def _segment_point_distance(p, k, c, j):
 
 
 @njit(cache=True)
-def segment_clear(p, k, r, sc, sr, bl, bu, tmp):
-    """True when a body of radius r moving p → p + k keeps clear of every obstacle."""
-    for j in range(sc.shape[0]):
-        if _segment_point_distance(p, k, sc, j) < sr[j] + r:
-            return False
-    for j in range(bl.shape[0]):
-        if _segment_box_clearance(p, k, bl, bu, j, tmp) < r:
-            return False
-    return True
-
-
-@njit(cache=True)
 def _segment_clear_listed(p, k, r, sc, sr, bl, bu, tmp, ob_items, s0, s1):
     """segment_clear over the obstacles listed in ob_items[s0:s1] (j ≥ 0 sphere, −j−1 box)."""
     for s in range(s0, s1):
@@ -240,6 +228,13 @@ def _segment_clear_listed(p, k, r, sc, sr, bl, bu, tmp, ob_items, s0, s1):
         elif _segment_box_clearance(p, k, bl, bu, -j - 1, tmp) < r:
             return False
     return True
+
+
+@njit(cache=True)
+def segment_clear(p, k, r, sc, sr, bl, bu, tmp):
+    """True when a body of radius r moving p → p + k keeps clear of every obstacle."""
+    every = np.concatenate((np.arange(sr.shape[0]), -1 - np.arange(bl.shape[0])))
+    return _segment_clear_listed(p, k, r, sc, sr, bl, bu, tmp, every, 0, every.shape[0])
 
 
 @njit(cache=True)
@@ -349,9 +344,7 @@ def build_grid(x, origin, h, dims):
     cell_of = np.empty(n, np.int64)
     start = np.zeros(ncell + 1, np.int64)
     for i in range(n):
-        c = 0
-        for a in range(d - 1, -1, -1):
-            c = c * dims[a] + _cell_coord(x[i, a], origin[a], h, dims[a])
+        c = _cell_of(x[i], origin, h, dims)
         cell_of[i] = c
         start[c + 1] += 1
     for c in range(ncell):
@@ -402,11 +395,10 @@ def _near(p, x, origin, h, dims, start, items, reach, buf):
 @njit(cache=True)
 def _first_contact(i, p, k, x, newx, radius, nb, cnt):
     """Earliest fraction t ∈ [0, 1] of the step at which i, moving p → p + k, touches a
-    neighbour (j moving x_j → newx_j over the same step; unprocessed ones have newx = x).
-    Returns (t, j); t = 2 when there is no contact."""
+    neighbour (j moving x_j → newx_j over the same step; unprocessed ones have newx = x);
+    2 when there is no contact."""
     d = p.shape[0]
     best_t = 2.0
-    best_j = -1
     for s in range(cnt):
         j = nb[s]
         if j == i:
@@ -423,8 +415,8 @@ def _first_contact(i, p, k, x, newx, radius, nb, cnt):
             c += w0 * w0
         c -= rr * rr
         if c <= 0.0:  # touching already: only a move that opens the gap is allowed
-            if b < 0.0 and 0.0 < best_t:
-                best_t, best_j = 0.0, j
+            if b < 0.0:
+                best_t = 0.0
             continue
         if a2 == 0.0 or b >= 0.0:
             continue
@@ -433,8 +425,8 @@ def _first_contact(i, p, k, x, newx, radius, nb, cnt):
             continue
         t = (-b - np.sqrt(disc)) / a2
         if t <= 1.0 and t < best_t:
-            best_t, best_j = t, j
-    return best_t, best_j
+            best_t = t
+    return best_t
 
 
 @njit(cache=True)
@@ -521,14 +513,14 @@ def avoid_and_commit(order, x, v, newx, radius, gid, stopped, joined, avoid_obst
                 k[a] = 0.0
         cut = False
         if separation:
-            t, j = _first_contact(i, p, k, x, newx, radius, nb, cnt)
+            t = _first_contact(i, p, k, x, newx, radius, nb, cnt)
             if t <= 1.0:
                 cut = True
                 counters[RULE_CONFLICTS] += 1
                 shrink = max(0.0, t * (1.0 - 1e-6) - 1e-9)
                 for a in range(d):
                     k[a] *= shrink
-                if shrink > 0.0 and _first_contact(i, p, k, x, newx, radius, nb, cnt)[0] > 1.0:
+                if shrink > 0.0 and _first_contact(i, p, k, x, newx, radius, nb, cnt) > 1.0:
                     counters[TRUNCATED] += 1
                 else:
                     counters[SEPARATION_STOPS] += 1
