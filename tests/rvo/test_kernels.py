@@ -1,32 +1,10 @@
-"""RVO kernels against closed forms and scipy: time to collision, k nearest neighbours."""
+"""RVO kernels against closed forms and scipy: k nearest neighbours, the velocity choice."""
 
 import numpy as np
 import pytest
 from scipy.spatial import cKDTree
 
 from crowdmotion.rvo import _kernels as K
-
-
-def test_ray_disc_head_on_and_miss():
-    # from x = -10 at 1 m/s toward a disc of radius 1 at the origin: contact at t = 9
-    assert K._ray_disc(-10.0, 0.0, 1.0, 0.0, 1.0) == pytest.approx(9.0)
-    # offset by 0.6: contact where x = -sqrt(1 - 0.36) = -0.8, t = 9.2
-    assert K._ray_disc(-10.0, 0.6, 1.0, 0.0, 1.0) == pytest.approx(10 - 0.8)
-    assert K._ray_disc(-10.0, 1.5, 1.0, 0.0, 1.0) == np.inf  # passes by
-    assert K._ray_disc(-10.0, 0.0, -1.0, 0.0, 1.0) == np.inf  # moving away
-    assert K._ray_disc(0.5, 0.0, 1.0, 0.0, 1.0) == 0.0  # already inside
-
-
-def test_ray_capsule_face_end_and_parallel():
-    # body r = 0.5 falling onto the segment (-1,0)-(1,0) from y = 2 at 1 m/s: t = 1.5
-    assert K._ray_capsule(0.0, 2.0, 0.0, -1.0, -1.0, 0.0, 1.0, 0.0, 0.5) == pytest.approx(1.5)
-    # approaching the end point (1, 0) along the axis from x = 4: t = 4 - 1 - 0.5
-    assert K._ray_capsule(4.0, 0.0, -1.0, 0.0, -1.0, 0.0, 1.0, 0.0, 0.5) == pytest.approx(2.5)
-    # moving parallel 0.6 above the segment never touches
-    assert K._ray_capsule(-3.0, 0.6, 1.0, 0.0, -1.0, 0.0, 1.0, 0.0, 0.5) == np.inf
-    # brushing the end cap: passes at height 0.3 beyond the end -> hits the rounded cap
-    t = K._ray_capsule(1.2, 3.0, 0.0, -1.0, -1.0, 0.0, 1.0, 0.0, 0.5)
-    assert t == pytest.approx(3.0 - np.sqrt(0.25 - 0.04))
 
 
 @pytest.mark.parametrize("m,dmax", [(1, 100.0), (5, 3.0), (10, 1.0), (20, 50.0)])

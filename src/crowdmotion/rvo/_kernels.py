@@ -10,44 +10,15 @@ from __future__ import annotations
 import numpy as np
 from numba import njit, prange
 
+from crowdmotion._contact import (INF, _point_segment_distance, _ray_capsule, _ray_disc,  # noqa: F401
+                                  build_grid, resolve_conflicts)
 from crowdmotion._rng import uniform as _uniform
 
-INF = np.inf
 GOLDEN_COS = float(np.cos(np.pi * (3.0 - np.sqrt(5.0))))
 GOLDEN_SIN = float(np.sin(np.pi * (3.0 - np.sqrt(5.0))))
 # a candidate whose obstacle time to collision is below dt·(1 + SLACK) would reach the
 # obstacle within the step: it is inadmissible (hard constraint)
 SLACK = 1e-6
-
-
-# ---- uniform grid -----------------------------------------------------------------------
-@njit(cache=True)
-def build_grid(pos, active, origin_x, origin_y, h, nx, ny):
-    """Counting sort of active agents into an nx × ny grid of cell edge h.
-
-    Returns ``cell_start`` (nx·ny + 1) and ``items`` (agent indices, cell by cell).
-    """
-    n = pos.shape[0]
-    counts = np.zeros(nx * ny + 1, dtype=np.int64)
-    cell = np.full(n, -1, dtype=np.int64)
-    for i in range(n):
-        if not active[i]:
-            continue
-        cx = min(max(int((pos[i, 0] - origin_x) / h), 0), nx - 1)
-        cy = min(max(int((pos[i, 1] - origin_y) / h), 0), ny - 1)
-        c = cx * ny + cy
-        cell[i] = c
-        counts[c + 1] += 1
-    for c in range(nx * ny):
-        counts[c + 1] += counts[c]
-    fill = counts[:-1].copy()
-    items = np.empty(counts[-1], dtype=np.int64)
-    for i in range(n):
-        c = cell[i]
-        if c >= 0:
-            items[fill[c]] = i
-            fill[c] += 1
-    return counts, items
 
 
 @njit(cache=True)
@@ -103,59 +74,6 @@ def _knn(i, pos, m, dmax, cell_start, items, origin_x, origin_y, h, nx, ny, out_
 
 
 # ---- time to collision ------------------------------------------------------------------
-@njit(inline="always")
-def _ray_disc(px, py, vx, vy, r):
-    """First t ≥ 0 at which p + v·t enters the disc of radius r at the origin (0 if inside)."""
-    c = px * px + py * py - r * r
-    if c < 0.0:
-        return 0.0
-    b = px * vx + py * vy
-    if b >= 0.0:
-        return INF
-    a = vx * vx + vy * vy
-    disc = b * b - a * c
-    if disc <= 0.0:
-        return INF
-    return (-b - np.sqrt(disc)) / a
-
-
-@njit(inline="always")
-def _ray_capsule(px, py, vx, vy, ax, ay, bx, by, r):
-    """First t ≥ 0 at which p + v·t comes within r of the segment ab (0 if already)."""
-    t = min(_ray_disc(px - ax, py - ay, vx, vy, r), _ray_disc(px - bx, py - by, vx, vy, r))
-    ex, ey = bx - ax, by - ay
-    l2 = ex * ex + ey * ey
-    if l2 <= 0.0:
-        return t
-    ln = np.sqrt(l2)
-    nx_, ny_ = -ey / ln, ex / ln
-    qx, qy = px - ax, py - ay
-    s = (qx * ex + qy * ey) / l2
-    hgt = qx * nx_ + qy * ny_
-    if abs(hgt) < r and 0.0 <= s <= 1.0:
-        return 0.0
-    hv = vx * nx_ + vy * ny_
-    tt = INF
-    if hgt > 0.0 and hv < 0.0:
-        tt = (hgt - r) / (-hv)
-    elif hgt < 0.0 and hv > 0.0:
-        tt = (-hgt - r) / hv
-    if tt < t:
-        s2 = ((qx + vx * tt) * ex + (qy + vy * tt) * ey) / l2
-        if 0.0 <= s2 <= 1.0:
-            t = tt
-    return t
-
-
-@njit(inline="always")
-def _point_segment_distance(px, py, ax, ay, bx, by):
-    ex, ey = bx - ax, by - ay
-    l2 = ex * ex + ey * ey
-    s = 0.0 if l2 <= 0.0 else min(max(((px - ax) * ex + (py - ay) * ey) / l2, 0.0), 1.0)
-    dx, dy = px - ax - s * ex, py - ay - s * ey
-    return np.sqrt(dx * dx + dy * dy)
-
-
 @njit(inline="always")
 def _obstacle_time(px, py, cx_, cy_, r, circ_c, circ_r, circ_v, near_c, n_near_c,
                    seg_a, seg_b, seg_v, near_s, n_near_s):
@@ -345,85 +263,6 @@ def _choose_one(i, pos, vel, vpref, aim_dist, radius, vmax, max_nb, nb_dist, sam
     else:
         out_vel[i, 0], out_vel[i, 1] = ax_, ay_
         out_forced[i] = True
-
-
-@njit(inline="always")
-def _conflict(i, pos, vel, radius, stopped, priority, cell_start, items, origin_x, origin_y, h, nx, ny, dt):
-    """Whether agent i's straight move this step would touch an agent that does not yield to it."""
-    px, py = pos[i, 0], pos[i, 1]
-    cx = min(max(int((px - origin_x) / h), 0), nx - 1)
-    cy = min(max(int((py - origin_y) / h), 0), ny - 1)
-    for gx in range(max(cx - 1, 0), min(cx + 1, nx - 1) + 1):
-        for gy in range(max(cy - 1, 0), min(cy + 1, ny - 1) + 1):
-            c = gx * ny + gy
-            for s in range(cell_start[c], cell_start[c + 1]):
-                j = items[s]
-                if j == i:
-                    continue
-                if not stopped[j] and (priority[j] < priority[i] or (priority[j] == priority[i] and j < i)):
-                    continue  # j yields to i
-                wx, wy = pos[j, 0] - px, pos[j, 1] - py
-                ux, uy = (vel[j, 0] - vel[i, 0]) * dt, (vel[j, 1] - vel[i, 1]) * dt
-                proj = wx * ux + wy * uy
-                if proj >= 0.0:
-                    continue  # not approaching
-                uu = ux * ux + uy * uy
-                s_ = min(-proj / uu, 1.0)
-                mx, my = wx + s_ * ux, wy + s_ * uy
-                rr = radius[i] + radius[j]
-                if mx * mx + my * my < rr * rr * (1.0 + 1e-9):
-                    return True
-    return False
-
-
-@njit(parallel=True, cache=True)
-def resolve_conflicts(pos, vel, radius, active, priority, cell_start, items, origin_x, origin_y, h, nx, ny, dt):
-    """Make agents stand still until no two would touch during this step; returns how many
-    had to stop.
-
-    Agent i must stop when its straight move would bring it closer than r_i + r_j to an
-    agent j that is standing or has the higher ``priority`` (ties: the higher index). A
-    parallel pass flags every such agent among the moving ones; a serial work list then
-    stops them and re-examines the moving agents around each newly stopped one. Moving
-    agents never change velocity, so a pair of them that did not conflict at first never
-    will, and every pair with a stopped agent is examined after that agent stopped: at
-    the end no pair conflicts. Positions move linearly over the step (as the continuous
-    audit assumes); only approaching pairs count. ``h`` must be at least the largest
-    r_i + r_j + (‖v_i‖ + ‖v_j‖)·dt so that the 3 × 3 cells around an agent suffice.
-    ``vel`` is modified in place (zero for stopped agents).
-    """
-    n = pos.shape[0]
-    flagged = np.zeros(n, dtype=np.bool_)
-    stopped = np.empty(n, dtype=np.bool_)
-    for i in prange(n):  # agents that chose to stand are standing: they cannot yield
-        stopped[i] = active[i] and vel[i, 0] == 0.0 and vel[i, 1] == 0.0
-    for i in prange(n):
-        if active[i] and not stopped[i]:
-            flagged[i] = _conflict(i, pos, vel, radius, stopped, priority, cell_start, items, origin_x, origin_y,
-                                   h, nx, ny, dt)
-    work = list(np.flatnonzero(flagged))
-    count = 0
-    while len(work) > 0:
-        j = work.pop()
-        if stopped[j]:
-            continue
-        stopped[j] = True
-        vel[j, 0] = 0.0
-        vel[j, 1] = 0.0
-        count += 1
-        cx = min(max(int((pos[j, 0] - origin_x) / h), 0), nx - 1)
-        cy = min(max(int((pos[j, 1] - origin_y) / h), 0), ny - 1)
-        for gx in range(max(cx - 1, 0), min(cx + 1, nx - 1) + 1):
-            for gy in range(max(cy - 1, 0), min(cy + 1, ny - 1) + 1):
-                c = gx * ny + gy
-                for s in range(cell_start[c], cell_start[c + 1]):
-                    i = items[s]
-                    if stopped[i]:
-                        continue
-                    if _conflict(i, pos, vel, radius, stopped, priority, cell_start, items, origin_x, origin_y,
-                                 h, nx, ny, dt):
-                        work.append(i)
-    return count
 
 
 # ---- guidance: line of sight and the distance field ---------------------------------------

@@ -10,7 +10,7 @@ import numpy as np
 from crowdmotion.groups import MovingTarget, Points
 from crowdmotion.mdp.solvers import fast_values
 from crowdmotion.rvo import _kernels as K
-from crowdmotion.rvo.obstacles import ObstaclePrimitives
+from crowdmotion.obstacle_primitives import ObstaclePrimitives
 from crowdmotion.scene import Scene
 
 MAX_FIELD_CELLS = 16_000_000

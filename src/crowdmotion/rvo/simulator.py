@@ -10,7 +10,8 @@ from crowdmotion.geometry import finite_array
 from crowdmotion.groups import MovingTarget
 from crowdmotion.rvo import _kernels as K
 from crowdmotion.rvo.guidance import DistanceFields, distance_fields, preferred_velocities
-from crowdmotion.rvo.obstacles import ObstacleSet
+from crowdmotion._contact import grid_for
+from crowdmotion.obstacle_primitives import ObstacleSet
 from crowdmotion.rvo.personality import PARAM_KEYS, params_for_vectors, sample_personalities
 from crowdmotion.scene import Scene
 
@@ -258,17 +259,7 @@ class Simulator:
 
     def _grid(self):
         """A uniform grid over the active agents, cells wide enough for the step check."""
-        live = np.flatnonzero(self.active)
-        p = self.positions[live]
-        lo, hi = p.min(axis=0), p.max(axis=0)
-        reach = 2 * self.params["radius"][live].max() + 2 * self.params["max_speed"][live].max() * self.dt
-        extent = np.maximum(hi - lo, 1e-9)
-        h = max(reach, float(np.sqrt(np.prod(extent) / len(live))) * 1.5)
-        while np.prod(np.floor(extent / h) + 1) > 4 * len(live) + 16:
-            h *= 1.5
-        nx, ny = (np.floor(extent / h) + 1).astype(np.int64)
-        start, items = K.build_grid(self.positions, self.active, float(lo[0]), float(lo[1]), h, int(nx), int(ny))
-        return start, items, float(lo[0]), float(lo[1]), float(h), int(nx), int(ny)
+        return grid_for(self.positions, self.active, self.params["radius"], self.params["max_speed"], self.dt)
 
     def step(self) -> None:
         """Advance every agent by one time step (all choose at once, then all move)."""

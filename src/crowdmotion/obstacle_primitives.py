@@ -1,4 +1,5 @@
-"""Scene obstacles as the RVO kernels see them: discs and wall segments with a velocity."""
+"""Scene obstacles as the 2D contact kernels see them: discs and wall segments with a
+velocity (used by the RVO and guiding-mesh formation methods)."""
 
 from __future__ import annotations
 
@@ -33,10 +34,10 @@ def outline_segments(ob: Obstacle) -> np.ndarray:
     return np.stack([v, np.roll(v, -1, axis=0)], axis=1)
 
 
-def check_supported(scene: Scene) -> None:
-    """The RVO method works in 2D; say so plainly for a 3D scene."""
+def check_supported(scene: Scene, method: str = "rvo", what: str = "the RVO method") -> None:
+    """The 2D methods say so plainly for a 3D scene."""
     if scene.dim != 2:
-        raise ValueError("rvo: the RVO method simulates 2D scenes (walking crowds); this scene is 3D")
+        raise ValueError(f"{method}: {what} simulates 2D scenes (walking crowds); this scene is 3D")
 
 
 class ObstacleSet:
@@ -46,8 +47,8 @@ class ObstacleSet:
     static segments, so agents stay inside the scene.
     """
 
-    def __init__(self, scene: Scene):
-        check_supported(scene)
+    def __init__(self, scene: Scene, method: str = "rvo"):
+        check_supported(scene, method)
         self.circles = [ob for ob in scene.obstacles if isinstance(ob, Circle)]
         self.outlined = [(ob, outline_segments(ob)) for ob in scene.obstacles if not isinstance(ob, Circle)]
         self.outlined.append((None, outline_segments(Box(scene.lower, scene.upper))))

@@ -1,0 +1,145 @@
+"""Parameters of the guiding-mesh formation method and its formation templates: pydantic
+models shared by the scenario's ``[formation]`` block, a group's ``formation`` table and
+the Python API, so all three validate the same way."""
+
+from __future__ import annotations
+
+from typing import Annotated, Literal, Union
+
+from pydantic import BaseModel, ConfigDict, Field, model_validator
+
+PosFloat = Annotated[float, Field(gt=0, allow_inf_nan=False)]
+NonNeg = Annotated[float, Field(ge=0, allow_inf_nan=False)]
+Count = Annotated[int, Field(gt=0, le=1_000_000)]
+
+
+class _Model(BaseModel):
+    model_config = ConfigDict(extra="forbid", frozen=True)
+
+
+class BlockTemplate(_Model):
+    """A rectangular block: ``rows`` ranks one behind the other, ``cols`` files across."""
+
+    kind: Literal["block"]
+    rows: Count
+    cols: Count
+    spacing: PosFloat = 1.0
+
+
+class WedgeTemplate(_Model):
+    """A wedge (arrow head) pointing forward: row k holds 2k + 1 agents."""
+
+    kind: Literal["wedge"]
+    rows: Count
+    spacing: PosFloat = 1.0
+
+
+class CircleTemplate(_Model):
+    """``count`` agents evenly spaced on a circle of ``radius``."""
+
+    kind: Literal["circle"]
+    count: Annotated[int, Field(ge=3, le=1_000_000)]
+    radius: PosFloat
+
+
+class LineTemplate(_Model):
+    """``count`` agents abreast in one line across the direction of travel."""
+
+    kind: Literal["line"]
+    count: Count
+    spacing: PosFloat = 1.0
+
+
+class CarsTemplate(_Model):
+    """Traffic: ``lanes`` × ``per_lane`` cars, each car two agents ``car_width`` apart
+    side by side (the car's heading is the angle of the pair plus 90°)."""
+
+    kind: Literal["cars"]
+    lanes: Count
+    per_lane: Count
+    car_width: PosFloat = 1.8
+    car_gap: PosFloat = 6.0
+    lane_width: PosFloat = 3.5
+
+
+class PointsTemplate(_Model):
+    """Any point set, in the formation's own frame (x forward, y to the left)."""
+
+    kind: Literal["points"]
+    points: list[Annotated[list[float], Field(min_length=2, max_length=2)]] = Field(min_length=1)
+
+
+TemplateSpec = Annotated[Union[BlockTemplate, WedgeTemplate, CircleTemplate, LineTemplate, CarsTemplate,
+                               PointsTemplate], Field(discriminator="kind")]
+
+
+class FormationParams(_Model):
+    """The formation method's parameters (Li & He 2017); the paper gives no numbers, so
+    the defaults are ours, chosen for walking groups in metres and seconds.
+
+    time_step : float          [Δt] seconds per simulation step
+    max_steps : int            steps before the run stops (it stops earlier once every
+                               group has reached its target area and recovered)
+    fps : float | None         output frame rate (None: one frame per step)
+    field_range : float        [r] obstacle potential field range, eq. (2), metres
+    field_cell : float         edge of the uniform environment grid holding the field
+    repulsion : float          speed a vertex gets from the field at f = 1, as a multiple
+                               of the group's preferred speed
+    arap : str                 "two_step" (Igarashi et al. 2005, eq. 1) or "average"
+                               (the paper's cheap variant: the mean of the positions the
+                               fitted triangles propose)
+    shape_gain : float         [1/s] how fast free vertices close the gap to their
+                               as-rigid-as-possible position ("speed set by the error")
+    anchor_weight : float      weight of the soft pull of every vertex to where the
+                               attraction alone would take it (keeps each solve well
+                               posed with fewer than two handles and after tearing)
+    handle_weight : float      weight of the handle constraints (Igarashi's soft handles)
+    tear_ratio : float         an edge longer than this × its rest length is torn
+    relink_ratio : float       a torn edge shorter than this × its rest length is relinked
+    occupy_distance : float    [L] an agent within L of its vertex occupies it; beyond it
+                               is dislocated (§3.2)
+    attraction_radius : float | None
+                               [R(a)] of eq. (4); None: the formation's largest vertex
+                               distance, as the paper suggests
+    reassign : bool            dislocated agents may take any free vertex (§3.2); False
+                               keeps every agent on its own vertex (cars keep their pair)
+    repulsion_range : float    agents nearer than this (beyond contact) push each other
+                               apart, the local repulsion F_r
+    arrive_distance : float    a group whose centre is this close to its goal's centre
+                               (or inside a goal region) is in its target area
+    recovered_error : float    mean relative edge-length error under which a group in its
+                               target area counts as recovered
+    spawn_gap : float          metres kept clear between bodies and obstacles at the start
+    """
+
+    time_step: PosFloat = 0.1
+    max_steps: Annotated[int, Field(gt=0, le=1_000_000)] = 3000
+    fps: PosFloat | None = 24.0
+    field_range: PosFloat = 2.0
+    field_cell: PosFloat = 0.25
+    repulsion: NonNeg = 2.0
+    arap: Literal["two_step", "average"] = "two_step"
+    shape_gain: PosFloat = 3.0
+    anchor_weight: Annotated[float, Field(gt=0, le=10.0, allow_inf_nan=False)] = 0.02
+    handle_weight: Annotated[float, Field(ge=1.0, le=1e8, allow_inf_nan=False)] = 1000.0
+    tear_ratio: Annotated[float, Field(gt=1.0, allow_inf_nan=False)] = 2.5
+    relink_ratio: Annotated[float, Field(gt=1.0, allow_inf_nan=False)] = 1.5
+    occupy_distance: PosFloat = 0.5
+    attraction_radius: PosFloat | None = None
+    reassign: bool = True
+    repulsion_range: NonNeg = 0.3
+    arrive_distance: PosFloat = 1.0
+    recovered_error: PosFloat = 0.02
+    spawn_gap: NonNeg = 0.0
+
+    @model_validator(mode="after")
+    def _ranges(self):
+        if self.relink_ratio > self.tear_ratio:
+            raise ValueError(f"relink_ratio {self.relink_ratio} must not exceed tear_ratio {self.tear_ratio}")
+        return self
+
+
+def make_params(params: FormationParams | dict | None = None, **overrides) -> FormationParams:
+    """FormationParams from an instance, a dict or keywords (pydantic validates)."""
+    base = {} if params is None else (params.model_dump() if isinstance(params, FormationParams) else dict(params))
+    return FormationParams(**{**base, **overrides})
