@@ -35,12 +35,12 @@ def test_obstacle_safe_moves_stops_short_of_a_disc_and_a_moving_wall():
     radius = np.full(3, 0.5)
     # disc of radius 1 at x = 2.2: agent 0 touches at x = 0.7 (t = 0.35 s) in a 1 s step
     circ_c, circ_r, circ_v = np.array([[2.2, 0.0]]), np.array([1.0]), np.zeros((1, 2))
-    # a wall at y = 2 moving down at 1 m/s, agent 2 climbing at 1 m/s
-    seg_a, seg_b, seg_v = np.array([[19.0, 2.0]]), np.array([[21.0, 2.0]]), np.array([[0.0, -1.0]])
+    # a wall at y = 2.2 moving down at 1 m/s, agent 2 climbing at 1 m/s
+    seg_a, seg_b, seg_v = np.array([[19.0, 2.2]]), np.array([[21.0, 2.2]]), np.array([[0.0, -1.0]])
     scale = np.zeros(3)
     K.obstacle_safe_moves(pos, vel, radius, np.ones(3, bool), 1.0, circ_c, circ_r, circ_v, seg_a, seg_b, seg_v,
                           scale)
     assert scale[0] == 0.25 and vel[0, 0] == pytest.approx(0.5)  # 0.5 m < 0.7 m; 1 m would touch
     assert scale[1] == 1.0  # nothing ahead of agent 1
-    # gap 1.5 m closing at 1 + s m/s: s = 1 would touch after 0.75 s, s = 0.5 just keeps clear
+    # gap 1.7 m closing at 1 + s m/s: s = 1 touches after 0.85 s, s = 0.5 keeps clear (1.13 s)
     assert scale[2] == 0.5 and vel[2, 1] == pytest.approx(0.5)
