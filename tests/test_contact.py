@@ -40,7 +40,19 @@ def test_obstacle_safe_moves_stops_short_of_a_disc_and_a_moving_wall():
     scale = np.zeros(3)
     K.obstacle_safe_moves(pos, vel, radius, np.ones(3, bool), 1.0, circ_c, circ_r, circ_v, seg_a, seg_b, seg_v,
                           scale)
-    assert scale[0] == 0.25 and vel[0, 0] == pytest.approx(0.5)  # 0.5 m < 0.7 m; 1 m would touch
+    # head on there is nothing to slide along: halved to 0.5 m < 0.7 m (1 m would touch)
+    assert scale[0] == 0.25 and vel[0, 0] == pytest.approx(0.5)
     assert scale[1] == 1.0  # nothing ahead of agent 1
     # gap 1.7 m closing at 1 + s m/s: s = 1 touches after 0.85 s, s = 0.5 keeps clear (1.13 s)
     assert scale[2] == 0.5 and vel[2, 1] == pytest.approx(0.5)
+
+
+def test_obstacle_safe_moves_slides_along_a_wall():
+    # 0.6 m below a wall y = 1 (body r = 0.5), moving diagonally up-right: the climb is
+    # taken away and the agent slides along the wall at full horizontal speed
+    pos, vel = np.array([[0.0, 0.4]]), np.array([[1.0, 1.0]])
+    scale = np.zeros(1)
+    K.obstacle_safe_moves(pos, vel, np.array([0.5]), np.ones(1, bool), 1.0, np.zeros((0, 2)), np.zeros(0),
+                          np.zeros((0, 2)), np.array([[-5.0, 1.0]]), np.array([[5.0, 1.0]]), np.zeros((1, 2)), scale)
+    assert vel[0] == pytest.approx([1.0, 0.0])
+    assert scale[0] == pytest.approx(1 / np.sqrt(2))

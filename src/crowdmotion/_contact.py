@@ -176,46 +176,72 @@ def resolve_conflicts(pos, vel, radius, active, priority, cell_start, items, ori
     return count
 
 
+@njit(inline="always")
+def _first_block(px, py, vx, vy, r, dt, circ_c, circ_r, circ_v, seg_a, seg_b, seg_v, normal):
+    """Whether the move (vx, vy) over dt meets an obstacle; ``normal`` gets the unit
+    vector from the first obstacle met toward the agent."""
+    for o in range(circ_c.shape[0]):
+        t = _ray_disc(px - circ_c[o, 0], py - circ_c[o, 1], vx - circ_v[o, 0], vy - circ_v[o, 1], circ_r[o] + r)
+        if t < dt * (1.0 + 1e-6):
+            nx, ny = px - circ_c[o, 0], py - circ_c[o, 1]
+            ln = np.sqrt(nx * nx + ny * ny)
+            normal[0], normal[1] = (nx / ln, ny / ln) if ln > 0 else (0.0, 0.0)
+            return True
+    for o in range(seg_a.shape[0]):
+        t = _ray_capsule(px, py, vx - seg_v[o, 0], vy - seg_v[o, 1], seg_a[o, 0], seg_a[o, 1], seg_b[o, 0],
+                         seg_b[o, 1], r)
+        if t < dt * (1.0 + 1e-6):
+            ex, ey = seg_b[o, 0] - seg_a[o, 0], seg_b[o, 1] - seg_a[o, 1]
+            l2 = ex * ex + ey * ey
+            s = 0.0 if l2 <= 0.0 else min(max(((px - seg_a[o, 0]) * ex + (py - seg_a[o, 1]) * ey) / l2, 0.0), 1.0)
+            nx, ny = px - seg_a[o, 0] - s * ex, py - seg_a[o, 1] - s * ey
+            ln = np.sqrt(nx * nx + ny * ny)
+            normal[0], normal[1] = (nx / ln, ny / ln) if ln > 0 else (0.0, 0.0)
+            return True
+    return False
+
+
 @njit(parallel=True, cache=True)
 def obstacle_safe_moves(pos, vel, radius, active, dt, circ_c, circ_r, circ_v, seg_a, seg_b, seg_v, out_scale):
-    """Shorten each active agent's move so that, with every obstacle moving at its own
+    """Change each active agent's move so that, with every obstacle moving at its own
     velocity, it does not come within its radius of one during the step.
 
-    Tries the full move, then halves it (down to 1/16); ``out_scale`` gets the fraction
-    kept (0: stand). Agents that are already touching may move only so as not to be
-    reached sooner. ``vel`` is scaled in place.
+    Tries the full move; if it meets an obstacle, the move with its part toward that
+    obstacle taken away (sliding along it); then each of the two halved down to 1/16.
+    ``out_scale`` gets the length kept over the length wanted (0: stand). ``vel`` is
+    changed in place. A standing agent that a moving obstacle would still reach is left
+    standing (no pass can promise more).
     """
     n = pos.shape[0]
     for i in prange(n):
         out_scale[i] = 1.0
         if not active[i]:
             continue
-        s = 1.0
-        while True:
-            vx, vy = vel[i, 0] * s, vel[i, 1] * s
-            ok = True
-            for o in range(circ_c.shape[0]):
-                t = _ray_disc(pos[i, 0] - circ_c[o, 0], pos[i, 1] - circ_c[o, 1], vx - circ_v[o, 0],
-                              vy - circ_v[o, 1], circ_r[o] + radius[i])
-                if t < dt * (1.0 + 1e-6):
-                    ok = False
+        px, py, r = pos[i, 0], pos[i, 1], radius[i]
+        wx, wy = vel[i, 0], vel[i, 1]
+        normal = np.zeros(2)
+        if not _first_block(px, py, wx, wy, r, dt, circ_c, circ_r, circ_v, seg_a, seg_b, seg_v, normal):
+            continue
+        want = np.sqrt(wx * wx + wy * wy)
+        into = wx * normal[0] + wy * normal[1]
+        tx, ty = (wx - into * normal[0], wy - into * normal[1]) if into < 0.0 else (wx, wy)
+        best_x, best_y = 0.0, 0.0
+        found = False
+        for cx, cy in ((tx, ty), (wx, wy)):
+            if cx * cx + cy * cy <= 1e-18 * want * want:
+                continue  # head on: nothing to slide along
+            s = 1.0
+            while s > 0.05:
+                if not _first_block(px, py, cx * s, cy * s, r, dt, circ_c, circ_r, circ_v, seg_a, seg_b, seg_v,
+                                    normal):
+                    best_x, best_y = cx * s, cy * s
+                    found = True
                     break
-            if ok:
-                for o in range(seg_a.shape[0]):
-                    t = _ray_capsule(pos[i, 0], pos[i, 1], vx - seg_v[o, 0], vy - seg_v[o, 1], seg_a[o, 0],
-                                     seg_a[o, 1], seg_b[o, 0], seg_b[o, 1], radius[i])
-                    if t < dt * (1.0 + 1e-6):
-                        ok = False
-                        break
-            if ok:
+                s *= 0.5
+            if found:
                 break
-            if s < 0.07:
-                s = 0.0
-                break
-            s *= 0.5
-        out_scale[i] = s
-        vel[i, 0] *= s
-        vel[i, 1] *= s
+        vel[i, 0], vel[i, 1] = best_x, best_y
+        out_scale[i] = np.sqrt(best_x * best_x + best_y * best_y) / want if want > 0 else 0.0
 
 
 def grid_for(positions, active, radius, max_speed, dt):

@@ -121,7 +121,7 @@ class FormationParams(_Model):
     arap: Literal["two_step", "average"] = "two_step"
     shape_gain: PosFloat = 3.0
     anchor_weight: Annotated[float, Field(gt=0, le=10.0, allow_inf_nan=False)] = 0.02
-    handle_weight: Annotated[float, Field(ge=1.0, le=1e8, allow_inf_nan=False)] = 1000.0
+    handle_weight: Annotated[float, Field(gt=0, le=1e8, allow_inf_nan=False)] = 10.0
     tear_ratio: Annotated[float, Field(gt=1.0, allow_inf_nan=False)] = 2.5
     relink_ratio: Annotated[float, Field(gt=1.0, allow_inf_nan=False)] = 1.5
     occupy_distance: PosFloat = 0.5

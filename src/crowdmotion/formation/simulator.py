@@ -1,0 +1,389 @@
+"""The guiding-mesh formation simulator (§4): groups whose agents follow a deformable
+mesh that obstacles' potential fields push aside, then recover to the rest shape.
+
+One step (§4.2–4.3), for every group:
+
+1. the mesh advances toward the group's target area (attraction, the same velocity for
+   every vertex); vertices inside a potential field — of the scene's obstacles, eq. (2),
+   or of another group seen as a moving disc — also get the repulsion and a tangential
+   push round the obstacle, and become the handles;
+2. edges stretched beyond ``tear_ratio`` × rest length are torn (their triangles leave
+   the deformation); torn edges back within ``relink_ratio`` are relinked;
+3. the two-step as-rigid-as-possible solve gives every other vertex its desired position;
+   each moves with the attraction plus a correction proportional to its error;
+4. each agent follows its vertex; a dislocated agent heads for the nearest unoccupied
+   vertex, eqs. (3)–(4), with local repulsion from other agents;
+5. a safety pass keeps bodies apart: moves toward an obstacle (static or moving, the
+   scene's bounds included) are shortened so as not to touch within the step, and of two
+   agents that would touch one stands (continuous time, as the audit checks).
+
+In its target area a group feels no forces: its mesh relaxes to the rest shape.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+from scipy.spatial import cKDTree
+
+from crowdmotion._contact import grid_for, obstacle_safe_moves, resolve_conflicts
+from crowdmotion.formation.arap import ARAPSolver
+from crowdmotion.formation.field import PotentialField, disc_field
+from crowdmotion.formation.guidance import AttractionGuide, attraction_magnitude
+from crowdmotion.formation.mesh import FormationMesh, MeshView
+from crowdmotion.formation.params import FormationParams, make_params
+from crowdmotion.formation.templates import Template, from_spec
+from crowdmotion.groups import Disc, MovingTarget, Rect, as_region
+from crowdmotion.obstacle_primitives import ObstacleSet
+from crowdmotion.scene import Scene
+
+GROUP_FIELDS = ("radius", "max_speed", "pref_speed", "start", "heading", "name", "reassign")
+SLOW_DOWN = 2.0  # metres from the goal over which the attraction fades
+REBALANCE_EVERY = 2.0  # seconds between whole-group reassignments in the target area
+
+
+@dataclass
+class FormationGroup:
+    """One group's state: its mesh, solver, guide, vertex positions and history."""
+
+    name: str
+    template: Template
+    mesh: FormationMesh
+    solver: ARAPSolver
+    guide: AttractionGuide
+    vertices: np.ndarray
+    agents: np.ndarray  # global agent indices of this group
+    goal: Any
+    goal_center: np.ndarray
+    pref_speed: float
+    max_speed: float
+    radius: float
+    extent: float
+    arrived_at: float | None = None
+    recovered_at: float | None = None
+    last_field_time: float | None = None
+    handles: int = 0
+    rebalanced_step: int = -10**9
+    torn: int = 0
+    relinked: int = 0
+    edge_error: list = field(default_factory=list)
+
+
+def _region_goal(goal) -> tuple[Any, np.ndarray]:
+    g = as_region(goal, "formation goal")
+    if isinstance(g, MovingTarget):
+        raise ValueError("formation: a group's goal is a target area (point, rect or disc), not a moving target")
+    if g.dim != 2:
+        raise ValueError(f"formation: the goal must be 2D, got {g.dim}D")
+    return g, np.asarray(g.center, float)
+
+
+def edge_length_error(points: np.ndarray, mesh: FormationMesh) -> tuple[float, float]:
+    """Mean and max relative edge-length error of ``points`` (in vertex order) against the
+    rest mesh: |‖p_i − p_j‖ / ‖r_i − r_j‖ − 1| over every edge."""
+    if len(mesh.edges) == 0:
+        return 0.0, 0.0
+    e = np.abs(mesh.edge_ratio(points) - 1.0)
+    return float(e.mean()), float(e.max())
+
+
+class Simulator:
+    """Formation groups in a 2D scene, stepped together.
+
+    >>> sim = Simulator(scene, time_step=0.1)
+    >>> gid = sim.add_group(block(10, 10), goal=(60, 0), start=(0, 0))   # doctest: +SKIP
+    >>> sim.step(); sim.positions.shape                                   # doctest: +SKIP
+    """
+
+    def __init__(self, scene: Scene, time_step: float = 0.1, params: FormationParams | dict | None = None,
+                 rng: np.random.Generator | None = None, **overrides):
+        self.params = make_params(params, time_step=time_step, **overrides)
+        self.scene = scene
+        self.dt = float(self.params.time_step)
+        self.field = PotentialField(scene, self.params.field_range, self.params.field_cell)
+        self.obstacles = ObstacleSet(scene, "formation")
+        self.rng = np.random.default_rng(0) if rng is None else rng
+        self.groups: list[FormationGroup] = []
+        self.positions = np.zeros((0, 2))
+        self.velocities = np.zeros((0, 2))
+        self.radius = np.zeros(0)
+        self.max_speed = np.zeros(0)
+        self.group_of = np.zeros(0, np.int64)
+        self.time = 0.0
+        self.steps = 0
+        self.stats = {"agent_steps": 0, "safety_stops": 0, "obstacle_cuts": 0}
+
+    # ---- building ------------------------------------------------------------------------
+    def add_group(self, template, goal, **params) -> int:
+        """Add a formation; returns its group id.
+
+        ``template``: a :class:`Template` (see :mod:`crowdmotion.formation.templates`), a
+        template spec, or an (n, 2) array of start positions (any point set). ``goal``: a
+        point or a Rect / Disc target area. Keywords: ``start`` (where the template's
+        centre starts; default: the array's own positions, or the origin), ``heading``
+        (radians; default: facing the goal), ``radius``, ``max_speed``, ``pref_speed``,
+        ``name``, ``reassign`` (default: the simulator's).
+        """
+        unknown = set(params) - set(GROUP_FIELDS)
+        if unknown:
+            raise ValueError(f"formation.add_group: unknown parameter(s) {sorted(unknown)}; "
+                             f"expected some of {list(GROUP_FIELDS)}")
+        name = str(params.get("name", f"group{len(self.groups)}"))
+        what = f"formation group {name!r}"
+        radius = _positive(params.get("radius", 0.25), f"{what}: radius")
+        max_speed = _positive(params.get("max_speed", 1.5), f"{what}: max_speed")
+        pref_speed = _positive(params.get("pref_speed", min(1.3, max_speed)), f"{what}: pref_speed")
+        if pref_speed > max_speed:
+            raise ValueError(f"{what}: pref_speed {pref_speed} exceeds max_speed {max_speed}")
+        region, gc = _region_goal(goal)
+        absolute = not isinstance(template, Template) and not hasattr(template, "kind")
+        if absolute:
+            pts = np.asarray(template, float)
+            start_pos = pts
+            tpl = Template(np.asarray(pts, float) - pts.mean(axis=0) if pts.ndim == 2 else pts)
+        else:
+            tpl = from_spec(template)
+            start = np.asarray(params.get("start", (0.0, 0.0)), float).ravel()
+            if start.shape != (2,) or not np.isfinite(start).all():
+                raise ValueError(f"{what}: start must be a finite 2D point, got {params.get('start')!r}")
+            to_goal = gc - start
+            heading = params.get("heading", float(np.arctan2(to_goal[1], to_goal[0])))
+            if not np.isfinite(float(heading)):
+                raise ValueError(f"{what}: heading must be a finite angle in radians, got {heading!r}")
+            start_pos = tpl.placed(start, float(heading))
+        mesh = FormationMesh(start_pos, what)  # checks NaN, duplicates; warns on a chain
+        self._check_start(start_pos, radius, gc, what)
+        p = self.params
+        n = len(start_pos)
+        solver = ARAPSolver(mesh, p.handle_weight, p.anchor_weight)
+        reassign = bool(params.get("reassign", p.reassign))
+        guide = AttractionGuide(n, p.occupy_distance, reassign)
+        extent = float(np.linalg.norm(start_pos - start_pos.mean(axis=0), axis=1).max()) + radius
+        idx = np.arange(len(self.positions), len(self.positions) + n)
+        grp = FormationGroup(name, tpl, mesh, solver, guide, start_pos.copy(), idx, region, gc, pref_speed, max_speed,
+                             radius, extent)
+        self.groups.append(grp)
+        self.positions = np.concatenate([self.positions, start_pos])
+        self.velocities = np.concatenate([self.velocities, np.zeros((n, 2))])
+        self.radius = np.concatenate([self.radius, np.full(n, radius)])
+        self.max_speed = np.concatenate([self.max_speed, np.full(n, max_speed)])
+        self.group_of = np.concatenate([self.group_of, np.full(n, len(self.groups) - 1)])
+        return len(self.groups) - 1
+
+    def _check_start(self, pos: np.ndarray, radius: float, goal: np.ndarray, what: str) -> None:
+        lo, hi = self.scene.lower, self.scene.upper
+        out = np.any((pos - radius < lo) | (pos + radius > hi), axis=1)
+        if out.any():
+            i = int(np.flatnonzero(out)[0])
+            raise ValueError(f"{what}: agent {i} at {pos[i].round(3).tolist()} is outside the scene bounds "
+                             f"{lo.tolist()}-{hi.tolist()}")
+        clear = self.scene.obstacle_distance(pos, 0.0)
+        if np.any(clear < radius):
+            i = int(np.argmin(clear))
+            raise ValueError(f"{what}: agent {i} starts at {pos[i].round(3).tolist()} inside or touching an obstacle "
+                             f"(clearance {clear[i]:.3g} m < radius {radius} m)")
+        gclear = float(self.scene.obstacle_distance(goal[None], 0.0)[0])
+        if gclear < radius:
+            raise ValueError(f"{what}: the goal {goal.tolist()} is inside an obstacle (clearance {gclear:.3g} m)")
+        pairs = cKDTree(pos).query_pairs(2 * radius, output_type="ndarray")
+        if len(pairs):
+            i, j = (int(v) for v in pairs[0])
+            raise ValueError(f"{what}: agents {i} and {j} overlap at the start ({np.linalg.norm(pos[i] - pos[j]):.3g} m "
+                             f"apart < 2 x radius {2 * radius} m); widen the template's spacing")
+        if len(self.positions):
+            d, j = cKDTree(self.positions).query(pos)
+            bad = d < radius + self.radius[j]
+            if bad.any():
+                i = int(np.flatnonzero(bad)[0])
+                raise ValueError(f"{what}: agent {i} overlaps agent {int(j[i])} of group "
+                                 f"{self.groups[self.group_of[j[i]]].name!r} at the start")
+
+    # ---- stepping ------------------------------------------------------------------------
+    def _discs(self) -> tuple[np.ndarray, np.ndarray]:
+        """Each group as a moving disc: its agents' centre and reach."""
+        c = np.array([self.positions[g.agents].mean(axis=0) for g in self.groups]).reshape(-1, 2)
+        r = np.array([np.linalg.norm(self.positions[g.agents] - c[k], axis=1).max() + g.radius
+                      for k, g in enumerate(self.groups)])
+        return c, r
+
+    def _advance_mesh(self, k: int, g: FormationGroup, centers: np.ndarray, reach: np.ndarray) -> None:
+        p = self.params
+        dt = self.dt
+        V = g.vertices
+        centroid = V.mean(axis=0)
+        in_area = g.arrived_at is not None
+        if not in_area:
+            to_goal = g.goal_center - centroid
+            dist = float(np.linalg.norm(to_goal))
+            inside = isinstance(g.goal, (Rect, Disc)) and bool(g.goal.contains(centroid[None])[0])
+            if dist <= p.arrive_distance or inside:
+                g.arrived_at = self.time
+                in_area = True
+        if in_area:
+            u = np.zeros(2)
+            handles = np.zeros(0, np.int64)
+            fvec = np.zeros((len(V), 2))
+            fmag = np.zeros(len(V))
+        else:
+            # the mesh waits for its agents: the attraction fades as more are dislocated
+            wait = max(0.1, 1.0 - 2.0 * float(g.guide.dislocated.mean()))
+            u = wait * g.pref_speed * to_goal / dist * min(1.0, dist / SLOW_DOWN)
+            fvec, fmag = self.field.sample(V)
+            others = np.arange(len(self.groups)) != k
+            if others.any():
+                gv, gf = disc_field(V, centers[others], reach[others], p.field_range)
+                fvec = fvec + gv
+                fmag = np.maximum(fmag, gf)
+            handles = np.flatnonzero(fmag > 0)
+        g.handles = len(handles)
+        if len(handles):
+            g.last_field_time = self.time
+        moved = V + dt * u
+        # every vertex is pulled weakly to its place in the rest shape (with the group's
+        # heading) centred on the mesh: torn-off vertices come back until their edges
+        # relink, and the formation keeps facing the way it set out
+        anchor = g.mesh.rest - g.mesh.rest.mean(axis=0) + centroid + dt * u
+        torn, relinked = g.mesh.update_tearing(V, p.tear_ratio, p.relink_ratio)
+        g.torn += torn
+        g.relinked += relinked
+        targets = V[handles] + dt * self._steer(V[handles], np.broadcast_to(u, (len(handles), 2)), fvec[handles],
+                                                fmag[handles], V[handles] - centroid, g.pref_speed, g.max_speed)
+        desired = g.solver.deform(handles, targets, anchor, p.arap)
+        new = moved + min(1.0, p.shape_gain * dt) * (desired - moved)
+        new[handles] = desired[handles]  # handles: the field's push, held back by the mesh
+        step = new - V
+        sl = np.linalg.norm(step, axis=1, keepdims=True)
+        cap = g.max_speed * dt
+        new = V + np.where(sl > cap, step * cap / np.maximum(sl, 1e-300), step)
+        g.vertices = np.clip(new, self.scene.lower + g.radius, self.scene.upper - g.radius)
+
+    def _steer(self, X, u, fvec, fmag, side, pref, vmax) -> np.ndarray:
+        """Velocity at points X (k, 2) in a potential field: the attraction u (k, 2) plus
+        the repulsion (the field's f·direction × ``repulsion`` × pref speed), plus a slide
+        along the obstacle when the attraction drives into it: tangential, on the side
+        where the attraction leans or, head on, on the side given by ``side`` (k, 2)."""
+        if len(X) == 0:
+            return np.zeros((0, 2))
+        vel = u + self.params.repulsion * pref * fvec
+        norm = np.linalg.norm(fvec, axis=1, keepdims=True)
+        rhat = np.divide(fvec, norm, out=np.zeros_like(fvec), where=norm > 0)
+        into = np.einsum("ij,ij->i", rhat, u) < 0
+        tang = np.stack([-rhat[:, 1], rhat[:, 0]], axis=1)
+        lean = np.einsum("ij,ij->i", tang, u)
+        sign = np.where(np.abs(lean) > 1e-9 * pref, np.sign(lean),
+                        np.where(np.einsum("ij,ij->i", tang, side) >= 0, 1.0, -1.0))
+        vel += (into * fmag * pref * sign)[:, None] * tang
+        sp = np.linalg.norm(vel, axis=1, keepdims=True)
+        return np.where(sp > vmax, vel * vmax / np.maximum(sp, 1e-300), vel)
+
+    def _agent_velocities(self) -> None:
+        p = self.params
+        dt = self.dt
+        want = np.zeros_like(self.positions)
+        for g in self.groups:
+            o = self.positions[g.agents]
+            if g.arrived_at is not None and g.guide.reassign and g.guide.dislocated.any() and \
+                    (self.steps - g.rebalanced_step) * dt >= REBALANCE_EVERY:
+                g.guide.rebalance(o, g.vertices)
+                g.rebalanced_step = self.steps
+            lost = g.guide.update(o, g.vertices)
+            target = g.vertices[g.guide.assignment]
+            v = (target - o) / dt  # occupied: follow the vertex
+            if lost.any():  # dislocated: eqs. (3)-(4), full speed at distance L and beyond
+                R = p.attraction_radius or max(2 * g.extent, 2 * p.occupy_distance + 2 * g.radius)
+                d = target[lost] - o[lost]
+                l = np.linalg.norm(d, axis=1)
+                f = attraction_magnitude(l, R, g.radius)
+                scale = np.minimum(1.0, f / attraction_magnitude(p.occupy_distance, R, g.radius))
+                v[lost] = g.max_speed * scale[:, None] * np.divide(d, l[:, None], out=np.zeros_like(d),
+                                                                   where=l[:, None] > 0)
+                v[lost] += self._repulsion(g.agents[lost], g.max_speed)
+                fvec, fmag = self.field.sample(o[lost])  # small obstacles push too, and slide round
+                v[lost] = self._steer(o[lost], v[lost], fvec, fmag, o[lost] - o.mean(axis=0), g.max_speed,
+                                      g.max_speed)
+            want[g.agents] = v
+        sp = np.linalg.norm(want, axis=1)
+        over = sp > self.max_speed
+        want[over] *= (self.max_speed[over] / sp[over])[:, None]
+        self.velocities = want
+
+    def _repulsion(self, who: np.ndarray, speed: float) -> np.ndarray:
+        """Local repulsion F_r on agents ``who`` from every agent within contact +
+        ``repulsion_range``: (1 − gap/range) × speed, away from each."""
+        rng_ = self.params.repulsion_range
+        out = np.zeros((len(who), 2))
+        if rng_ <= 0 or len(who) == 0:
+            return out
+        reach = 2 * self.radius.max() + rng_
+        near = cKDTree(self.positions[who]).sparse_distance_matrix(cKDTree(self.positions), reach,
+                                                                   output_type="coo_matrix")
+        a, b = near.row, near.col
+        keep = who[a] != b
+        a, b, d = a[keep], b[keep], near.data[keep]
+        gap = d - self.radius[who[a]] - self.radius[b]
+        w = np.clip(1.0 - gap / rng_, 0.0, 1.0) * speed
+        dirs = (self.positions[who[a]] - self.positions[b]) / np.maximum(d, 1e-12)[:, None]
+        for c in (0, 1):
+            out[:, c] = np.bincount(a, w * dirs[:, c], len(who))
+        return out
+
+    def step(self) -> None:
+        """Advance every group and agent by one time step."""
+        if not self.groups:
+            self.time += self.dt
+            self.steps += 1
+            return
+        self.field.update(self.time)
+        centers, reach = self._discs()
+        for k, g in enumerate(self.groups):
+            self._advance_mesh(k, g, centers, reach)
+        self._agent_velocities()
+        active = np.ones(len(self.positions), dtype=bool)
+        prims = self.obstacles.at(self.time, self.dt)
+        scale = np.ones(len(self.positions))
+        obstacle_safe_moves(self.positions, self.velocities, self.radius, active, self.dt, prims.circ_c, prims.circ_r,
+                            prims.circ_v, prims.seg_a, prims.seg_b, prims.seg_v, scale)
+        self.stats["obstacle_cuts"] += int((scale < 1).sum())
+        grid = grid_for(self.positions, active, self.radius, self.max_speed, self.dt)
+        self.stats["safety_stops"] += resolve_conflicts(self.positions, self.velocities, self.radius, active,
+                                                        self.rng.random(len(self.positions)), *grid, self.dt)
+        self.positions = self.positions + self.velocities * self.dt
+        self.stats["agent_steps"] += len(self.positions)
+        self.time += self.dt
+        self.steps += 1
+        self._bookkeeping()
+
+    def _bookkeeping(self) -> None:
+        for g in self.groups:
+            mean, _ = edge_length_error(self.positions[g.agents][g.guide.slot_order], g.mesh)
+            g.edge_error.append(mean)
+            if g.arrived_at is not None and g.recovered_at is None and mean < self.params.recovered_error \
+                    and not g.guide.dislocated.any():
+                g.recovered_at = self.time
+
+    @property
+    def done(self) -> bool:
+        """Every group is in its target area and has recovered its formation."""
+        return all(g.recovered_at is not None for g in self.groups)
+
+    def mesh(self, gid: int) -> MeshView:
+        """Group ``gid``'s mesh now: vertices, edges, triangles and their torn flags."""
+        g = self.groups[gid]
+        return g.mesh.view(g.vertices)
+
+    def slot_positions(self, gid: int) -> np.ndarray:
+        """Group ``gid``'s agents in vertex order (the agent following each vertex)."""
+        g = self.groups[gid]
+        return self.positions[g.agents][g.guide.slot_order]
+
+
+def _positive(value, what: str) -> float:
+    try:
+        v = float(value)
+    except (TypeError, ValueError):
+        raise ValueError(f"{what} must be a positive number, got {value!r}") from None
+    if not np.isfinite(v) or v <= 0:
+        raise ValueError(f"{what} must be a positive number, got {value!r}")
+    return v
