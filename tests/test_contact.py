@@ -38,7 +38,7 @@ def test_obstacle_safe_moves_stops_short_of_a_disc_and_a_moving_wall():
     # a wall at y = 2.2 moving down at 1 m/s, agent 2 climbing at 1 m/s
     seg_a, seg_b, seg_v = np.array([[19.0, 2.2]]), np.array([[21.0, 2.2]]), np.array([[0.0, -1.0]])
     scale = np.zeros(3)
-    K.obstacle_safe_moves(pos, vel, radius, np.ones(3, bool), 1.0, circ_c, circ_r, circ_v, seg_a, seg_b, seg_v,
+    K.obstacle_safe_moves(pos, vel, radius, np.full(3, 2.0), np.ones(3, bool), 1.0, circ_c, circ_r, circ_v, seg_a, seg_b, seg_v,
                           scale)
     # head on there is nothing to slide along: halved to 0.5 m < 0.7 m (1 m would touch)
     assert scale[0] == 0.25 and vel[0, 0] == pytest.approx(0.5)
@@ -52,7 +52,17 @@ def test_obstacle_safe_moves_slides_along_a_wall():
     # taken away and the agent slides along the wall at full horizontal speed
     pos, vel = np.array([[0.0, 0.4]]), np.array([[1.0, 1.0]])
     scale = np.zeros(1)
-    K.obstacle_safe_moves(pos, vel, np.array([0.5]), np.ones(1, bool), 1.0, np.zeros((0, 2)), np.zeros(0),
+    K.obstacle_safe_moves(pos, vel, np.array([0.5]), np.array([2.0]), np.ones(1, bool), 1.0, np.zeros((0, 2)), np.zeros(0),
                           np.zeros((0, 2)), np.array([[-5.0, 1.0]]), np.array([[5.0, 1.0]]), np.zeros((1, 2)), scale)
     assert vel[0] == pytest.approx([1.0, 0.0])
     assert scale[0] == pytest.approx(1 / np.sqrt(2))
+
+
+def test_obstacle_safe_moves_flees_a_disc_that_would_run_it_over():
+    # a disc (r = 1) 2 m behind, coming at 1.5 m/s: standing is hit within the 1 s step
+    pos, vel = np.array([[0.0, 0.0]]), np.array([[0.0, 0.0]])
+    K.obstacle_safe_moves(pos, vel, np.array([0.5]), np.array([2.0]), np.ones(1, bool), 1.0,
+                          np.array([[-2.0, 0.0]]), np.array([1.0]), np.array([[1.5, 0.0]]), np.zeros((0, 2)),
+                          np.zeros((0, 2)), np.zeros((0, 2)), np.zeros(1))
+    assert np.linalg.norm(vel[0]) == pytest.approx(2.0)
+    assert K._ray_disc(2.0, 0.0, vel[0, 0] - 1.5, vel[0, 1], 1.5) >= 1.0  # the flight keeps clear

@@ -202,15 +202,16 @@ def _first_block(px, py, vx, vy, r, dt, circ_c, circ_r, circ_v, seg_a, seg_b, se
 
 
 @njit(parallel=True, cache=True)
-def obstacle_safe_moves(pos, vel, radius, active, dt, circ_c, circ_r, circ_v, seg_a, seg_b, seg_v, out_scale):
+def obstacle_safe_moves(pos, vel, radius, vmax, active, dt, circ_c, circ_r, circ_v, seg_a, seg_b, seg_v, out_scale):
     """Change each active agent's move so that, with every obstacle moving at its own
     velocity, it does not come within its radius of one during the step.
 
     Tries the full move; if it meets an obstacle, the move with its part toward that
-    obstacle taken away (sliding along it); then each of the two halved down to 1/16.
-    ``out_scale`` gets the length kept over the length wanted (0: stand). ``vel`` is
-    changed in place. A standing agent that a moving obstacle would still reach is left
-    standing (no pass can promise more).
+    obstacle taken away (sliding along it); then each of the two halved down to 1/16;
+    then standing; then, when even standing is not safe (a moving obstacle is coming),
+    fleeing at ``vmax`` away from it, straight or turned by up to ±90°. ``out_scale``
+    gets the length kept over the length wanted. ``vel`` is changed in place. An agent
+    with no safe choice at all stands (no pass can promise more).
     """
     n = pos.shape[0]
     for i in prange(n):
@@ -240,6 +241,14 @@ def obstacle_safe_moves(pos, vel, radius, active, dt, circ_c, circ_r, circ_v, se
                 s *= 0.5
             if found:
                 break
+        if not found and _first_block(px, py, 0.0, 0.0, r, dt, circ_c, circ_r, circ_v, seg_a, seg_b, seg_v, normal):
+            nx, ny = normal[0], normal[1]
+            for ang in (0.0, 0.7853981633974483, -0.7853981633974483, 1.5707963267948966, -1.5707963267948966):
+                ca, sa = np.cos(ang), np.sin(ang)
+                ex, ey = (nx * ca - ny * sa) * vmax[i], (nx * sa + ny * ca) * vmax[i]
+                if not _first_block(px, py, ex, ey, r, dt, circ_c, circ_r, circ_v, seg_a, seg_b, seg_v, normal):
+                    best_x, best_y = ex, ey
+                    break
         vel[i, 0], vel[i, 1] = best_x, best_y
         out_scale[i] = np.sqrt(best_x * best_x + best_y * best_y) / want if want > 0 else 0.0
 

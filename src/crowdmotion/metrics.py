@@ -346,3 +346,26 @@ def group_report(traj: Trajectories) -> dict:
             "path_length_ratio": float(ratio.mean()) if ratio.size else None,
         }
     return report
+
+
+def edge_length_error(points: np.ndarray, rest: np.ndarray, edges: np.ndarray) -> tuple[float, float]:
+    """Formation deviation: mean and max relative edge-length error of ``points`` (n, 2)
+    against the ``rest`` positions over ``edges`` (m, 2): |‖p_i − p_j‖ / ‖r_i − r_j‖ − 1|."""
+    if len(edges) == 0:
+        return 0.0, 0.0
+    cur = np.linalg.norm(points[edges[:, 0]] - points[edges[:, 1]], axis=1)
+    ref = np.linalg.norm(rest[edges[:, 0]] - rest[edges[:, 1]], axis=1)
+    e = np.abs(cur / ref - 1.0)
+    return float(e.mean()), float(e.max())
+
+
+def kabsch_rms(points: np.ndarray, template: np.ndarray) -> float:
+    """Formation deviation: RMS distance from ``points`` (n, d) to ``template`` (n, d) after
+    the best rotation and translation of the template (Kabsch; reflections excluded)."""
+    p = points - points.mean(axis=0)
+    q = template - template.mean(axis=0)
+    u, _, vt = np.linalg.svd(q.T @ p)
+    d = np.ones(p.shape[1])
+    d[-1] = np.sign(np.linalg.det(u @ vt)) or 1.0
+    rot = u @ np.diag(d) @ vt
+    return float(np.sqrt(np.mean(np.sum((q @ rot - p) ** 2, axis=1))))

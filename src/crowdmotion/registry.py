@@ -13,7 +13,8 @@ from crowdmotion._validation import error_lines
 # name -> module exposing ``Params`` (frozen dataclass) and
 # ``run_scenario(scene, groups, params, rng, progress) -> (Trajectories, extras, summary)``; optional
 # ``check_scenario(scene, groups, params)`` (refuses a scenario at load) and ``write_plots``
-_METHODS = {"mdp": "crowdmotion.mdp.adapter", "rvo": "crowdmotion.rvo.adapter", "pso": "crowdmotion.pso.adapter"}
+_METHODS = {"mdp": "crowdmotion.mdp.adapter", "rvo": "crowdmotion.rvo.adapter", "pso": "crowdmotion.pso.adapter",
+            "formation": "crowdmotion.formation.adapter"}
 
 
 @dataclass(frozen=True)

@@ -1,7 +1,7 @@
 """Scenario TOML files: schema (pydantic), loading with field-named errors, and running.
 
 A scenario is one TOML file: ``[scene]`` (bounds, obstacles), ``[[groups]]``,
-``method`` with its own parameter block (``[mdp]``, ``[rvo]``, ``[pso]``), ``seed`` and ``[output]``. Nothing
+``method`` with its own parameter block (``[mdp]``, ``[rvo]``, ``[pso]``, ``[formation]``), ``seed`` and ``[output]``. Nothing
 in the file is ever executed. Each method adds its block here without changing the rest.
 """
 
@@ -17,6 +17,7 @@ from pydantic import BaseModel, ConfigDict, Field, ValidationError, field_valida
 
 from crowdmotion import groups as G
 from crowdmotion._validation import error_lines
+from crowdmotion.formation.params import FormationParams, TemplateSpec
 from crowdmotion.pso.params import PSOParams
 from crowdmotion.rvo.params import RVOParams
 from crowdmotion import scene as S
@@ -131,6 +132,7 @@ class GroupSpec(_Model):
     max_speed: PosFloat = 1.5
     pref_speed: PosFloat = 1.3
     personality: str | list[float] | dict[str, Any] | None = None
+    formation: TemplateSpec | None = None
     attributes: dict[str, Any] = {}
 
     @field_validator("personality")
@@ -164,19 +166,20 @@ class MDPSpec(_Model):
 
 class OutputSpec(_Model):
     formats: list[Literal["parquet", "csv"]] = ["parquet"]
-    plots: list[Literal["paths", "values"]] = ["paths", "values"]
+    plots: list[Literal["paths", "values", "snapshots"]] = ["paths", "values", "snapshots"]
 
 
 class ScenarioSpec(_Model):
     name: str = "scenario"
     description: str = ""
-    method: Literal["mdp", "rvo", "pso"]
+    method: Literal["mdp", "rvo", "pso", "formation"]
     seed: Annotated[int, Field(ge=0)] = 0
     scene: SceneSpec
     groups: list[GroupSpec] = Field(min_length=1)
     mdp: MDPSpec = MDPSpec()
     rvo: RVOParams = RVOParams()
     pso: PSOParams = PSOParams()
+    formation: FormationParams = FormationParams()
     output: OutputSpec = OutputSpec()
 
     @field_validator("groups")
@@ -272,6 +275,8 @@ def _attributes(g: GroupSpec) -> dict:
     out = dict(g.attributes)
     if g.personality is not None:
         out["personality"] = g.personality
+    if g.formation is not None:
+        out["formation"] = g.formation
     return out
 
 

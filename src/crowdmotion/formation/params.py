@@ -129,7 +129,7 @@ class FormationParams(_Model):
     reassign: bool = True
     repulsion_range: NonNeg = 0.3
     arrive_distance: PosFloat = 1.0
-    recovered_error: PosFloat = 0.02
+    recovered_error: PosFloat = 0.01
     spawn_gap: NonNeg = 0.0
 
     @model_validator(mode="after")

@@ -36,6 +36,7 @@ from crowdmotion.formation.mesh import FormationMesh, MeshView
 from crowdmotion.formation.params import FormationParams, make_params
 from crowdmotion.formation.templates import Template, from_spec
 from crowdmotion.groups import Disc, MovingTarget, Rect, as_region
+from crowdmotion.metrics import edge_length_error
 from crowdmotion.obstacle_primitives import ObstacleSet
 from crowdmotion.scene import Scene
 
@@ -78,15 +79,6 @@ def _region_goal(goal) -> tuple[Any, np.ndarray]:
     if g.dim != 2:
         raise ValueError(f"formation: the goal must be 2D, got {g.dim}D")
     return g, np.asarray(g.center, float)
-
-
-def edge_length_error(points: np.ndarray, mesh: FormationMesh) -> tuple[float, float]:
-    """Mean and max relative edge-length error of ``points`` (in vertex order) against the
-    rest mesh: |‖p_i − p_j‖ / ‖r_i − r_j‖ − 1| over every edge."""
-    if len(mesh.edges) == 0:
-        return 0.0, 0.0
-    e = np.abs(mesh.edge_ratio(points) - 1.0)
-    return float(e.mean()), float(e.max())
 
 
 class Simulator:
@@ -343,7 +335,7 @@ class Simulator:
         active = np.ones(len(self.positions), dtype=bool)
         prims = self.obstacles.at(self.time, self.dt)
         scale = np.ones(len(self.positions))
-        obstacle_safe_moves(self.positions, self.velocities, self.radius, active, self.dt, prims.circ_c, prims.circ_r,
+        obstacle_safe_moves(self.positions, self.velocities, self.radius, self.max_speed, active, self.dt, prims.circ_c, prims.circ_r,
                             prims.circ_v, prims.seg_a, prims.seg_b, prims.seg_v, scale)
         self.stats["obstacle_cuts"] += int((scale < 1).sum())
         grid = grid_for(self.positions, active, self.radius, self.max_speed, self.dt)
@@ -357,7 +349,7 @@ class Simulator:
 
     def _bookkeeping(self) -> None:
         for g in self.groups:
-            mean, _ = edge_length_error(self.positions[g.agents][g.guide.slot_order], g.mesh)
+            mean, _ = edge_length_error(self.positions[g.agents][g.guide.slot_order], g.mesh.rest, g.mesh.edges)
             g.edge_error.append(mean)
             if g.arrived_at is not None and g.recovered_at is None and mean < self.params.recovered_error \
                     and not g.guide.dislocated.any():

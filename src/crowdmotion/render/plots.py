@@ -1,4 +1,4 @@
-"""Matplotlib figures: agent paths over the scene, and MDP value fields."""
+"""Matplotlib figures: agent paths over the scene, MDP value fields, formation meshes."""
 
 from __future__ import annotations
 
@@ -172,4 +172,42 @@ def plot_group_report(rows: dict, path, title: str = "", panels=REPORT_PANELS) -
     if title:
         fig.suptitle(title)
     fig.tight_layout()
+    return _save(fig, path)
+
+
+def plot_formation_snapshots(scene: Scene, snapshots: list[dict], path, title: str = "", window=None) -> Path:
+    """Panels of formation meshes at chosen moments (as the paper's Figs. 6–8).
+
+    Each snapshot is ``{"time": t, "label": str, "groups": [{"vertices": (n, 2),
+    "edges": (m, 2), "torn": (m,), "agents": (n, 2), "radius": float,
+    "dislocated": (n,) bool}, ...]}``: mesh edges (torn ones red, dashed), agents as
+    discs (dislocated ones black), obstacles where they are at that time.
+    ``window`` = (lower, upper) crops every panel (default: the scene's bounds).
+    """
+    k = len(snapshots)
+    lo, hi = (scene.lower, scene.upper) if window is None else (np.asarray(window[0]), np.asarray(window[1]))
+    aspect = (hi[1] - lo[1]) / (hi[0] - lo[0])
+    cols = 2 if k > 1 else 1
+    rows = (k + cols - 1) // cols
+    fig, axes = plt.subplots(rows, cols, figsize=(6.5 * cols, 6.5 * rows * aspect + 0.7), squeeze=False)
+    cmap = plt.get_cmap("tab10")
+    for ax, snap in zip(axes.ravel(), snapshots):
+        _draw_obstacles_2d(ax, scene, snap["time"])
+        for gi, g in enumerate(snap["groups"]):
+            v, e, torn = g["vertices"], g["edges"], g["torn"]
+            for sel, style in ((~torn, dict(color=cmap(gi % 10), lw=0.6, alpha=0.7)),
+                               (torn, dict(color="red", lw=0.6, alpha=0.6, ls="--"))):
+                if sel.any():
+                    seg = v[e[sel]]
+                    ax.plot(seg[:, :, 0].T, seg[:, :, 1].T, **style, zorder=3)
+            for p, lost in zip(g["agents"], g["dislocated"]):
+                ax.add_patch(patches.Circle(p, g["radius"], color="k" if lost else cmap(gi % 10), zorder=4))
+        ax.set_xlim(lo[0], hi[0])
+        ax.set_ylim(lo[1], hi[1])
+        ax.set_aspect("equal")
+        ax.set_title(f"{snap.get('label', '')} t = {snap['time']:.1f} s", fontsize=10)
+    for ax in axes.ravel()[k:]:
+        ax.axis("off")
+    if title:
+        fig.suptitle(title)
     return _save(fig, path)

@@ -1,0 +1,61 @@
+"""The formation method as the scenario runner and CLI see it: run, progress bar,
+summary with the formation measures, figures."""
+
+from __future__ import annotations
+
+import numpy as np
+from tqdm.auto import tqdm
+
+from crowdmotion import metrics
+from crowdmotion.formation.params import FormationParams
+from crowdmotion.formation.simulate import FormationRun, build_simulator, run
+
+Params = FormationParams
+
+
+def check_scenario(scene, groups, params: FormationParams) -> None:
+    """Problems a scenario can be refused for before running: a 3D scene, a template
+    that does not match the count, duplicate or blocked starts, a goal in an obstacle."""
+    build_simulator(scene, groups, params, np.random.default_rng(0))
+
+
+def run_scenario(scene, groups, params: FormationParams, rng, progress: bool = True):
+    with tqdm(total=params.max_steps, desc="formation steps", unit="step", disable=not progress, delay=1.0,
+              leave=False) as bar:
+        result = run(scene, groups, params, rng, progress=bar.update)
+    traj = result.trajectories
+    summary = metrics.summary(traj, scene)
+    sim = result.simulator
+    summary.update({
+        "method": "formation",
+        "steps": sim.steps,
+        "all_recovered": sim.done,
+        "formation": result.report,
+        "rules": dict(sim.stats),
+        "groups": metrics.group_report(traj),
+    })
+    return traj, result, summary
+
+
+def snapshot_steps(result: FormationRun) -> list[tuple[int, str]]:
+    """Four moments worth showing: the start, the most deformed step, halfway from there
+    to the end, and the end."""
+    err = np.max([np.concatenate([[0.0], g.edge_error]) for g in result.simulator.groups], axis=0)
+    last = len(result.frames) - 1
+    worst = int(np.argmax(err))
+    return [(0, "start"), (worst, "most deformed"), ((worst + last) // 2, "recovering"), (last, "end")]
+
+
+def write_plots(scene, result: FormationRun, out, which, title: str = "") -> list:
+    """``paths``: every agent's path; ``snapshots``: the meshes at four moments."""
+    from crowdmotion.render import plot_formation_snapshots, plot_paths
+
+    written = []
+    if "paths" in which:
+        goals = np.array([g.goal_center for g in result.simulator.groups])
+        written.append(plot_paths(result.trajectories, scene, out / "paths.png", title=title, goals=goals))
+    if "snapshots" in which:
+        dt = result.simulator.dt
+        snaps = [{"time": s * dt, "label": label, "groups": result.snapshot(s)} for s, label in snapshot_steps(result)]
+        written.append(plot_formation_snapshots(scene, snaps, out / "snapshots.png", title=title))
+    return written
