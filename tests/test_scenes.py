@@ -23,9 +23,15 @@ def test_builtin_scene_is_clean_and_gathers(name):
     elif result.scenario.method == "rvo":  # everyone reaches their own goal point
         assert s["arrival_rate"] == 1.0, s
         assert set(s["groups"]) == {g.name for g in result.scenario.groups}
-    else:  # pso: every group gathers (threshold or the group arrival rule)
+    elif result.scenario.method == "pso":  # every group gathers (threshold or the group arrival rule)
         assert s["arrival_rate"] == 1.0, s
         assert all(s["groups_gathered"].values()), s["groups_gathered"]
+    else:  # formation: every group reaches its target area and recovers its shape
+        assert s["all_recovered"], s["formation"]
+        for name, g in s["formation"].items():
+            assert g["recovered_s"] is not None, name
+            assert g["edge_length_error_mean"] < 0.02, (name, g)
+            assert g["kabsch_rms_m"] < 0.1, (name, g)
 
 
 def test_seed_gives_diversity_and_reproducibility():

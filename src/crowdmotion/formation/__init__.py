@@ -20,6 +20,6 @@ _EXPORTS = {
     "FormationMesh": "mesh", "MeshView": "mesh", "MeshFallbackWarning": "mesh",
     "ARAPSolver": "arap", "PotentialField": "field", "AttractionGuide": "guidance",
     "attraction_force": "guidance", "attraction_magnitude": "guidance",
-    "Simulator": "simulator", "FormationRun": "simulate", "run": "simulate", "simulate": "simulate",
+    "Simulator": "simulator", "FormationRun": "simulation", "run": "simulation", "simulate": "simulation",
 }
 __getattr__, __all__ = lazy_exports(__name__, _EXPORTS)

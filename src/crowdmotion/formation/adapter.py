@@ -8,7 +8,7 @@ from tqdm.auto import tqdm
 
 from crowdmotion import metrics
 from crowdmotion.formation.params import FormationParams
-from crowdmotion.formation.simulate import FormationRun, build_simulator, run
+from crowdmotion.formation.simulation import FormationRun, build_simulator, run
 
 Params = FormationParams
 

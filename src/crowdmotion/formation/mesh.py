@@ -88,7 +88,7 @@ class FormationMesh:
                 raise RuntimeError("triangulation added vertices")
             # counter-clockwise, so that each element's local frame has a consistent side
             a, b, c = p[tri[:, 0]], p[tri[:, 1]], p[tri[:, 2]]
-            cw = np.cross(b - a, c - a) < 0
+            cw = ((b - a)[:, 0] * (c - a)[:, 1] - (b - a)[:, 1] * (c - a)[:, 0]) < 0
             tri[cw] = tri[cw][:, [0, 2, 1]]
             self.triangles = self.elements = tri
             pairs = np.sort(np.concatenate([tri[:, [0, 1]], tri[:, [1, 2]], tri[:, [2, 0]]]), axis=1)

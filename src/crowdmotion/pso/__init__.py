@@ -14,7 +14,7 @@ from crowdmotion._lazy import lazy_exports
 _EXPORTS = {
     "PSOParams": "params", "ObstacleField": "params", "make_params": "params",
     "ObstacleArrays": "obstacles", "obstacle_field": "obstacles",
-    "PSORun": "simulate", "run": "simulate", "simulate": "simulate",
+    "PSORun": "simulation", "run": "simulation", "simulate": "simulation",
     "COUNTER_NAMES": "swarm", "Swarm": "swarm", "SwarmRun": "swarm", "follow": "swarm",
     "follow_schedule": "swarm", "gather": "swarm",
 }

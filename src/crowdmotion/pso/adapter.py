@@ -10,7 +10,7 @@ from crowdmotion import metrics
 from crowdmotion.groups import MovingTarget
 from crowdmotion.pso.obstacles import ObstacleArrays
 from crowdmotion.pso.params import PSOParams
-from crowdmotion.pso.simulate import PSORun, run
+from crowdmotion.pso.simulation import PSORun, run
 
 Params = PSOParams
 

@@ -14,6 +14,6 @@ _EXPORTS = {
     "TABLE4": "personality", "TRAITS": "personality", "dominant_trait": "personality",
     "personality_params": "personality", "sample_personalities": "personality", "trig_generator": "personality",
     "Simulator": "simulator", "RVOParams": "params", "Params": "params",
-    "RVORun": "simulate", "run": "simulate", "simulate": "simulate",
+    "RVORun": "simulation", "run": "simulation", "simulate": "simulation",
 }
 __getattr__, __all__ = lazy_exports(__name__, _EXPORTS)

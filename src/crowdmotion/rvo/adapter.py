@@ -7,7 +7,7 @@ from tqdm.auto import tqdm
 
 from crowdmotion import metrics
 from crowdmotion.rvo.params import RVOParams
-from crowdmotion.rvo.simulate import RVORun, run
+from crowdmotion.rvo.simulation import RVORun, run
 
 Params = RVOParams
 

@@ -1,0 +1,49 @@
+"""The obstacle potential field, eq. (2), and its update for moving obstacles."""
+
+import numpy as np
+import pytest
+
+from crowdmotion.formation.field import PotentialField, disc_field
+from crowdmotion.scene import Box, Circle, Scene, Sphere
+
+
+def test_field_values_follow_eq_2_away_from_the_centre():
+    scene = Scene(((0, 0), (20, 20)), [Circle((10, 10), 2.0)])
+    field = PotentialField(scene, reach=3.0, cell=0.1)
+    pts = np.array([[13.05, 10.05], [10.05, 14.45], [16.05, 10.05], [10.05, 10.05], [3.0, 3.0]])
+    vec, f = field.sample(pts)
+    centres = np.floor(pts / 0.1) * 0.1 + 0.05  # the field is read at the cell centre
+    d = np.linalg.norm(centres - 10.0, axis=1) - 2.0
+    want = np.where(d <= 0, 1.0, np.clip(1 - d / 3.0, 0, 1))
+    assert f == pytest.approx(want)
+    unit = (centres - 10.0) / np.linalg.norm(centres - 10.0, axis=1, keepdims=True)
+    assert vec[:3] == pytest.approx(want[:3, None] * unit[:3])
+    assert f[4] == 0.0 and np.all(vec[4] == 0)
+
+
+def test_a_box_pushes_away_from_its_centre_not_along_its_normal():
+    scene = Scene(((0, 0), (30, 10)), [Box((10, 4), (20, 6))])
+    vec, f = PotentialField(scene, reach=2.0, cell=0.05).sample(np.array([[18.025, 7.025]]))
+    assert f[0] == pytest.approx(1 - (7.025 - 6) / 2)
+    assert vec[0] / np.linalg.norm(vec[0]) == pytest.approx(np.array([3.025, 2.025]) / np.hypot(3.025, 2.025))
+
+
+def test_moving_obstacle_repaints_only_the_cells_it_touches():
+    mover = Circle((5, 5), 1.0, path=([0.0, 10.0], [(5, 5), (45, 5)]))
+    scene = Scene(((0, 0), (50, 10)), [Circle((40, 8), 1.0), mover])
+    field = PotentialField(scene, reach=1.5, cell=0.25)
+    for t in (0.0, 3.0, 7.5):
+        field.update(t)
+        fresh = PotentialField(Scene(scene.bounds, [Circle(mover.path.at(t), 1.0)]), reach=1.5, cell=0.25)
+        assert np.array_equal(field.dynamic_f, fresh.static_f)
+        assert np.allclose(field.dynamic_vec, fresh.static_vec)
+    # each update clears and paints two small windows, far fewer than the grid's cells
+    assert field.cells_updated < 3 * 2 * (2 * 2.5 / 0.25 + 2) ** 2
+    assert field.cells_updated < field.static_f.size
+
+
+def test_groups_as_discs_and_3d_scenes():
+    vec, f = disc_field(np.array([[0.0, 3.0]]), np.array([[0.0, 0.0]]), np.array([2.0]), 2.0)
+    assert f[0] == pytest.approx(0.5) and vec[0] == pytest.approx([0.0, 0.5])
+    with pytest.raises(ValueError, match="2D scenes"):
+        PotentialField(Scene(((0, 0, 0), (5, 5, 5)), [Sphere((1, 1, 1), 0.5)]), 1.0, 0.5)

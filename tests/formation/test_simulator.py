@@ -1,0 +1,88 @@
+"""The formation simulator through its public API: groups, steps, meshes, bad input."""
+
+import numpy as np
+import pytest
+
+from crowdmotion import Scene, formation, metrics
+from crowdmotion.groups import Group, Points
+from crowdmotion.scene import Circle, Sphere
+
+
+def _sim(**kw):
+    scene = Scene(((0, -15), (60, 15)), [Circle((25, 0.5), 1.0)])
+    sim = formation.Simulator(scene, time_step=0.1, **kw)
+    gid = sim.add_group(formation.block(5, 5, 1.2), goal=(50, 0), start=(8, 0), radius=0.3)
+    return sim, gid
+
+
+def test_api_names_step_positions_and_mesh():
+    sim, gid = _sim()
+    assert gid == 0 and sim.positions.shape == (25, 2)
+    start = sim.positions.copy()
+    for _ in range(20):
+        sim.step()
+    assert np.all(sim.positions[:, 0] > start[:, 0])  # the block marches toward its goal
+    view = sim.mesh(gid)
+    assert view.vertices.shape == (25, 2) and view.triangles.shape[1] == 3
+    assert view.torn_edges.shape == (len(view.edges),) and view.torn_triangles.shape == (len(view.triangles),)
+
+
+def test_a_block_walks_round_a_rock_and_recovers_without_touching_anything():
+    scene = Scene(((0, -15), (60, 15)), [Circle((25, 0.5), 1.0)])
+    groups = [Group("block", 25, Points([[8.0, 0.0]]), (50.0, 0.0), radius=0.3,
+                    attributes={"formation": {"kind": "block", "rows": 5, "cols": 5, "spacing": 1.2}})]
+    run = formation.run(scene, groups, {"max_steps": 1500}, np.random.default_rng(1))
+    report = metrics.collision_audit(run.trajectories, scene)
+    assert report.clean, report.as_dict()
+    g = run.report["block"]
+    assert g["recovered_s"] is not None and g["edge_length_error_mean"] < 0.01
+    assert g["worst_mean_edge_length_error"] > 0.01  # the rock did bend the formation
+    again = formation.run(scene, groups, {"max_steps": 1500}, np.random.default_rng(1))
+    assert np.array_equal(run.trajectories.positions, again.trajectories.positions)  # same seed, same paths
+
+
+def test_simulate_returns_trajectories_with_groups_and_radii():
+    scene = Scene(((0, -10), (40, 10)))
+    groups = [Group("w", 9, Points([[5.0, 0.0]]), (30.0, 0.0), radius=0.25,
+                    attributes={"formation": {"kind": "wedge", "rows": 3}})]
+    traj = formation.simulate(scene, groups, {"max_steps": 400, "fps": None}, np.random.default_rng(0))
+    assert traj.positions.shape[1:] == (9, 2) and set(traj.group) == {"w"}
+    assert np.allclose(traj.radius, 0.25) and traj.metadata["method"] == "formation"
+    assert np.linalg.norm(traj.positions[-1].mean(axis=0) - [30.0, 0.0]) < 1.5
+
+
+def test_bad_input_gets_a_clear_error():
+    scene = Scene(((0, -15), (60, 15)), [Circle((50, 0), 2.0)])
+    sim = formation.Simulator(scene)
+    with pytest.raises(ValueError, match="goal .* is inside an obstacle"):
+        sim.add_group(formation.block(3, 3), goal=(50, 0), start=(10, 0))
+    with pytest.raises(ValueError, match="agent .* inside or touching an obstacle"):
+        sim.add_group(formation.block(3, 3), goal=(20, 0), start=(50, 0))
+    with pytest.raises(ValueError, match="outside the scene bounds"):
+        sim.add_group(formation.block(3, 3), goal=(20, 0), start=(0, 0))
+    with pytest.raises(ValueError, match="overlap at the start"):
+        sim.add_group(formation.block(3, 3, spacing=0.4), goal=(20, 0), start=(10, 0), radius=0.3)
+    with pytest.raises(ValueError, match="unknown parameter"):
+        sim.add_group(formation.block(3, 3), goal=(20, 0), start=(10, 0), speed=3)
+    with pytest.raises(ValueError, match="start must be a finite 2D point"):
+        sim.add_group(formation.block(3, 3), goal=(20, 0), start=(np.nan, 0))
+    with pytest.raises(ValueError, match="share the position"):
+        sim.add_group(np.array([[10.0, 0.0], [10.0, 0.0], [12.0, 1.0]]), goal=(20, 0))
+    with pytest.raises(ValueError, match="2D scenes"):
+        formation.Simulator(Scene(((0, 0, 0), (5, 5, 5)), [Sphere((1, 1, 1), 0.5)]))
+    with pytest.raises(ValueError, match="relink_ratio"):
+        formation.Simulator(scene, relink_ratio=3.0, tear_ratio=2.0)
+    with pytest.raises(ValueError, match="count is 10 but its block template holds 9"):
+        formation.simulate(scene, [Group("g", 10, Points([[10.0, 0.0]]), (20.0, 0.0),
+                                         attributes={"formation": {"kind": "block", "rows": 3, "cols": 3}})])
+
+
+def test_a_line_formation_walks_as_a_chain():
+    scene = Scene(((0, -10), (40, 10)))
+    sim = formation.Simulator(scene)
+    with pytest.warns(formation.MeshFallbackWarning):
+        gid = sim.add_group(formation.line(6, 1.0), goal=(30, 0), start=(5, 0))
+    for _ in range(50):
+        sim.step()
+    assert sim.mesh(gid).kind == "chain"
+    assert np.all(np.abs(np.diff(np.sort(sim.positions[:, 1]))) > 0.5)  # still abreast, spaced
