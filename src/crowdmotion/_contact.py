@@ -97,32 +97,51 @@ def _point_segment_distance(px, py, ax, ay, bx, by):
     return np.sqrt(dx * dx + dy * dy)
 
 
+@njit(cache=True)
+def max_cell(cell_start):
+    """The most agents in one cell of a grid."""
+    m = 0
+    for c in range(cell_start.shape[0] - 1):
+        m = max(m, cell_start[c + 1] - cell_start[c])
+    return m
+
+
 @njit(inline="always")
-def _conflict(i, pos, vel, radius, stopped, priority, cell_start, items, origin_x, origin_y, h, nx, ny, dt):
-    """Whether agent i's straight move this step would touch an agent that does not yield to it."""
-    px, py = pos[i, 0], pos[i, 1]
-    cx = min(max(int((px - origin_x) / h), 0), nx - 1)
-    cy = min(max(int((py - origin_y) / h), 0), ny - 1)
+def grid_neighbours(i, pos, cell_start, items, origin_x, origin_y, h, nx, ny, out):
+    """Agents other than i in the 3 × 3 cells round agent i's cell, into ``out``;
+    returns how many."""
+    cx = min(max(int((pos[i, 0] - origin_x) / h), 0), nx - 1)
+    cy = min(max(int((pos[i, 1] - origin_y) / h), 0), ny - 1)
+    k = 0
     for gx in range(max(cx - 1, 0), min(cx + 1, nx - 1) + 1):
         for gy in range(max(cy - 1, 0), min(cy + 1, ny - 1) + 1):
             c = gx * ny + gy
             for s in range(cell_start[c], cell_start[c + 1]):
-                j = items[s]
-                if j == i:
-                    continue
-                if not stopped[j] and (priority[j] < priority[i] or (priority[j] == priority[i] and j < i)):
-                    continue  # j yields to i
-                wx, wy = pos[j, 0] - px, pos[j, 1] - py
-                ux, uy = (vel[j, 0] - vel[i, 0]) * dt, (vel[j, 1] - vel[i, 1]) * dt
-                proj = wx * ux + wy * uy
-                if proj >= 0.0:
-                    continue  # not approaching
-                uu = ux * ux + uy * uy
-                s_ = min(-proj / uu, 1.0)
-                mx, my = wx + s_ * ux, wy + s_ * uy
-                rr = radius[i] + radius[j]
-                if mx * mx + my * my < rr * rr * (1.0 + 1e-9):
-                    return True
+                if items[s] != i:
+                    out[k] = items[s]
+                    k += 1
+    return k
+
+
+@njit(inline="always")
+def _conflict(i, pos, vel, radius, stopped, priority, cell_start, items, origin_x, origin_y, h, nx, ny, dt, buf):
+    """Whether agent i's straight move this step would touch an agent that does not yield to it."""
+    px, py = pos[i, 0], pos[i, 1]
+    for s in range(grid_neighbours(i, pos, cell_start, items, origin_x, origin_y, h, nx, ny, buf)):
+        j = buf[s]
+        if not stopped[j] and (priority[j] < priority[i] or (priority[j] == priority[i] and j < i)):
+            continue  # j yields to i
+        wx, wy = pos[j, 0] - px, pos[j, 1] - py
+        ux, uy = (vel[j, 0] - vel[i, 0]) * dt, (vel[j, 1] - vel[i, 1]) * dt
+        proj = wx * ux + wy * uy
+        if proj >= 0.0:
+            continue  # not approaching
+        uu = ux * ux + uy * uy
+        s_ = min(-proj / uu, 1.0)
+        mx, my = wx + s_ * ux, wy + s_ * uy
+        rr = radius[i] + radius[j]
+        if mx * mx + my * my < rr * rr * (1.0 + 1e-9):
+            return True
     return False
 
 
@@ -147,11 +166,16 @@ def resolve_conflicts(pos, vel, radius, active, priority, cell_start, items, ori
     stopped = np.empty(n, dtype=np.bool_)
     for i in prange(n):  # agents that chose to stand are standing: they cannot yield
         stopped[i] = active[i] and vel[i, 0] == 0.0 and vel[i, 1] == 0.0
-    for i in prange(n):
-        if active[i] and not stopped[i]:
-            flagged[i] = _conflict(i, pos, vel, radius, stopped, priority, cell_start, items, origin_x, origin_y,
-                                   h, nx, ny, dt)
+    cap = 9 * max_cell(cell_start)
+    chunks = 64  # each chunk of agents has its own neighbour list
+    for c in prange(chunks):
+        buf = np.empty(cap, np.int64)
+        for i in range(c * n // chunks, (c + 1) * n // chunks):
+            if active[i] and not stopped[i]:
+                flagged[i] = _conflict(i, pos, vel, radius, stopped, priority, cell_start, items, origin_x,
+                                       origin_y, h, nx, ny, dt, buf)
     work = list(np.flatnonzero(flagged))
+    nbuf = np.empty(cap, np.int64)
     count = 0
     while len(work) > 0:
         j = work.pop()
@@ -171,7 +195,7 @@ def resolve_conflicts(pos, vel, radius, active, priority, cell_start, items, ori
                     if stopped[i]:
                         continue
                     if _conflict(i, pos, vel, radius, stopped, priority, cell_start, items, origin_x, origin_y,
-                                 h, nx, ny, dt):
+                                 h, nx, ny, dt, nbuf):
                         work.append(i)
     return count
 
@@ -253,13 +277,14 @@ def obstacle_safe_moves(pos, vel, radius, vmax, active, dt, circ_c, circ_r, circ
         out_scale[i] = np.sqrt(best_x * best_x + best_y * best_y) / want if want > 0 else 0.0
 
 
-def grid_for(positions, active, radius, max_speed, dt):
+def grid_for(positions, active, radius, max_speed, dt, extra: float = 0.0):
     """``(cell_start, items, origin_x, origin_y, h, nx, ny)``: a grid over the active
-    agents with cells wide enough for :func:`resolve_conflicts` over one step."""
+    agents with cells wide enough for :func:`resolve_conflicts` over one step (and at
+    least ``extra`` metres)."""
     live = np.flatnonzero(active)
     p = positions[live]
     lo, hi = p.min(axis=0), p.max(axis=0)
-    reach = 2 * radius[live].max() + 2 * max_speed[live].max() * dt
+    reach = max(2 * radius[live].max() + 2 * max_speed[live].max() * dt, extra)
     extent = np.maximum(hi - lo, 1e-9)
     h = max(reach, float(np.sqrt(np.prod(extent) / len(live))) * 1.5)
     while np.prod(np.floor(extent / h) + 1) > 4 * len(live) + 16:

@@ -4,7 +4,7 @@ import numpy as np
 import pytest
 
 from crowdmotion.formation import templates
-from crowdmotion.formation.arap import ARAPSolver, procrustes_fit
+from crowdmotion.formation.arap import ARAPSolver
 from crowdmotion.formation.mesh import FormationMesh
 
 
@@ -25,6 +25,17 @@ def test_moving_all_handles_rigidly_moves_the_whole_mesh_rigidly(pts, variant):
     want = _rigid(mesh.rest, 0.83, np.array([12.0, -7.5]))
     got = solver.deform(handles, want[handles], variant=variant)
     assert np.abs(got - want).max() < 1e-9
+
+
+def procrustes_fit(rest: np.ndarray, current: np.ndarray) -> np.ndarray:
+    """The congruent copies of ``rest`` elements (e, k) nearest to ``current`` (e, k),
+    both complex: rotation (no reflection) and translation, least squares."""
+    cr = rest.mean(axis=1, keepdims=True)
+    cz = current.mean(axis=1, keepdims=True)
+    s = np.sum(np.conj(rest - cr) * (current - cz), axis=1, keepdims=True)
+    mag = np.abs(s)
+    rot = np.where(mag > 0, s / np.where(mag > 0, mag, 1.0), 1.0)
+    return cz + rot * (rest - cr)
 
 
 def _dense_two_step(rest, tri, handles, q, W):

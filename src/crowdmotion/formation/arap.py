@@ -27,20 +27,10 @@ import numpy as np
 import qdldl
 import scipy.sparse as sp
 
+from crowdmotion.formation._kernels import fit_elements
 from crowdmotion.formation.mesh import FormationMesh
 
 ROLES = ((0, 1, 2), (1, 2, 0), (2, 0, 1))
-
-
-def procrustes_fit(rest: np.ndarray, current: np.ndarray) -> np.ndarray:
-    """The congruent copies of ``rest`` elements (e, k) nearest to ``current`` (e, k),
-    both complex: rotation (no reflection) and translation, least squares."""
-    cr = rest.mean(axis=1, keepdims=True)
-    cz = current.mean(axis=1, keepdims=True)
-    s = np.sum(np.conj(rest - cr) * (current - cz), axis=1, keepdims=True)
-    mag = np.abs(s)
-    rot = np.where(mag > 0, s / np.where(mag > 0, mag, 1.0), 1.0)
-    return cz + rot * (rest - cr)
 
 
 class ARAPSolver:
@@ -100,13 +90,15 @@ class ARAPSolver:
         return (sp.diags(deg + diag) - adj).tocsc()
 
     def _factors(self, handles: np.ndarray):
-        active = self.mesh.active_elements
-        key = (self.mesh.version, handles.tobytes())
+        n = self.mesh.n_vertices
+        every = len(handles) == n  # handles are unique and sorted: all of them
+        key = (self.mesh.version, "all" if every else handles.tobytes())
         hit = self._cache.get(key)
         if hit is not None:
             self._cache.move_to_end(key)
             self.stats["cache_hits"] += 1
             return hit
+        active = self.mesh.active_elements
         diag = self._diag(handles)
         f = (qdldl.Solver(sp.triu(self._step1_matrix(active, diag), format="csc")),
              qdldl.Solver(sp.triu(self._step2_matrix(active, diag), format="csc")), active)
@@ -125,7 +117,12 @@ class ARAPSolver:
         positions instead of the eq. (1) solve (the paper's cheap variant).
         """
         n = self.mesh.n_vertices
-        handles = np.unique(np.asarray(handles, np.int64))
+        handles = np.asarray(handles, np.int64)
+        if len(handles) and (np.any(np.diff(handles) <= 0) or handles[0] < 0 or handles[-1] >= n):
+            order = np.unique(handles, return_index=True)[1]
+            if len(order) != len(handles) or handles.min() < 0 or handles.max() >= n:
+                raise ValueError(f"arap: handles must be distinct vertex indices in [0, {n}), got {handles.tolist()}")
+            handles, targets = handles[order], np.asarray(targets, float).reshape(-1, 2)[order]
         q = np.asarray(targets, float).reshape(len(handles), 2)
         if self.eps == 0 and len(handles) < 2:
             raise ValueError(f"arap: at least two handles are needed without an anchor, got {len(handles)}")
@@ -143,16 +140,13 @@ class ARAPSolver:
         el = self.mesh.elements[active]
         if len(el) == 0:
             return np.stack([z1.real, z1.imag], axis=1)
-        fitted = procrustes_fit(self.rest_z[el], z1[el])  # step 2a: (e, 3) congruent copies
-        if variant == "average":
-            count = np.bincount(el.ravel(), minlength=n)
-            tot = np.bincount(el.ravel(), fitted.real.ravel(), n) + 1j * np.bincount(el.ravel(), fitted.imag.ravel(), n)
-            z = np.where(count > 0, tot / np.maximum(count, 1), z1)
+        rest = self.rest_z[el]
+        if variant == "average":  # the mean of the positions the fitted elements propose
+            sums, counts = np.zeros(n, complex), np.zeros(n)
+            fit_elements(rest, z1, el, sums, sums, counts, False)
+            z = np.where(counts > 0, sums / np.maximum(counts, 1), z1)
             z[handles] = z1[handles]
             return np.stack([z.real, z.imag], axis=1)
-        b = rhs.copy()  # step 2b: eq. (1), normal equations of the edge differences
-        for a, c in ((0, 1), (1, 2), (2, 0)):
-            d = fitted[:, a] - fitted[:, c]
-            b += np.bincount(el[:, a], d.real, n) + 1j * np.bincount(el[:, a], d.imag, n)
-            b -= np.bincount(el[:, c], d.real, n) + 1j * np.bincount(el[:, c], d.imag, n)
+        b = rhs.copy()  # step 2: fit (2a) and eq. (1)'s normal equations (2b)
+        fit_elements(rest, z1, el, b, b, np.zeros(0), True)
         return np.stack([F2.solve(b.real), F2.solve(b.imag)], axis=1)

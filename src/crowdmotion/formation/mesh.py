@@ -91,8 +91,9 @@ class FormationMesh:
             cw = ((b - a)[:, 0] * (c - a)[:, 1] - (b - a)[:, 1] * (c - a)[:, 0]) < 0
             tri[cw] = tri[cw][:, [0, 2, 1]]
             self.triangles = self.elements = tri
-            pairs = np.sort(np.concatenate([tri[:, [0, 1]], tri[:, [1, 2]], tri[:, [2, 0]]]), axis=1)
-            self.edges, inverse = np.unique(pairs, axis=0, return_inverse=True)
+            a, b = np.concatenate([tri[:, 0], tri[:, 1], tri[:, 2]]), np.concatenate([tri[:, 1], tri[:, 2], tri[:, 0]])
+            keys, inverse = np.unique(np.minimum(a, b) * n + np.maximum(a, b), return_inverse=True)
+            self.edges = np.stack([keys // n, keys % n], axis=1)
             self.element_edges = inverse.reshape(3, -1).T.astype(np.int64)
         self.rest_length = np.linalg.norm(p[self.edges[:, 0]] - p[self.edges[:, 1]], axis=1)
         self.torn = np.zeros(len(self.edges), dtype=bool)

@@ -93,6 +93,13 @@ class FormationParams(_Model):
     anchor_weight : float      weight of the soft pull of every vertex to where the
                                attraction alone would take it (keeps each solve well
                                posed with fewer than two handles and after tearing)
+    handles : str              "uniform": every vertex is a soft handle of the same weight,
+                               aimed where the field and attraction take it (the ARAP
+                               systems are factorised once per mesh topology); "exact":
+                               only vertices in a field are handles, the others follow
+                               their ARAP position (factorised once per topology and
+                               handle set, cached, so refactorised whenever a vertex
+                               enters or leaves a field)
     handle_weight : float      weight of the handle constraints (Igarashi's soft handles)
     tear_ratio : float         an edge longer than this × its rest length is torn
     relink_ratio : float       a torn edge shorter than this × its rest length is relinked
@@ -107,8 +114,10 @@ class FormationParams(_Model):
                                apart, the local repulsion F_r
     arrive_distance : float    a group whose centre is this close to its goal's centre
                                (or inside a goal region) is in its target area
-    recovered_error : float    mean relative edge-length error under which a group in its
-                               target area counts as recovered
+    recovered_error : float    a group in its target area has recovered when its mean
+                               relative edge-length error is below this, no agent is
+                               dislocated and every vertex is within L of its place in
+                               the rest shape on the goal
     spawn_gap : float          metres kept clear between bodies and obstacles at the start
     """
 
@@ -121,6 +130,7 @@ class FormationParams(_Model):
     arap: Literal["two_step", "average"] = "two_step"
     shape_gain: PosFloat = 3.0
     anchor_weight: Annotated[float, Field(gt=0, le=10.0, allow_inf_nan=False)] = 0.02
+    handles: Literal["uniform", "exact"] = "uniform"
     handle_weight: Annotated[float, Field(gt=0, le=1e8, allow_inf_nan=False)] = 10.0
     tear_ratio: Annotated[float, Field(gt=1.0, allow_inf_nan=False)] = 2.5
     relink_ratio: Annotated[float, Field(gt=1.0, allow_inf_nan=False)] = 1.5

@@ -36,7 +36,8 @@ from crowdmotion.formation.mesh import FormationMesh, MeshView
 from crowdmotion.formation.params import FormationParams, make_params
 from crowdmotion.formation.templates import Template, from_spec
 from crowdmotion.groups import Disc, MovingTarget, Rect, as_region
-from crowdmotion.metrics import edge_length_error
+from crowdmotion.formation._kernels import edge_length_error as edge_errors
+from crowdmotion.formation._kernels import repulsion
 from crowdmotion.obstacle_primitives import ObstacleSet
 from crowdmotion.scene import Scene
 
@@ -67,6 +68,10 @@ class FormationGroup:
     last_field_time: float | None = None
     handles: int = 0
     rebalanced_step: int = -10**9
+
+    @property
+    def all_vertices(self) -> np.ndarray:
+        return np.arange(len(self.vertices))
     torn: int = 0
     relinked: int = 0
     edge_error: list = field(default_factory=list)
@@ -105,6 +110,7 @@ class Simulator:
         self.group_of = np.zeros(0, np.int64)
         self.time = 0.0
         self.steps = 0
+        self._grid = None
         self.stats = {"agent_steps": 0, "safety_stops": 0, "obstacle_cuts": 0}
 
     # ---- building ------------------------------------------------------------------------
@@ -233,6 +239,11 @@ class Simulator:
         if len(handles):
             g.last_field_time = self.time
         moved = V + dt * u
+        if in_area:  # recovery: back to the rest shape, facing as at the start, on the goal
+            slot = g.mesh.rest - g.mesh.rest.mean(axis=0) + g.goal_center
+            gap = slot - V
+            gl = np.linalg.norm(gap, axis=1, keepdims=True)
+            moved = V + gap * np.minimum(1.0, g.pref_speed * dt / np.maximum(gl, 1e-300))
         # every vertex is pulled weakly to its place in the rest shape (with the group's
         # heading) centred on the mesh: torn-off vertices come back until their edges
         # relink, and the formation keeps facing the way it set out
@@ -242,9 +253,19 @@ class Simulator:
         g.relinked += relinked
         targets = V[handles] + dt * self._steer(V[handles], np.broadcast_to(u, (len(handles), 2)), fvec[handles],
                                                 fmag[handles], V[handles] - centroid, g.pref_speed, g.max_speed)
-        desired = g.solver.deform(handles, targets, anchor, p.arap)
-        new = moved + min(1.0, p.shape_gain * dt) * (desired - moved)
-        new[handles] = desired[handles]  # handles: the field's push, held back by the mesh
+        if p.handles == "exact":
+            # the paper's handles: only field vertices are constrained; the others move
+            # toward their ARAP position at a speed set by the error
+            desired = g.solver.deform(handles, targets, anchor, p.arap)
+            new = moved + min(1.0, p.shape_gain * dt) * (desired - moved)
+            new[handles] = desired[handles]  # the field's push, held back by the mesh
+        else:
+            # every vertex is a handle of the same weight: field vertices aimed where the
+            # field pushes them, the others where the attraction takes them; one
+            # factorisation per topology serves every step
+            aim = moved.copy()
+            aim[handles] = targets
+            new = g.solver.deform(g.all_vertices, aim, anchor, p.arap)
         step = new - V
         sl = np.linalg.norm(step, axis=1, keepdims=True)
         cap = g.max_speed * dt
@@ -304,21 +325,15 @@ class Simulator:
     def _repulsion(self, who: np.ndarray, speed: float) -> np.ndarray:
         """Local repulsion F_r on agents ``who`` from every agent within contact +
         ``repulsion_range``: (1 − gap/range) × speed, away from each."""
-        rng_ = self.params.repulsion_range
         out = np.zeros((len(who), 2))
-        if rng_ <= 0 or len(who) == 0:
+        reach = self.params.repulsion_range
+        if reach <= 0 or len(who) == 0:
             return out
-        reach = 2 * self.radius.max() + rng_
-        near = cKDTree(self.positions[who]).sparse_distance_matrix(cKDTree(self.positions), reach,
-                                                                   output_type="coo_matrix")
-        a, b = near.row, near.col
-        keep = who[a] != b
-        a, b, d = a[keep], b[keep], near.data[keep]
-        gap = d - self.radius[who[a]] - self.radius[b]
-        w = np.clip(1.0 - gap / rng_, 0.0, 1.0) * speed
-        dirs = (self.positions[who[a]] - self.positions[b]) / np.maximum(d, 1e-12)[:, None]
-        for c in (0, 1):
-            out[:, c] = np.bincount(a, w * dirs[:, c], len(who))
+        if self._grid is None:
+            live = np.ones(len(self.positions), bool)
+            self._grid = grid_for(self.positions, live, self.radius, self.max_speed, self.dt,
+                                  extra=reach + 2 * float(self.radius.max()))
+        repulsion(who, self.positions, self.radius, reach, speed, *self._grid, out)
         return out
 
     def step(self) -> None:
@@ -328,6 +343,7 @@ class Simulator:
             self.steps += 1
             return
         self.field.update(self.time)
+        self._grid = None  # built once per step, on first need
         centers, reach = self._discs()
         for k, g in enumerate(self.groups):
             self._advance_mesh(k, g, centers, reach)
@@ -338,7 +354,8 @@ class Simulator:
         obstacle_safe_moves(self.positions, self.velocities, self.radius, self.max_speed, active, self.dt, prims.circ_c, prims.circ_r,
                             prims.circ_v, prims.seg_a, prims.seg_b, prims.seg_v, scale)
         self.stats["obstacle_cuts"] += int((scale < 1).sum())
-        grid = grid_for(self.positions, active, self.radius, self.max_speed, self.dt)
+        grid = grid_for(self.positions, active, self.radius, self.max_speed, self.dt) if self._grid is None \
+            else self._grid
         self.stats["safety_stops"] += resolve_conflicts(self.positions, self.velocities, self.radius, active,
                                                         self.rng.random(len(self.positions)), *grid, self.dt)
         self.positions = self.positions + self.velocities * self.dt
@@ -349,10 +366,13 @@ class Simulator:
 
     def _bookkeeping(self) -> None:
         for g in self.groups:
-            mean, _ = edge_length_error(self.positions[g.agents][g.guide.slot_order], g.mesh.rest, g.mesh.edges)
+            mean, _ = edge_errors(self.positions[g.agents][g.guide.slot_order], g.mesh.edges, g.mesh.rest_length)
             g.edge_error.append(mean)
-            if g.arrived_at is not None and g.recovered_at is None and mean < self.params.recovered_error \
-                    and not g.guide.dislocated.any():
+            if g.arrived_at is None or g.recovered_at is not None:
+                continue
+            slot = g.mesh.rest - g.mesh.rest.mean(axis=0) + g.goal_center
+            settled = np.abs(g.vertices - slot).max() < self.params.occupy_distance
+            if settled and mean < self.params.recovered_error and not g.guide.dislocated.any():
                 g.recovered_at = self.time
 
     @property
