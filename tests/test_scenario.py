@@ -151,3 +151,49 @@ def test_pso_scenario_errors_name_the_field(old, new, words):
         run_scenario(sc, progress=False)
     for w in words:
         assert w in str(e.value)
+
+
+FORMATION = """
+method = "formation"
+seed = 2
+[scene]
+bounds = [[0, -10], [40, 10]]
+obstacles = [{ shape = "circle", center = [20, 0.4], radius = 1 }]
+[[groups]]
+name = "squad"
+count = 9
+radius = 0.3
+spawn = { shape = "point", position = [5, 0] }
+goal = { shape = "point", position = [33, 0] }
+formation = { kind = "block", rows = 3, cols = 3, spacing = 1.2 }
+[formation]
+max_steps = 800
+field_range = 1.5
+"""
+
+
+def test_formation_scenario_runs_and_reports_the_formation():
+    from crowdmotion.formation import FormationParams
+
+    sc = parse_scenario(FORMATION)
+    assert isinstance(sc.params, FormationParams) and sc.params.field_range == 1.5
+    s = run_scenario(sc, progress=False).summary
+    assert s["agent_agent_overlaps"] == 0 and s["agent_obstacle_penetrations"] == 0
+    assert s["all_recovered"] and s["formation"]["squad"]["edge_length_error_mean"] < 0.02
+
+
+@pytest.mark.parametrize("old,new,words", [
+    ("count = 9", "count = 10", ["group 'squad'", "count is 10 but its block template holds 9"]),
+    ("position = [33, 0]", "position = [20, 0.4]", ["goal [20.0, 0.4] is inside an obstacle"]),
+    ("rows = 3, cols", "rows = 0, cols", ["groups.0.formation.block.rows", "got 0"]),
+    ('kind = "block", rows = 3, cols = 3, spacing = 1.2', 'kind = "hexagon"', ["groups.0.formation", "hexagon"]),
+    ("field_range = 1.5", "field_range = -1", ["formation.field_range", "got -1"]),
+    ("field_range = 1.5", "relink_ratio = 3.0", ["relink_ratio 3.0 must not exceed tear_ratio"]),
+    ("bounds = [[0, -10], [40, 10]]", "bounds = [[0, -10, 0], [40, 10, 5]]", ["not 3D like the scene"]),
+    ("spacing = 1.2", "spacing = 0.4", ["overlap at the start"]),
+])
+def test_formation_scenario_errors_name_the_field(old, new, words):
+    with pytest.raises(ScenarioError) as e:
+        parse_scenario(FORMATION.replace(old, new))
+    for w in words:
+        assert w in str(e.value)
