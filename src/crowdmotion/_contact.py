@@ -175,6 +175,7 @@ def resolve_conflicts(pos, vel, radius, active, priority, cell_start, items, ori
                 flagged[i] = _conflict(i, pos, vel, radius, stopped, priority, cell_start, items, origin_x,
                                        origin_y, h, nx, ny, dt, buf)
     work = list(np.flatnonzero(flagged))
+    around = np.empty(cap, np.int64)
     nbuf = np.empty(cap, np.int64)
     count = 0
     while len(work) > 0:
@@ -185,18 +186,11 @@ def resolve_conflicts(pos, vel, radius, active, priority, cell_start, items, ori
         vel[j, 0] = 0.0
         vel[j, 1] = 0.0
         count += 1
-        cx = min(max(int((pos[j, 0] - origin_x) / h), 0), nx - 1)
-        cy = min(max(int((pos[j, 1] - origin_y) / h), 0), ny - 1)
-        for gx in range(max(cx - 1, 0), min(cx + 1, nx - 1) + 1):
-            for gy in range(max(cy - 1, 0), min(cy + 1, ny - 1) + 1):
-                c = gx * ny + gy
-                for s in range(cell_start[c], cell_start[c + 1]):
-                    i = items[s]
-                    if stopped[i]:
-                        continue
-                    if _conflict(i, pos, vel, radius, stopped, priority, cell_start, items, origin_x, origin_y,
-                                 h, nx, ny, dt, nbuf):
-                        work.append(i)
+        for s in range(grid_neighbours(j, pos, cell_start, items, origin_x, origin_y, h, nx, ny, around)):
+            i = around[s]
+            if not stopped[i] and _conflict(i, pos, vel, radius, stopped, priority, cell_start, items, origin_x,
+                                            origin_y, h, nx, ny, dt, nbuf):
+                work.append(i)
     return count
 
 

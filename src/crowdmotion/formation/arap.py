@@ -15,7 +15,7 @@ weak pull ε·|z − p|² to an anchor p (where the attraction alone would take 
 keeps each system positive definite with fewer than two handles and after tearing
 splits the mesh. With ε = 0 and at least two handles on a connected mesh it is the plain
 method. Step 1's Hermitian system is solved in its real form [[A, −B], [B, A]]; both are
-factored with QDLDL (sparse LDLᵀ) once per (mesh version, handle set) and kept in a small
+factored with QDLDL (sparse LDLᵀ) once per (torn-edge set, handle set) and kept in a small
 cache, so a step costs only right-hand sides and back-substitutions.
 """
 
@@ -92,7 +92,7 @@ class ARAPSolver:
     def _factors(self, handles: np.ndarray):
         n = self.mesh.n_vertices
         every = len(handles) == n  # handles are unique and sorted: all of them
-        key = (self.mesh.version, "all" if every else handles.tobytes())
+        key = (np.packbits(self.mesh.torn).tobytes(), "all" if every else handles.tobytes())
         hit = self._cache.get(key)
         if hit is not None:
             self._cache.move_to_end(key)

@@ -103,6 +103,8 @@ class FormationParams(_Model):
     handle_weight : float      weight of the handle constraints (Igarashi's soft handles)
     tear_ratio : float         an edge longer than this × its rest length is torn
     relink_ratio : float       a torn edge shorter than this × its rest length is relinked
+    tear_interval : float      seconds between tearing/relinking checks (each change of the
+                               torn set may cost a factorisation; 0: every step)
     occupy_distance : float    [L] an agent within L of its vertex occupies it; beyond it
                                is dislocated (§3.2)
     attraction_radius : float | None
@@ -134,6 +136,7 @@ class FormationParams(_Model):
     handle_weight: Annotated[float, Field(gt=0, le=1e8, allow_inf_nan=False)] = 10.0
     tear_ratio: Annotated[float, Field(gt=1.0, allow_inf_nan=False)] = 2.5
     relink_ratio: Annotated[float, Field(gt=1.0, allow_inf_nan=False)] = 1.5
+    tear_interval: NonNeg = 0.5
     occupy_distance: PosFloat = 0.5
     attraction_radius: PosFloat | None = None
     reassign: bool = True

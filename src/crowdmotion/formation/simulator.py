@@ -248,9 +248,10 @@ class Simulator:
         # heading) centred on the mesh: torn-off vertices come back until their edges
         # relink, and the formation keeps facing the way it set out
         anchor = g.mesh.rest - g.mesh.rest.mean(axis=0) + centroid + dt * u
-        torn, relinked = g.mesh.update_tearing(V, p.tear_ratio, p.relink_ratio)
-        g.torn += torn
-        g.relinked += relinked
+        if self.steps % max(1, int(round(p.tear_interval / dt))) == 0:  # the mesh changes at most this often
+            torn, relinked = g.mesh.update_tearing(V, p.tear_ratio, p.relink_ratio)
+            g.torn += torn
+            g.relinked += relinked
         targets = V[handles] + dt * self._steer(V[handles], np.broadcast_to(u, (len(handles), 2)), fvec[handles],
                                                 fmag[handles], V[handles] - centroid, g.pref_speed, g.max_speed)
         if p.handles == "exact":
