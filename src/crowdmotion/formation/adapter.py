@@ -46,9 +46,13 @@ def snapshot_steps(result: FormationRun) -> list[tuple[int, str]]:
     return [(0, "start"), (worst, "most deformed"), ((worst + last) // 2, "recovering"), (last, "end")]
 
 
+ANIMATION_FRAMES = 120
+
+
 def write_plots(scene, result: FormationRun, out, which, title: str = "") -> list:
-    """``paths``: every agent's path; ``snapshots``: the meshes at four moments."""
-    from crowdmotion.render import plot_formation_snapshots, plot_paths
+    """``paths``: every agent's path; ``snapshots``: the meshes at four moments and an
+    animated GIF of the whole run (``formation.gif``, at most 120 frames)."""
+    from crowdmotion.render import animate_formation_snapshots, plot_formation_snapshots, plot_paths
 
     written = []
     if "paths" in which:
@@ -58,4 +62,8 @@ def write_plots(scene, result: FormationRun, out, which, title: str = "") -> lis
         dt = result.simulator.dt
         snaps = [{"time": s * dt, "label": label, "groups": result.snapshot(s)} for s, label in snapshot_steps(result)]
         written.append(plot_formation_snapshots(scene, snaps, out / "snapshots.png", title=title))
+        steps = np.unique(np.linspace(0, len(result.frames) - 1, ANIMATION_FRAMES).astype(int))
+        frames = [{"time": s * dt, "groups": result.snapshot(s)} for s in steps]
+        fps = len(steps) / max(1.0, min(12.0, (len(result.frames) - 1) * dt / 4))
+        written.append(animate_formation_snapshots(scene, frames, out / "formation.gif", fps=fps, title=title))
     return written

@@ -1,4 +1,4 @@
-"""Matplotlib figures: agent paths over the scene, MDP value fields, formation meshes."""
+"""Matplotlib figures: agent paths over the scene, MDP value fields, formation meshes\n(panels and animated GIFs)."""
 
 from __future__ import annotations
 
@@ -211,3 +211,47 @@ def plot_formation_snapshots(scene: Scene, snapshots: list[dict], path, title: s
     if title:
         fig.suptitle(title)
     return _save(fig, path)
+
+
+def animate_formation_snapshots(scene: Scene, snapshots: list[dict], path, fps: float = 10.0, title: str = "",
+                                window=None) -> Path:
+    """An animated GIF of formation meshes and agents, one frame per snapshot (same
+    dictionaries as :func:`plot_formation_snapshots`); written atomically."""
+    from PIL import Image
+
+    lo, hi = (scene.lower, scene.upper) if window is None else (np.asarray(window[0]), np.asarray(window[1]))
+    aspect = (hi[1] - lo[1]) / (hi[0] - lo[0])
+    fig, ax = plt.subplots(figsize=(8, max(2.5, 8 * aspect) + 0.5))
+    cmap = plt.get_cmap("tab10")
+
+    def draw(k):
+        ax.clear()
+        snap = snapshots[k]
+        _draw_obstacles_2d(ax, scene, snap["time"])
+        for gi, g in enumerate(snap["groups"]):
+            v, e, torn = g["vertices"], g["edges"], g["torn"]
+            seg = v[e[~torn]]
+            ax.plot(seg[:, :, 0].T, seg[:, :, 1].T, color=cmap(gi % 10), lw=0.5, alpha=0.6)
+            if torn.any():
+                seg = v[e[torn]]
+                ax.plot(seg[:, :, 0].T, seg[:, :, 1].T, color="red", lw=0.5, alpha=0.6, ls="--")
+            a = g["agents"]
+            colours = np.where(g["dislocated"][:, None], np.array([[0.0, 0.0, 0.0, 1.0]]),
+                               np.array([cmap(gi % 10)]))
+            ax.scatter(a[:, 0], a[:, 1], s=8, c=colours, zorder=4)
+        ax.set_xlim(lo[0], hi[0])
+        ax.set_ylim(lo[1], hi[1])
+        ax.set_aspect("equal")
+        ax.set_title(f"{title}  t = {snap['time']:.1f} s", fontsize=10)
+
+    fig.set_dpi(60)
+    images = []
+    for k in range(len(snapshots)):
+        draw(k)
+        fig.canvas.draw()
+        images.append(Image.fromarray(np.asarray(fig.canvas.buffer_rgba())[..., :3]).convert("P", palette=Image.ADAPTIVE))
+    plt.close(fig)
+    path = Path(path)
+    with atomic_path(path) as tmp:
+        images[0].save(tmp, format="GIF", save_all=True, append_images=images[1:], duration=int(1000 / fps), loop=0)
+    return path
