@@ -22,6 +22,11 @@ def _headline(summary: dict) -> str:
              f"obstacle penetrations {summary['agent_obstacle_penetrations']}"]
     if "arrival_rate" in summary:
         parts.append(f"arrived {summary['arrival_rate']:.0%}")
+    if "formation" in summary:
+        groups = summary["formation"]
+        done = sum(g["recovered_s"] is not None for g in groups.values())
+        worst = max(g["edge_length_error_mean"] for g in groups.values())
+        parts.append(f"formations recovered {done}/{len(groups)} (edge-length error {worst:.1%})")
     return ", ".join(parts)
 
 

@@ -221,7 +221,8 @@ def animate_formation_snapshots(scene: Scene, snapshots: list[dict], path, fps: 
 
     lo, hi = (scene.lower, scene.upper) if window is None else (np.asarray(window[0]), np.asarray(window[1]))
     aspect = (hi[1] - lo[1]) / (hi[0] - lo[0])
-    fig, ax = plt.subplots(figsize=(8, max(2.5, 8 * aspect) + 0.5))
+    width = 8.0 if aspect > 0.4 else 12.0  # wide scenes (a road) get a wider picture
+    fig, ax = plt.subplots(figsize=(width, max(2.5, width * aspect) + 0.5))
     cmap = plt.get_cmap("tab10")
 
     def draw(k):
@@ -244,7 +245,7 @@ def animate_formation_snapshots(scene: Scene, snapshots: list[dict], path, fps: 
         ax.set_aspect("equal")
         ax.set_title(f"{title}  t = {snap['time']:.1f} s", fontsize=10)
 
-    fig.set_dpi(60)
+    fig.set_dpi(72)
     images = []
     for k in range(len(snapshots)):
         draw(k)
