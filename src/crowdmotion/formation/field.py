@@ -94,5 +94,10 @@ class PotentialField:
         """(f·direction (k, 2), f (k,)) at ``points``, from the cell each lies in."""
         ij = np.floor((np.asarray(points, float) - self.origin) / self.cell).astype(np.int64)
         ij = np.clip(ij, 0, np.array(self.shape) - 1)
-        i, j = ij[:, 0], ij[:, 1]
-        return self.static_vec[i, j] + self.dynamic_vec[i, j], np.maximum(self.static_f[i, j], self.dynamic_f[i, j])
+        flat = ij[:, 0] * self.shape[1] + ij[:, 1]
+        vec = self.static_vec.reshape(-1, 2)[flat]
+        f = self.static_f.ravel()[flat]
+        if self.moving:
+            vec += self.dynamic_vec.reshape(-1, 2)[flat]
+            f = np.maximum(f, self.dynamic_f.ravel()[flat])
+        return vec, f
