@@ -47,3 +47,30 @@ def test_rvo_run_then_report(tmp_path, capsys):
     report = json.loads((out / "report.json").read_text())
     assert report["a"]["agents"] == 5
     assert main(["report", str(tmp_path / "nowhere")]) == 2
+
+
+def test_export_to_every_format_and_bad_requests(tmp_path, capsys):
+    import numpy as np
+
+    from crowdmotion import Trajectories
+
+    path = tmp_path / "s.toml"
+    path.write_text(GOOD)
+    out = tmp_path / "out"
+    assert main(["run", str(path), "-o", str(out), "-q"]) == 0
+    original = Trajectories.load(out / "trajectories.parquet")
+    for fmt, name in [("sqlite", "trajectories.sqlite"), ("usd", "trajectories.usdc"), ("usda", "trajectories.usda"),
+                      ("csv", "trajectories.csv")]:
+        assert main(["export", str(out), "--to", fmt]) == 0, fmt
+        back = Trajectories.load(out / name)
+        np.testing.assert_allclose(back.positions, original.positions, atol=1e-5)
+        assert back.dt == original.dt or abs(back.dt - original.dt) < 1e-12
+    assert "wrote" in capsys.readouterr().out
+    assert main(["export", str(tmp_path / "nowhere"), "--to", "usd"]) == 2
+    assert "no run folder" in capsys.readouterr().err
+    (tmp_path / "broken.parquet").write_bytes(b"garbage")
+    assert main(["export", str(tmp_path / "broken.parquet"), "--to", "sqlite"]) == 2
+    assert "not a readable Parquet" in capsys.readouterr().err
+    assert main(["export", str(out), "--to", "sqlite", "-o", str(tmp_path / "no" / "such" / "dir.sqlite")]) == 2
+    assert "does not exist" in capsys.readouterr().err
+    assert not (tmp_path / "no").exists()

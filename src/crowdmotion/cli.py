@@ -86,6 +86,8 @@ def cmd_bench(args) -> int:
 def _find_trajectories(out: Path) -> Path:
     if out.is_file():
         return out
+    if not out.exists():
+        raise FileNotFoundError(f"no run folder or trajectory file at {out}")
     for name in ("trajectories.parquet", "trajectories.csv"):
         if (out / name).is_file():
             return out / name
@@ -114,6 +116,22 @@ def cmd_report(args) -> int:
     with atomic_path(dest) as tmp:
         tmp.write_text(json.dumps(report, indent=2))
     print(f"wrote {dest}")
+    return 0
+
+
+EXPORT_FORMATS = {"parquet": ".parquet", "csv": ".csv", "sqlite": ".sqlite", "jupedsim": ".sqlite",
+                  "usd": ".usdc", "usda": ".usda", "usdc": ".usdc"}
+
+
+def cmd_export(args) -> int:
+    from crowdmotion.trajectories import Trajectories
+
+    src = _find_trajectories(Path(args.output))
+    traj = Trajectories.load(src)
+    folder = src.parent
+    dest = Path(args.dest) if args.dest else folder / f"trajectories{EXPORT_FORMATS[args.to]}"
+    traj.save(dest)
+    print(f"wrote {dest} ({traj.n_agents} agents, {traj.n_frames} frames at {1 / traj.dt:g} fps)")
     return 0
 
 
@@ -158,6 +176,13 @@ def main(argv=None) -> int:
     p = sub.add_parser("report", help="per-group behaviour report of a run's trajectories")
     p.add_argument("output", help="a run's output folder (or a trajectories file)")
     p.set_defaults(func=cmd_report)
+
+    p = sub.add_parser("export", help="write a run's trajectories as Parquet, CSV, JuPedSim SQLite or USD")
+    p.add_argument("output", help="a run's output folder (or a trajectories file)")
+    p.add_argument("--to", required=True, choices=sorted(EXPORT_FORMATS),
+                   help="sqlite/jupedsim: JuPedSim v2 (PedPy reads it); usd/usdc: binary USD; usda: text USD")
+    p.add_argument("-o", "--dest", help="file to write (default: trajectories.<ext> beside the input)")
+    p.set_defaults(func=cmd_export)
 
     p = sub.add_parser("scenarios", help="list the built-in scenarios")
     p.set_defaults(func=cmd_list)

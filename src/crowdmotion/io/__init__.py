@@ -1,4 +1,9 @@
-"""Trajectory files: one writer/reader per format, chosen by file suffix."""
+"""Trajectory files: one writer/reader per format, chosen by file suffix.
+
+``.parquet`` and ``.csv`` (long form), ``.sqlite`` (JuPedSim v2, read by PedPy) and
+``.usd`` / ``.usda`` / ``.usdc`` (Universal Scene Description). Every writer works from
+Trajectories alone and writes atomically.
+"""
 
 from __future__ import annotations
 
@@ -6,8 +11,10 @@ from pathlib import Path
 
 from crowdmotion.io import csv as _csv
 from crowdmotion.io import parquet as _parquet
+from crowdmotion.io import sqlite as _sqlite
+from crowdmotion.io import usd as _usd
 
-FORMATS = {".parquet": _parquet, ".csv": _csv}
+FORMATS = {".parquet": _parquet, ".csv": _csv, ".sqlite": _sqlite, ".usd": _usd, ".usda": _usd, ".usdc": _usd}
 
 
 def _format(path: Path):

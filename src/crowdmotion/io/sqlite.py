@@ -1,0 +1,137 @@
+"""JuPedSim trajectory SQLite files (schema version 2), which PedPy reads with
+``load_trajectory_from_jupedsim_sqlite`` and ``load_walkable_area_from_jupedsim_sqlite``.
+
+Tables as JuPedSim writes them: ``trajectory_data(frame, id, pos_x, pos_y, ori_x, ori_y)``
+(one row per present agent and frame; the orientation is the unit heading),
+``metadata(key, value)`` with ``version`` = 2, ``fps`` and the bounds ``xmin`` .. ``ymax``,
+``geometry(hash, wkt)`` holding the walkable area (the scene's bounds less its static
+obstacles, as WKT) and ``frame_data(frame, geometry_hash)``. crowdmotion adds
+``crowdmotion_agents(id, grp, radius)`` and a ``crowdmotion`` metadata entry (JSON) so
+that its own reader gets the groups, radii and metadata back; JuPedSim and PedPy ignore
+them. 3D runs are projected onto the ground plane (x, y): the ``projection`` metadata
+entry says so, and so does a ``UserWarning`` on writing.
+"""
+
+from __future__ import annotations
+
+import json
+import sqlite3
+import warnings
+import zlib
+from pathlib import Path
+
+import numpy as np
+import shapely
+
+from crowdmotion.io.atomic import atomic_path
+from crowdmotion.io.longform import metadata_json
+from crowdmotion.scene import Box, Circle, Polygon, Scene, Sphere
+from crowdmotion.trajectories import Trajectories
+
+VERSION = 2
+
+
+def walkable_area(scene_dict: dict | None, positions: np.ndarray) -> shapely.Geometry:
+    """The scene's bounds less its static obstacles, in the ground plane; without a scene,
+    the box round every position, 1 m wider."""
+    if not scene_dict:
+        lo, hi = positions[..., :2].reshape(-1, 2).min(axis=0) - 1.0, positions[..., :2].reshape(-1, 2).max(axis=0) + 1.0
+        return shapely.box(*lo, *hi)
+    scene = Scene.from_dict(scene_dict)
+    area = shapely.box(*scene.lower[:2], *scene.upper[:2])
+    holes = []
+    for ob in scene.obstacles:
+        if ob.is_moving:
+            continue  # walkable at some moments: not cut out of the static area
+        if isinstance(ob, (Circle, Sphere)):
+            holes.append(shapely.Point(ob.center[:2]).buffer(ob.radius, quad_segs=16))
+        elif isinstance(ob, Box):
+            holes.append(shapely.box(*ob.lower[:2], *ob.upper[:2]))
+        elif isinstance(ob, Polygon):
+            holes.append(shapely.Polygon(ob.vertices))
+    return area.difference(shapely.union_all(holes)) if holes else area
+
+
+def _orientation(traj: Trajectories) -> np.ndarray:
+    h = traj.heading
+    return np.stack([np.cos(h), np.sin(h)], axis=-1)
+
+
+def write(traj: Trajectories, path: Path) -> None:
+    if traj.dim == 3:
+        warnings.warn(f"{path.name}: JuPedSim files are 2D; the 3D run is projected onto the ground plane (x, y)",
+                      UserWarning, stacklevel=3)
+    t, n, _ = traj.positions.shape
+    act = traj.active_mask
+    frame, agent = np.nonzero(act)
+    pos = traj.positions[frame, agent, :2]
+    ori = _orientation(traj)[frame, agent]
+    rows = np.column_stack([frame, traj.ids[agent], pos, ori])
+    geo = walkable_area(traj.metadata.get("scene"), traj.positions).wkt
+    geo_hash = zlib.crc32(geo.encode())
+    xmin, ymin, xmax, ymax = shapely.from_wkt(geo).bounds
+    meta = [("version", str(VERSION)), ("fps", repr(1.0 / traj.dt)), ("xmin", repr(xmin)), ("xmax", repr(xmax)),
+            ("ymin", repr(ymin)), ("ymax", repr(ymax)), ("crowdmotion", metadata_json(traj))]
+    if traj.dim == 3:
+        meta.append(("projection", "3D run projected onto the ground plane (x, y); z dropped"))
+    with atomic_path(path) as tmp:
+        tmp.unlink()  # sqlite wants to create the file itself
+        con = sqlite3.connect(tmp)
+        try:
+            cur = con.cursor()
+            cur.execute("CREATE TABLE trajectory_data (frame INTEGER NOT NULL, id INTEGER NOT NULL, "
+                        "pos_x REAL NOT NULL, pos_y REAL NOT NULL, ori_x REAL NOT NULL, ori_y REAL NOT NULL)")
+            cur.executemany("INSERT INTO trajectory_data VALUES(?, ?, ?, ?, ?, ?)",
+                            ((int(f), int(i), float(x), float(y), float(ox), float(oy))
+                             for f, i, x, y, ox, oy in rows))
+            cur.execute("CREATE INDEX frame_id_idx ON trajectory_data(frame, id)")
+            cur.execute("CREATE TABLE metadata(key TEXT NOT NULL UNIQUE PRIMARY KEY, value TEXT NOT NULL)")
+            cur.executemany("INSERT INTO metadata VALUES(?, ?)", meta)
+            cur.execute("CREATE TABLE geometry(hash INTEGER NOT NULL, wkt TEXT NOT NULL)")
+            cur.execute("CREATE UNIQUE INDEX geometry_hash on geometry(hash)")
+            cur.execute("INSERT INTO geometry VALUES(?, ?)", (geo_hash, geo))
+            cur.execute("CREATE TABLE frame_data(frame INTEGER NOT NULL, geometry_hash INTEGER NOT NULL)")
+            cur.executemany("INSERT INTO frame_data VALUES(?, ?)", ((f, geo_hash) for f in range(t)))
+            cur.execute("CREATE TABLE crowdmotion_agents(id INTEGER NOT NULL, grp TEXT NOT NULL, radius REAL NOT NULL)")
+            cur.executemany("INSERT INTO crowdmotion_agents VALUES(?, ?, ?)",
+                            ((int(i), str(g), float(r)) for i, g, r in zip(traj.ids, traj.group, traj.radius)))
+            con.commit()
+        finally:
+            con.close()
+
+
+def read(path: Path) -> Trajectories:
+    """A JuPedSim v2 file (ours or JuPedSim's) as 2D Trajectories; agents absent from a
+    frame are inactive there."""
+    try:
+        con = sqlite3.connect(f"file:{path}?mode=ro", uri=True)
+        try:
+            rows = np.array(con.execute("SELECT frame, id, pos_x, pos_y FROM trajectory_data").fetchall(), float)
+            meta = dict(con.execute("SELECT key, value FROM metadata").fetchall())
+            try:
+                agents = con.execute("SELECT id, grp, radius FROM crowdmotion_agents").fetchall()
+            except sqlite3.OperationalError:
+                agents = []
+        finally:
+            con.close()
+    except sqlite3.DatabaseError as exc:
+        raise ValueError(f"{path} is not a JuPedSim trajectory SQLite file: {exc}") from exc
+    if "fps" not in meta or rows.size == 0:
+        raise ValueError(f"{path} is not a JuPedSim trajectory SQLite file (no frame rate or no trajectory rows)")
+    frames = rows[:, 0].astype(np.int64)
+    ids, col = np.unique(rows[:, 1].astype(np.int64), return_inverse=True)
+    f0 = frames.min()
+    t = int(frames.max() - f0) + 1
+    pos = np.zeros((t, len(ids), 2))
+    active = np.zeros((t, len(ids)), bool)
+    pos[frames - f0, col] = rows[:, 2:4]
+    active[frames - f0, col] = True
+    for k in range(1, t):  # absent agents keep their last place (they are inactive there)
+        gone = ~active[k]
+        pos[k, gone] = pos[k - 1, gone]
+    extra = {int(i): (g, r) for i, g, r in agents}
+    group = np.array([extra.get(int(i), ("agents", 0.0))[0] for i in ids], dtype=object)
+    radius = np.array([extra.get(int(i), ("agents", 0.0))[1] for i in ids], float)
+    metadata = json.loads(meta["crowdmotion"]) if "crowdmotion" in meta else {}
+    return Trajectories(pos, 1.0 / float(meta["fps"]), ids=ids, group=group, radius=radius,
+                        active=None if active.all() else active, metadata=metadata)

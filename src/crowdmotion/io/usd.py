@@ -1,0 +1,186 @@
+"""USD files (``usd-core``) that Blender, Houdini, Maya and Unity import.
+
+The stage is Y-up (USD's and Maya's, Houdini's and Unity's default; Blender converts on
+import), ``metersPerUnit`` = 1 and ``timeCodesPerSecond`` = ``framesPerSecond`` = the
+run's frame rate, one time code per frame. World (x, y[, z]) with z up maps to USD
+(x, z, −y): a 2D run lies on the ground plane at height 0. Under ``/World``:
+
+- ``Agents`` — a ``UsdGeomPoints`` with time-sampled ``points``, ``widths`` (body
+  diameters; 0 while an agent is inactive) and ``ids``;
+- ``Crowd`` — a ``UsdGeomPointInstancer`` with one prototype per group (a capsule of the
+  group's body size, standing up), time-sampled ``positions``, ``orientations`` (turned
+  about the up axis to the heading) and ``invisibleIds`` for inactive agents;
+- ``Obstacles`` — cylinders, spheres, cubes and flat polygon meshes for the scene's static
+  obstacles (moving ones at their start place, with their path as ``translate`` samples).
+
+``customLayerData`` keeps crowdmotion's metadata (method, seed, parameters) as JSON.
+"""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import numpy as np
+
+from crowdmotion.io.atomic import atomic_path
+from crowdmotion.io.longform import metadata_json
+from crowdmotion.trajectories import Trajectories
+
+
+def _pxr():
+    try:
+        from pxr import Gf, Sdf, Usd, UsdGeom, Vt
+    except ImportError as exc:  # pragma: no cover - usd-core is a dependency
+        raise ImportError("USD export needs the usd-core package: pip install usd-core") from exc
+    return Gf, Sdf, Usd, UsdGeom, Vt
+
+
+def to_usd_frame(points: np.ndarray) -> np.ndarray:
+    """World (x, y[, z]) with z up -> USD Y-up (x, z, −y)."""
+    p = np.asarray(points, float)
+    z = p[..., 2] if p.shape[-1] == 3 else np.zeros(p.shape[:-1])
+    return np.stack([p[..., 0], z, -p[..., 1]], axis=-1)
+
+
+def from_usd_frame(points: np.ndarray, dim: int) -> np.ndarray:
+    """Inverse of :func:`to_usd_frame`."""
+    p = np.asarray(points, float)
+    world = np.stack([p[..., 0], -p[..., 2], p[..., 1]], axis=-1)
+    return world[..., :dim]
+
+
+def _obstacles(stage, scene_dict: dict, UsdGeom, Gf) -> None:
+    from crowdmotion.scene import Box, Circle, Polygon, Scene, Sphere
+
+    scene = Scene.from_dict(scene_dict)
+    UsdGeom.Xform.Define(stage, "/World/Obstacles")
+    for k, ob in enumerate(scene.obstacles):
+        name = f"/World/Obstacles/obstacle_{k}"
+        if isinstance(ob, Circle):
+            prim = UsdGeom.Cylinder.Define(stage, name)
+            prim.CreateRadiusAttr(float(ob.radius))
+            prim.CreateHeightAttr(2.0)
+            prim.CreateAxisAttr("Y")
+            centre = to_usd_frame(ob.center) + [0.0, 1.0, 0.0]
+        elif isinstance(ob, Sphere):
+            prim = UsdGeom.Sphere.Define(stage, name)
+            prim.CreateRadiusAttr(float(ob.radius))
+            centre = to_usd_frame(ob.center)
+        elif isinstance(ob, Box):
+            prim = UsdGeom.Cube.Define(stage, name)
+            prim.CreateSizeAttr(1.0)
+            lo, hi = ob.lower, ob.upper
+            if scene.dim == 2:
+                lo, hi = np.append(lo, 0.0), np.append(hi, 2.0)
+            a, b = to_usd_frame(lo), to_usd_frame(hi)
+            centre = (a + b) / 2
+            prim.AddScaleOp().Set(Gf.Vec3f(*np.abs(b - a).tolist()))
+        elif isinstance(ob, Polygon):
+            prim = UsdGeom.Mesh.Define(stage, name)
+            v = to_usd_frame(ob.vertices)
+            prim.CreatePointsAttr([Gf.Vec3f(*p) for p in v.tolist()])
+            prim.CreateFaceVertexCountsAttr([len(v)])
+            prim.CreateFaceVertexIndicesAttr(list(range(len(v)))[::-1])  # face up (+Y)
+            centre = np.zeros(3)
+        else:  # pragma: no cover
+            continue
+        op = prim.AddTranslateOp()
+        if ob.is_moving:
+            for t, shift in zip(ob.path.times, ob.path.positions - ob.center):
+                op.Set(Gf.Vec3d(*(centre + to_usd_frame(shift)).tolist()), float(t))
+        else:
+            op.Set(Gf.Vec3d(*np.asarray(centre, float).tolist()))
+
+
+def write(traj: Trajectories, path: Path) -> None:
+    Gf, Sdf, Usd, UsdGeom, Vt = _pxr()
+    fps = 1.0 / traj.dt
+    pos = to_usd_frame(traj.positions).astype(np.float32)
+    act = traj.active_mask
+    heading = traj.heading
+    ids = np.asarray(traj.ids, np.int64)
+    width = (2 * traj.radius).astype(np.float32)
+    groups = list(dict.fromkeys(traj.group.tolist()))
+    proto_index = np.array([groups.index(g) for g in traj.group.tolist()], np.int32)
+    with atomic_path(path) as tmp:
+        layer_path = tmp.with_suffix(path.suffix)  # USD picks the file format from the suffix
+        stage = Usd.Stage.CreateNew(str(layer_path))
+        ok = False
+        try:
+            UsdGeom.SetStageUpAxis(stage, UsdGeom.Tokens.y)
+            UsdGeom.SetStageMetersPerUnit(stage, 1.0)
+            stage.SetTimeCodesPerSecond(fps)
+            stage.SetFramesPerSecond(fps)
+            stage.SetStartTimeCode(0)
+            stage.SetEndTimeCode(traj.n_frames - 1)
+            stage.SetMetadata("customLayerData", {"crowdmotion": metadata_json(traj), "crowdmotion_dim": traj.dim})
+            world = UsdGeom.Xform.Define(stage, "/World")
+            stage.SetDefaultPrim(world.GetPrim())
+            points = UsdGeom.Points.Define(stage, "/World/Agents")
+            points.CreateIdsAttr(Vt.Int64Array.FromNumpy(ids))
+            p_attr, w_attr = points.CreatePointsAttr(), points.CreateWidthsAttr()
+            inst = UsdGeom.PointInstancer.Define(stage, "/World/Crowd")
+            inst.CreateIdsAttr(Vt.Int64Array.FromNumpy(ids))
+            inst.CreateProtoIndicesAttr(Vt.IntArray.FromNumpy(proto_index))
+            targets = []
+            for k, g in enumerate(groups):
+                cap = UsdGeom.Capsule.Define(stage, f"/World/Crowd/Prototypes/group_{k}")
+                r = float(traj.radius[traj.group == g].max())
+                cap.CreateRadiusAttr(r)
+                cap.CreateHeightAttr(max(1.7 - 2 * r, 0.1))
+                cap.CreateAxisAttr("Y")
+                cap.AddTranslateOp().Set(Gf.Vec3d(0.0, 0.85, 0.0))
+                cap.GetPrim().SetCustomDataByKey("crowdmotion:group", str(g))
+                targets.append(cap.GetPath())
+            inst.CreatePrototypesRel().SetTargets(targets)
+            ip_attr, io_attr, iv_attr = inst.CreatePositionsAttr(), inst.CreateOrientationsAttr(), \
+                inst.CreateInvisibleIdsAttr()
+            half = heading / 2  # a turn about +Y by the heading (world z up maps to USD +Y)
+            for f in range(traj.n_frames):
+                tc = Usd.TimeCode(f)
+                p_attr.Set(Vt.Vec3fArray.FromNumpy(pos[f]), tc)
+                w_attr.Set(Vt.FloatArray.FromNumpy(np.where(act[f], width, 0.0).astype(np.float32)), tc)
+                ip_attr.Set(Vt.Vec3fArray.FromNumpy(pos[f]), tc)
+                quats = [Gf.Quath(float(c), 0.0, float(s), 0.0) for c, s in zip(np.cos(half[f]), np.sin(half[f]))]
+                io_attr.Set(quats, tc)
+                iv_attr.Set(Vt.Int64Array.FromNumpy(ids[~act[f]]), tc)
+            if traj.metadata.get("scene"):
+                _obstacles(stage, traj.metadata["scene"], UsdGeom, Gf)
+            stage.GetRootLayer().Save()
+            ok = True
+        finally:
+            del stage
+            if not ok:
+                layer_path.unlink(missing_ok=True)
+        layer_path.replace(tmp)
+
+
+def read(path: Path) -> Trajectories:
+    """The ``/World/Agents`` points of a file written by :func:`write` as Trajectories."""
+    _, _, Usd, UsdGeom, _ = _pxr()
+    stage = Usd.Stage.Open(str(path))
+    if stage is None:
+        raise ValueError(f"{path} is not a readable USD file")
+    prim = stage.GetPrimAtPath("/World/Agents")
+    if not prim.IsValid():
+        raise ValueError(f"{path} has no /World/Agents points (not written by crowdmotion)")
+    points = UsdGeom.Points(prim)
+    layer_data = stage.GetMetadata("customLayerData") or {}
+    meta = json.loads(layer_data.get("crowdmotion", "{}"))
+    dim = int(layer_data.get("crowdmotion_dim", 3))
+    t0, t1 = int(stage.GetStartTimeCode()), int(stage.GetEndTimeCode())
+    frames = [np.asarray(points.GetPointsAttr().Get(f), float) for f in range(t0, t1 + 1)]
+    widths = [np.asarray(points.GetWidthsAttr().Get(f), float) for f in range(t0, t1 + 1)]
+    pos = from_usd_frame(np.array(frames), dim)
+    active = np.array(widths) > 0
+    radius = np.array(widths).max(axis=0) / 2
+    ids = np.asarray(points.GetIdsAttr().Get(), np.int64)
+    inst = UsdGeom.PointInstancer(stage.GetPrimAtPath("/World/Crowd"))
+    group = np.array(["agents"] * len(ids), dtype=object)
+    if inst:
+        names = [stage.GetPrimAtPath(p).GetCustomDataByKey("crowdmotion:group") for p in
+                 inst.GetPrototypesRel().GetTargets()]
+        group = np.array([names[k] for k in inst.GetProtoIndicesAttr().Get()], dtype=object)
+    return Trajectories(pos, 1.0 / stage.GetTimeCodesPerSecond(), ids=ids, group=group, radius=radius,
+                        active=None if active.all() else active, metadata=meta)

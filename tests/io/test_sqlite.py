@@ -1,0 +1,76 @@
+"""JuPedSim SQLite files: our round trip, and PedPy reading them."""
+
+import pathlib
+import sqlite3
+
+import numpy as np
+import pytest
+
+from crowdmotion import Trajectories
+from crowdmotion.scene import Box, Circle, Scene
+from tests.io.test_roundtrip import sample
+
+
+def _scene_run():
+    scene = Scene(((0, 0), (20, 10)), [Circle((10, 5), 1.0), Box((3, 0), (4, 3))])
+    t = np.arange(40) * 0.1
+    pos = np.stack([np.stack([1 + t * 0.4 + k, 2 + 0.5 * k + 0 * t], axis=1) for k in range(5)], axis=1)
+    return Trajectories(pos, 0.1, group=np.array(["g"] * 5, object), radius=[0.25] * 5,
+                        metadata={"scene": scene.to_dict(), "method": "rvo"}), scene
+
+
+def test_roundtrip_keeps_positions_timing_groups_and_gaps(tmp_path):
+    tr = sample(2)
+    back = Trajectories.load(tr.save(tmp_path / "t.sqlite"))
+    np.testing.assert_allclose(back.positions[tr.active_mask], tr.positions[tr.active_mask], rtol=1e-12)
+    assert back.dt == pytest.approx(0.25)
+    np.testing.assert_array_equal(back.active, tr.active)
+    assert back.group.tolist() == tr.group.tolist() and back.radius.tolist() == pytest.approx(tr.radius.tolist())
+    assert back.metadata["seed"] == 3
+
+
+def test_the_file_follows_the_jupedsim_v2_schema(tmp_path):
+    tr, scene = _scene_run()
+    path = tr.save(tmp_path / "run.sqlite")
+    con = sqlite3.connect(path)
+    meta = dict(con.execute("SELECT key, value FROM metadata").fetchall())
+    cols = [r[1] for r in con.execute("PRAGMA table_info(trajectory_data)")]
+    (wkt,) = con.execute("SELECT wkt FROM geometry").fetchone()
+    n_frames = con.execute("SELECT COUNT(*) FROM frame_data").fetchone()[0]
+    ori = np.array(con.execute("SELECT ori_x, ori_y FROM trajectory_data").fetchall())
+    con.close()
+    assert cols == ["frame", "id", "pos_x", "pos_y", "ori_x", "ori_y"]
+    assert meta["version"] == "2" and float(meta["fps"]) == pytest.approx(10.0)
+    assert (float(meta["xmin"]), float(meta["ymax"])) == (0.0, 10.0)
+    assert n_frames == 40 and wkt.startswith("POLYGON")
+    np.testing.assert_allclose(ori, np.tile([1.0, 0.0], (len(ori), 1)), atol=1e-12)  # all walk along +x
+
+
+def test_pedpy_reads_it_and_computes_a_density_profile(tmp_path):
+    pedpy = pytest.importorskip("pedpy")
+    tr, scene = _scene_run()
+    path = pathlib.Path(tr.save(tmp_path / "run.sqlite"))
+    data = pedpy.load_trajectory_from_jupedsim_sqlite(trajectory_file=path)
+    area = pedpy.load_walkable_area_from_jupedsim_sqlite(trajectory_file=path)
+    assert data.frame_rate == pytest.approx(10.0) and len(data.data) == 40 * 5
+    # the walkable area is the bounds less the circle and the box
+    assert area.polygon.area == pytest.approx(200 - np.pi - 3, rel=1e-3)
+    profiles = pedpy.compute_density_profile(data=data.data, walkable_area=area, grid_size=1.0,
+                                             density_method=pedpy.DensityMethod.CLASSIC)
+    assert len(profiles) == 40
+    # classic density: 5 agents in 1 m² cells, frame by frame
+    assert sum(float(np.nansum(p)) for p in profiles) == pytest.approx(40 * 5, rel=1e-6)
+
+
+def test_3d_runs_are_projected_and_say_so(tmp_path):
+    with pytest.warns(UserWarning, match="projected onto the ground plane"):
+        path = sample(3).save(tmp_path / "t.sqlite")
+    back = Trajectories.load(path)
+    assert back.dim == 2
+    np.testing.assert_allclose(back.positions[sample(3).active_mask], sample(3).positions[..., :2][sample(3).active_mask])
+
+
+def test_a_corrupt_file_is_refused(tmp_path):
+    (tmp_path / "bad.sqlite").write_bytes(b"not a database at all" * 10)
+    with pytest.raises(ValueError, match="not a JuPedSim trajectory SQLite"):
+        Trajectories.load(tmp_path / "bad.sqlite")

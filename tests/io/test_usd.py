@@ -1,0 +1,63 @@
+"""USD files: round trip (float32), stage metadata, the instancer's orientations."""
+
+import numpy as np
+import pytest
+
+from crowdmotion import Trajectories
+from crowdmotion.io.usd import from_usd_frame, to_usd_frame
+from crowdmotion.scene import Box, Circle, Scene
+from tests.io.test_roundtrip import sample
+
+pxr = pytest.importorskip("pxr")
+
+
+@pytest.mark.parametrize("suffix", ["usd", "usda", "usdc"])
+@pytest.mark.parametrize("dim", [2, 3])
+def test_roundtrip_float32_and_timing(tmp_path, suffix, dim):
+    tr = sample(dim)
+    if dim == 2:
+        tr.metadata["scene"] = Scene(((-5, -5), (5, 5)), [Circle((3, 3), 0.5), Box((-4, -4), (-3, -2))]).to_dict()
+    back = Trajectories.load(tr.save(tmp_path / f"t.{suffix}"))
+    np.testing.assert_allclose(back.positions, tr.positions.astype(np.float32), rtol=1e-6, atol=1e-6)
+    assert back.dt == pytest.approx(0.25)
+    np.testing.assert_array_equal(back.active_mask, tr.active_mask)
+    assert back.group.tolist() == tr.group.tolist()
+    np.testing.assert_allclose(back.radius, tr.radius, rtol=1e-6)
+
+
+def test_stage_is_y_up_in_metres_at_the_run_frame_rate_with_headings(tmp_path):
+    from pxr import Usd, UsdGeom
+
+    pos = np.zeros((3, 1, 2))
+    pos[:, 0, 1] = [0.0, 1.0, 2.0]  # walking along +y (north)
+    path = Trajectories(pos, 0.5).save(tmp_path / "north.usda")
+    stage = Usd.Stage.Open(str(path))
+    assert UsdGeom.GetStageUpAxis(stage) == "Y" and UsdGeom.GetStageMetersPerUnit(stage) == 1.0
+    assert stage.GetTimeCodesPerSecond() == 2.0 and stage.GetEndTimeCode() == 2
+    inst = UsdGeom.PointInstancer(stage.GetPrimAtPath("/World/Crowd"))
+    q = inst.GetOrientationsAttr().Get(1)[0]
+    # +x of the prototype turned to north, which is USD -Z
+    from pxr import Gf
+    v = Gf.Rotation(Gf.Quatd(q.GetReal(), Gf.Vec3d(q.GetImaginary()))).TransformDir(Gf.Vec3d(1, 0, 0))
+    assert (v[0], v[1], v[2]) == pytest.approx((0.0, 0.0, -1.0), abs=1e-3)
+    np.testing.assert_allclose(np.array(inst.GetPositionsAttr().Get(2))[0], [0.0, 0.0, -2.0])
+
+
+def test_axis_mapping_is_its_own_inverse():
+    p = np.random.default_rng(0).normal(size=(5, 3))
+    np.testing.assert_allclose(from_usd_frame(to_usd_frame(p), 3), p)
+    np.testing.assert_allclose(to_usd_frame(p[:, :2])[:, 1], 0.0)  # 2D lies on the ground
+
+
+def test_failed_usd_write_leaves_nothing(tmp_path, monkeypatch):
+    from crowdmotion.io import usd
+
+    def boom(*a, **k):
+        raise RuntimeError("disk full")
+
+    monkeypatch.setattr(usd, "_obstacles", boom)
+    tr = sample(2)
+    tr.metadata["scene"] = Scene(((-5, -5), (5, 5))).to_dict()
+    with pytest.raises(RuntimeError):
+        tr.save(tmp_path / "t.usdc")
+    assert list(tmp_path.iterdir()) == []
