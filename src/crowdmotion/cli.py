@@ -135,6 +135,44 @@ def cmd_export(args) -> int:
     return 0
 
 
+def _seeds(text: str) -> list[int]:
+    """``0:100`` (a range), ``1,4,9`` or ``7``."""
+    try:
+        if ":" in text:
+            a, b = text.split(":", 1)
+            return list(range(int(a), int(b)))
+        return [int(x) for x in text.split(",")]
+    except ValueError:
+        raise ValueError(f"--seeds must look like 0:100, 1,4,9 or 7, got {text!r}") from None
+
+
+def _setting(text: str) -> tuple[str, list]:
+    """``rvo.safety=1,3,7.5`` -> ("rvo.safety", [1, 3, 7.5]); values read as TOML."""
+    import tomllib
+
+    if "=" not in text:
+        raise ValueError(f"--set must look like field=value1,value2, got {text!r}")
+    key, values = text.split("=", 1)
+    out = []
+    for v in values.split(","):
+        try:
+            out.append(tomllib.loads(f"v = {v}")["v"])
+        except tomllib.TOMLDecodeError:
+            out.append(v)
+    return key.strip(), out
+
+
+def cmd_sweep(args) -> int:
+    from crowdmotion.sweep import sweep
+
+    settings = dict(_setting(s) for s in args.set or [])
+    out = Path(args.output or Path("sweeps") / Path(args.scenario).stem)
+    table = sweep(args.scenario, _seeds(args.seeds), settings, out, scheduler=args.scheduler, workers=args.workers,
+                  progress=not args.quiet)
+    print(f"{table.num_rows} runs; table {out / 'sweep.parquet'}, trajectories in {out / 'runs'}/")
+    return 0
+
+
 def cmd_list(args) -> int:
     from crowdmotion.scenario import load_scenario
 
@@ -183,6 +221,16 @@ def main(argv=None) -> int:
                    help="sqlite/jupedsim: JuPedSim v2 (PedPy reads it); usd/usdc: binary USD; usda: text USD")
     p.add_argument("-o", "--dest", help="file to write (default: trajectories.<ext> beside the input)")
     p.set_defaults(func=cmd_export)
+
+    p = sub.add_parser("sweep", help="run a scenario over seeds and parameter values on Dask")
+    p.add_argument("scenario")
+    p.add_argument("--seeds", default="0:8", help="0:100 (a range), 1,4,9 or 7 (default 0:8)")
+    p.add_argument("--set", action="append", metavar="FIELD=V1,V2", help="e.g. rvo.safety=1,3,7.5 (repeatable)")
+    p.add_argument("--scheduler", help="address of a running Dask scheduler (default: a LocalCluster)")
+    p.add_argument("--workers", type=int, help="LocalCluster workers (default: the machine's cores)")
+    p.add_argument("-o", "--output", help="output folder (default ./sweeps/<scenario>)")
+    p.add_argument("-q", "--quiet", action="store_true")
+    p.set_defaults(func=cmd_sweep)
 
     p = sub.add_parser("scenarios", help="list the built-in scenarios")
     p.set_defaults(func=cmd_list)

@@ -1,0 +1,43 @@
+"""Sweeps on Dask: one file and one summary row per run; bad settings refused first."""
+
+import pyarrow.parquet as pq
+import pytest
+
+from crowdmotion.cli import main
+from crowdmotion.scenario import ScenarioError
+from crowdmotion.sweep import plan, sweep
+from tests.test_scenario import GOOD
+
+
+def test_eight_seeds_on_a_local_cluster_give_eight_rows_and_eight_files(tmp_path):
+    path = tmp_path / "s.toml"
+    path.write_text(GOOD)
+    table = sweep(path, seeds=range(8), out=tmp_path / "out", workers=2, processes=False, progress=False)
+    assert table.num_rows == 8 and sorted(table["seed"].to_pylist()) == list(range(8))
+    files = sorted((tmp_path / "out" / "runs").glob("*.parquet"))
+    assert len(files) == 8
+    assert pq.read_table(tmp_path / "out" / "sweep.parquet").num_rows == 8
+    assert set(table["agent_agent_overlaps"].to_pylist()) == {0.0}
+
+
+def test_settings_multiply_the_runs_and_bad_values_name_the_field(tmp_path):
+    path = tmp_path / "s.toml"
+    path.write_text(GOOD)
+    runs = plan(path, [0, 1], {"mdp.tau": [0.5, 2.0], "seed": [1]})
+    assert len(runs) == 4 and {r[2]["mdp.tau"] for r in runs} == {0.5, 2.0}
+    with pytest.raises(ScenarioError, match="mdp.tau"):
+        plan(path, [0], {"mdp.tau": [-1.0]})
+    with pytest.raises(ValueError, match="non-negative"):
+        plan(path, [-1], None)
+
+
+def test_sweep_command(tmp_path, capsys):
+    path = tmp_path / "s.toml"
+    path.write_text(GOOD)
+    out = tmp_path / "cli"
+    assert main(["sweep", str(path), "--seeds", "0:2", "--set", "mdp.tau=0.5,1.0", "--workers", "2", "-o", str(out),
+                 "-q"]) == 0
+    assert "4 runs" in capsys.readouterr().out
+    assert pq.read_table(out / "sweep.parquet").num_rows == 4
+    assert main(["sweep", str(path), "--seeds", "a:b"]) == 2
+    assert "--seeds must look like" in capsys.readouterr().err
