@@ -135,6 +135,25 @@ def cmd_export(args) -> int:
     return 0
 
 
+def cmd_render(args) -> int:
+    from crowdmotion.render import plot_paths
+    from crowdmotion.render.animation import animate, plot_density, scene_of
+    from crowdmotion.trajectories import Trajectories
+
+    src = _find_trajectories(Path(args.output))
+    traj = Trajectories.load(src)
+    folder = src.parent
+    written = [animate(traj, folder / f"animation.{args.to}", fps=args.fps, trail_s=args.trail,
+                       max_frames=args.max_frames, progress=not args.quiet),
+               plot_density(traj, folder / "density.png", cell=args.cell)]
+    scene = scene_of(traj)
+    if scene is not None:
+        written.append(plot_paths(traj, scene, folder / "paths.png"))
+    for f in written:
+        print(f"wrote {f}")
+    return 0
+
+
 def _seeds(text: str) -> list[int]:
     """``0:100`` (a range), ``1,4,9`` or ``7``."""
     try:
@@ -221,6 +240,16 @@ def main(argv=None) -> int:
                    help="sqlite/jupedsim: JuPedSim v2 (PedPy reads it); usd/usdc: binary USD; usda: text USD")
     p.add_argument("-o", "--dest", help="file to write (default: trajectories.<ext> beside the input)")
     p.set_defaults(func=cmd_export)
+
+    p = sub.add_parser("render", help="animation (MP4/GIF), density map and paths of a run")
+    p.add_argument("output", help="a run's output folder (or a trajectories file)")
+    p.add_argument("--to", choices=["mp4", "gif"], default="mp4")
+    p.add_argument("--fps", type=float, help="frames per second (default: real time, at most 30)")
+    p.add_argument("--trail", type=float, default=2.0, help="seconds of trail behind each agent")
+    p.add_argument("--max-frames", type=int, default=600)
+    p.add_argument("--cell", type=float, default=0.5, help="density map cell, metres")
+    p.add_argument("-q", "--quiet", action="store_true")
+    p.set_defaults(func=cmd_render)
 
     p = sub.add_parser("sweep", help="run a scenario over seeds and parameter values on Dask")
     p.add_argument("scenario")

@@ -1,0 +1,147 @@
+"""Animations (MP4 through imageio-ffmpeg, or GIF) and density maps of any run, from its
+Trajectories alone (the scene comes from the trajectories' metadata)."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import matplotlib
+
+matplotlib.use("Agg")
+import matplotlib.pyplot as plt  # noqa: E402
+import numpy as np  # noqa: E402
+from matplotlib.collections import EllipseCollection, LineCollection  # noqa: E402
+from tqdm.auto import tqdm  # noqa: E402
+
+from crowdmotion.io.atomic import atomic_path  # noqa: E402
+from crowdmotion.render.plots import _draw_obstacles_2d, _group_colours, _save  # noqa: E402
+from crowdmotion.scene import Scene  # noqa: E402
+from crowdmotion.trajectories import Trajectories  # noqa: E402
+
+
+def scene_of(traj: Trajectories) -> Scene | None:
+    """The scene stored with the trajectories, if any."""
+    data = traj.metadata.get("scene")
+    return Scene.from_dict(data) if data else None
+
+
+def _extent(traj: Trajectories, scene: Scene | None):
+    if scene is not None:
+        return scene.lower[:2], scene.upper[:2]
+    p = traj.positions[..., :2][traj.active_mask]
+    return p.min(axis=0) - 1.0, p.max(axis=0) + 1.0
+
+
+def animate(traj: Trajectories, path, fps: float | None = None, trail_s: float = 2.0, max_frames: int = 600,
+            width_px: int = 960, progress: bool = True) -> Path:
+    """Write an MP4 (``.mp4``, H.264 through imageio-ffmpeg) or GIF (``.gif``) of the run
+    seen from above: obstacles where they are at each moment, agents as discs of their
+    radius in their group's colour, a fading trail of the last ``trail_s`` seconds, the
+    time. At most ``max_frames`` frames (evenly picked); ``fps`` defaults to real time.
+    3D runs are shown from above (x, y)."""
+    path = Path(path)
+    kind = path.suffix.lower()
+    if kind not in (".mp4", ".gif"):
+        raise ValueError(f"animations are .mp4 or .gif, got {path.name!r}")
+    scene = scene_of(traj)
+    lo, hi = _extent(traj, scene)
+    frames = np.unique(np.linspace(0, traj.n_frames - 1, min(traj.n_frames, max_frames)).round().astype(int))
+    step_s = traj.dt * (frames[1] - frames[0]) if len(frames) > 1 else traj.dt
+    fps = float(fps) if fps else min(30.0, 1.0 / step_s)
+    aspect = float((hi[1] - lo[1]) / (hi[0] - lo[0]))
+    dpi = 100
+    w_in = width_px / dpi
+    h_in = max(2.0, w_in * aspect) + 0.4
+    h_in = round(h_in * dpi / 16) * 16 / dpi  # even pixel sizes for H.264
+    fig, ax = plt.subplots(figsize=(w_in, h_in), dpi=dpi)
+    colours = _group_colours(traj)
+    face = np.array([colours[g] for g in traj.group])
+    act = traj.active_mask
+    pos = traj.positions[..., :2]
+    trail_n = max(1, int(round(trail_s / traj.dt)))
+    title = f"{traj.metadata.get('scenario', traj.metadata.get('method', ''))}"
+    if traj.dim == 3:
+        title += " (seen from above)"
+    moving = scene is not None and any(ob.is_moving for ob in scene.obstacles)
+    if scene is not None and not moving:
+        _draw_obstacles_2d(ax, scene)
+    ax.set_xlim(lo[0], hi[0])
+    ax.set_ylim(lo[1], hi[1])
+    ax.set_aspect("equal")
+    trails = LineCollection([], linewidths=1.0)
+    ax.add_collection(trails)
+    d = 2 * traj.radius
+    bodies = EllipseCollection(d, d, np.zeros(traj.n_agents), units="xy", offsets=pos[0],
+                               offset_transform=ax.transData, edgecolors="k", linewidths=0.3, zorder=4)
+    ax.add_collection(bodies)
+    label = ax.set_title("", fontsize=10, family="monospace")
+    shapes = []
+    w_px, h_px = (int(round(x)) for x in fig.canvas.get_width_height())
+    with atomic_path(path) as tmp:
+        if kind == ".mp4":
+            import imageio_ffmpeg
+
+            sink = imageio_ffmpeg.write_frames(str(tmp), (w_px, h_px), fps=fps, codec="libx264", macro_block_size=16,
+                                               pix_fmt_out="yuv420p", output_params=["-f", "mp4"])
+            sink.send(None)
+        else:
+            gif_frames = []
+        for f in tqdm(frames, desc="rendering", unit="frame", disable=not progress, leave=False):
+            if moving:
+                for artist in shapes:
+                    artist.remove()
+                before = set(ax.patches) | set(ax.lines)
+                _draw_obstacles_2d(ax, scene, f * traj.dt)
+                shapes = [a for a in list(ax.patches) + list(ax.lines) if a not in before]
+            a0 = max(0, f - trail_n)
+            if f > a0:
+                seg = np.stack([pos[a0:f], pos[a0 + 1:f + 1]], axis=2)
+                keep = act[a0:f] & act[a0 + 1:f + 1]
+                rgba = np.broadcast_to(face, (len(seg),) + face.shape).copy()
+                rgba[..., 3] = np.linspace(0.1, 0.6, len(seg))[:, None]
+                trails.set_segments(seg[keep])
+                trails.set_color(rgba[keep])
+            fc = face.copy()
+            fc[~act[f], 3] = 0.0
+            bodies.set_offsets(pos[f])
+            bodies.set_facecolor(fc)
+            bodies.set_edgecolor(np.where(act[f][:, None], [[0, 0, 0, 1.0]], [[0, 0, 0, 0.0]]))
+            label.set_text(f"{title}  t = {f * traj.dt:6.1f} s")
+            fig.canvas.draw()
+            image = np.asarray(fig.canvas.buffer_rgba())[..., :3]
+            if kind == ".mp4":
+                sink.send(np.ascontiguousarray(image))
+            else:
+                from PIL import Image
+
+                gif_frames.append(Image.fromarray(image).convert("P", palette=Image.ADAPTIVE))
+        plt.close(fig)
+        if kind == ".mp4":
+            sink.close()
+        else:
+            gif_frames[0].save(tmp, format="GIF", save_all=True, append_images=gif_frames[1:],
+                               duration=int(1000 / fps), loop=0)
+    return path
+
+
+def plot_density(traj: Trajectories, path, cell: float = 0.5, title: str = "") -> Path:
+    """Mean density map (agents per m², averaged over the frames) on cells of ``cell``
+    metres, seen from above, over the scene's obstacles."""
+    scene = scene_of(traj)
+    lo, hi = _extent(traj, scene)
+    nx, ny = max(1, int(np.ceil((hi[0] - lo[0]) / cell))), max(1, int(np.ceil((hi[1] - lo[1]) / cell)))
+    p = traj.positions[..., :2][traj.active_mask]
+    counts, _, _ = np.histogram2d(p[:, 0], p[:, 1], bins=[nx, ny], range=[[lo[0], lo[0] + nx * cell],
+                                                                          [lo[1], lo[1] + ny * cell]])
+    density = counts / traj.n_frames / cell**2
+    fig, ax = plt.subplots(figsize=(8, 8 * (hi[1] - lo[1]) / (hi[0] - lo[0]) + 0.8))
+    im = ax.imshow(np.ma.masked_equal(density.T, 0), origin="lower", cmap="viridis",
+                   extent=(lo[0], lo[0] + nx * cell, lo[1], lo[1] + ny * cell))
+    if scene is not None:
+        _draw_obstacles_2d(ax, scene)
+    fig.colorbar(im, ax=ax, label="mean density (agents / m²)", shrink=0.8)
+    ax.set_xlim(lo[0], hi[0])
+    ax.set_ylim(lo[1], hi[1])
+    ax.set_aspect("equal")
+    ax.set_title(title or f"mean density, {cell} m cells")
+    return _save(fig, path)

@@ -1,0 +1,40 @@
+"""Animations and density maps from Trajectories alone."""
+
+import imageio.v2 as iio
+import imageio_ffmpeg
+import numpy as np
+import pytest
+
+from crowdmotion import Trajectories
+from crowdmotion.render.animation import animate, plot_density
+from crowdmotion.scene import Circle, Scene
+
+
+def _run():
+    t = np.arange(30) * 0.2
+    pos = np.stack([np.stack([1 + t, 2 + 0.5 * k + 0 * t], axis=1) for k in range(4)], axis=1)
+    act = np.ones((30, 4), bool)
+    act[20:, 3] = False
+    scene = Scene(((0, 0), (10, 5)), [Circle((5, 4.5), 0.4, path=([0.0, 6.0], [(5, 4.5), (5, 0.5)]))])
+    return Trajectories(pos, 0.2, radius=[0.2] * 4, active=act, metadata={"scene": scene.to_dict(), "scenario": "t"})
+
+
+@pytest.mark.parametrize("suffix", ["mp4", "gif"])
+def test_animation_has_a_frame_per_step_and_the_frames_change(tmp_path, suffix):
+    path = animate(_run(), tmp_path / f"a.{suffix}", width_px=320, progress=False)
+    if suffix == "mp4":
+        reader = imageio_ffmpeg.read_frames(str(path))
+        w, h = next(reader)["size"]
+        frames = [np.frombuffer(b, np.uint8).reshape(h, w, 3) for b in reader]
+    else:
+        frames = list(iio.mimread(path))
+    assert len(frames) == 30
+    first, last = np.asarray(frames[0], float), np.asarray(frames[-1], float)
+    assert np.abs(first - last).mean() > 1.0  # agents (and the moving obstacle) have moved
+    assert [p.name for p in tmp_path.iterdir()] == [f"a.{suffix}"]  # no temporary file left
+
+
+def test_density_map_and_bad_suffix(tmp_path):
+    assert plot_density(_run(), tmp_path / "d.png", cell=0.5).stat().st_size > 5000
+    with pytest.raises(ValueError, match=r"\.mp4 or \.gif"):
+        animate(_run(), tmp_path / "a.avi", progress=False)
