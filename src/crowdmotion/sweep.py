@@ -117,7 +117,7 @@ def sweep(scenario: Scenario | str | Path, seeds: Iterable[int] = range(8),
         import os
 
         cluster = LocalCluster(n_workers=workers or min(len(runs), os.cpu_count() or 1), threads_per_worker=1,
-                               processes=processes, dashboard_address=None)
+                               processes=processes, dashboard_address=":0")  # any free port: no clashes
         client = Client(cluster)
     rows = []
     try:
