@@ -154,6 +154,17 @@ def cmd_render(args) -> int:
     return 0
 
 
+def cmd_view(args) -> int:
+    from crowdmotion.render.player import write_player
+    from crowdmotion.trajectories import Trajectories
+
+    src = _find_trajectories(Path(args.output))
+    dest = Path(args.dest) if args.dest else src.parent / "view.html"
+    write_player(Trajectories.load(src), dest, max_frames=args.max_frames)
+    print(f"wrote {dest}: open it in a browser (one self-contained file, works offline)")
+    return 0
+
+
 def _seeds(text: str) -> list[int]:
     """``0:100`` (a range), ``1,4,9`` or ``7``."""
     try:
@@ -250,6 +261,12 @@ def main(argv=None) -> int:
     p.add_argument("--cell", type=float, default=0.5, help="density map cell, metres")
     p.add_argument("-q", "--quiet", action="store_true")
     p.set_defaults(func=cmd_render)
+
+    p = sub.add_parser("view", help="write a self-contained HTML player of a run (works offline)")
+    p.add_argument("output", help="a run's output folder (or a trajectories file)")
+    p.add_argument("-o", "--dest", help="HTML file to write (default: view.html beside the input)")
+    p.add_argument("--max-frames", type=int, default=3000)
+    p.set_defaults(func=cmd_view)
 
     p = sub.add_parser("sweep", help="run a scenario over seeds and parameter values on Dask")
     p.add_argument("scenario")
