@@ -50,14 +50,20 @@ ANIMATION_FRAMES = 120
 
 
 def write_plots(scene, result: FormationRun, out, which, title: str = "") -> list:
-    """``paths``: every agent's path; ``snapshots``: the meshes at four moments and an
-    animated GIF of the whole run (``formation.gif``, at most 120 frames)."""
-    from crowdmotion.render import animate_formation_snapshots, plot_formation_snapshots, plot_paths
+    """``paths``: every agent's path; ``values``: the static obstacles' potential field
+    (``field.png``); ``snapshots``: the meshes at four moments and an animated GIF of the
+    whole run (``formation.gif``, at most 120 frames)."""
+    from crowdmotion.render import animate_formation_snapshots, plot_formation_snapshots, plot_paths, \
+        plot_potential_field
 
     written = []
     if "paths" in which:
         goals = np.array([g.goal_center for g in result.simulator.groups])
         written.append(plot_paths(result.trajectories, scene, out / "paths.png", title=title, goals=goals))
+    if "values" in which and scene.obstacles:
+        field = result.simulator.field
+        written.append(plot_potential_field(scene, field.static_f, field.static_vec, field.cell, out / "field.png",
+                                            title=f"{title}: obstacle potential field, r = {field.reach} m"))
     if "snapshots" in which:
         dt = result.simulator.dt
         snaps = [{"time": s * dt, "label": label, "groups": result.snapshot(s)} for s, label in snapshot_steps(result)]

@@ -256,3 +256,29 @@ def animate_formation_snapshots(scene: Scene, snapshots: list[dict], path, fps: 
     with atomic_path(path) as tmp:
         images[0].save(tmp, format="GIF", save_all=True, append_images=images[1:], duration=int(1000 / fps), loop=0)
     return path
+
+
+def plot_potential_field(scene: Scene, strength: np.ndarray, vectors: np.ndarray, cell: float, path,
+                         title: str = "", arrows: int = 40) -> Path:
+    """The obstacle potential field of eq. (2): magnitude f as a heat map (cells of
+    ``cell`` metres from the scene's lower corner), its summed direction as arrows."""
+    nx, ny = strength.shape
+    lo = scene.lower[:2]
+    extent = (lo[0], lo[0] + nx * cell, lo[1], lo[1] + ny * cell)
+    fig, ax = plt.subplots(figsize=(8, 8 * ny / nx + 0.8))
+    im = ax.imshow(np.ma.masked_equal(strength.T, 0.0), origin="lower", extent=extent, cmap="magma_r", vmin=0, vmax=1,
+                   interpolation="nearest")
+    _draw_obstacles_2d(ax, scene)
+    step = max(1, int(max(nx, ny) / arrows))
+    ii, jj = np.meshgrid(np.arange(0, nx, step), np.arange(0, ny, step), indexing="ij")
+    v = vectors[ii, jj]
+    keep = np.linalg.norm(v, axis=-1) > 0
+    x = lo[0] + (ii + 0.5) * cell
+    y = lo[1] + (jj + 0.5) * cell
+    ax.quiver(x[keep], y[keep], v[keep][:, 0], v[keep][:, 1], color="teal", scale=arrows, width=0.002, zorder=3)
+    fig.colorbar(im, ax=ax, label="field magnitude f = 1 − d/r", shrink=0.8)
+    ax.set_xlim(scene.lower[0], scene.upper[0])
+    ax.set_ylim(scene.lower[1], scene.upper[1])
+    ax.set_aspect("equal")
+    ax.set_title(title or "obstacle potential field, eq. (2)")
+    return _save(fig, path)
