@@ -64,7 +64,8 @@ class AttractionGuide:
         """Mark dislocated agents (farther than L from their vertex) and, with reassignment,
         give each the nearest vertex no other agent occupies or has just claimed.
 
-        Only dislocated agents are searched (one k-d tree query over the vertices).
+        Only dislocated agents are searched, among the free vertices only (a k-d tree of
+        them; an agent whose candidates were all claimed asks for more).
         Returns the dislocated mask.
         """
         d = np.linalg.norm(agents - vertices[self.assignment], axis=1)
@@ -76,22 +77,19 @@ class AttractionGuide:
         lost = np.flatnonzero(now)
         taken = np.zeros(len(vertices), dtype=bool)
         taken[self.assignment[~now]] = True
-        k = min(CANDIDATES, len(vertices))
-        tree = cKDTree(vertices)
-        dist, idx = tree.query(agents[lost], k=k)
-        dist, idx = dist.reshape(len(lost), k), idx.reshape(len(lost), k)
-        cand = np.full((len(agents), k), -1, np.int64)
-        cand[lost] = idx
-        order = lost[np.argsort(dist[:, 0], kind="stable")]
+        free = np.flatnonzero(~taken)  # as many as the dislocated agents: a small tree
+        tree = cKDTree(vertices[free])
         chosen = np.full(len(agents), -1, np.int64)
-        claim_vertices(order, cand, taken, chosen)
-        left = lost[chosen[lost] < 0]
-        if len(left):  # every near vertex was taken: the rest go to the nearest free ones
-            free = np.flatnonzero(~taken)
-            dist2, j = cKDTree(vertices[free]).query(agents[left], k=min(len(left), len(free)))
-            cand2 = np.full((len(agents), dist2.reshape(len(left), -1).shape[1]), -1, np.int64)
-            cand2[left] = free[j.reshape(len(left), -1)]
-            claim_vertices(left[np.argsort(dist2.reshape(len(left), -1)[:, 0], kind="stable")], cand2, taken, chosen)
+        who, k = lost, min(CANDIDATES, len(free))
+        while len(who):  # the nearest free vertices first; those who found all taken ask for more
+            dist, j = tree.query(agents[who], k=k)
+            dist, j = dist.reshape(len(who), k), j.reshape(len(who), k)
+            cand = np.full((len(agents), k), -1, np.int64)
+            cand[who] = free[j]
+            claim_vertices(who[np.argsort(dist[:, 0], kind="stable")], cand, taken, chosen)
+            if k == len(free) and (chosen[who] < 0).any():  # pragma: no cover - cannot happen
+                raise RuntimeError("attraction points: more dislocated agents than free vertices")
+            who, k = who[chosen[who] < 0], min(len(free), max(k, len(who)))
         changed = chosen[lost] != self.assignment[lost]
         self.reassignments += int(changed.sum())
         self.assignment[lost] = chosen[lost]
