@@ -88,8 +88,9 @@ class FormationParams(_Model):
     arap : str                 "two_step" (Igarashi et al. 2005, eq. 1) or "average"
                                (the paper's cheap variant: the mean of the positions the
                                fitted triangles propose)
-    shape_gain : float         [1/s] how fast free vertices close the gap to their
-                               as-rigid-as-possible position ("speed set by the error")
+    shape_gain : float         [1/s] with handles = "exact": how fast free vertices close
+                               the gap to their as-rigid-as-possible position ("speed
+                               set by the error")
     anchor_weight : float      weight of the soft pull of every vertex to where the
                                attraction alone would take it (keeps each solve well
                                posed with fewer than two handles and after tearing)
@@ -120,7 +121,6 @@ class FormationParams(_Model):
                                relative edge-length error is below this, no agent is
                                dislocated and every vertex is within L of its place in
                                the rest shape on the goal
-    spawn_gap : float          metres kept clear between bodies and obstacles at the start
     """
 
     time_step: PosFloat = 0.1
@@ -143,7 +143,6 @@ class FormationParams(_Model):
     repulsion_range: NonNeg = 0.3
     arrive_distance: PosFloat = 1.0
     recovered_error: PosFloat = 0.01
-    spawn_gap: NonNeg = 0.0
 
     @model_validator(mode="after")
     def _ranges(self):
