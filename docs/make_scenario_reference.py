@@ -15,6 +15,7 @@ from pydantic import BaseModel
 
 from crowdmotion import scenario as S
 from crowdmotion.formation import params as F
+from crowdmotion.mdp import params as M
 from crowdmotion.pso import params as P
 from crowdmotion.rvo import params as R
 
@@ -26,7 +27,7 @@ SECTIONS = [
                     S.RingRegion, S.AntipodalRegion]),
     ("Formation templates (a group's `formation` table)", [F.BlockTemplate, F.WedgeTemplate, F.CircleTemplate,
                                                           F.LineTemplate, F.CarsTemplate, F.PointsTemplate]),
-    ("[mdp]", [S.MDPSpec]),
+    ("[mdp]", [M.MDPParams]),
     ("[rvo]", [R.RVOParams]),
     ("[pso]", [P.PSOParams, P.ObstacleField]),
     ("[formation]", [F.FormationParams]),

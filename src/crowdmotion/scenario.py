@@ -18,6 +18,7 @@ from pydantic import BaseModel, ConfigDict, Field, ValidationError, field_valida
 from crowdmotion import groups as G
 from crowdmotion._validation import error_lines
 from crowdmotion.formation.params import FormationParams, TemplateSpec
+from crowdmotion.mdp.params import MDPParams
 from crowdmotion.pso.params import PSOParams
 from crowdmotion.rvo.params import RVOParams
 from crowdmotion import scene as S
@@ -146,24 +147,6 @@ class GroupSpec(_Model):
         return v
 
 
-class MDPSpec(_Model):
-    """The ``[mdp]`` block: fields of :class:`crowdmotion.mdp.MDPParams`."""
-
-    cell_size: PosFloat | None = None
-    solver: Literal["fast", "vi", "hvi", "ivi", "dijkstra"] = "fast"
-    theta: PosFloat = 1.0
-    tau: PosFloat = 1.0
-    max_steps: Annotated[int, Field(gt=0, le=1_000_000)] = 400
-    forbid_crossing: bool = True
-    corner_cutting: bool = False
-    despawn: bool = False
-    stop_when_done: bool = True
-    replan_every: Annotated[int, Field(gt=0)] = 4
-    lookahead: Annotated[int, Field(ge=0)] = 4
-    smoothing: Literal["linear", "catmull-rom"] | None = None
-    fps: PosFloat = 24.0
-
-
 class OutputSpec(_Model):
     formats: list[Literal["parquet", "csv"]] = ["parquet"]
     plots: list[Literal["paths", "values", "snapshots"]] = ["paths", "values", "snapshots"]
@@ -176,7 +159,7 @@ class ScenarioSpec(_Model):
     seed: Annotated[int, Field(ge=0)] = 0
     scene: SceneSpec
     groups: list[GroupSpec] = Field(min_length=1)
-    mdp: MDPSpec = MDPSpec()
+    mdp: MDPParams = MDPParams()
     rvo: RVOParams = RVOParams()
     pso: PSOParams = PSOParams()
     formation: FormationParams = FormationParams()

@@ -2,25 +2,19 @@
 
 ``solve`` computes the state values, ``generate_trajectories`` runs Algorithm 3 on a
 grid, ``simulate`` runs the whole method on a Scene and returns Trajectories.
+
+Names load on first use, so that ``crowdmotion.mdp.params`` (the scenario schema) can be
+imported without compiling or loading the numba kernels.
 """
 
-from crowdmotion.mdp.grid import GridMap, load_grid, max_radius, min_cell_size, rasterise
-from crowdmotion.mdp.simulate import MDPParams, MDPRun, resample, run, simulate
-from crowdmotion.mdp.solvers import (
-    METHODS,
-    dijkstra,
-    greedy_estimate,
-    heuristic_value_iteration,
-    improved_value_iteration,
-    solve,
-    value_iteration,
-)
-from crowdmotion.mdp.trajectory import RAW_GRID_RADIUS, generate_trajectories
+from crowdmotion._lazy import lazy_exports
 
-Params = MDPParams
-
-__all__ = [
-    "GridMap", "load_grid", "max_radius", "min_cell_size", "rasterise", "MDPParams", "MDPRun", "Params",
-    "resample", "run", "simulate", "METHODS", "dijkstra", "greedy_estimate", "heuristic_value_iteration",
-    "improved_value_iteration", "solve", "value_iteration", "RAW_GRID_RADIUS", "generate_trajectories",
-]
+_EXPORTS = {
+    "GridMap": "grid", "load_grid": "grid", "max_radius": "grid", "min_cell_size": "grid", "rasterise": "grid",
+    "MDPParams": "params", "Params": "params",
+    "MDPRun": "simulation", "resample": "simulation", "run": "simulation", "simulate": "simulation",
+    "METHODS": "solvers", "dijkstra": "solvers", "greedy_estimate": "solvers", "heuristic_value_iteration": "solvers",
+    "improved_value_iteration": "solvers", "solve": "solvers", "value_iteration": "solvers",
+    "RAW_GRID_RADIUS": "trajectory", "generate_trajectories": "trajectory",
+}
+__getattr__, __all__ = lazy_exports(__name__, _EXPORTS)

@@ -6,7 +6,8 @@ import numpy as np
 from tqdm.auto import tqdm
 
 from crowdmotion import metrics
-from crowdmotion.mdp.simulate import MDPParams, MDPRun, run
+from crowdmotion.mdp.params import MDPParams
+from crowdmotion.mdp.simulation import MDPRun, run
 
 Params = MDPParams
 

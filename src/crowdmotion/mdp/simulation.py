@@ -2,71 +2,18 @@
 
 from __future__ import annotations
 
-from dataclasses import asdict, dataclass
-from typing import Callable, Literal, Sequence
+from dataclasses import dataclass
+from typing import Callable, Sequence
 
 import numpy as np
 
 from crowdmotion.groups import Disc, Group, MovingTarget, Points, Rect
+from crowdmotion.mdp.params import MDPParams
 from crowdmotion.mdp.grid import GridMap, mark_obstacle, max_radius, min_cell_size, rasterise
-from crowdmotion.mdp.solvers import METHODS, solve, value_iteration
-from crowdmotion.mdp.trajectory import Walker, check_tau
+from crowdmotion.mdp.solvers import solve, value_iteration
+from crowdmotion.mdp.trajectory import Walker
 from crowdmotion.scene import Scene
 from crowdmotion.trajectories import Trajectories, resample
-
-
-@dataclass(frozen=True)
-class MDPParams:
-    """Parameters of an MDP run (paper 000, Liu & Du 2019).
-
-    Attributes
-    ----------
-    cell_size : grid cell edge in metres; None = just over sqrt(2) x the largest agent
-        diameter (the paper's rule, §1.2)
-    solver : "fast" (exact), or a paper reference solver "vi", "hvi", "ivi", "dijkstra"
-    theta : θ, Algorithm 1's stopping threshold (paper: 1.0)
-    tau : τ, the Boltzmann temperature of eq. (4) (paper: 1)
-    max_steps : maxLength of Algorithm 3
-    forbid_crossing : reject moves that pass closer than two radii mid-step
-    corner_cutting : False (default for scenes) = diagonal moves only past free cells,
-        so an agent's body never clips an obstacle's corner; True = the paper's rule
-    despawn : remove agents that reach the goal so that others can take the goal cells
-    stop_when_done : end the run early once every agent has arrived (or is stuck)
-    replan_every : with moving obstacles, re-solve the values every this many steps
-    lookahead : ... marking the cells the obstacles cover over this many steps ahead
-    smoothing : None (cell centres, one frame per step), "linear" or "catmull-rom"
-        resampling to ``fps``; the result is audited for collisions either way
-    fps : frame rate of the smoothed output
-    """
-
-    cell_size: float | None = None
-    solver: Literal["fast", "vi", "hvi", "ivi", "dijkstra"] = "fast"
-    theta: float = 1.0
-    tau: float = 1.0
-    max_steps: int = 400
-    forbid_crossing: bool = True
-    corner_cutting: bool = False
-    despawn: bool = False
-    stop_when_done: bool = True
-    replan_every: int = 4
-    lookahead: int = 4
-    smoothing: Literal["linear", "catmull-rom"] | None = None
-    fps: float = 24.0
-
-    def __post_init__(self):
-        if self.solver not in METHODS:
-            raise ValueError(f"mdp.solver must be one of {METHODS}, got {self.solver!r}")
-        check_tau(self.tau)
-        for name in ("max_steps", "replan_every", "lookahead"):
-            v = getattr(self, name)
-            if isinstance(v, bool) or not isinstance(v, int) or v < (0 if name == "lookahead" else 1):
-                raise ValueError(f"mdp.{name} must be a positive integer, got {v!r}")
-        if self.cell_size is not None and not (np.isfinite(self.cell_size) and self.cell_size > 0):
-            raise ValueError(f"mdp.cell_size must be a positive number of metres, got {self.cell_size!r}")
-        if self.smoothing not in (None, "linear", "catmull-rom"):
-            raise ValueError(f"mdp.smoothing must be None, 'linear' or 'catmull-rom', got {self.smoothing!r}")
-        if not (np.isfinite(self.fps) and self.fps > 0):
-            raise ValueError(f"mdp.fps must be positive, got {self.fps!r}")
 
 
 @dataclass
@@ -202,7 +149,7 @@ def run(scene: Scene, groups: Sequence[Group], params: MDPParams, rng: np.random
     names = np.concatenate([np.full(g.count, g.name, dtype=object) for g in groups])
     traj = Trajectories(
         positions, dt, group=names, radius=radius, active=None if active.all() else active,
-        metadata={"method": "mdp", "params": asdict(params), "cell_size": cell, "grid_shape": list(grid.shape),
+        metadata={"method": "mdp", "params": params.model_dump(), "cell_size": cell, "grid_shape": list(grid.shape),
                   "steps": int(len(cells) - 1), "unreachable_agents": unreachable.tolist(),
                   "scene": scene.to_dict()},
     )

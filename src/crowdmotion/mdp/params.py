@@ -1,0 +1,54 @@
+"""Parameters of the MDP method: one pydantic model, used as the scenario's ``[mdp]``
+block and by the Python API alike, so both validate the same way."""
+
+from __future__ import annotations
+
+from typing import Annotated, Literal
+
+from pydantic import BaseModel, ConfigDict, Field
+
+PosFloat = Annotated[float, Field(gt=0, allow_inf_nan=False)]
+
+
+class MDPParams(BaseModel):
+    """Parameters of an MDP run (paper 000, Liu & Du 2019).
+
+    cell_size : float | None   grid cell edge in metres; None = just over √2 × the largest
+                               agent diameter (the paper's rule, §1.2)
+    solver : str               "fast" (exact), or a paper reference solver "vi", "hvi",
+                               "ivi", "dijkstra"
+    theta : float              [θ] Algorithm 1's stopping threshold (paper: 1.0)
+    tau : float                [τ] the Boltzmann temperature of eq. (4) (paper: 1)
+    max_steps : int            [maxLength] of Algorithm 3
+    forbid_crossing : bool     reject moves that pass closer than two radii mid-step
+    corner_cutting : bool      False (default for scenes) = diagonal moves only past free
+                               cells, so a body never clips an obstacle's corner; True =
+                               the paper's rule
+    despawn : bool             remove agents that reach the goal so others can take the
+                               goal cells
+    stop_when_done : bool      end the run early once every agent has arrived (or is stuck)
+    replan_every : int         with moving obstacles, re-solve the values every this many steps
+    lookahead : int            ... marking the cells the obstacles cover this many steps ahead
+    smoothing : str | None     None (cell centres, one frame per step), "linear" or
+                               "catmull-rom" resampling to ``fps``; audited either way
+    fps : float                frame rate of the smoothed output
+    """
+
+    model_config = ConfigDict(extra="forbid", frozen=True)
+
+    cell_size: PosFloat | None = None
+    solver: Literal["fast", "vi", "hvi", "ivi", "dijkstra"] = "fast"
+    theta: PosFloat = 1.0
+    tau: PosFloat = 1.0
+    max_steps: Annotated[int, Field(gt=0, le=1_000_000)] = 400
+    forbid_crossing: bool = True
+    corner_cutting: bool = False
+    despawn: bool = False
+    stop_when_done: bool = True
+    replan_every: Annotated[int, Field(gt=0)] = 4
+    lookahead: Annotated[int, Field(ge=0)] = 4
+    smoothing: Literal["linear", "catmull-rom"] | None = None
+    fps: PosFloat = 24.0
+
+
+Params = MDPParams
