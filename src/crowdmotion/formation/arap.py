@@ -100,8 +100,9 @@ class ARAPSolver:
             return hit
         active = self.mesh.active_elements
         diag = self._diag(handles)
+        el = self.mesh.elements[active]
         f = (qdldl.Solver(sp.triu(self._step1_matrix(active, diag), format="csc")),
-             qdldl.Solver(sp.triu(self._step2_matrix(active, diag), format="csc")), active)
+             qdldl.Solver(sp.triu(self._step2_matrix(active, diag), format="csc")), el, self.rest_z[el])
         self.stats["factorisations"] += 1
         self._cache[key] = f
         if len(self._cache) > self.cache_size:
@@ -131,16 +132,14 @@ class ARAPSolver:
                 raise ValueError("arap: an anchor is needed when anchor_weight > 0")
             anchor = np.zeros((n, 2))
         p = np.asarray(anchor, float)
-        F1, F2, active = self._factors(handles)
+        F1, F2, el, rest = self._factors(handles)  # with the active elements and their rest shapes
         pz = p[:, 0] + 1j * p[:, 1]
         rhs = self.eps * pz
         rhs[handles] += self.W * (q[:, 0] + 1j * q[:, 1])
         x = F1.solve(np.concatenate([rhs.real, rhs.imag]))
         z1 = x[:n] + 1j * x[n:]
-        el = self.mesh.elements[active]
         if len(el) == 0:
             return np.stack([z1.real, z1.imag], axis=1)
-        rest = self.rest_z[el]
         if variant == "average":  # the mean of the positions the fitted elements propose
             sums, counts = np.zeros(n, complex), np.zeros(n)
             fit_elements(rest, z1, el, sums, sums, counts, False)
