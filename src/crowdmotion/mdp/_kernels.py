@@ -87,7 +87,8 @@ def bucket_distances(blocked, dist, goals, offsets, costs, swept, swept_count, p
                 if blocked[v]:
                     continue
                 nd = du + costs[m]
-                if nd < dist[v]:
+                old = dist[v]
+                if nd < old:
                     ok = True
                     for j in range(swept_count[m]):
                         if blocked[u + swept[m, j]]:
@@ -96,6 +97,8 @@ def bucket_distances(blocked, dist, goals, offsets, costs, swept, swept_count, p
                     if not ok:
                         continue
                     dist[v] = nd
+                    if old < np.inf and int(old) == int(nd):
+                        continue  # already waiting in that bucket (it cannot have been expanded yet)
                     nb = int(nd) % 3
                     buckets[nb, sizes[nb]] = v
                     sizes[nb] += 1
