@@ -27,6 +27,7 @@ def test_demo_writes_pictures(tmp_path, capsys):
     assert main(["demo", "-o", str(tmp_path), "--only", "mdp_drones_3d", "-q"]) == 0
     assert (tmp_path / "mdp_drones_3d" / "paths.png").stat().st_size > 10_000
     assert (tmp_path / "mdp_drones_3d" / "values.png").is_file()
+    assert (tmp_path / "mdp_drones_3d" / "view.html").stat().st_size > 10_000  # the player
     assert str(tmp_path) in capsys.readouterr().out
 
 

@@ -58,7 +58,7 @@ def cmd_demo(args) -> int:
         result = run_scenario(sc, progress=not args.quiet)
         write_run(result, root / sc.spec.name)
         print(f"  {_headline(result.summary)}")
-    print(f"demo output in {root.resolve()}/ (trajectories.parquet, summary.json and pictures per scene)")
+    print(f"demo output in {root.resolve()}/ (trajectories.parquet, summary.json, pictures and view.html per scene)")
     return 0
 
 

@@ -1,4 +1,5 @@
-"""Write a run's files: trajectories in the requested formats, summary.json, figures."""
+"""Write a run's files: trajectories in the requested formats, summary.json, figures and
+the HTML player."""
 
 from __future__ import annotations
 
@@ -22,4 +23,8 @@ def write_run(result, out) -> list[Path]:
     module = get_method(spec.method).module
     if spec.output.plots and hasattr(module, "write_plots"):
         written += module.write_plots(result.scenario.scene, result.extras, out, spec.output.plots, spec.name)
+    if "player" in spec.output.plots:
+        from crowdmotion.render.player import write_player
+
+        written.append(write_player(result.trajectories, out / "view.html"))
     return written

@@ -149,7 +149,7 @@ class GroupSpec(_Model):
 
 class OutputSpec(_Model):
     formats: list[Literal["parquet", "csv"]] = ["parquet"]
-    plots: list[Literal["paths", "values", "snapshots"]] = ["paths", "values", "snapshots"]
+    plots: list[Literal["paths", "values", "snapshots", "player"]] = ["paths", "values", "snapshots", "player"]
 
 
 class ScenarioSpec(_Model):
