@@ -98,3 +98,14 @@ def test_a_line_formation_walks_as_a_chain():
         sim.step()
     assert sim.mesh(gid).kind == "chain"
     assert np.all(np.abs(np.diff(np.sort(sim.positions[:, 1]))) > 0.5)  # still abreast, spaced
+
+
+@pytest.mark.parametrize("pts", [[[5.0, 0.0]], [[5.0, 0.0], [5.0, 1.0]]])
+def test_one_or_two_agents_fall_back_and_still_walk(pts):
+    sim = formation.Simulator(Scene(((0, -10), (40, 10))))
+    with pytest.warns(formation.MeshFallbackWarning, match="too few"):
+        gid = sim.add_group(np.array(pts), goal=(30, 0))
+    for _ in range(300):
+        sim.step()
+    assert sim.mesh(gid).kind == "chain"
+    assert np.all(np.isfinite(sim.positions)) and sim.positions[:, 0].min() > 20
