@@ -72,6 +72,11 @@ class FormationGroup:
     @property
     def all_vertices(self) -> np.ndarray:
         return np.arange(len(self.vertices))
+
+    @property
+    def span(self) -> slice:
+        """The group's agents in the simulator's arrays (added together: contiguous)."""
+        return slice(int(self.agents[0]), int(self.agents[-1]) + 1)
     torn: int = 0
     relinked: int = 0
     edge_error: list = field(default_factory=list)
@@ -201,8 +206,8 @@ class Simulator:
     # ---- stepping ------------------------------------------------------------------------
     def _discs(self) -> tuple[np.ndarray, np.ndarray]:
         """Each group as a moving disc: its agents' centre and reach."""
-        c = np.array([self.positions[g.agents].mean(axis=0) for g in self.groups]).reshape(-1, 2)
-        r = np.array([np.linalg.norm(self.positions[g.agents] - c[k], axis=1).max() + g.radius
+        c = np.array([self.positions[g.span].mean(axis=0) for g in self.groups]).reshape(-1, 2)
+        r = np.array([np.linalg.norm(self.positions[g.span] - c[k], axis=1).max() + g.radius
                       for k, g in enumerate(self.groups)])
         return c, r
 
@@ -297,7 +302,7 @@ class Simulator:
         dt = self.dt
         want = np.zeros_like(self.positions)
         for g in self.groups:
-            o = self.positions[g.agents]
+            o = self.positions[g.span]
             if g.arrived_at is not None and g.guide.reassign and g.guide.dislocated.any() and \
                     (self.steps - g.rebalanced_step) * dt >= REBALANCE_EVERY:
                 g.guide.rebalance(o, g.vertices)
@@ -317,7 +322,7 @@ class Simulator:
                 fvec, fmag = self.field.sample(o[lost])  # small obstacles push too, and slide round
                 v[lost] = self._steer(o[lost], v[lost], fvec, fmag, o[lost] - o.mean(axis=0), g.max_speed,
                                       g.max_speed)
-            want[g.agents] = v
+            want[g.span] = v
         sp = np.linalg.norm(want, axis=1)
         over = sp > self.max_speed
         want[over] *= (self.max_speed[over] / sp[over])[:, None]
@@ -367,7 +372,7 @@ class Simulator:
 
     def _bookkeeping(self) -> None:
         for g in self.groups:
-            mean, _ = edge_errors(self.positions[g.agents][g.guide.slot_order], g.mesh.edges, g.mesh.rest_length)
+            mean, _ = edge_errors(self.positions[g.span][g.guide.slot_order], g.mesh.edges, g.mesh.rest_length)
             g.edge_error.append(mean)
             if g.arrived_at is None or g.recovered_at is not None:
                 continue
