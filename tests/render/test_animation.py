@@ -38,3 +38,14 @@ def test_density_map_and_bad_suffix(tmp_path):
     assert plot_density(_run(), tmp_path / "d.png", cell=0.5).stat().st_size > 5000
     with pytest.raises(ValueError, match=r"\.mp4 or \.gif"):
         animate(_run(), tmp_path / "a.avi", progress=False)
+
+
+def test_3d_runs_are_drawn_from_above(tmp_path):
+    from crowdmotion.scene import Box, Sphere
+
+    scene = Scene(((0, 0, 0), (10, 10, 10)), [Box((4, 4, 0), (5, 6, 3)), Sphere((7, 7, 5), 1.0)])
+    t = np.arange(10) * 0.5
+    pos = np.stack([np.stack([1 + t, 1 + 0.5 * t, 2 + 0.1 * t], axis=1)], axis=1)
+    traj = Trajectories(pos, 0.5, radius=[0.3], metadata={"scene": scene.to_dict()})
+    assert animate(traj, tmp_path / "a.gif", width_px=300, progress=False).stat().st_size > 1000
+    assert plot_density(traj, tmp_path / "d.png").stat().st_size > 1000

@@ -25,14 +25,15 @@ def _save(fig, path: Path) -> Path:
 
 
 def _draw_obstacles_2d(ax, scene: Scene, t: float = 0.0) -> None:
+    """The scene's obstacles at time t, seen from above (3D shapes projected on x, y)."""
     for ob in scene.obstacles:
-        shift = ob.offset(t)
+        shift = ob.offset(t)[:2]
         style = dict(facecolor="0.35", edgecolor="0.1", alpha=0.5 if ob.is_moving else 0.85, zorder=2)
-        if isinstance(ob, Circle):
-            ax.add_patch(patches.Circle(ob.center + shift, ob.radius, **style))
+        if isinstance(ob, (Circle, Sphere)):
+            ax.add_patch(patches.Circle(ob.center[:2] + shift, ob.radius, **style))
         elif isinstance(ob, Box):
-            lo = ob.lower + shift
-            ax.add_patch(patches.Rectangle(lo, *(ob.upper - ob.lower), **style))
+            lo = ob.lower[:2] + shift
+            ax.add_patch(patches.Rectangle(lo, *(ob.upper[:2] - ob.lower[:2]), **style))
         elif isinstance(ob, Polygon):
             ax.add_patch(patches.Polygon(ob.vertices + shift, closed=True, **style))
         if ob.is_moving:
