@@ -38,6 +38,7 @@ def test_sweep_command(tmp_path, capsys):
     assert main(["sweep", str(path), "--seeds", "0:2", "--set", "mdp.tau=0.5,1.0", "--workers", "2", "-o", str(out),
                  "-q"]) == 0
     assert "4 runs" in capsys.readouterr().out
-    assert pq.read_table(out / "sweep.parquet").num_rows == 4
+    table = pq.read_table(out / "sweep.parquet")
+    assert table.num_rows == 4 and sorted(set(table["mdp.tau"].to_pylist())) == [0.5, 1.0]  # numbers, not text
     assert main(["sweep", str(path), "--seeds", "a:b"]) == 2
     assert "--seeds must look like" in capsys.readouterr().err

@@ -81,11 +81,21 @@ def run_one(data: dict, seed: int, setting: dict, path: str) -> dict:
     result = run_scenario(sc, seed=seed, progress=False)
     result.trajectories.save(path)
     s = result.summary
-    row = {"scenario": sc.spec.name, "seed": seed, "file": path, **{k: json.dumps(v) for k, v in setting.items()}}
+    row = {"scenario": sc.spec.name, "seed": seed, "file": path, **{k: _cell(v) for k, v in setting.items()}}
     for k in SUMMARY_KEYS:  # every row has every column (null where a method has no such metric)
         v = s.get(k)
         row[k] = float(v) if isinstance(v, (int, float)) and not isinstance(v, bool) else v
     return row
+
+
+def _cell(value: Any) -> Any:
+    """A setting as a table cell: numbers as floats (so 1 and 2.5 share a column type),
+    booleans and strings as they are, anything else as JSON."""
+    if isinstance(value, bool) or isinstance(value, str):
+        return value
+    if isinstance(value, (int, float)):
+        return float(value)
+    return json.dumps(value)
 
 
 def _run_name(seed: int, setting: dict) -> str:
