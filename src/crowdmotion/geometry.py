@@ -18,6 +18,17 @@ def finite_array(value, name: str, dtype=float) -> np.ndarray:
     return arr
 
 
+def positive_number(value, name: str) -> float:
+    """``value`` as a finite float above zero, or a ValueError naming ``name``."""
+    try:
+        v = float(value)
+    except (TypeError, ValueError):
+        raise ValueError(f"{name} must be a positive number, got {value!r}") from None
+    if not np.isfinite(v) or v <= 0:
+        raise ValueError(f"{name} must be a positive number, got {value!r}")
+    return v
+
+
 def as_points(points, dim: int) -> np.ndarray:
     """``points`` as a float array whose last axis has length ``dim``."""
     p = np.asarray(points, dtype=float)

@@ -7,7 +7,7 @@ from typing import Any, Sequence, Union
 
 import numpy as np
 
-from crowdmotion.geometry import as_points, finite_array
+from crowdmotion.geometry import as_points, finite_array, positive_number
 
 
 class Region:
@@ -178,14 +178,7 @@ class Group:
             raise ValueError(f"{where}: count must be a positive integer, got {self.count!r}")
         self.count = int(self.count)
         for attr in ("radius", "max_speed", "pref_speed"):
-            v = getattr(self, attr)
-            try:
-                fv = float(v)
-            except (TypeError, ValueError):
-                raise ValueError(f"{where}: {attr} must be a positive number, got {v!r}") from None
-            if not np.isfinite(fv) or fv <= 0:
-                raise ValueError(f"{where}: {attr} must be a positive number, got {v!r}")
-            setattr(self, attr, fv)
+            setattr(self, attr, positive_number(getattr(self, attr), f"{where}: {attr}"))
         if self.pref_speed > self.max_speed:
             raise ValueError(f"{where}: pref_speed {self.pref_speed} exceeds max_speed {self.max_speed}")
         self.spawn = as_region(self.spawn, f"{where}: spawn")

@@ -35,6 +35,7 @@ from crowdmotion.formation.guidance import AttractionGuide, attraction_magnitude
 from crowdmotion.formation.mesh import FormationMesh, MeshView
 from crowdmotion.formation.params import FormationParams, make_params
 from crowdmotion.formation.templates import Template, from_spec
+from crowdmotion.geometry import positive_number
 from crowdmotion.groups import Disc, MovingTarget, Rect, as_region
 from crowdmotion.formation._kernels import edge_length_error as edge_errors
 from crowdmotion.formation._kernels import repulsion
@@ -135,9 +136,9 @@ class Simulator:
                              f"expected some of {list(GROUP_FIELDS)}")
         name = str(params.get("name", f"group{len(self.groups)}"))
         what = f"formation group {name!r}"
-        radius = _positive(params.get("radius", 0.25), f"{what}: radius")
-        max_speed = _positive(params.get("max_speed", 1.5), f"{what}: max_speed")
-        pref_speed = _positive(params.get("pref_speed", min(1.3, max_speed)), f"{what}: pref_speed")
+        radius = positive_number(params.get("radius", 0.25), f"{what}: radius")
+        max_speed = positive_number(params.get("max_speed", 1.5), f"{what}: max_speed")
+        pref_speed = positive_number(params.get("pref_speed", min(1.3, max_speed)), f"{what}: pref_speed")
         if pref_speed > max_speed:
             raise ValueError(f"{what}: pref_speed {pref_speed} exceeds max_speed {max_speed}")
         region, gc = _region_goal(goal)
@@ -395,13 +396,3 @@ class Simulator:
         """Group ``gid``'s agents in vertex order (the agent following each vertex)."""
         g = self.groups[gid]
         return self.positions[g.agents][g.guide.slot_order]
-
-
-def _positive(value, what: str) -> float:
-    try:
-        v = float(value)
-    except (TypeError, ValueError):
-        raise ValueError(f"{what} must be a positive number, got {value!r}") from None
-    if not np.isfinite(v) or v <= 0:
-        raise ValueError(f"{what} must be a positive number, got {value!r}")
-    return v
