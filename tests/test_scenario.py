@@ -86,6 +86,17 @@ def test_rvo_scenario_with_personalities_ring_and_antipodal_goal():
     assert sc.groups[0].attributes["personality"] == "A+"
 
 
+def _refused(text: str, words, run: bool = False) -> None:
+    """The scenario is refused (on loading, or with ``run`` at the latest when run) with a
+    message containing every one of ``words``."""
+    with pytest.raises(ScenarioError) as e:
+        sc = parse_scenario(text)
+        if run:
+            run_scenario(sc, progress=False)
+    for w in words:
+        assert w in str(e.value)
+
+
 @pytest.mark.parametrize("old,new,words", [
     ('personality = "A+"', 'personality = "B+"', ["groups.0.personality", "unknown personality trait 'B+'"]),
     ('personality = "A+"', "personality = [0, 0, 3, 0, 0]", ["groups.0.personality", "ψE must lie in [-1, 1]"]),
@@ -96,10 +107,7 @@ def test_rvo_scenario_with_personalities_ring_and_antipodal_goal():
      ["groups.0.goal2"]),
 ])
 def test_rvo_scenario_errors_name_the_field(old, new, words):
-    with pytest.raises(ScenarioError) as e:
-        parse_scenario(RVO.replace(old, new))
-    for w in words:
-        assert w in str(e.value)
+    _refused(RVO.replace(old, new), words)
 
 
 PSO = """
@@ -146,11 +154,7 @@ def test_pso_scenario_block_is_the_api_params():
     ("position = [0, 0]", "position = [10, 0.5]", ["covered by an obstacle"]),
 ])
 def test_pso_scenario_errors_name_the_field(old, new, words):
-    with pytest.raises(ScenarioError) as e:
-        sc = parse_scenario(PSO.replace(old, new))
-        run_scenario(sc, progress=False)
-    for w in words:
-        assert w in str(e.value)
+    _refused(PSO.replace(old, new), words, run=True)
 
 
 FORMATION = """
@@ -193,7 +197,4 @@ def test_formation_scenario_runs_and_reports_the_formation():
     ("spacing = 1.2", "spacing = 0.4", ["overlap at the start"]),
 ])
 def test_formation_scenario_errors_name_the_field(old, new, words):
-    with pytest.raises(ScenarioError) as e:
-        parse_scenario(FORMATION.replace(old, new))
-    for w in words:
-        assert w in str(e.value)
+    _refused(FORMATION.replace(old, new), words)
