@@ -14,7 +14,7 @@ from matplotlib.collections import EllipseCollection, LineCollection  # noqa: E4
 from tqdm.auto import tqdm  # noqa: E402
 
 from crowdmotion.io.atomic import atomic_path  # noqa: E402
-from crowdmotion.render.plots import _draw_obstacles_2d, _group_colours, _save  # noqa: E402
+from crowdmotion.render.plots import _draw_obstacles_2d, _group_colours, _save, gif_frame, write_gif  # noqa: E402
 from crowdmotion.scene import Scene  # noqa: E402
 from crowdmotion.trajectories import Trajectories  # noqa: E402
 
@@ -107,20 +107,16 @@ def animate(traj: Trajectories, path, fps: float | None = None, trail_s: float =
             bodies.set_facecolor(fc)
             bodies.set_edgecolor(np.where(act[f][:, None], [[0, 0, 0, 1.0]], [[0, 0, 0, 0.0]]))
             label.set_text(f"{title}  t = {f * traj.dt:6.1f} s")
-            fig.canvas.draw()
-            image = np.asarray(fig.canvas.buffer_rgba())[..., :3]
             if kind == ".mp4":
-                sink.send(np.ascontiguousarray(image))
+                fig.canvas.draw()
+                sink.send(np.ascontiguousarray(np.asarray(fig.canvas.buffer_rgba())[..., :3]))
             else:
-                from PIL import Image
-
-                gif_frames.append(Image.fromarray(image).convert("P", palette=Image.ADAPTIVE))
+                gif_frames.append(gif_frame(fig))
         plt.close(fig)
         if kind == ".mp4":
             sink.close()
         else:
-            gif_frames[0].save(tmp, format="GIF", save_all=True, append_images=gif_frames[1:],
-                               duration=int(1000 / fps), loop=0)
+            write_gif(gif_frames, tmp, fps)
     return path
 
 

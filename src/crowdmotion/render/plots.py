@@ -46,6 +46,28 @@ def _group_colours(traj: Trajectories) -> dict:
     return {n: cmap(i % 10) for i, n in enumerate(names)}
 
 
+def _draw_mesh(ax, vertices: np.ndarray, edges: np.ndarray, torn: np.ndarray, colour, lw: float,
+               alpha: float) -> None:
+    """A formation mesh: intact edges in ``colour``, torn ones red and dashed."""
+    for sel, style in ((~torn, dict(color=colour, alpha=alpha)), (torn, dict(color="red", alpha=0.6, ls="--"))):
+        if sel.any():
+            seg = vertices[edges[sel]]
+            ax.plot(seg[:, :, 0].T, seg[:, :, 1].T, lw=lw, zorder=3, **style)
+
+
+def gif_frame(fig):
+    """The figure as drawn now, as one palette image of a GIF."""
+    from PIL import Image
+
+    fig.canvas.draw()
+    return Image.fromarray(np.asarray(fig.canvas.buffer_rgba())[..., :3]).convert("P", palette=Image.ADAPTIVE)
+
+
+def write_gif(frames: list, path, fps: float) -> None:
+    """Palette images (from :func:`gif_frame`) as a looping GIF at ``fps``."""
+    frames[0].save(path, format="GIF", save_all=True, append_images=frames[1:], duration=int(1000 / fps), loop=0)
+
+
 def plot_paths(traj: Trajectories, scene: Scene, path, title: str = "", goals=None) -> Path:
     """Every agent's path (start ○, end ●) over the scene's obstacles; 2D or 3D."""
     colours = _group_colours(traj)
@@ -195,12 +217,7 @@ def plot_formation_snapshots(scene: Scene, snapshots: list[dict], path, title: s
     for ax, snap in zip(axes.ravel(), snapshots):
         _draw_obstacles_2d(ax, scene, snap["time"])
         for gi, g in enumerate(snap["groups"]):
-            v, e, torn = g["vertices"], g["edges"], g["torn"]
-            for sel, style in ((~torn, dict(color=cmap(gi % 10), lw=0.6, alpha=0.7)),
-                               (torn, dict(color="red", lw=0.6, alpha=0.6, ls="--"))):
-                if sel.any():
-                    seg = v[e[sel]]
-                    ax.plot(seg[:, :, 0].T, seg[:, :, 1].T, **style, zorder=3)
+            _draw_mesh(ax, g["vertices"], g["edges"], g["torn"], cmap(gi % 10), lw=0.6, alpha=0.7)
             for p, lost in zip(g["agents"], g["dislocated"]):
                 ax.add_patch(patches.Circle(p, g["radius"], color="k" if lost else cmap(gi % 10), zorder=4))
         ax.set_xlim(lo[0], hi[0])
@@ -218,8 +235,6 @@ def animate_formation_snapshots(scene: Scene, snapshots: list[dict], path, fps: 
                                 window=None) -> Path:
     """An animated GIF of formation meshes and agents, one frame per snapshot (same
     dictionaries as :func:`plot_formation_snapshots`); written atomically."""
-    from PIL import Image
-
     lo, hi = (scene.lower, scene.upper) if window is None else (np.asarray(window[0]), np.asarray(window[1]))
     aspect = (hi[1] - lo[1]) / (hi[0] - lo[0])
     width = 8.0 if aspect > 0.4 else 12.0  # wide scenes (a road) get a wider picture
@@ -231,12 +246,7 @@ def animate_formation_snapshots(scene: Scene, snapshots: list[dict], path, fps: 
         snap = snapshots[k]
         _draw_obstacles_2d(ax, scene, snap["time"])
         for gi, g in enumerate(snap["groups"]):
-            v, e, torn = g["vertices"], g["edges"], g["torn"]
-            seg = v[e[~torn]]
-            ax.plot(seg[:, :, 0].T, seg[:, :, 1].T, color=cmap(gi % 10), lw=0.5, alpha=0.6)
-            if torn.any():
-                seg = v[e[torn]]
-                ax.plot(seg[:, :, 0].T, seg[:, :, 1].T, color="red", lw=0.5, alpha=0.6, ls="--")
+            _draw_mesh(ax, g["vertices"], g["edges"], g["torn"], cmap(gi % 10), lw=0.5, alpha=0.6)
             a = g["agents"]
             colours = np.where(g["dislocated"][:, None], np.array([[0.0, 0.0, 0.0, 1.0]]),
                                np.array([cmap(gi % 10)]))
@@ -250,12 +260,11 @@ def animate_formation_snapshots(scene: Scene, snapshots: list[dict], path, fps: 
     images = []
     for k in range(len(snapshots)):
         draw(k)
-        fig.canvas.draw()
-        images.append(Image.fromarray(np.asarray(fig.canvas.buffer_rgba())[..., :3]).convert("P", palette=Image.ADAPTIVE))
+        images.append(gif_frame(fig))
     plt.close(fig)
     path = Path(path)
     with atomic_path(path) as tmp:
-        images[0].save(tmp, format="GIF", save_all=True, append_images=images[1:], duration=int(1000 / fps), loop=0)
+        write_gif(images, tmp, fps)
     return path
 
 
