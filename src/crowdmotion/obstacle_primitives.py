@@ -47,8 +47,8 @@ class ObstacleSet:
     static segments, so agents stay inside the scene.
     """
 
-    def __init__(self, scene: Scene, method: str = "rvo"):
-        check_supported(scene, method)
+    def __init__(self, scene: Scene, method: str = "rvo", what: str = "the RVO method"):
+        check_supported(scene, method, what)
         self.circles = [ob for ob in scene.obstacles if isinstance(ob, Circle)]
         self.outlined = [(ob, outline_segments(ob)) for ob in scene.obstacles if not isinstance(ob, Circle)]
         self.outlined.append((None, outline_segments(Box(scene.lower, scene.upper))))

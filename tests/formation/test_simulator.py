@@ -89,6 +89,14 @@ def test_bad_input_gets_a_clear_error():
                                          attributes={"formation": {"kind": "block", "rows": 3, "cols": 3}})])
 
 
+def test_a_template_may_be_given_as_its_dict_form():
+    sim = formation.Simulator(Scene(((0, -10), (40, 10))))
+    sim.add_group({"kind": "wedge", "rows": 3, "spacing": 1.2}, goal=(30, 0), start=(5, 0))
+    assert sim.positions.shape == (9, 2)
+    with pytest.raises(ValueError, match="formation template: wedge.rows"):
+        sim.add_group({"kind": "wedge", "rows": 0}, goal=(30, 0), start=(5, 5))
+
+
 def test_a_line_formation_walks_as_a_chain():
     scene = Scene(((0, -10), (40, 10)))
     sim = formation.Simulator(scene)

@@ -9,7 +9,7 @@ from typing import Callable, Sequence
 
 import numpy as np
 
-from crowdmotion.formation.params import FormationParams, TemplateSpec, make_params
+from crowdmotion.formation.params import FormationParams, make_params
 from crowdmotion.formation.simulator import Simulator
 from crowdmotion.formation.templates import Template, from_spec
 from crowdmotion.groups import Group, Points
@@ -27,10 +27,6 @@ def group_template(group: Group) -> Template:
             return Template(group.spawn.points - group.spawn.points.mean(axis=0))
         raise ValueError(f"group {group.name!r}: the formation method needs a template: set "
                          "attributes['formation'] (e.g. {'kind': 'block', 'rows': 10, 'cols': 10}) or spawn points")
-    if isinstance(spec, dict):
-        from pydantic import TypeAdapter
-
-        spec = TypeAdapter(TemplateSpec).validate_python(spec)
     tpl = from_spec(spec)
     if tpl.count != group.count:
         raise ValueError(f"group {group.name!r}: count is {group.count} but its {tpl.kind} template holds "

@@ -106,7 +106,7 @@ class Simulator:
         self.scene = scene
         self.dt = float(self.params.time_step)
         self.field = PotentialField(scene, self.params.field_range, self.params.field_cell)
-        self.obstacles = ObstacleSet(scene, "formation")
+        self.obstacles = ObstacleSet(scene, "formation", "the guiding-mesh method")
         self.rng = np.random.default_rng(0) if rng is None else rng
         self.groups: list[FormationGroup] = []
         self.positions = np.zeros((0, 2))
@@ -124,7 +124,8 @@ class Simulator:
         """Add a formation; returns its group id.
 
         ``template``: a :class:`Template` (see :mod:`crowdmotion.formation.templates`), a
-        template spec, or an (n, 2) array of start positions (any point set). ``goal``: a
+        template spec or its dict form (``{"kind": "block", "rows": 4, "cols": 5}``), or an
+        (n, 2) array of start positions (any point set). ``goal``: a
         point or a Rect / Disc target area. Keywords: ``start`` (where the template's
         centre starts; default: the array's own positions, or the origin), ``heading``
         (radians; default: facing the goal), ``radius``, ``max_speed``, ``pref_speed``,
@@ -142,8 +143,7 @@ class Simulator:
         if pref_speed > max_speed:
             raise ValueError(f"{what}: pref_speed {pref_speed} exceeds max_speed {max_speed}")
         region, gc = _region_goal(goal)
-        absolute = not isinstance(template, Template) and not hasattr(template, "kind")
-        if absolute:
+        if isinstance(template, (np.ndarray, list, tuple)):  # start positions, any point set
             pts = np.asarray(template, float)
             start_pos = pts
             tpl = Template(np.asarray(pts, float) - pts.mean(axis=0) if pts.ndim == 2 else pts)
@@ -395,4 +395,4 @@ class Simulator:
     def slot_positions(self, gid: int) -> np.ndarray:
         """Group ``gid``'s agents in vertex order (the agent following each vertex)."""
         g = self.groups[gid]
-        return self.positions[g.agents][g.guide.slot_order]
+        return self.positions[g.span][g.guide.slot_order]

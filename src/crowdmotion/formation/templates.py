@@ -81,10 +81,20 @@ def points(pts) -> Template:
     return Template(_centred(p), "points")
 
 
-def from_spec(spec: TemplateSpec | Template) -> Template:
-    """The Template a ``formation`` table describes."""
+def from_spec(spec: TemplateSpec | Template | dict) -> Template:
+    """The Template a ``formation`` table describes (a spec model, or its dict form such
+    as ``{"kind": "block", "rows": 10, "cols": 10}``, validated)."""
     if isinstance(spec, Template):
         return spec
+    if isinstance(spec, dict):
+        from pydantic import TypeAdapter, ValidationError
+
+        from crowdmotion._validation import error_lines
+
+        try:
+            spec = TypeAdapter(TemplateSpec).validate_python(spec)
+        except ValidationError as exc:
+            raise ValueError("formation template: " + "; ".join(error_lines(exc))) from None
     if isinstance(spec, BlockTemplate):
         return block(spec.rows, spec.cols, spec.spacing)
     if isinstance(spec, WedgeTemplate):
@@ -97,4 +107,4 @@ def from_spec(spec: TemplateSpec | Template) -> Template:
         return cars(spec.lanes, spec.per_lane, spec.car_width, spec.car_gap, spec.lane_width)
     if isinstance(spec, PointsTemplate):
         return points(spec.points)
-    raise TypeError(f"not a formation template: {spec!r}")
+    raise ValueError(f"not a formation template: {spec!r}")
