@@ -66,7 +66,6 @@ class FormationGroup:
     extent: float
     arrived_at: float | None = None
     recovered_at: float | None = None
-    last_field_time: float | None = None
     handles: int = 0
     rebalanced_step: int = -10**9
 
@@ -242,8 +241,6 @@ class Simulator:
                 fmag = np.maximum(fmag, gf)
             handles = np.flatnonzero(fmag > 0)
         g.handles = len(handles)
-        if len(handles):
-            g.last_field_time = self.time
         moved = V + dt * u
         if in_area:  # recovery: back to the rest shape, facing as at the start, on the goal
             slot = g.mesh.rest - g.mesh.rest.mean(axis=0) + g.goal_center

@@ -7,7 +7,7 @@ from typing import Callable, Sequence
 
 import numpy as np
 
-from crowdmotion.groups import Disc, Group, MovingTarget, Points, Rect
+from crowdmotion.groups import Group, MovingTarget, Points
 from crowdmotion.mdp.params import MDPParams
 from crowdmotion.mdp.grid import GridMap, mark_obstacle, max_radius, min_cell_size, rasterise
 from crowdmotion.mdp.solvers import solve, value_iteration

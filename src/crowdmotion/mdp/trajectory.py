@@ -9,7 +9,7 @@ import numpy as np
 from crowdmotion.mdp._kernels import PAD, trajectory_steps
 from crowdmotion.mdp.grid import SQRT2, validate_grid
 from crowdmotion.mdp.moves import flat_move_tables
-from crowdmotion.mdp.solvers import interior, padded
+from crowdmotion.mdp.solvers import padded
 
 RAW_GRID_RADIUS = 1.0 / (2.0 * SQRT2) * (1.0 - 1e-6)
 """Agent radius in cells assumed on a raw grid: the largest the paper's cell rule allows."""
