@@ -94,15 +94,22 @@ def _find_trajectories(out: Path) -> Path:
     raise FileNotFoundError(f"no trajectories.parquet or trajectories.csv in {out}")
 
 
+def _load_run(output: str):
+    """(trajectory file, Trajectories) of a run folder or a trajectory file."""
+    from crowdmotion.trajectories import Trajectories
+
+    path = _find_trajectories(Path(output))
+    return path, Trajectories.load(path)
+
+
 def cmd_report(args) -> int:
     import json
 
     from crowdmotion.io.atomic import atomic_path
     from crowdmotion.metrics import group_report
-    from crowdmotion.trajectories import Trajectories
 
-    path = _find_trajectories(Path(args.output))
-    report = group_report(Trajectories.load(path))
+    path, traj = _load_run(args.output)
+    report = group_report(traj)
     cols = [("agents", "agents", "{:d}"), ("lateral_spread_m", "spread m", "{:.2f}"),
             ("lateral_deviation_m", "deviation m", "{:.2f}"), ("heading_change_rate_rad_s", "turn rad/s", "{:.3f}"),
             ("mean_speed_mps", "speed m/s", "{:.2f}"), ("speed_density_slope", "speed/density", "{:.3f}"),
@@ -124,10 +131,8 @@ EXPORT_FORMATS = {"parquet": ".parquet", "csv": ".csv", "sqlite": ".sqlite", "ju
 
 
 def cmd_export(args) -> int:
-    from crowdmotion.trajectories import Trajectories
 
-    src = _find_trajectories(Path(args.output))
-    traj = Trajectories.load(src)
+    src, traj = _load_run(args.output)
     folder = src.parent
     dest = Path(args.dest) if args.dest else folder / f"trajectories{EXPORT_FORMATS[args.to]}"
     traj.save(dest)
@@ -138,10 +143,8 @@ def cmd_export(args) -> int:
 def cmd_render(args) -> int:
     from crowdmotion.render import plot_paths
     from crowdmotion.render.animation import animate, plot_density, scene_of
-    from crowdmotion.trajectories import Trajectories
 
-    src = _find_trajectories(Path(args.output))
-    traj = Trajectories.load(src)
+    src, traj = _load_run(args.output)
     folder = src.parent
     written = [animate(traj, folder / f"animation.{args.to}", fps=args.fps, trail_s=args.trail,
                        max_frames=args.max_frames, progress=not args.quiet),
@@ -156,11 +159,10 @@ def cmd_render(args) -> int:
 
 def cmd_view(args) -> int:
     from crowdmotion.render.player import write_player
-    from crowdmotion.trajectories import Trajectories
 
-    src = _find_trajectories(Path(args.output))
+    src, traj = _load_run(args.output)
     dest = Path(args.dest) if args.dest else src.parent / "view.html"
-    write_player(Trajectories.load(src), dest, max_frames=args.max_frames)
+    write_player(traj, dest, max_frames=args.max_frames)
     print(f"wrote {dest}: open it in a browser (one self-contained file, works offline)")
     return 0
 
