@@ -69,3 +69,13 @@ def test_bad_point_sets_are_refused_by_name():
     with warnings.catch_warnings():
         warnings.simplefilter("error")
         FormationMesh(templates.block(2, 2).points)  # a proper mesh gives no warning
+
+
+def test_the_per_step_edge_error_kernel_agrees_with_the_metric():
+    from crowdmotion.formation._kernels import edge_length_error as kernel
+    from crowdmotion.metrics import edge_length_error
+
+    mesh = FormationMesh(templates.block(6, 7, 1.1).points)
+    moved = mesh.rest + np.random.default_rng(3).normal(scale=0.2, size=mesh.rest.shape)
+    assert kernel(moved, mesh.edges, mesh.rest_length) == pytest.approx(
+        edge_length_error(moved, mesh.rest, mesh.edges), rel=1e-12)
