@@ -13,6 +13,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from crowdmotion.obstacle_primitives import check_supported
 from crowdmotion.scene import Obstacle, Scene
 
 
@@ -41,8 +42,7 @@ class PotentialField:
     """The field of a scene's obstacles on a grid of ``cell`` metres; ``reach`` is r."""
 
     def __init__(self, scene: Scene, reach: float, cell: float):
-        if scene.dim != 2:
-            raise ValueError("formation: the guiding-mesh method works on 2D scenes; this scene is 3D")
+        check_supported(scene, "formation", "the guiding-mesh method")
         self.reach, self.cell = float(reach), float(cell)
         self.origin = scene.lower.astype(float)
         self.shape = tuple(np.maximum(np.ceil((scene.upper - scene.lower) / cell).astype(int), 1))  # (nx, ny)

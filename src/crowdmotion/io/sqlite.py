@@ -48,7 +48,7 @@ def walkable_area(scene_dict: dict | None, positions: np.ndarray) -> shapely.Geo
         elif isinstance(ob, Box):
             holes.append(shapely.box(*ob.lower[:2], *ob.upper[:2]))
         elif isinstance(ob, Polygon):
-            holes.append(shapely.Polygon(ob.vertices))
+            holes.append(ob.geometry)
     return area.difference(shapely.union_all(holes)) if holes else area
 
 
