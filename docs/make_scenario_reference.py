@@ -90,8 +90,8 @@ def table(model: type[BaseModel]) -> str:
         value = None if f.is_required() else f.get_default(call_default_factory=True)
         default = "required" if f.is_required() else ("its own table below" if isinstance(value, BaseModel)
                                                       else repr(value))
-        tp = _type_name(f.annotation).replace("|", "\\|") if "\\|" not in _type_name(f.annotation) \
-            else _type_name(f.annotation)
+        name = _type_name(f.annotation)
+        tp = name if "\\|" in name else name.replace("|", "\\|")
         rows.append(f"| `{name}` | {tp} | `{default}` | {_constraints(f)} | {desc.get(name, '')} |")
     return "\n".join(rows) + "\n"
 
