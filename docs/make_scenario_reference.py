@@ -90,8 +90,8 @@ def table(model: type[BaseModel]) -> str:
         value = None if f.is_required() else f.get_default(call_default_factory=True)
         default = "required" if f.is_required() else ("its own table below" if isinstance(value, BaseModel)
                                                       else repr(value))
-        name = _type_name(f.annotation)
-        tp = name if "\\|" in name else name.replace("|", "\\|")
+        type_name = _type_name(f.annotation)
+        tp = type_name if "\\|" in type_name else type_name.replace("|", "\\|")
         rows.append(f"| `{name}` | {tp} | `{default}` | {_constraints(f)} | {desc.get(name, '')} |")
     return "\n".join(rows) + "\n"
 
