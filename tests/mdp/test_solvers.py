@@ -9,7 +9,8 @@ import scipy.sparse as sp
 from scipy.sparse.csgraph import dijkstra as sp_dijkstra
 
 from crowdmotion import mdp
-from crowdmotion.mdp.benchmark import PAPER_GRIDS, paper_grid
+from crowdmotion.mdp._kernels import PARALLEL_MIN
+from crowdmotion.mdp.benchmark import PAPER_GRIDS, csgraph_values, paper_grid
 
 
 def scipy_reference(grid, goals, corner_cutting):
@@ -61,6 +62,21 @@ def test_fast_equals_scipy_shortest_paths(shape, seed, corner_cutting):
     assert np.max(np.abs(v[fin] - ref[fin])) < 1e-9
     assert np.all(v[grid == 1] == -np.inf)
     assert all(v[g] == 0 for g in goals)
+
+
+@pytest.mark.parametrize("corner_cutting", [True, False])
+def test_fast_equals_scipy_on_a_3d_grid_big_enough_for_two_threads(corner_cutting):
+    """Buckets over PARALLEL_MIN cells are split between two threads by plane."""
+    grid, _ = random_grid((66, 60, 64), 0.08, 4)
+    grid[20, 5:45, 3:50] = 1  # a wall the fronts must bend round
+    goals = [(33, 30, 32), (60, 10, 50)]
+    grid[tuple(np.array(goals).T)] = 0
+    v = mdp.solve(grid, goals, "fast", corner_cutting=corner_cutting)
+    ref = csgraph_values(grid, goals, corner_cutting)
+    np.testing.assert_array_equal(np.isfinite(v), np.isfinite(ref))
+    fin = np.isfinite(ref)
+    assert np.max(np.abs(v[fin] - ref[fin])) < 1e-9
+    assert np.bincount((-ref[fin]).astype(int)).max() >= PARALLEL_MIN  # the split really ran
 
 
 def test_corner_rule_changes_values_around_a_diagonal_gap():

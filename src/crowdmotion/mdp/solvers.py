@@ -19,9 +19,9 @@ from typing import Iterable, Sequence
 
 import numpy as np
 
-from crowdmotion.mdp._kernels import PAD, bucket_distances
+from crowdmotion.mdp._kernels import PAD, bucket_distances, mark_near
 from crowdmotion.mdp.grid import validate_grid
-from crowdmotion.mdp.moves import flat_move_tables, move_costs, move_offsets, swept_offsets
+from crowdmotion.mdp.moves import flat_move_tables, move_costs, move_offsets, successor_moves, swept_offsets
 
 NEG_INF = -math.inf
 METHODS = ("fast", "vi", "hvi", "ivi", "dijkstra")
@@ -66,15 +66,23 @@ def interior(flat: np.ndarray, shape: tuple[int, ...]) -> np.ndarray:
 
 
 def fast_values(grid: np.ndarray, goals: Sequence[tuple[int, ...]], corner_cutting: bool = True) -> np.ndarray:
-    """Exact shortest-path values by Dial's bucket queue (numba), see ``_kernels``."""
+    """Exact shortest-path values by Dial's bucket queue (numba), see ``_kernels``.
+
+    The result is a view into the padded work array (a contiguous copy would cost one
+    more grid-sized allocation, a large share of the time on big 3D grids).
+    """
     shape = grid.shape
-    blocked, strides = padded(grid)
+    kind, strides = padded(grid)
     offsets, costs, _, swept, count = flat_move_tables(strides, corner_cutting)
-    dist = np.full(blocked.size, np.inf)
+    successors, successor_count = successor_moves(grid.ndim)
+    dist = np.empty(kind.size)  # numpy's big allocations are quicker to touch than numba's
+    parent = np.empty(kind.size, dtype=np.int8)
+    if not corner_cutting:
+        mark_near(kind, strides, dist.view(np.uint8))  # dist's bytes as scratch: filled later
     g = np.array([int(np.dot(np.add(t, PAD), strides)) for t in goals], dtype=np.int64)
-    bucket_distances(blocked, dist, g, offsets, costs, swept, count, int(strides[0]), grid.ndim == 3)
-    v = -interior(dist, shape)
-    return np.ascontiguousarray(v)
+    bucket_distances(kind, dist, parent, g, offsets, costs, swept, count, successors, successor_count,
+                     not corner_cutting, int(strides[-2]), int(strides[0]), grid.ndim == 3)
+    return interior(dist, shape)  # a view: a contiguous copy would cost another big allocation
 
 
 # ---------------------------------------------------------------------------------
