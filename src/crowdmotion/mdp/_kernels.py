@@ -9,6 +9,8 @@ from __future__ import annotations
 import numpy as np
 from numba import njit, prange
 
+from crowdmotion._prefetch import prefetch
+
 PAD = 2
 """Blocked border width around every grid handed to a kernel (Algorithm 3 looks two
 cells out for agents that a move could pass too close to)."""
@@ -227,6 +229,13 @@ def bucket_distances(kind, dist, parent, goals, offsets, costs, swept, swept_cou
 # Algorithm 3: trajectory generation
 # --------------------------------------------------------------------------------------
 
+TAKEN = 2
+"""Algorithm 3 cell state bit: an agent stands here now (the paper's ``block``)."""
+STARTED = 4
+"""Algorithm 3 cell state bit: an agent stood here when the step began."""
+AHEAD = 8
+"""Algorithm 3 issues the memory loads of the agent this many places ahead in the order."""
+
 
 @njit(cache=True)
 def _min_sq_distance(a, da, b, db, dim):
@@ -251,17 +260,89 @@ def _min_sq_distance(a, da, b, db, dim):
 
 
 @njit(cache=True)
+def crossing_masks(near, vectors, min_sep_sq):
+    """For Algorithm 3's crossing test: which own moves pass too close to a neighbour.
+
+    ``masks[q, d]`` has bit m set when an agent moving by ``vectors[m]`` comes closer
+    than ``sqrt(min_sep_sq)`` to one that starts at the relative cell ``near[q]`` and
+    moves by ``vectors[d]`` (d = len(vectors): stays), both in straight lines over the
+    step. One table per radius replaces the per-pair geometry in the step loop.
+    """
+    n_near, dim = near.shape
+    n_moves = vectors.shape[0]
+    masks = np.zeros((n_near, n_moves + 1), dtype=np.int64)
+    a = np.zeros(dim)
+    b = np.empty(dim)
+    db = np.empty(dim)
+    for q in range(n_near):
+        for k in range(dim):
+            b[k] = near[q, k]
+        for d in range(n_moves + 1):
+            for k in range(dim):
+                db[k] = vectors[d, k] if d < n_moves else 0.0
+            for m in range(n_moves):
+                if _min_sq_distance(a, vectors[m], b, db, dim) < min_sep_sq:
+                    masks[q, d] |= np.int64(1) << m
+    return masks
+
+
+@njit(cache=True)
+def _priority_order(keys, order, rank, counts):
+    """Fill ``order`` with the agents sorted by (key, agent id); ``+inf`` keys last.
+
+    Counting sort into ``n`` equal-width buckets over the range of the finite keys
+    (agents taken in id order, so ties stay by id), then an insertion sort, which only
+    has to fix the order inside buckets: linear for any spread of keys but a few agents
+    piling into one bucket. The same order as a stable argsort of ``keys``.
+    ``rank`` and ``counts`` are work arrays of n and n + 2 entries.
+    """
+    n = order.shape[0]
+    lo = np.inf
+    hi = -np.inf
+    for i in range(n):
+        k = keys[i]
+        if k < np.inf:
+            lo = min(lo, k)
+            hi = max(hi, k)
+    scale = n / (hi - lo) if hi > lo else 0.0
+    counts[:] = 0
+    for i in range(n):
+        k = keys[i]
+        b = n if k == np.inf else min(int((k - lo) * scale), n - 1)
+        rank[i] = b
+        counts[b + 1] += 1
+    for b in range(n + 1):
+        counts[b + 1] += counts[b]
+    for i in range(n):
+        b = rank[i]
+        order[counts[b]] = i
+        counts[b] += 1
+    for i in range(1, n):
+        x = order[i]
+        kx = keys[x]
+        j = i - 1
+        while j >= 0:
+            y = order[j]
+            ky = keys[y]
+            if ky < kx or (ky == kx and y < x):
+                break
+            order[j + 1] = y
+            j -= 1
+        order[j + 1] = x
+
+
+@njit(cache=True)
 def trajectory_steps(
     blocked,
     values,
     goal,
     field_of,
-    strides,
     offsets,
     move_vec,
     swept,
     swept_count,
     near_offsets,
+    crossing,
     cur,
     coord,
     active,
@@ -269,7 +350,6 @@ def trajectory_steps(
     uniforms,
     tau,
     forbid_crossing,
-    min_sep_sq,
     despawn,
     gone_step,
     step_base,
@@ -281,144 +361,162 @@ def trajectory_steps(
     ----------
     blocked : uint8[:]       padded flat occupancy (obstacles and border)
     values : float64[:, :]   (F, cells) padded flat state values, one field per goal
-    goal : uint8[:, :]       (F, cells) padded flat goal masks (absorbing cells)
+    goal : uint8[:, :]       (F, cells) padded flat goal masks (absorbing cells); a goal
+                             cell's value must be 0, or -inf while it is blocked
     field_of : int64[:]      which field each agent follows
-    strides : int64[:]       padded flat strides per axis
     offsets : int64[:]       flat offset of each move; ``move_vec`` its (dim,) vector
     swept, swept_count       cells a diagonal sweeps past (corner-cutting rule)
     near_offsets : int64[:]  flat offsets of the Chebyshev-2 box (crossing check)
+    crossing : int64[:, :]   ``crossing_masks`` for that box and the agents' radius
     cur : int64[:]           current cell of each agent (updated)
     coord : int64[:, :]      current cell coordinates of each agent (updated)
     active : uint8[:]        1 while the agent is in the scene (updated)
-    occ : int64[:]           padded flat agent id per cell, -1 if none (``block``)
+    occ : int32[:]           padded flat id of the active agent on each cell, -1 if none
+                             (updated at the end of every step)
     uniforms : float64[:, :] (steps, N) U(0,1) draws for the roulette wheel
     tau : float              Boltzmann temperature (eq. 4)
-    forbid_crossing : bool   reject moves passing closer than ``sqrt(min_sep_sq)``
+    forbid_crossing : bool   reject moves passing closer than two radii (``crossing``)
     despawn : bool           remove agents on arrival
     gone_step : int64[:]     step at which each agent despawned, -1 while active (updated)
     step_base : int          global index of this call's first step
-    out : int64[:, :]        (steps, N) flat cell of each agent after each step
+    out : int64[:, :, :]     (steps, N, D) cell of each agent after each step (unpadded)
     """
     n_steps, n = uniforms.shape
     dim = coord.shape[1]
     n_moves = offsets.shape[0]
+    stay = n_moves
     n_near = near_offsets.shape[0]
-    start = np.empty(n, dtype=np.int64)
-    start_occ = occ.copy()  # who stood where at the start of the step
-    moved = np.zeros(n, dtype=np.uint8)
-    new_coord = coord.copy()
-    cand = np.empty(n_moves + 1, dtype=np.int64)
+    # One byte per cell keeps the hot tests in cache: obstacle, taken now (the paper's
+    # ``block``), and someone stood here at the start of the step (``occ`` says who).
+    state = np.empty(blocked.shape[0], dtype=np.uint8)
+    for c in range(blocked.shape[0]):
+        state[c] = BLOCKED if blocked[c] else 0
+        if occ[c] >= 0:
+            state[c] |= TAKEN | STARTED
+    move_of = np.full(n, stay, dtype=np.int64)  # this step's move of each agent (reset to stay)
+    cand = np.empty(n_moves + 1, dtype=np.int64)  # candidate move (stay = n_moves)
     cand_val = np.empty(n_moves + 1, dtype=np.float64)
-    near = np.empty(n_near, dtype=np.int64)
-    a = np.empty(dim, dtype=np.float64)
-    da = np.empty(dim, dtype=np.float64)
-    b = np.empty(dim, dtype=np.float64)
-    db = np.empty(dim, dtype=np.float64)
+    weight = np.empty(n_moves + 1, dtype=np.float64)
     keys = np.empty(n, dtype=np.float64)
+    order = np.empty(n, dtype=np.int64)
+    rank = np.empty(n, dtype=np.int64)
+    counts = np.empty(n + 2, dtype=np.int64)
+    # cache lines a step reads around a cell: both ends of each row of the 3^d box (the
+    # values) and of the Chebyshev-2 box (cell states, agent ids)
+    ends = np.zeros(n_moves, dtype=np.bool_)
+    for m in range(n_moves):
+        ends[m] = move_vec[m, dim - 1] != 0.0
+    value_lines = offsets[ends]
+    near_lines = np.concatenate((near_offsets[::5], near_offsets[4::5]))
     for step in range(n_steps):
         for i in range(n):
-            start[i] = cur[i]
-            moved[i] = 0
+            if i + AHEAD < n:
+                prefetch(values[field_of[i + AHEAD]], cur[i + AHEAD])
+            move_of[i] = stay
             keys[i] = -values[field_of[i], cur[i]]
-        order = np.argsort(keys, kind="mergesort")  # largest value first, ties by id
+        _priority_order(keys, order, rank, counts)  # largest value first, ties by id
         for oi in range(n):
+            if oi + AHEAD < n:
+                ahead = order[oi + AHEAD]
+                c = cur[ahead]
+                row = values[field_of[ahead]]
+                for q in range(value_lines.shape[0]):
+                    prefetch(row, c + value_lines[q])
+                if forbid_crossing:
+                    for q in range(near_lines.shape[0]):
+                        prefetch(state, c + near_lines[q])
+                        prefetch(occ, c + near_lines[q])
             i = order[oi]
             if not active[i]:
                 continue
             u = cur[i]
             fi = field_of[i]
-            if goal[fi, u]:
+            vu = values[fi, u]
+            # goal cells hold 0, or -inf while an obstacle covers them: read the mask only then
+            if (vu == 0.0 or vu == -np.inf) and goal[fi, u]:
                 if despawn:
                     active[i] = 0
-                    occ[u] = -1
+                    state[u] &= ~TAKEN
                     gone_step[i] = step_base + step
-                moved[i] = 1
                 continue
-            vu = values[fi, u]
-            occ[u] = -1
-            # agents whose start cell is within two cells: the only ones a one-cell
-            # move can come within two radii (< 0.71 cells) of
-            n_nb = 0
+            state[u] &= ~TAKEN
+            # moves that would pass too close to an agent whose start cell is within two
+            # cells: the only ones a one-cell move can come within two radii (< 0.71) of
+            forbidden = np.int64(0)
             if forbid_crossing:
                 for q in range(n_near):
-                    j = start_occ[u + near_offsets[q]]
-                    if j >= 0 and j != i and active[j]:
-                        near[n_nb] = j
-                        n_nb += 1
+                    c = u + near_offsets[q]
+                    if state[c] & STARTED:
+                        j = occ[c]
+                        if j != i and active[j]:
+                            forbidden |= crossing[q, move_of[j]]  # stay if j has not moved yet
             n0 = 0  # neighbors0 fill cand from the front, neighbors1 from the back
             n1 = 0
             for m in range(n_moves):
                 v = u + offsets[m]
-                if blocked[v] or occ[v] >= 0:
+                if state[v] & (BLOCKED | TAKEN) or (forbidden >> m) & 1:
                     continue
                 ok = True
                 for s in range(swept_count[m]):
-                    if blocked[u + swept[m, s]]:
+                    if state[u + swept[m, s]] & BLOCKED:
                         ok = False
                         break
                 if not ok:
                     continue
-                if forbid_crossing and n_nb > 0:
-                    for k in range(dim):
-                        a[k] = coord[i, k]
-                        da[k] = move_vec[m, k]
-                    for q in range(n_nb):
-                        j = near[q]
-                        for k in range(dim):
-                            b[k] = coord[j, k]
-                            db[k] = (new_coord[j, k] - coord[j, k]) if moved[j] else 0.0
-                        if _min_sq_distance(a, da, b, db, dim) < min_sep_sq:
-                            ok = False
-                            break
-                    if not ok:
-                        continue
                 vv = values[fi, v]
                 if vv > vu:
-                    cand[n0] = v
+                    cand[n0] = m
                     cand_val[n0] = vv
                     n0 += 1
                 else:
                     n1 += 1
-                    cand[n_moves + 1 - n1] = v
+                    cand[n_moves + 1 - n1] = m
                     cand_val[n_moves + 1 - n1] = vv
             if n0 > 0:
                 lo, hi = 0, n0
             else:  # neighbors1 plus staying put
                 n1 += 1
-                cand[n_moves + 1 - n1] = u
+                cand[n_moves + 1 - n1] = stay
                 cand_val[n_moves + 1 - n1] = vu
                 lo, hi = n_moves + 1 - n1, n_moves + 1
             vmax = -np.inf
             for c in range(lo, hi):
                 if cand_val[c] > vmax:
                     vmax = cand_val[c]
-            pick = u
+            pick = stay
             if vmax > -np.inf:
                 total = 0.0
-                for c in range(lo, hi):
-                    total += np.exp((cand_val[c] - vmax) / tau)  # eq. (4)
+                for c in range(lo, hi):  # eq. (4); exp(0) = 1 needs no call
+                    weight[c] = 1.0 if cand_val[c] == vmax else np.exp((cand_val[c] - vmax) / tau)
+                    total += weight[c]
                 r = uniforms[step, i] * total
                 acc = 0.0
                 pick = cand[hi - 1]
                 for c in range(lo, hi):
-                    acc += np.exp((cand_val[c] - vmax) / tau)
+                    acc += weight[c]
                     if r < acc and cand_val[c] > -np.inf:
                         pick = cand[c]
                         break
-            cur[i] = pick
-            occ[pick] = i
-            moved[i] = 1
-            rem = pick
-            for k in range(dim):
-                new_coord[i, k] = rem // strides[k]
-                rem -= new_coord[i, k] * strides[k]
+            if pick < stay:
+                move_of[i] = pick
+                u += offsets[pick]
+                for k in range(dim):
+                    coord[i, k] += np.int64(move_vec[pick, k])
+            cur[i] = u
+            state[u] |= TAKEN
+        for i in range(n):  # the start cells of the next step
+            if move_of[i] != stay:
+                start = cur[i] - offsets[move_of[i]]
+                if occ[start] == i:
+                    occ[start] = -1
+                    state[start] &= ~STARTED
         for i in range(n):
-            if start_occ[start[i]] == i:
-                start_occ[start[i]] = -1
-        for i in range(n):
-            if active[i]:
-                start_occ[cur[i]] = i
+            if active[i] and move_of[i] != stay:
+                occ[cur[i]] = i
+                state[cur[i]] |= STARTED
+            elif not active[i] and occ[cur[i]] == i:
+                occ[cur[i]] = -1
+                state[cur[i]] &= ~STARTED
             for k in range(dim):
-                coord[i, k] = new_coord[i, k]
-            out[step, i] = cur[i]
+                out[step, i, k] = coord[i, k] - PAD
     return out

@@ -6,7 +6,7 @@ from itertools import product
 
 import numpy as np
 
-from crowdmotion.mdp._kernels import PAD, trajectory_steps
+from crowdmotion.mdp._kernels import PAD, crossing_masks, trajectory_steps
 from crowdmotion.mdp.grid import SQRT2, validate_grid
 from crowdmotion.mdp.moves import flat_move_tables
 from crowdmotion.mdp.solvers import padded
@@ -31,6 +31,7 @@ class Walker:
         self.offsets = (self.vectors.astype(np.int64) @ self.strides).astype(np.int64)
         near = np.array(list(product(range(-2, 3), repeat=self.dim)), dtype=np.int64)
         self.near_offsets = near @ self.strides
+        self.crossing = crossing_masks(near.astype(np.float64), self.vectors, (2.0 * radius_cells) ** 2)
         self.goal = np.stack([np.pad(np.asarray(m, dtype=np.uint8), PAD).ravel() for m in goal_masks])
         self.field_of = np.asarray(field_of, dtype=np.int64)
         self.coord = np.asarray(starts, dtype=np.int64) + PAD
@@ -38,9 +39,8 @@ class Walker:
         self.active = np.ones(len(self.cur), dtype=np.uint8)
         self.gone_step = np.full(len(self.cur), -1, dtype=np.int64)
         self.steps_done = 0
-        self.occ = np.full(self.blocked.size, -1, dtype=np.int64)
+        self.occ = np.full(self.blocked.size, -1, dtype=np.int32)
         self.occ[self.cur] = np.arange(len(self.cur))
-        self.min_sep_sq = (2.0 * radius_cells) ** 2
         self.values = None
 
     def set_blocked(self, grid: np.ndarray) -> None:
@@ -53,22 +53,25 @@ class Walker:
         self.values = flat
 
     def advance(self, steps: int, rng: np.random.Generator, tau: float, forbid_crossing: bool,
-                despawn: bool) -> tuple[np.ndarray, np.ndarray]:
-        """Run ``steps`` steps; return ((steps, N, D) cell indices, (steps, N) active)."""
+                despawn: bool, out: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
+        """Run ``steps`` steps; return ((steps, N, D) cell indices, (steps, N) active).
+
+        ``out``: an optional (steps, N, D) int64 array to write the cells into.
+        """
         n = len(self.cur)
         uniforms = rng.random((steps, n))
-        out = np.empty((steps, n), dtype=np.int64)
+        if out is None:
+            out = np.empty((steps, n, self.dim), dtype=np.int64)
         trajectory_steps(
-            self.blocked, self.values, self.goal, self.field_of, self.strides, self.offsets, self.vectors,
-            self.swept, self.swept_count, self.near_offsets, self.cur, self.coord, self.active, self.occ,
-            uniforms, float(tau), bool(forbid_crossing), self.min_sep_sq, bool(despawn), self.gone_step,
+            self.blocked, self.values, self.goal, self.field_of, self.offsets, self.vectors, self.swept,
+            self.swept_count, self.near_offsets, self.crossing, self.cur, self.coord, self.active, self.occ,
+            uniforms, float(tau), bool(forbid_crossing), bool(despawn), self.gone_step,
             self.steps_done, out,
         )
         self.steps_done += steps
         rows = self.steps_done - steps + np.arange(steps)[:, None]
         act = (self.gone_step < 0) | (rows < self.gone_step)  # gone from the step it left in
-        cells = np.stack(np.unravel_index(out, tuple(x + 2 * PAD for x in self.shape)), axis=-1) - PAD
-        return cells, act
+        return out, act
 
     @property
     def cells(self) -> np.ndarray:
@@ -124,10 +127,12 @@ def generate_trajectories(grid, values, starts, max_length: int, rng: np.random.
         raise ValueError(f"radius must be in (0, {RAW_GRID_RADIUS:.6f}] cells (paper's cell rule), got {radius!r}")
     walker = Walker(grid, starts, [values == 0], np.zeros(len(starts), dtype=np.int64), corner_cutting, r)
     walker.set_values(values[None])
-    cells, act = walker.advance(int(max_length), rng, tau, forbid_crossing, despawn)
-    cells = np.concatenate([starts[None], cells])
-    act = np.concatenate([np.ones((1, len(starts)), dtype=bool), act])
-    return (cells, act) if return_active else cells
+    cells = np.empty((int(max_length) + 1, len(starts), grid.ndim), dtype=np.int64)
+    cells[0] = starts
+    _, act = walker.advance(int(max_length), rng, tau, forbid_crossing, despawn, out=cells[1:])
+    if not return_active:
+        return cells
+    return cells, np.concatenate([np.ones((1, len(starts)), dtype=bool), act])
 
 
 def check_starts(grid: np.ndarray, starts) -> np.ndarray:
