@@ -81,7 +81,7 @@ def fast_values(grid: np.ndarray, goals: Sequence[tuple[int, ...]], corner_cutti
         mark_near(kind, strides, dist.view(np.uint8))  # dist's bytes as scratch: filled later
     g = np.array([int(np.dot(np.add(t, PAD), strides)) for t in goals], dtype=np.int64)
     bucket_distances(kind, dist, parent, g, offsets, costs, swept, count, successors, successor_count,
-                     not corner_cutting, int(strides[-2]), int(strides[0]), grid.ndim == 3)
+                     not corner_cutting, int(strides[0]), grid.ndim == 3)
     return interior(dist, shape)  # a view: a contiguous copy would cost another big allocation
 
 
