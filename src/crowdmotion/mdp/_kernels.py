@@ -167,7 +167,10 @@ def bucket_distances(kind, dist, parent, goals, offsets, costs, swept, swept_cou
     order = np.empty(1024, dtype=np.int64)
     hist = np.zeros((2, n_planes), dtype=np.int64)
     ranges = np.zeros((2, 2), dtype=np.int64)
-    _start_distances(kind, dist, parent)
+    if n_cells >= PARALLEL_MIN * 64:
+        _in_halves(kind, dist, parent, True)
+    else:
+        _start_distances(kind, dist, parent, 0, n_cells)
     for g in goals:
         dist[g] = 0.0
         buckets[0, 0, sizes[0, 0]] = g
@@ -201,7 +204,10 @@ def bucket_distances(kind, dist, parent, goals, offsets, costs, swept, swept_cou
             _expand(order, 0, n, lo, hi, dist, parent, kind, offsets, costs, swept, swept_count,
                     successors, successor_count, check_near, buckets[0], sizes[0])
         k += 1
-    _to_values(dist)
+    if n_cells >= PARALLEL_MIN * 64:
+        _in_halves(kind, dist, parent, False)
+    else:
+        _to_values(dist, 0, n_cells)
     return dist
 
 
@@ -268,19 +274,32 @@ def _plane_scatters(buckets, sizes, b, plane, hist, order):
         _plane_scatter(buckets[t, b, : sizes[t, b]], plane, hist[t], order)
 
 
-@njit(cache=True, parallel=True)
-def _start_distances(kind, dist, parent):
-    """+inf on free cells, -1 on BLOCKED ones; no parent move yet."""
-    for x in prange(kind.shape[0]):
+@njit(cache=True)
+def _start_distances(kind, dist, parent, lo, hi):
+    """Cells [lo, hi): +inf on free cells, -1 on BLOCKED ones, no parent move yet."""
+    for x in range(lo, hi):
         dist[x] = -1.0 if kind[x] & BLOCKED else np.inf
         parent[x] = -1
 
 
-@njit(cache=True, parallel=True)
-def _to_values(dist):
-    """Distances to state values in place: v = -distance, -inf on blocked cells."""
-    for x in prange(dist.shape[0]):
+@njit(cache=True)
+def _to_values(dist, lo, hi):
+    """Cells [lo, hi): distances to state values in place, v = -distance, -inf if blocked."""
+    for x in range(lo, hi):
         dist[x] = -np.inf if dist[x] < 0.0 else -dist[x]
+
+
+@njit(cache=True, parallel=True)
+def _in_halves(kind, dist, parent, start):
+    """``_start_distances`` (``start``) or ``_to_values`` over all cells, on two threads."""
+    n = dist.shape[0]
+    for t in prange(2):
+        lo = t * (n // 2)
+        hi = n if t == 1 else n // 2
+        if start:
+            _start_distances(kind, dist, parent, lo, hi)
+        else:
+            _to_values(dist, lo, hi)
 
 
 # --------------------------------------------------------------------------------------
