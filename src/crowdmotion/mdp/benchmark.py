@@ -73,14 +73,20 @@ def csgraph_values(grid: np.ndarray, goals, corner_cutting: bool = True) -> np.n
     return -d.reshape(grid.shape)
 
 
-def timed(fn, repeats: int) -> tuple[float, object]:
-    """Mean wall time over ``repeats`` runs (the paper averaged 3) and the last result."""
+def timed_runs(fn, repeats: int) -> tuple[list[float], object]:
+    """Wall time of each of ``repeats`` runs, and the last result."""
     out = None
     t = []
     for _ in range(repeats):
         t0 = time.perf_counter()
         out = fn()
         t.append(time.perf_counter() - t0)
+    return t, out
+
+
+def timed(fn, repeats: int) -> tuple[float, object]:
+    """Mean wall time over ``repeats`` runs (the paper averaged 3) and the last result."""
+    t, out = timed_runs(fn, repeats)
     return float(np.mean(t)), out
 
 
