@@ -41,3 +41,18 @@ def test_priority_order_is_a_stable_argsort(case):
     order = np.empty(n, dtype=np.int64)
     _priority_order(keys, order, np.empty(n, dtype=np.int64), np.empty(n + 2, dtype=np.int64))
     np.testing.assert_array_equal(order, np.argsort(keys, kind="stable"))
+
+
+@pytest.mark.parametrize("shape", [(40, 31), (12, 15, 18)])
+def test_near_cells_match_scipy_maximum_filter(shape):
+    from scipy.ndimage import maximum_filter
+
+    from crowdmotion.mdp._kernels import NEAR, mark_near
+    from crowdmotion.mdp.solvers import padded
+
+    grid = (np.random.default_rng(3).random(shape) < 0.05).astype(np.uint8)
+    kind, strides = padded(grid)
+    mark_near(kind, strides, np.empty(2 * kind.size, dtype=np.uint8))
+    full = padded(grid)[0].reshape(tuple(s + 4 for s in shape))
+    expected = (maximum_filter(full, size=3, mode="constant", cval=1) > 0) & (full == 0)
+    np.testing.assert_array_equal((kind & NEAR).reshape(full.shape) > 0, expected)

@@ -51,29 +51,31 @@ PARALLEL_MIN = 4096
 """Smallest 3D bucket worth splitting between two threads."""
 
 
-@njit(cache=True)
+@njit(cache=True, parallel=True)
 def mark_near(kind, strides, scratch):
     """Set the NEAR bit on every free cell whose 3^d box holds a BLOCKED cell.
 
     ``kind`` is a padded flat array with flat ``strides``; ``scratch`` is a uint8 work
     array of twice its length (big arrays come from numpy, whose allocations are faster
-    to touch). The box is dilated one axis at a time with flat offsets: the border is
-    at least one cell wide, so for every cell of the grid itself the offsets never wrap
-    into another row or plane.
+    to touch). The box is dilated one axis at a time with flat offsets, the last axis
+    straight into ``kind``: the border is at least one cell wide, so for every cell of
+    the grid itself the offsets never wrap into another row or plane.
     """
     n = kind.shape[0]
-    a = scratch[:n]
-    b = scratch[n : 2 * n]
-    for x in range(n):
-        a[x] = kind[x] & BLOCKED
-    for s in strides:
-        b[:s] = a[:s]
-        b[n - s :] = a[n - s :]
-        for x in range(s, n - s):
-            b[x] = a[x - s] | a[x] | a[x + s]
-        a, b = b, a
-    for x in range(n):
-        if a[x] and not (kind[x] & BLOCKED):
+    src = scratch[:n]
+    dst = scratch[n : 2 * n]
+    for x in prange(n):
+        src[x] = kind[x] & BLOCKED
+    for k in range(strides.shape[0] - 1, 0, -1):  # fastest axis first
+        s = strides[k]
+        dst[:s] = src[:s]
+        dst[n - s :] = src[n - s :]
+        for x in prange(s, n - s):
+            dst[x] = src[x - s] | src[x] | src[x + s]
+        src, dst = dst, src
+    s = strides[0]
+    for x in prange(s, n - s):
+        if (src[x - s] | src[x] | src[x + s]) and not (kind[x] & BLOCKED):
             kind[x] |= NEAR
 
 
