@@ -516,12 +516,12 @@ def trajectory_steps(
         ends[m] = move_vec[m, dim - 1] != 0.0
     value_lines = offsets[ends]
     near_lines = np.concatenate((near_offsets[::5], near_offsets[4::5]))
+    for i in range(n):  # minus each agent's value; then kept up to date as agents move
+        if i + AHEAD < n:
+            prefetch(values[field_of[i + AHEAD]], cur[i + AHEAD])
+        keys[i] = -values[field_of[i], cur[i]]
     for step in range(n_steps):
-        for i in range(n):
-            if i + AHEAD < n:
-                prefetch(values[field_of[i + AHEAD]], cur[i + AHEAD])
-            move_of[i] = stay
-            keys[i] = -values[field_of[i], cur[i]]
+        move_of[:] = stay
         _priority_order(keys, order, rank, counts)  # largest value first, ties by id
         for oi in range(n):
             if oi + AHEAD < n:
@@ -592,6 +592,7 @@ def trajectory_steps(
                 if cand_val[c] > vmax:
                     vmax = cand_val[c]
             pick = stay
+            picked = vu
             if vmax > -np.inf:
                 total = 0.0
                 for c in range(lo, hi):  # eq. (4); exp(0) = 1 needs no call
@@ -600,10 +601,12 @@ def trajectory_steps(
                 r = uniforms[step, i] * total
                 acc = 0.0
                 pick = cand[hi - 1]
+                picked = cand_val[hi - 1]
                 for c in range(lo, hi):
                     acc += weight[c]
                     if r < acc and cand_val[c] > -np.inf:
                         pick = cand[c]
+                        picked = cand_val[c]
                         break
             if pick < stay:
                 move_of[i] = pick
@@ -611,6 +614,7 @@ def trajectory_steps(
                 for k in range(dim):
                     coord[i, k] += np.int64(move_vec[pick, k])
             cur[i] = u
+            keys[i] = -picked
             state[u] |= TAKEN
         for i in range(n):  # the start cells of the next step
             if move_of[i] != stay:
