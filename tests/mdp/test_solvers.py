@@ -9,7 +9,7 @@ import scipy.sparse as sp
 from scipy.sparse.csgraph import dijkstra as sp_dijkstra
 
 from crowdmotion import mdp
-from crowdmotion.mdp._kernels import PARALLEL_MIN
+from crowdmotion.mdp._kernels import PARALLEL_MIN, PARALLEL_MIN_2D
 from crowdmotion.mdp.benchmark import PAPER_GRIDS, csgraph_values, paper_grid
 
 
@@ -77,6 +77,23 @@ def test_fast_equals_scipy_on_a_3d_grid_big_enough_for_two_threads(corner_cuttin
     fin = np.isfinite(ref)
     assert np.max(np.abs(v[fin] - ref[fin])) < 1e-9
     assert np.bincount((-ref[fin]).astype(int)).max() >= PARALLEL_MIN  # the split really ran
+
+
+@pytest.mark.parametrize("corner_cutting", [True, False])
+@pytest.mark.parametrize("goals", ["two cells", "a whole row"])
+def test_fast_equals_scipy_on_a_2d_grid_big_enough_for_two_threads(corner_cutting, goals):
+    """2D buckets over PARALLEL_MIN_2D cells are split by row; a row goal puts a whole
+    front into the seam rows."""
+    grid, _ = random_grid((700, 600), 0.1, 5)
+    grid[300, 50:550] = 1
+    cells = [(350, 300), (10, 20)] if goals == "two cells" else [(699, c) for c in range(600)]
+    grid[tuple(np.array(cells).T)] = 0
+    v = mdp.solve(grid, cells, "fast", corner_cutting=corner_cutting)
+    ref = csgraph_values(grid, cells, corner_cutting)
+    np.testing.assert_array_equal(np.isfinite(v), np.isfinite(ref))
+    fin = np.isfinite(ref)
+    assert np.max(np.abs(v[fin] - ref[fin])) < 1e-9
+    assert np.bincount((-ref[fin]).astype(int)).max() >= PARALLEL_MIN_2D
 
 
 def test_corner_rule_changes_values_around_a_diagonal_gap():
