@@ -191,8 +191,9 @@ def bucket_distances(kind, dist, parent, goals, offsets, costs, swept, swept_cou
     offsets, costs, swept, swept_count : the move tables of ``moves.flat_move_tables``
     successors, successor_count : ``moves.successor_moves``
     check_near : bool    corner cutting is off: NEAR cells expand fully, with sweep checks
-    plane : int          flat stride of the slowest axis
-    three_d : bool       order each bucket by plane and split large ones between threads
+    plane : int          flat stride of the slowest axis (a plane in 3D, a row in 2D)
+    three_d : bool       3D: sort each bucket by plane; 2D: partition large ones by row.
+                         Either way large buckets are split between two threads.
     """
     n_cells = kind.shape[0]
     n_moves = offsets.shape[0]
