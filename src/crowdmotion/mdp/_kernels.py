@@ -90,6 +90,13 @@ def _expand(order, start, stop, lo, hi, dist, parent, kind, tables, check_near, 
     """
     step, step_cost, step_move, count, offsets, swept, swept_count = tables
     full_row = count.shape[0] - 1
+    # pushes land in bucket k + 1 or k + 2 (moves cost 1 to sqrt(3)): two local tails
+    k = int(lo)
+    near_b = (k + 1) % 3
+    far_b = (k + 2) % 3
+    n_near = sizes[near_b]
+    n_far = sizes[far_b]
+    edge = lo + 2.0
     for i in range(start, stop):
         u = order[i]
         du = dist[u]
@@ -120,11 +127,15 @@ def _expand(order, start, stop, lo, hi, dist, parent, kind, tables, check_near, 
                     continue
             dist[v] = nd
             parent[v] = m
-            if old < np.inf and int(old) == int(nd):
-                continue  # already waiting in that bucket (it cannot have been expanded yet)
-            nb = int(nd) % 3
-            buckets[nb, sizes[nb]] = v
-            sizes[nb] += 1
+            if nd < edge:
+                if old >= edge:  # else already waiting in bucket k + 1 (not yet expanded)
+                    buckets[near_b, n_near] = v
+                    n_near += 1
+            elif old == np.inf:  # improvements within bucket k + 2 are already queued
+                buckets[far_b, n_far] = v
+                n_far += 1
+    sizes[near_b] = n_near
+    sizes[far_b] = n_far
 
 
 @njit(cache=True)
