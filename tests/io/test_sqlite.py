@@ -63,8 +63,12 @@ def test_pedpy_reads_it_and_computes_a_density_profile(tmp_path):
 
 
 def test_3d_runs_are_projected_and_say_so(tmp_path):
-    with pytest.warns(UserWarning, match="projected onto the ground plane"):
+    from crowdmotion.io import write_trajectories
+
+    with pytest.warns(UserWarning, match="projected onto the ground plane") as caught:
+        write_trajectories(sample(3), tmp_path / "direct.sqlite")
         path = sample(3).save(tmp_path / "t.sqlite")
+    assert [w.filename for w in caught] == [__file__, __file__]  # the caller's line, not ours
     back = Trajectories.load(path)
     assert back.dim == 2
     np.testing.assert_allclose(back.positions[sample(3).active_mask], sample(3).positions[..., :2][sample(3).active_mask])

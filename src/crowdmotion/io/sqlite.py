@@ -16,6 +16,7 @@ from __future__ import annotations
 
 import json
 import sqlite3
+import sys
 import warnings
 import zlib
 from pathlib import Path
@@ -57,10 +58,24 @@ def _orientation(traj: Trajectories) -> np.ndarray:
     return np.stack([np.cos(h), np.sin(h)], axis=-1)
 
 
+def _first_caller_outside_package() -> int:
+    """``stacklevel`` pointing a warning at the user's line, however deep the library calls.
+
+    (Python 3.12's ``skip_file_prefixes`` does this; the package supports 3.11.)
+    """
+    package = str(Path(__file__).resolve().parent.parent)
+    frame = sys._getframe(2)  # the caller of the function that warns
+    level = 2
+    while frame is not None and str(Path(frame.f_code.co_filename).resolve()).startswith(package):
+        frame = frame.f_back
+        level += 1
+    return level
+
+
 def write(traj: Trajectories, path: Path) -> None:
     if traj.dim == 3:
         warnings.warn(f"{path.name}: JuPedSim files are 2D; the 3D run is projected onto the ground plane (x, y)",
-                      UserWarning, stacklevel=3)
+                      UserWarning, stacklevel=_first_caller_outside_package())
     t, n, _ = traj.positions.shape
     act = traj.active_mask
     frame, agent = np.nonzero(act)
