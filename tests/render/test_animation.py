@@ -49,3 +49,18 @@ def test_3d_runs_are_drawn_from_above(tmp_path):
     traj = Trajectories(pos, 0.5, radius=[0.3], metadata={"scene": scene.to_dict()})
     assert animate(traj, tmp_path / "a.gif", width_px=300, progress=False).stat().st_size > 1000
     assert plot_density(traj, tmp_path / "d.png").stat().st_size > 1000
+
+
+@pytest.mark.parametrize("moving", [True, False])
+def test_blitted_frames_equal_full_redraws(moving):
+    from crowdmotion.render.animation import frame_images
+    from crowdmotion.scene import Box
+
+    run = _run()
+    if not moving:
+        run.metadata["scene"] = Scene(((0, 0), (10, 5)), [Circle((5, 4.5), 0.4), Box((7, 1), (8, 2))]).to_dict()
+    frames = [0, 7, 19, 20, 29]
+    fast = list(frame_images(run, frames, width_px=320))
+    full = list(frame_images(run, frames, width_px=320, blit=False))
+    for a, b in zip(fast, full):
+        np.testing.assert_array_equal(a, b)

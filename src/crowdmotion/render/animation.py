@@ -3,6 +3,8 @@ Trajectories alone (the scene comes from the trajectories' metadata)."""
 
 from __future__ import annotations
 
+import itertools
+from collections.abc import Iterator
 from pathlib import Path
 
 import matplotlib
@@ -14,7 +16,7 @@ from matplotlib.collections import EllipseCollection, LineCollection  # noqa: E4
 from tqdm.auto import tqdm  # noqa: E402
 
 from crowdmotion.io.atomic import atomic_path  # noqa: E402
-from crowdmotion.render.plots import _draw_obstacles_2d, _group_colours, _save, gif_frame, write_gif  # noqa: E402
+from crowdmotion.render.plots import _draw_obstacles_2d, _group_colours, _save, gif_image, write_gif  # noqa: E402
 from crowdmotion.scene import Scene  # noqa: E402
 from crowdmotion.trajectories import Trajectories  # noqa: E402
 
@@ -43,40 +45,12 @@ def animate(traj: Trajectories, path, fps: float | None = None, trail_s: float =
     kind = path.suffix.lower()
     if kind not in (".mp4", ".gif"):
         raise ValueError(f"animations are .mp4 or .gif, got {path.name!r}")
-    scene = scene_of(traj)
-    lo, hi = _extent(traj, scene)
     frames = np.unique(np.linspace(0, traj.n_frames - 1, min(traj.n_frames, max_frames)).round().astype(int))
     step_s = traj.dt * (frames[1] - frames[0]) if len(frames) > 1 else traj.dt
     fps = float(fps) if fps else min(30.0, 1.0 / step_s)
-    aspect = float((hi[1] - lo[1]) / (hi[0] - lo[0]))
-    dpi = 100
-    w_in = width_px / dpi
-    h_in = max(2.0, w_in * aspect) + 0.4
-    h_in = round(h_in * dpi / 16) * 16 / dpi  # even pixel sizes for H.264
-    fig, ax = plt.subplots(figsize=(w_in, h_in), dpi=dpi)
-    colours = _group_colours(traj)
-    face = np.array([colours[g] for g in traj.group])
-    act = traj.active_mask
-    pos = traj.positions[..., :2]
-    trail_n = max(1, int(round(trail_s / traj.dt)))
-    title = f"{traj.metadata.get('scenario', traj.metadata.get('method', ''))}"
-    if traj.dim == 3:
-        title += " (seen from above)"
-    moving = scene is not None and any(ob.is_moving for ob in scene.obstacles)
-    if scene is not None and not moving:
-        _draw_obstacles_2d(ax, scene)
-    ax.set_xlim(lo[0], hi[0])
-    ax.set_ylim(lo[1], hi[1])
-    ax.set_aspect("equal")
-    trails = LineCollection([], linewidths=1.0)
-    ax.add_collection(trails)
-    d = 2 * traj.radius
-    bodies = EllipseCollection(d, d, np.zeros(traj.n_agents), units="xy", offsets=pos[0],
-                               offset_transform=ax.transData, edgecolors="k", linewidths=0.3, zorder=4)
-    ax.add_collection(bodies)
-    label = ax.set_title("", fontsize=10, family="monospace")
-    shapes = []
-    w_px, h_px = (int(round(x)) for x in fig.canvas.get_width_height())
+    images = frame_images(traj, frames, trail_s, width_px)
+    first = next(images)
+    h_px, w_px = first.shape[:2]
     with atomic_path(path) as tmp:
         if kind == ".mp4":
             import imageio_ffmpeg
@@ -86,13 +60,72 @@ def animate(traj: Trajectories, path, fps: float | None = None, trail_s: float =
             sink.send(None)
         else:
             gif_frames = []
-        for f in tqdm(frames, desc="rendering", unit="frame", disable=not progress, leave=False):
+        rest = tqdm(images, desc="rendering", unit="frame", total=len(frames) - 1, disable=not progress, leave=False)
+        for rgb in itertools.chain([first], rest):
+            if kind == ".mp4":
+                sink.send(rgb)
+            else:
+                gif_frames.append(gif_image(rgb))
+        if kind == ".mp4":
+            sink.close()
+        else:
+            write_gif(gif_frames, tmp, fps)
+    return path
+
+
+def frame_images(traj: Trajectories, frames, trail_s: float = 2.0, width_px: int = 960,
+                 blit: bool = True) -> Iterator[np.ndarray]:
+    """The animation's frames as (H, W, 3) uint8 images, one per index in ``frames``.
+
+    With ``blit`` (the default) the axes, ticks and static obstacles are drawn once and
+    each frame redraws only the agents, trails, moving obstacles and clock on top of that
+    background, as matplotlib's blitting does; ``blit=False`` redraws the whole figure.
+    """
+    scene = scene_of(traj)
+    lo, hi = _extent(traj, scene)
+    aspect = float((hi[1] - lo[1]) / (hi[0] - lo[0]))
+    dpi = 100
+    w_in = width_px / dpi
+    h_in = max(2.0, w_in * aspect) + 0.4
+    h_in = round(h_in * dpi / 16) * 16 / dpi  # even pixel sizes for H.264
+    fig, ax = plt.subplots(figsize=(w_in, h_in), dpi=dpi)
+    try:
+        colours = _group_colours(traj)
+        face = np.array([colours[g] for g in traj.group])
+        act = traj.active_mask
+        pos = traj.positions[..., :2]
+        trail_n = max(1, int(round(trail_s / traj.dt)))
+        title = f"{traj.metadata.get('scenario', traj.metadata.get('method', ''))}"
+        if traj.dim == 3:
+            title += " (seen from above)"
+        moving = scene is not None and any(ob.is_moving for ob in scene.obstacles)
+        if scene is not None and not moving:
+            _draw_obstacles_2d(ax, scene)
+        ax.set_xlim(lo[0], hi[0])
+        ax.set_ylim(lo[1], hi[1])
+        ax.set_aspect("equal")
+        trails = LineCollection([], linewidths=1.0, animated=blit)
+        ax.add_collection(trails)
+        d = 2 * traj.radius
+        bodies = EllipseCollection(d, d, np.zeros(traj.n_agents), units="xy", offsets=pos[0],
+                                   offset_transform=ax.transData, edgecolors="k", linewidths=0.3, zorder=4,
+                                   animated=blit)
+        ax.add_collection(bodies)
+        label = ax.set_title("", fontsize=10, family="monospace")
+        label.set_animated(blit)
+        shapes = []
+        if blit:
+            fig.canvas.draw()
+            background = fig.canvas.copy_from_bbox(fig.bbox)
+        for f in frames:
             if moving:
                 for artist in shapes:
                     artist.remove()
                 before = set(ax.patches) | set(ax.lines)
                 _draw_obstacles_2d(ax, scene, f * traj.dt)
                 shapes = [a for a in list(ax.patches) + list(ax.lines) if a not in before]
+                for artist in shapes:
+                    artist.set_animated(blit)
             a0 = max(0, f - trail_n)
             if f > a0:
                 seg = np.stack([pos[a0:f], pos[a0 + 1:f + 1]], axis=2)
@@ -107,17 +140,16 @@ def animate(traj: Trajectories, path, fps: float | None = None, trail_s: float =
             bodies.set_facecolor(fc)
             bodies.set_edgecolor(np.where(act[f][:, None], [[0, 0, 0, 1.0]], [[0, 0, 0, 0.0]]))
             label.set_text(f"{title}  t = {f * traj.dt:6.1f} s")
-            if kind == ".mp4":
-                fig.canvas.draw()
-                sink.send(np.ascontiguousarray(np.asarray(fig.canvas.buffer_rgba())[..., :3]))
+            if blit:
+                fig.canvas.restore_region(background)
+                # matplotlib's order: by zorder, ties in the order the artists were added
+                for artist in sorted([trails, bodies] + shapes, key=lambda a: a.get_zorder()) + [label]:
+                    ax.draw_artist(artist)
             else:
-                gif_frames.append(gif_frame(fig))
+                fig.canvas.draw()
+            yield np.ascontiguousarray(np.asarray(fig.canvas.buffer_rgba())[..., :3])
+    finally:
         plt.close(fig)
-        if kind == ".mp4":
-            sink.close()
-        else:
-            write_gif(gif_frames, tmp, fps)
-    return path
 
 
 def plot_density(traj: Trajectories, path, cell: float = 0.5, title: str = "") -> Path:

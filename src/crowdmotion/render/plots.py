@@ -57,10 +57,15 @@ def _draw_mesh(ax, vertices: np.ndarray, edges: np.ndarray, torn: np.ndarray, co
 
 def gif_frame(fig):
     """The figure as drawn now, as one palette image of a GIF."""
+    fig.canvas.draw()
+    return gif_image(np.asarray(fig.canvas.buffer_rgba())[..., :3])
+
+
+def gif_image(rgb: np.ndarray):
+    """An (H, W, 3) uint8 image as one palette image of a GIF."""
     from PIL import Image
 
-    fig.canvas.draw()
-    return Image.fromarray(np.asarray(fig.canvas.buffer_rgba())[..., :3]).convert("P", palette=Image.ADAPTIVE)
+    return Image.fromarray(rgb).convert("P", palette=Image.ADAPTIVE)
 
 
 def write_gif(frames: list, path, fps: float) -> None:
