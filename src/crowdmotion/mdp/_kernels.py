@@ -117,14 +117,8 @@ def _expand(order, start, stop, lo, hi, dist, parent, kind, tables, check_near, 
                         parent[v] = m  # an equally short way in that leaves fewer moves to try
                 continue
             m = step_move[a, q]
-            if full:
-                ok = True
-                for j in range(swept_count[m]):
-                    if kind[u + swept[m, j]] & BLOCKED:
-                        ok = False
-                        break
-                if not ok:
-                    continue
+            if full and not _sweep_free(kind, u, swept, swept_count, m):
+                continue
             dist[v] = nd
             parent[v] = m
             if nd < edge:
@@ -136,6 +130,15 @@ def _expand(order, start, stop, lo, hi, dist, parent, kind, tables, check_near, 
                 n_far += 1
     sizes[near_b] = n_near
     sizes[far_b] = n_far
+
+
+@njit(cache=True)
+def _sweep_free(cells, u, swept, swept_count, m):
+    """No cell that move ``m`` from ``u`` sweeps past has the BLOCKED bit (corner rule)."""
+    for j in range(swept_count[m]):
+        if cells[u + swept[m, j]] & BLOCKED:
+            return False
+    return True
 
 
 @njit(cache=True)
@@ -216,10 +219,7 @@ def bucket_distances(kind, dist, parent, goals, offsets, costs, swept, swept_cou
     seam = np.empty(1024, dtype=np.int64)
     hist = np.zeros((2, n_planes), dtype=np.int64)
     ranges = np.zeros((2, 2), dtype=np.int64)
-    if n_cells >= PARALLEL_MIN * 64:
-        _in_halves(kind, dist, parent, True)
-    else:
-        _start_distances(kind, dist, parent, 0, n_cells)
+    _over_all_cells(kind, dist, parent, True)
     for g in goals:
         dist[g] = 0.0
         buckets[0, 0, sizes[0, 0]] = g
@@ -255,10 +255,7 @@ def bucket_distances(kind, dist, parent, goals, offsets, costs, swept, swept_cou
             buckets = _reserve(buckets, sizes, n * n_moves)
             _expand(order, 0, n, lo, hi, dist, parent, kind, tables, check_near, buckets[0], sizes[0])
         k += 1
-    if n_cells >= PARALLEL_MIN * 64:
-        _in_halves(kind, dist, parent, False)
-    else:
-        _to_values(dist, 0, n_cells)
+    _over_all_cells(kind, dist, parent, False)
     return dist
 
 
@@ -377,6 +374,19 @@ def _to_values(dist, lo, hi):
     """Cells [lo, hi): distances to state values in place, v = -distance, -inf if blocked."""
     for x in range(lo, hi):
         dist[x] = -np.inf if dist[x] < 0.0 else -dist[x]
+
+
+@njit(cache=True)
+def _over_all_cells(kind, dist, parent, start):
+    """``_start_distances`` (``start``) or ``_to_values`` over every cell: on two threads
+    for big grids, on this one for small ones (a parallel region costs more there)."""
+    n = dist.shape[0]
+    if n >= PARALLEL_MIN * 64:
+        _in_halves(kind, dist, parent, start)
+    elif start:
+        _start_distances(kind, dist, parent, 0, n)
+    else:
+        _to_values(dist, 0, n)
 
 
 @njit(cache=True, parallel=True)
@@ -623,12 +633,7 @@ def trajectory_steps(
                 v = u + offsets[m]
                 if state[v] & (BLOCKED | TAKEN) or (forbidden >> m) & 1:
                     continue
-                ok = True
-                for s in range(swept_count[m]):
-                    if state[u + swept[m, s]] & BLOCKED:
-                        ok = False
-                        break
-                if not ok:
+                if not _sweep_free(state, u, swept, swept_count, m):
                     continue
                 vv = values[fi, v]
                 if vv > vu:
