@@ -43,6 +43,14 @@ def scipy_reference(grid, goals, corner_cutting):
     return -d.reshape(shape)
 
 
+def assert_same_values(v, ref):
+    """Same reachable cells, values within 1e-9; returns the reachable mask."""
+    np.testing.assert_array_equal(np.isfinite(v), np.isfinite(ref))
+    fin = np.isfinite(ref)
+    assert np.max(np.abs(v[fin] - ref[fin])) < 1e-9
+    return fin
+
+
 def random_grid(shape, density, seed):
     rng = np.random.default_rng(seed)
     g = (rng.random(shape) < density).astype(np.uint8)
@@ -57,9 +65,7 @@ def test_fast_equals_scipy_shortest_paths(shape, seed, corner_cutting):
     grid, goals = random_grid(shape, 0.3, seed)
     v = mdp.solve(grid, goals, "fast", corner_cutting=corner_cutting)
     ref = scipy_reference(grid, goals, corner_cutting)
-    np.testing.assert_array_equal(np.isfinite(v), np.isfinite(ref))
-    fin = np.isfinite(ref)
-    assert np.max(np.abs(v[fin] - ref[fin])) < 1e-9
+    assert_same_values(v, ref)
     assert np.all(v[grid == 1] == -np.inf)
     assert all(v[g] == 0 for g in goals)
 
@@ -73,9 +79,7 @@ def test_fast_equals_scipy_on_a_3d_grid_big_enough_for_two_threads(corner_cuttin
     grid[tuple(np.array(goals).T)] = 0
     v = mdp.solve(grid, goals, "fast", corner_cutting=corner_cutting)
     ref = csgraph_values(grid, goals, corner_cutting)
-    np.testing.assert_array_equal(np.isfinite(v), np.isfinite(ref))
-    fin = np.isfinite(ref)
-    assert np.max(np.abs(v[fin] - ref[fin])) < 1e-9
+    fin = assert_same_values(v, ref)
     assert np.bincount((-ref[fin]).astype(int)).max() >= PARALLEL_MIN  # the split really ran
 
 
@@ -90,9 +94,7 @@ def test_fast_equals_scipy_on_a_2d_grid_big_enough_for_two_threads(corner_cuttin
     grid[tuple(np.array(cells).T)] = 0
     v = mdp.solve(grid, cells, "fast", corner_cutting=corner_cutting)
     ref = csgraph_values(grid, cells, corner_cutting)
-    np.testing.assert_array_equal(np.isfinite(v), np.isfinite(ref))
-    fin = np.isfinite(ref)
-    assert np.max(np.abs(v[fin] - ref[fin])) < 1e-9
+    fin = assert_same_values(v, ref)
     assert np.bincount((-ref[fin]).astype(int)).max() >= PARALLEL_MIN_2D
 
 
