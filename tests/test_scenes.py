@@ -17,9 +17,9 @@ def test_builtin_scene_is_clean_and_gathers(name):
     assert s["agent_obstacle_penetrations"] == 0, s["first_events"]
     if result.scenario.method == "mdp":
         assert not s["unreachable_agents"]
-        # everyone ends at or next to the goal area: within a few cells of path distance
-        assert s["max_final_path_distance_to_goal_m"] <= 4 * s["cell_size_m"] + 1e-9, s
-        assert s["arrival_rate"] >= 0.8
+        # goals fill (mdp.goal_fill): everyone walks into the goal area, not onto its rim
+        assert s["max_final_path_distance_to_goal_m"] <= 1e-9, s
+        assert s["arrival_rate"] >= 0.98
     elif result.scenario.method == "rvo":  # everyone reaches their own goal point
         assert s["arrival_rate"] == 1.0, s
         assert set(s["groups"]) == {g.name for g in result.scenario.groups}

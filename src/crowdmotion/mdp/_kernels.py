@@ -539,7 +539,9 @@ def trajectory_steps(
     blocked : uint8[:]       padded flat occupancy (obstacles and border)
     values : float64[:, :]   (F, cells) padded flat state values, one field per goal
     goal : uint8[:, :]       (F, cells) padded flat goal masks (absorbing cells); a goal
-                             cell's value must be 0, or -inf while it is blocked
+                             cell's value must be >= 0 (0, or its fill depth: an agent
+                             there moves only to a free goal cell of larger value), or
+                             -inf while it is blocked; every other cell's value is < 0
     field_of : int64[:]      which field each agent follows
     offsets : int64[:]       flat offset of each move; ``move_vec`` its (dim,) vector
     swept, swept_count       cells a diagonal sweeps past (corner-cutting rule)
@@ -609,8 +611,10 @@ def trajectory_steps(
             u = cur[i]
             fi = field_of[i]
             vu = values[fi, u]
-            # goal cells hold 0, or -inf while an obstacle covers them: read the mask only then
-            if (vu == 0.0 or vu == -np.inf) and goal[fi, u]:
+            # goal cells hold values >= 0 (their fill depth), or -inf while an obstacle covers
+            # them; every other cell is < 0: read the mask only then
+            in_goal = (vu >= 0.0 or vu == -np.inf) and goal[fi, u] != 0
+            if in_goal and (despawn or vu == -np.inf):
                 if despawn:
                     active[i] = 0
                     state[u] &= ~TAKEN
@@ -636,6 +640,8 @@ def trajectory_steps(
                 if not _sweep_free(state, u, swept, swept_count, m):
                     continue
                 vv = values[fi, v]
+                if in_goal and (vv <= vu or goal[fi, v] == 0):
+                    continue  # the goal is absorbing: an agent there only moves deeper into it
                 if vv > vu:
                     cand[n0] = m
                     cand_val[n0] = vv
@@ -644,6 +650,9 @@ def trajectory_steps(
                     n1 += 1
                     cand[n_moves + 1 - n1] = m
                     cand_val[n_moves + 1 - n1] = vv
+            if in_goal and n0 == 0:  # nowhere deeper: stay
+                state[u] |= TAKEN
+                continue
             if n0 > 0:
                 lo, hi = 0, n0
             else:  # neighbors1 plus staying put

@@ -8,6 +8,7 @@ from typing import Callable, Sequence
 import numpy as np
 
 from crowdmotion.groups import Group, MovingTarget, Points
+from crowdmotion.mdp.goal_fill import fill_depth, nearest_cells
 from crowdmotion.mdp.params import MDPParams
 from crowdmotion.mdp.grid import GridMap, mark_obstacle, max_radius, min_cell_size, rasterise
 from crowdmotion.mdp.solvers import solve, value_iteration
@@ -99,6 +100,15 @@ def run(scene: Scene, groups: Sequence[Group], params: MDPParams, rng: np.random
     static = rasterise(scene, cell, moving=False)
     grid = rasterise(scene, cell, t=0.0)
     goal_cells = [region_cells(grid, g.goal, f"group {g.name!r} goal") for g in groups]
+    # a point goal shared by more agents than it has points: the nearest free cells as slots
+    toward = [None] * len(groups)
+    for k, g in enumerate(groups):
+        if isinstance(g.goal, Points) and len(goal_cells[k]) < g.count and not params.despawn:
+            toward[k] = goal_cells[k]
+            try:
+                goal_cells[k] = nearest_cells(grid.occupancy, goal_cells[k], g.count, params.corner_cutting)
+            except ValueError as exc:
+                raise ValueError(f"group {g.name!r} goal: {exc}") from None
     taken: set = set()
     starts = np.concatenate([spawn_cells(grid, g, taken, rng) for g in groups])
     field_of = np.repeat(np.arange(len(groups)), [g.count for g in groups])
@@ -131,14 +141,18 @@ def run(scene: Scene, groups: Sequence[Group], params: MDPParams, rng: np.random
                 for k, gc in enumerate(goal_cells)
             ])
             walker.set_blocked(occ)
-            walker.set_values(values)
+            # Algorithm 3 follows v + the goal areas' fill depth (goal_fill: goals that fill)
+            walker.set_values(values + np.stack([fill_depth(occ, gc, params.corner_cutting, toward[k])
+                                                 for k, gc in enumerate(goal_cells)]))
+        before = walker.cells.copy()
         c, a = walker.advance(chunk, rng, params.tau, params.forbid_crossing, params.despawn)
         cells_out.append(c)
         active_out.append(a)
         done += chunk
         if progress is not None:
             progress(done)
-        if params.stop_when_done and not moving and _all_settled(walker, masks, values):
+        if (params.stop_when_done and not moving and _all_settled(walker, masks, values)
+                and (np.array_equal(before, walker.cells) or not walker.can_fill_deeper().any())):
             break
     cells = np.concatenate(cells_out)
     active = np.concatenate(active_out)

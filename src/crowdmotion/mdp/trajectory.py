@@ -73,6 +73,16 @@ class Walker:
         act = (self.gone_step < 0) | (rows < self.gone_step)  # gone from the step it left in
         return out, act
 
+    def can_fill_deeper(self) -> np.ndarray:
+        """(N,) whether each active agent on a goal cell has a free, deeper goal neighbour."""
+        f = self.field_of[:, None]
+        here = self.values[f[:, 0], self.cur][:, None]
+        nb = self.cur[:, None] + self.offsets[None, :]
+        free = (self.blocked[nb] == 0) & (self.occ[nb] < 0)
+        deeper = (self.goal[f, nb] == 1) & free & (self.values[f, nb] > here)
+        on_goal = self.goal[f[:, 0], self.cur] == 1
+        return (self.active == 1) & on_goal & deeper.any(axis=1)
+
     @property
     def cells(self) -> np.ndarray:
         """(N, D) current cell of each agent."""
