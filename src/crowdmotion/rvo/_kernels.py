@@ -103,7 +103,7 @@ def _obstacle_time(px, py, cx_, cy_, r, circ_c, circ_r, circ_v, near_c, n_near_c
 def choose_velocities(pos, vel, vpref, aim_dist, radius, vmax, max_nb, nb_dist, samples, safety, active,
                       cell_start, items, origin_x, origin_y, h, nx, ny,
                       circ_c, circ_r, circ_v, seg_a, seg_b, seg_v, dt, key,
-                      out_vel, out_forced):
+                      out_vel, out_forced, keep_right=0.0, look_s=5.0):
     """Sampling RVO for every active agent at once (simultaneous, order-independent).
 
     For agent i the candidates are v_pref, the current velocity, standing still and
@@ -120,6 +120,13 @@ def choose_velocities(pos, vel, vpref, aim_dist, radius, vmax, max_nb, nb_dist, 
     bearing down) the choice is forced: the least penalty among candidates that at least
     keep out of static obstacles (standing still always does). Writes ``out_vel`` and
     whether the choice was forced.
+
+    Keep right (a documented addition to the paper, ``keep_right`` radians, 0 = off): an
+    agent that meets an oncoming neighbour — one among its M nearest whose v_pref points
+    against its own (cos < −0.5), ahead of it within ``look_s`` seconds of both walking,
+    and straight ahead or to its left within the sum of radii plus 0.2 m — turns its own
+    v_pref to the right by ``keep_right`` before choosing, so head-on pairs pass left side
+    to left side instead of meeting nose to nose.
     """
     n = pos.shape[0]
     mcap = 1
@@ -139,13 +146,40 @@ def choose_velocities(pos, vel, vpref, aim_dist, radius, vmax, max_nb, nb_dist, 
         for i in range(blk * block, min(n, (blk + 1) * block)):
             _choose_one(i, pos, vel, vpref, aim_dist, radius, vmax, max_nb, nb_dist, samples, safety, active,
                         cell_start, items, origin_x, origin_y, h, nx, ny, circ_c, circ_r, circ_v, seg_a, seg_b,
-                        seg_v, dt, key, out_vel, out_forced, idx, d2, rel, near_c, near_s)
+                        seg_v, dt, key, out_vel, out_forced, idx, d2, rel, near_c, near_s, keep_right, look_s)
+
+
+@njit(inline="always")
+def _kept_right(i, k, idx, pos, vpref, radius, wx, wy, keep_right, look_s):
+    """v_pref turned right by ``keep_right`` if an oncoming neighbour is ahead (see
+    :func:`choose_velocities`), else unchanged."""
+    wn = np.sqrt(wx * wx + wy * wy)
+    if keep_right <= 0.0 or wn == 0.0:
+        return wx, wy
+    ux, uy = wx / wn, wy / wn
+    for q in range(k):
+        j = idx[q]
+        ojx, ojy = vpref[j, 0], vpref[j, 1]
+        on = np.sqrt(ojx * ojx + ojy * ojy)
+        if on == 0.0 or ojx * ux + ojy * uy >= -0.5 * on:
+            continue  # standing, or not coming towards us
+        dx, dy = pos[j, 0] - pos[i, 0], pos[j, 1] - pos[i, 1]
+        ahead = dx * ux + dy * uy
+        if ahead <= 0.0 or ahead > look_s * (wn + on):
+            continue
+        lateral = ux * dy - uy * dx  # > 0: on our left
+        reach = radius[i] + radius[j]
+        if lateral < -0.25 * reach or lateral > reach + 0.2:
+            continue  # already passing on the right, or clear on the left
+        c, s = np.cos(keep_right), np.sin(keep_right)
+        return wx * c + wy * s, -wx * s + wy * c
+    return wx, wy
 
 
 @njit(cache=True)
 def _choose_one(i, pos, vel, vpref, aim_dist, radius, vmax, max_nb, nb_dist, samples, safety, active,
                 cell_start, items, origin_x, origin_y, h, nx, ny, circ_c, circ_r, circ_v, seg_a, seg_b,
-                seg_v, dt, key, out_vel, out_forced, idx, d2, rel, near_c, near_s):
+                seg_v, dt, key, out_vel, out_forced, idx, d2, rel, near_c, near_s, keep_right, look_s):
     """One agent's choice for :func:`choose_velocities`, with caller-owned scratch arrays."""
     n_circ = circ_c.shape[0]
     n_seg = seg_a.shape[0]
@@ -178,7 +212,7 @@ def _choose_one(i, pos, vel, vpref, aim_dist, radius, vmax, max_nb, nb_dist, sam
     bx, by = 0.0, 0.0
     ax_, ay_ = 0.0, 0.0
     vix, viy = vel[i, 0], vel[i, 1]
-    wx, wy = vpref[i, 0], vpref[i, 1]
+    wx, wy = _kept_right(i, k, idx, pos, vpref, radius, vpref[i, 0], vpref[i, 1], keep_right, look_s)
     w_i = safety[i]
     # per-neighbour constants of the reciprocal ray p_i + (2v' - v_i - v_j) t
     for q in range(k):

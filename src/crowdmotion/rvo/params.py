@@ -28,6 +28,10 @@ class RVOParams(BaseModel):
                              region) or "shift" (start + goal centre − spawn centre,
                              clamped into the region: everyone walks straight across)
     spawn_gap : float        extra clearance, metres, between agents sampled in a region
+    keep_right_deg : float   degrees an agent turns v_pref right for an oncoming agent
+                             ahead (0 = off); rvo.deadlock, a documented addition
+    patience : float         seconds two agents may hold each other up before the one
+                             of lower priority yields (rvo.deadlock)
     """
 
     model_config = ConfigDict(extra="forbid", frozen=True)
@@ -45,6 +49,8 @@ class RVOParams(BaseModel):
     arrival_radius: PosFloat = 0.5
     goal_assignment: Literal["sample", "shift"] = "sample"
     spawn_gap: Annotated[float, Field(ge=0, allow_inf_nan=False)] = 0.05
+    keep_right_deg: Annotated[float, Field(ge=0, lt=90, allow_inf_nan=False)] = 15.0
+    patience: PosFloat = 2.0
 
 
 Params = RVOParams

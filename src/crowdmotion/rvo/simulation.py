@@ -44,7 +44,7 @@ def build_simulator(scene: Scene, groups: Sequence[Group], params: RVOParams, rn
     """A Simulator holding every group's agents, placed and personalised."""
     sim = Simulator(scene, params.time_step, guidance=params.guidance, remove_on_arrival=params.remove_on_arrival,
                     arrival_radius=params.arrival_radius, field_cell=params.field_cell, dominant=params.dominant,
-                    rng=rng)
+                    rng=rng, keep_right_deg=params.keep_right_deg, patience=params.patience)
     placed = np.zeros((0, 2))
     placed_r = np.zeros(0)
     for k, g in enumerate(groups):
@@ -81,7 +81,7 @@ def run(scene: Scene, groups: Sequence[Group], params: RVOParams, rng: np.random
     sim = build_simulator(scene, groups, params, rng)
     frames = [sim.positions.copy()]
     present = [sim.present.copy()]
-    while sim.steps < params.max_steps and sim.active.any():
+    while sim.steps < params.max_steps and (sim.active & ~sim.arrived).any():
         sim.step()
         frames.append(sim.positions.copy())
         present.append(sim.present.copy())

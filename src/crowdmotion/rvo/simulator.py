@@ -9,6 +9,7 @@ from crowdmotion._rng import step_key
 from crowdmotion.geometry import finite_array
 from crowdmotion.groups import MovingTarget
 from crowdmotion.rvo import _kernels as K
+from crowdmotion.rvo.deadlock import KEEP_RIGHT_LOOK_S, Deadlock, contact_arrivals
 from crowdmotion.rvo.guidance import DistanceFields, distance_fields, preferred_velocities
 from crowdmotion._contact import grid_for
 from crowdmotion.obstacle_primitives import ObstacleSet
@@ -69,12 +70,19 @@ class Simulator:
         How a personality's dominant trait is chosen (see ``personality.dominant_trait``).
     rng : numpy.random.Generator, optional
         Source of the candidate samples (default ``default_rng(0)``).
+    keep_right_deg : float
+        Degrees by which an agent turns its v_pref to the right when an oncoming agent is
+        ahead (0 = off); see :mod:`crowdmotion.rvo.deadlock`.
+    patience : float
+        Seconds two agents may hold each other up before the one of lower priority
+        yields; see :mod:`crowdmotion.rvo.deadlock`.
     """
 
     def __init__(self, scene: Scene, time_step: float = 0.25, guidance: str = "auto",
                  remove_on_arrival: bool = True, arrival_radius: float = 0.5,
                  field_cell: float | None = None, dominant: str = "abs",
-                 rng: np.random.Generator | None = None):
+                 rng: np.random.Generator | None = None, keep_right_deg: float = 15.0,
+                 patience: float = 2.0):
         if not isinstance(scene, Scene):
             raise TypeError(f"scene must be a crowdmotion.Scene, got {scene!r}")
         if not (np.isfinite(time_step) and time_step > 0):
@@ -85,6 +93,10 @@ class Simulator:
             raise ValueError(f"arrival_radius must be a positive number of metres, got {arrival_radius!r}")
         if dominant not in ("abs", "max"):
             raise ValueError(f"dominant must be 'abs' or 'max', got {dominant!r}")
+        if not (np.isfinite(keep_right_deg) and 0 <= keep_right_deg < 90):
+            raise ValueError(f"keep_right_deg must be in [0, 90) degrees, got {keep_right_deg!r}")
+        if not (np.isfinite(patience) and patience > 0):
+            raise ValueError(f"patience must be a positive number of seconds, got {patience!r}")
         self.scene = scene
         self.dt = float(time_step)
         self.guidance = guidance
@@ -112,7 +124,9 @@ class Simulator:
         self._goal_regions: list = []
         self._fields: DistanceFields | None = None
         self._fields_stale = True
-        self.stats = {"safety_stops": 0, "forced_choices": 0, "agent_steps": 0}
+        self.deadlock = Deadlock(np.deg2rad(keep_right_deg), float(patience))
+        self.stats = {"safety_stops": 0, "forced_choices": 0, "agent_steps": 0, "yields": 0,
+                      "contact_arrivals": 0}
 
     # ---- agents ------------------------------------------------------------------------
     @property
@@ -196,6 +210,7 @@ class Simulator:
             self.params[k] = np.concatenate([self.params[k], v])
         self._goal_regions.append(goal_region if goal_region is not None else _points_region(goal))
         self.group = np.concatenate([self.group, np.full(n, len(self._goal_regions) - 1)])
+        self.deadlock.grow(n)
         if target is not None:
             self._targets.append((target, ids))
         self._fields_stale = True
@@ -269,16 +284,18 @@ class Simulator:
             self.steps += 1
             return
         prims = self.obstacles.at(self.time, self.dt)
-        vpref, aim = self._guidance(prims)
+        wanted, aim = self._guidance(prims)
+        p = self.params
+        dl = self.deadlock
+        vpref = dl.yielding_velocities(self.positions, wanted, p["pref_speed"], p["radius"], self.active)
         grid = self._grid()
         new = np.zeros((n, 2))
         forced = np.zeros(n, dtype=bool)
         key = step_key(self.rng)
-        p = self.params
         K.choose_velocities(self.positions, self.velocities, vpref, aim, p["radius"], p["max_speed"],
-                            p["max_neighbors"], p["neighbor_dist"], p["samples"], p["safety"], self.active,
-                            *grid, prims.circ_c, prims.circ_r, prims.circ_v, prims.seg_a, prims.seg_b,
-                            prims.seg_v, self.dt, key, new, forced)
+                            p["max_neighbors"], p["neighbor_dist"], p["samples"], p["safety"],
+                            self.active, *grid, prims.circ_c, prims.circ_r, prims.circ_v, prims.seg_a, prims.seg_b,
+                            prims.seg_v, self.dt, key, new, forced, dl.keep_right, KEEP_RIGHT_LOOK_S)
         # safety: of two agents that would touch during the step, the one with the lower
         # (random, per step) priority stands still instead, until none would
         self.stats["safety_stops"] += K.resolve_conflicts(self.positions, new, p["radius"], self.active,
@@ -289,11 +306,18 @@ class Simulator:
         self.velocities = new
         self.time += self.dt
         self.steps += 1
+        self.stats["yields"] += dl.update(self.positions, wanted, new, p["pref_speed"], p["radius"],
+                                          p["neighbor_dist"], self.active, self.dt)
         self._arrivals()
 
     def _arrivals(self) -> None:
         d = np.linalg.norm(self.goals - self.positions, axis=1)
         now = self.active & (d <= self.arrival_radius) & np.isnan(self.arrival_time)
+        if not self.remove_on_arrival:  # arrivals stay: the next arrive by touching them
+            touch = contact_arrivals(self.positions, self.goals, d, self.params["radius"],
+                                     self.active & np.isnan(self.arrival_time) & ~now, ~np.isnan(self.arrival_time))
+            self.stats["contact_arrivals"] += int(touch.sum())
+            now |= touch
         self.arrival_time[now] = self.time
         if self.remove_on_arrival:
             self.active &= ~now

@@ -1,0 +1,161 @@
+"""Breaking RVO stand-offs: keep right, impatience, yielding by priority, and arrival by
+contact at a shared goal point.
+
+Eq. (3) of the paper, penalty(v′) = w / tc(v′) + ‖v_pref − v′‖, lets an agent stand still
+for good: standing costs ‖v_pref‖ and every move towards a blocker costs at least as much,
+so two walkers meeting head-on in a doorway wait for each other forever (up to 2w metres
+apart: w · 2v / gap ≥ v). Two documented rules (docs/rvo.md, "Nobody waits for good")
+break that; neither touches the continuous-time guarantee, which the step's safety pass
+(``_contact.resolve_conflicts``) and the hard obstacle constraint keep on their own:
+
+1. **Keep right** (in the kernel, ``_kernels._kept_right``): an agent meeting an oncoming
+   neighbour turns its v_pref right by a few degrees, so head-on pairs pass left side to
+   left side instead of meeting nose to nose (the pedestrians' convention that
+   Helbing & Molnár's social force model also builds in).
+2. **Yielding by priority**: an agent held up (walking slower than half its preferred
+   speed along v_pref) for ``patience`` seconds — counted leakily, so a second of walking
+   takes back a second of waiting — whose way is blocked by an agent that is held up
+   too (ahead on its line, within its neighbour distance D) and has the higher priority
+   (a fixed hash of the id), yields: while it stands in the other's way it backs off,
+   away from the other and turned 30° to its right; once out of the way it waits until
+   the other has walked past (or 10 s have gone). A one-body-wide passage thus clears.
+
+Lowering w for agents held up ("impatience") was tried and dropped: in a four-way
+crossing (RVO2's Blocks) everyone pushes in and the crossing jams for good.
+
+And for goals shared by a crowd when arrivals stay (``remove_on_arrival = False``):
+4. **Arrival by contact**: an agent touching (within 0.1 m) an agent already arrived at the
+   same goal point, which is nearer the point than itself, has arrived too. The arrived
+   agents form a packed disc round the point that grows with the queue.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from scipy.spatial import cKDTree
+
+KEEP_RIGHT_LOOK_S = 5.0  # keep right for an oncoming agent met within this many seconds
+SLOW = 0.1             # progress along v_pref below this fraction of pref_speed is "held up"
+YIELD_TURN = np.deg2rad(30.0)  # a yielding agent backs away turned this far to its right
+YIELD_MAX_S = 10.0
+CONTACT_GAP_M = 0.1
+
+
+def _turn_right(v: np.ndarray, angle: float) -> np.ndarray:
+    c, s = np.cos(angle), np.sin(angle)
+    return np.stack([v[:, 0] * c + v[:, 1] * s, -v[:, 0] * s + v[:, 1] * c], axis=1)
+
+
+def _unit(v: np.ndarray) -> np.ndarray:
+    n = np.linalg.norm(v, axis=1, keepdims=True)
+    return np.divide(v, n, out=np.zeros_like(v), where=n > 0)
+
+
+class Deadlock:
+    """Per-agent stand-off state of a Simulator: blocked time, who yields to whom."""
+
+    def __init__(self, keep_right: float, patience: float):
+        """``keep_right`` in radians, ``patience`` in seconds (see the module docstring)."""
+        self.keep_right = float(keep_right)
+        self.patience = float(patience)
+        self.stuck = np.zeros(0)
+        self.yield_to = np.zeros(0, dtype=np.int64)   # -1: not yielding
+        self.yield_left = np.zeros(0)                  # seconds of yielding left
+
+    def grow(self, n: int) -> None:
+        """Make room for ``n`` new agents."""
+        self.stuck = np.concatenate([self.stuck, np.zeros(n)])
+        self.yield_to = np.concatenate([self.yield_to, np.full(n, -1, dtype=np.int64)])
+        self.yield_left = np.concatenate([self.yield_left, np.zeros(n)])
+
+    @staticmethod
+    def priority(ids: np.ndarray) -> np.ndarray:
+        """A fixed pseudo-random priority per agent id (Knuth's multiplicative hash)."""
+        return (np.asarray(ids, dtype=np.uint64) * np.uint64(2654435761)) % np.uint64(2 ** 32)
+
+    def yielding_velocities(self, pos, wanted, pref_speed, radius, active) -> np.ndarray:
+        """v_pref with yielding agents' replaced by a step back and to the right of the one
+        they yield to."""
+        y = np.flatnonzero((self.yield_to >= 0) & active)
+        if len(y) == 0:
+            return wanted
+        out = wanted.copy()
+        j = self.yield_to[y]
+        away = _turn_right(_unit(pos[y] - pos[j]), YIELD_TURN)
+        in_way = _blocks(pos, wanted, radius, j, y)  # still on the other's line: back off, else wait
+        out[y] = np.where(in_way[:, None], away * pref_speed[y, None], 0.0)
+        return out
+
+    def update(self, pos, wanted, chosen, pref_speed, radius, sight, active, dt) -> int:
+        """After a step: held-up time, end of yields, new yields; returns how many began.
+
+        ``sight`` is each agent's neighbour distance D: how far ahead a blocker counts.
+        """
+        speed = np.linalg.norm(wanted, axis=1)
+        along = np.einsum("ij,ij->i", chosen, _unit(wanted))
+        blocked = active & (speed > 0.2 * pref_speed) & (along < SLOW * pref_speed) & (self.yield_to < 0)
+        # leaky: inching forward a step now and then does not wipe out the time held up
+        self.stuck = np.where(blocked, self.stuck + dt, np.maximum(self.stuck - dt, 0.0))
+        self.stuck[~active | (self.yield_to >= 0)] = 0.0
+        # yields end once the other has walked past, is gone, or after YIELD_MAX_S
+        y = np.flatnonzero(self.yield_to >= 0)
+        if len(y):
+            j = self.yield_to[y]
+            self.yield_left[y] -= dt
+            past = np.einsum("ij,ij->i", pos[y] - pos[j], _unit(wanted[j])) <= 0
+            done = past | ~active[j] | ~active[y] | (self.yield_left[y] <= 0)
+            self.yield_to[y[done]] = -1
+        # new yields: of two agents blocking each other for long, the lower priority steps aside
+        cand = np.flatnonzero(self.stuck >= self.patience)
+        if len(cand) == 0:
+            return 0
+        live = np.flatnonzero(active)
+        pairs = _pairs(pos, cand, live, float(sight.max()))
+        i, j = pairs[:, 0], pairs[:, 1]
+        gap = np.linalg.norm(pos[j] - pos[i], axis=1) - radius[i] - radius[j]
+        mutual = (self.stuck[j] >= self.patience / 2) | (self.yield_to[j] >= 0)
+        prio = self.priority(np.arange(len(pos)))
+        head_on = np.einsum("ij,ij->i", _unit(wanted[i]), _unit(wanted[j])) < -0.5
+        keep = ((i != j) & head_on & _blocks(pos, wanted, radius, i, j, sight[i])
+                & _blocks(pos, wanted, radius, j, i, sight[j]) & mutual & (prio[j] > prio[i]))
+        i, j, gap = i[keep], j[keep], gap[keep]
+        if len(i) == 0:
+            return 0
+        order = np.lexsort((gap, i))  # each yielder steps aside from its nearest blocker
+        first = order[np.r_[True, i[order][1:] != i[order][:-1]]]
+        self.yield_to[i[first]] = j[first]
+        self.yield_left[i[first]] = YIELD_MAX_S
+        self.stuck[i[first]] = 0.0
+        return len(first)
+
+
+def _blocks(pos, wanted, radius, i, j, within: float = np.inf) -> np.ndarray:
+    """Whether agent j stands in agent i's way: ahead along i's v_pref, within ``within``
+    metres of touching, and on i's line (lateral offset under the sum of radii + 0.1 m)."""
+    d = pos[j] - pos[i]
+    u = _unit(wanted[i])
+    ahead = np.einsum("ij,ij->i", d, u)
+    lateral = np.abs(u[:, 0] * d[:, 1] - u[:, 1] * d[:, 0])
+    reach = radius[i] + radius[j]
+    return (ahead > 0) & (ahead < reach + within) & (lateral < reach + 0.1)
+
+
+def _pairs(pos, rows, cols, reach) -> np.ndarray:
+    """(K, 2) agent pairs (one of ``rows``, one of ``cols``) whose centres are within ``reach``."""
+    m = cKDTree(pos[rows]).sparse_distance_matrix(cKDTree(pos[cols]), reach, output_type="ndarray")
+    return np.stack([rows[m["i"]], cols[m["j"]]], axis=1)
+
+
+def contact_arrivals(pos, goals, dist, radius, waiting, arrived) -> np.ndarray:
+    """(N,) agents that arrive by touching an arrived agent of the same goal point nearer it."""
+    out = np.zeros(len(pos), dtype=bool)
+    w = np.flatnonzero(waiting)
+    a = np.flatnonzero(arrived)
+    if len(w) == 0 or len(a) == 0:
+        return out
+    pairs = _pairs(pos, w, a, 2 * radius.max() + CONTACT_GAP_M)
+    i, j = pairs[:, 0], pairs[:, 1]
+    touching = np.linalg.norm(pos[j] - pos[i], axis=1) <= radius[i] + radius[j] + CONTACT_GAP_M
+    same = np.all(goals[j] == goals[i], axis=1)
+    out[i[touching & same & (dist[j] < dist[i])]] = True
+    return out

@@ -1,0 +1,91 @@
+"""Nobody waits for good: head-on stand-offs in doorways and passages break, oncoming
+walkers keep right, and a crowd sharing one goal point all arrive."""
+
+import numpy as np
+import pytest
+
+import crowdmotion as cm
+from crowdmotion import rvo
+from crowdmotion.metrics import collision_audit
+from crowdmotion.trajectories import Trajectories
+
+
+def _door(width: float, thickness: float) -> cm.Scene:
+    """A 20 x 10 m room split by a wall at x = 10 with one passage of ``width``."""
+    lo, hi = 5 - width / 2, 5 + width / 2
+    return cm.Scene(bounds=([0, 0], [20, 10]),
+                    obstacles=[cm.Box([10 - thickness / 2, 0], [10 + thickness / 2, lo]),
+                               cm.Box([10 - thickness / 2, hi], [10 + thickness / 2, 10])])
+
+
+def _head_on(scene, seed, limit_s=60.0, dt=0.1, radius=0.3, **kw):
+    """Two walkers on the same line from opposite sides; returns (sim, trajectories, longest stand)."""
+    sim = rvo.Simulator(scene, time_step=dt, rng=np.random.default_rng(seed), **kw)
+    sim.add_agents([[5, 5]], [[16, 5]], radius=radius)
+    sim.add_agents([[15, 5]], [[4, 5]], radius=radius)
+    frames, present, still, longest = [sim.positions.copy()], [sim.present.copy()], np.zeros(2), 0.0
+    while sim.time < limit_s and sim.active.any():
+        sim.step()
+        frames.append(sim.positions.copy())
+        present.append(sim.present.copy())
+        standing = (np.linalg.norm(sim.velocities, axis=1) < 0.05) & sim.active
+        still = np.where(standing, still + dt, 0.0)
+        longest = max(longest, still.max())
+    return sim, Trajectories(np.array(frames), dt, radius=radius, active=np.array(present)), longest
+
+
+@pytest.mark.parametrize("seed", [0, 1, 2])
+def test_two_walkers_meeting_head_on_in_a_deep_doorway_both_pass(seed):
+    # 1.6 m wide, 4 m deep: without the stand-off rules both stood still for good (seed 0)
+    scene = _door(1.6, 4.0)
+    sim, traj, longest = _head_on(scene, seed)
+    assert sim.arrived.all(), f"arrived {sim.arrived}, stood still up to {longest:.1f} s"
+    assert longest <= 5.0, f"an agent stood still {longest:.1f} s"
+    assert collision_audit(traj, scene).clean
+
+
+@pytest.mark.parametrize("seed", [0, 1])
+def test_in_a_one_body_passage_one_walker_yields_and_both_pass(seed):
+    scene = _door(0.9, 3.0)  # room for one body of 0.6 m only
+    sim, traj, _ = _head_on(scene, seed)
+    assert sim.arrived.all(), f"arrived {sim.arrived}"
+    assert sim.stats["yields"] >= 1
+    # a free walk takes 8.5 s; the one who yields backs out and waits for the other
+    assert np.nanmax(sim.arrival_time) < 30.0, sim.arrival_time
+    assert collision_audit(traj, scene).clean
+
+
+def test_without_the_rules_the_deep_doorway_stand_off_stays():
+    # the stand-off the rules break is real: patience that never runs out, no keep right
+    sim, _, longest = _head_on(_door(1.6, 4.0), 0, limit_s=40, keep_right_deg=0.0, patience=1e9)
+    assert not sim.arrived.any() and longest > 20
+
+
+@pytest.mark.parametrize("seed", [0, 1, 2, 3])
+def test_oncoming_walkers_keep_right_and_pass_left_side_to_left_side(seed):
+    scene = cm.Scene(bounds=([0, -5], [12, 5]))
+    sim = rvo.Simulator(scene, time_step=0.1, rng=np.random.default_rng(seed))
+    sim.add_agents([[1, 0]], [[11, 0]])   # heading +x: its right is -y
+    sim.add_agents([[11, 0]], [[1, 0]])   # heading -x: its right is +y
+    while sim.active.any() and sim.time < 30:
+        sim.step()
+        if abs(sim.positions[0, 0] - sim.positions[1, 0]) < 0.3 and sim.active.all():
+            assert sim.positions[0, 1] < sim.positions[1, 1], "they passed right side to right side"
+    assert sim.arrived.all()
+
+
+def test_a_crowd_sharing_one_goal_point_all_arrive_when_arrivals_stay():
+    scene = cm.Scene(bounds=([0, 0], [30, 20]))
+    group = cm.Group("crowd", 60, spawn=cm.Rect([1, 1], [9, 19]), goal=cm.Points([[22, 10]]), radius=0.25)
+    params = rvo.RVOParams(remove_on_arrival=False, max_steps=1200)
+    result = rvo.run(scene, [group], params, np.random.default_rng(4))
+    sim = result.simulator
+    assert sim.arrived.all(), f"{(~sim.arrived).sum()} never arrived"
+    assert sim.stats["contact_arrivals"] > 0
+    # they gather round the point (they started 13-21 m away): most within twice the
+    # radius of a disc packed with 60 bodies, all within four times
+    packed = np.sqrt(60 * (2 * 0.25) ** 2 / np.pi)
+    dist = np.linalg.norm(sim.positions - [22, 10], axis=1)
+    assert np.median(dist) < 2 * packed and dist.max() < 4 * packed, np.sort(dist)
+    assert result.trajectories.n_frames < 1200, "the run ends once everybody has arrived"
+    assert collision_audit(result.trajectories, scene).clean
