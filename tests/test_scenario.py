@@ -46,12 +46,10 @@ def test_not_toml():
         parse_scenario("name = ")
 
 
-def test_cell_size_too_small_is_named():
-    from crowdmotion.scenario import run_scenario
-
-    sc = parse_scenario(GOOD.replace("max_steps = 30", "max_steps = 30\ncell_size = 0.1"))
-    with pytest.raises(ValueError, match="mdp.cell_size 0.1"):
-        run_scenario(sc, progress=False)
+def test_cell_size_too_small_is_named_on_load():
+    # refused on load (so by `validate`), not only once the run starts
+    with pytest.raises(ScenarioError, match="mdp.cell_size 0.1"):
+        parse_scenario(GOOD.replace("max_steps = 30", "max_steps = 30\ncell_size = 0.1"))
 
 
 RVO = """
@@ -187,7 +185,7 @@ def test_formation_scenario_runs_and_reports_the_formation():
 
 
 @pytest.mark.parametrize("old,new,words", [
-    ("count = 9", "count = 10", ["group 'squad'", "count is 10 but its block template holds 9"]),
+    ("count = 9", "count = 10", ["group 'squad'", "count = 10 but its formation template (block) holds 9"]),
     ("position = [33, 0]", "position = [20, 0.4]", ["goal [20.0, 0.4] is inside an obstacle"]),
     ("rows = 3, cols", "rows = 0, cols", ["groups.0.formation.block.rows", "got 0"]),
     ('kind = "block", rows = 3, cols = 3, spacing = 1.2', 'kind = "hexagon"', ["groups.0.formation", "hexagon"]),

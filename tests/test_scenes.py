@@ -1,5 +1,7 @@
 """The built-in scenes: collision-free in continuous time, agents gather, seeds matter."""
 
+import warnings
+
 import numpy as np
 import pytest
 
@@ -43,7 +45,10 @@ def test_seed_gives_diversity_and_reproducibility():
     assert a.shape != c.shape or not np.array_equal(a, c)
 
 
-def test_smoothed_output_is_reaudited():
+def test_smoothed_output_keeps_the_guarantee():
+    # issue 15.2: a user asks for catmull-rom smoothing of mdp_robots_2d; the spline alone
+    # overlapped 3223 times and reached 2.75 m/s. Agents whose spline would touch another
+    # or outrun their max speed keep straight moves.
     from crowdmotion import metrics
     from crowdmotion.mdp import MDPParams, run
 
@@ -51,9 +56,12 @@ def test_smoothed_output_is_reaudited():
     p = sc.params
     for kind in ("linear", "catmull-rom"):
         params = MDPParams(**{**p.__dict__, "smoothing": kind, "fps": 12.0})
-        res = run(sc.scene, sc.groups, params, np.random.default_rng(0))
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")
+            res = run(sc.scene, sc.groups, params, np.random.default_rng(0))
         tr = res.trajectories
         assert tr.dt == pytest.approx(1 / 12)
-        rep = metrics.collision_audit(tr, sc.scene)
-        if kind == "linear":  # the same straight moves, finer frames: still clean
-            assert rep.clean
+        assert metrics.collision_audit(tr, sc.scene).clean, kind
+        assert np.nanmax(tr.speed) <= sc.groups[0].max_speed + 1e-9, kind
+    r = tr.metadata["resampled"]
+    assert 0 < r["straight_segments"] < r["segments"] / 2, "most of each path keeps the spline"

@@ -4,10 +4,16 @@ from __future__ import annotations
 
 import argparse
 import sys
+import warnings
 from importlib import resources
 from pathlib import Path
 
 from crowdmotion import __version__
+
+
+def _one_line_warning(message, category, filename, lineno, file=None, line=None) -> None:
+    """Warnings as one clean line on stderr, without the library's file and line."""
+    print(f"crowdmotion: warning: {message}", file=sys.stderr)
 
 
 def builtin_scenarios() -> list[Path]:
@@ -30,22 +36,63 @@ def _headline(summary: dict) -> str:
     return ", ".join(parts)
 
 
+def scenario_path(name: str) -> Path:
+    """A scenario file, or the built-in scene of that name (``crowdmotion run rvo_doorway``)."""
+    import difflib
+
+    path = Path(name)
+    if path.is_file():
+        return path
+    builtins = {p.stem: p for p in builtin_scenarios()}
+    if name in builtins:
+        return builtins[name]
+    if path.suffix == "" or not path.exists():
+        close = difflib.get_close_matches(path.stem, list(builtins), n=1)
+        hint = f"; did you mean the built-in {close[0]!r}?" if close else "; `crowdmotion scenarios` lists the built-ins"
+        raise FileNotFoundError(f"no scenario file at {name} and no built-in scene of that name{hint}")
+    return path
+
+
+def _output_folder(args, sc) -> Path:
+    return Path(args.output or Path("out") / sc.spec.name)
+
+
+def _size_estimate(sc) -> str:
+    """Upper bounds a user can plan with: steps, agent-steps, trajectory memory."""
+    n = sum(g.count for g in sc.groups)
+    steps = getattr(sc.params, "max_steps", None) or getattr(sc.params, "max_iterations", None)
+    if steps is None:
+        return f"{n} agents"
+    frames = steps + 1
+    size = frames * n * sc.scene.dim * 8
+    units = [(1 << 30, "GiB"), (1 << 20, "MiB"), (1 << 10, "KiB")]
+    human = next((f"{size / u:.1f} {name}" for u, name in units if size >= u), f"{size} B")
+    return (f"{n} agents x at most {steps} steps = {n * steps:,} agent-steps; trajectories up to {human} "
+            f"in memory")
+
+
 def cmd_run(args) -> int:
-    from crowdmotion.outputs import write_run
+    from crowdmotion.outputs import prepare_output_folder, write_run
     from crowdmotion.scenario import load_scenario, run_scenario
 
-    sc = load_scenario(args.scenario)
-    out = Path(args.output or Path("out") / sc.spec.name)
+    sc = load_scenario(scenario_path(args.scenario))
+    out = prepare_output_folder(_output_folder(args, sc), args.overwrite)  # before, not after, the simulation
     result = run_scenario(sc, seed=args.seed, progress=not args.quiet)
     files = write_run(result, out)
     print(f"{sc.spec.name}: {_headline(result.summary)}")
     for f in files:
         print(f"  wrote {f}")
+    s = result.summary
+    if (s["agent_agent_overlaps"] or s["agent_obstacle_penetrations"]) and not args.allow_collisions:
+        print(f"crowdmotion: error: the run ends with {s['agent_agent_overlaps']} agent overlaps and "
+              f"{s['agent_obstacle_penetrations']} obstacle penetrations (first: {s.get('first_events', [])[:1]}); "
+              f"the files are written for inspection; pass --allow-collisions to accept them", file=sys.stderr)
+        return 3
     return 0
 
 
 def cmd_demo(args) -> int:
-    from crowdmotion.outputs import write_run
+    from crowdmotion.outputs import prepare_output_folder, write_run
     from crowdmotion.scenario import load_scenario, run_scenario
 
     root = Path(args.output)
@@ -55,20 +102,24 @@ def cmd_demo(args) -> int:
         if names and sc.spec.name not in names:
             continue
         print(f"running {sc.spec.name}: {sc.spec.description}", flush=True)
+        out = prepare_output_folder(root / sc.spec.name, overwrite=True)  # the demo's own folders
         result = run_scenario(sc, progress=not args.quiet)
-        write_run(result, root / sc.spec.name)
+        write_run(result, out)
         print(f"  {_headline(result.summary)}")
     print(f"demo output in {root.resolve()}/ (trajectories.parquet, summary.json, pictures and view.html per scene)")
     return 0
 
 
 def cmd_validate(args) -> int:
+    from crowdmotion.outputs import check_output_folder
     from crowdmotion.scenario import load_scenario
 
-    sc = load_scenario(args.scenario)
-    n = sum(g.count for g in sc.groups)
-    print(f"{args.scenario}: OK: {sc.scene.dim}D scene, {len(sc.scene.obstacles)} obstacles, "
-          f"{len(sc.groups)} groups, {n} agents, method {sc.method}")
+    path = scenario_path(args.scenario)
+    sc = load_scenario(path)
+    out = _output_folder(args, sc)
+    check_output_folder(out, args.overwrite)
+    print(f"{path}: OK: {sc.scene.dim}D scene, {len(sc.scene.obstacles)} obstacles, "
+          f"{len(sc.groups)} groups, method {sc.method}; {_size_estimate(sc)}; output folder {out}")
     return 0
 
 
@@ -110,6 +161,12 @@ def cmd_report(args) -> int:
 
     path, traj = _load_run(args.output)
     report = group_report(traj)
+    summary_file = path.parent / "summary.json"
+    if summary_file.is_file():  # arrival times the method measured (agents that stay at the goal too)
+        by_group = json.loads(summary_file.read_text()).get("time_to_goal_by_group_s", {})
+        for name, row in report.items():
+            if row["time_to_goal_s"] is None:
+                row["time_to_goal_s"] = by_group.get(name)
     cols = [("agents", "agents", "{:d}"), ("lateral_spread_m", "spread m", "{:.2f}"),
             ("lateral_deviation_m", "deviation m", "{:.2f}"), ("heading_change_rate_rad_s", "turn rad/s", "{:.3f}"),
             ("mean_speed_mps", "speed m/s", "{:.2f}"), ("speed_density_slope", "speed/density", "{:.3f}"),
@@ -220,8 +277,12 @@ def main(argv=None) -> int:
     sub = parser.add_subparsers(dest="command", required=True)
 
     p = sub.add_parser("run", help="run a scenario file and write its outputs")
-    p.add_argument("scenario")
+    p.add_argument("scenario", help="a scenario TOML file, or the name of a built-in scene (see `scenarios`)")
     p.add_argument("-o", "--output", help="output folder (default ./out/<scenario name>)")
+    p.add_argument("--overwrite", action="store_true",
+                   help="replace an earlier run's files in the output folder (default: refuse)")
+    p.add_argument("--allow-collisions", action="store_true",
+                   help="exit 0 even if the audit finds overlaps or penetrations (default: exit 3)")
     p.add_argument("--seed", type=int, help="override the scenario's seed")
     p.add_argument("-q", "--quiet", action="store_true", help="no progress bar")
     p.set_defaults(func=cmd_run)
@@ -232,8 +293,10 @@ def main(argv=None) -> int:
     p.add_argument("-q", "--quiet", action="store_true")
     p.set_defaults(func=cmd_demo)
 
-    p = sub.add_parser("validate", help="check a scenario file and report every problem")
-    p.add_argument("scenario")
+    p = sub.add_parser("validate", help="check a scenario as `run` would, without simulating")
+    p.add_argument("scenario", help="a scenario TOML file, or the name of a built-in scene")
+    p.add_argument("-o", "--output", help="the output folder `run` would use (default ./out/<scenario name>)")
+    p.add_argument("--overwrite", action="store_true", help="as for run: an earlier run there may be replaced")
     p.set_defaults(func=cmd_validate)
 
     p = sub.add_parser("bench", help="reproduce the papers' timing tables")
@@ -284,6 +347,7 @@ def main(argv=None) -> int:
     p.set_defaults(func=cmd_list)
 
     args = parser.parse_args(argv)
+    warnings.showwarning = _one_line_warning
     try:
         return args.func(args)
     except (ValueError, FileNotFoundError, MemoryError, OSError) as exc:

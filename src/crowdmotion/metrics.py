@@ -215,6 +215,17 @@ def summary(traj: Trajectories, scene: Scene | None = None, goal_reached=None, t
         arrived, t = arrival(traj, goal_reached)
         out["arrival_rate"] = float(arrived.mean()) if traj.n_agents else 0.0
         out["mean_time_to_goal_s"] = float(np.nanmean(t)) if arrived.any() else None
+        out["time_to_goal_by_group_s"] = time_to_goal_by_group(traj, t)
+    return out
+
+
+def time_to_goal_by_group(traj: Trajectories, arrival_time: np.ndarray) -> dict:
+    """Mean arrival time of each group's arrived agents (None where nobody arrived)."""
+    t = np.asarray(arrival_time, dtype=float)
+    out = {}
+    for g in dict.fromkeys(traj.group.tolist()):
+        sel = t[traj.group == g]
+        out[str(g)] = float(np.nanmean(sel)) if np.isfinite(sel).any() else None
     return out
 
 

@@ -4,10 +4,60 @@ the HTML player."""
 from __future__ import annotations
 
 import json
+import os
+import tempfile
 from pathlib import Path
 
 from crowdmotion.io.atomic import atomic_path
 from crowdmotion.registry import get_method
+
+
+# what ``crowdmotion run`` and the commands that read a run folder write into it
+RUN_FILES = ("trajectories.parquet", "trajectories.csv", "trajectories.csv.meta.json", "trajectories.sqlite",
+             "trajectories.usdc", "trajectories.usda", "summary.json", "report.json", "paths.png", "values.png",
+             "snapshots.png", "field.png", "density.png", "formation.gif", "animation.mp4", "animation.gif",
+             "view.html")
+
+
+class OutputFolderError(ValueError):
+    """An output folder a run cannot use: not writable, or holding an earlier run."""
+
+
+def check_output_folder(out, overwrite: bool = False) -> list[Path]:
+    """Refuse a folder ``run`` could not write, or one holding an earlier run's files
+    (unless ``overwrite``); creates nothing. Returns the earlier run's files found."""
+    out = Path(out)
+    if out.exists() and not out.is_dir():
+        raise OutputFolderError(f"output folder {out} is a file, not a folder")
+    old = [out / n for n in RUN_FILES if (out / n).exists()]
+    if old and not overwrite:
+        names = ", ".join(p.name for p in old[:4]) + (", ..." if len(old) > 4 else "")
+        raise OutputFolderError(f"output folder {out} holds an earlier run ({names}): pass --overwrite to replace "
+                                f"it, or choose another folder with -o")
+    probe = out
+    while not probe.exists():
+        probe = probe.parent
+    if not probe.is_dir():
+        raise OutputFolderError(f"cannot make output folder {out}: {probe} is a file")
+    if not os.access(probe, os.W_OK | os.X_OK):
+        raise OutputFolderError(f"cannot write to output folder {out}: {probe} is not writable")
+    return old
+
+
+def prepare_output_folder(out, overwrite: bool = False) -> Path:
+    """Make ``out`` ready for one run before simulating: checked, created, probed with a
+    real write, and cleared of an earlier run's files when ``overwrite``."""
+    out = Path(out)
+    old = check_output_folder(out, overwrite)
+    try:
+        out.mkdir(parents=True, exist_ok=True)
+        with tempfile.NamedTemporaryFile(dir=out, prefix=".crowdmotion-probe-"):
+            pass
+    except OSError as exc:
+        raise OutputFolderError(f"cannot write to output folder {out}: {exc.strerror or exc}") from None
+    for f in old:
+        f.unlink()
+    return out
 
 
 def write_run(result, out) -> list[Path]:

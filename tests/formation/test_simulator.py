@@ -84,7 +84,7 @@ def test_bad_input_gets_a_clear_error():
         formation.Simulator(Scene(((0, 0, 0), (5, 5, 5)), [Sphere((1, 1, 1), 0.5)]))
     with pytest.raises(ValueError, match="relink_ratio"):
         formation.Simulator(scene, relink_ratio=3.0, tear_ratio=2.0)
-    with pytest.raises(ValueError, match="count is 10 but its block template holds 9"):
+    with pytest.raises(ValueError, match=r"count = 10 but its formation template \(block\) holds 9"):
         formation.simulate(scene, [Group("g", 10, Points([[10.0, 0.0]]), (20.0, 0.0),
                                          attributes={"formation": {"kind": "block", "rows": 3, "cols": 3}})])
 

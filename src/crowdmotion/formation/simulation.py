@@ -22,15 +22,21 @@ def group_template(group: Group) -> Template:
     """The template a Group asks for in ``attributes["formation"]`` (a template spec, a
     dict with a ``kind``, or a Template); a Points spawn without one is used as is."""
     spec = group.attributes.get("formation")
+    how = ("give the group a template, e.g. formation = { kind = \"block\", rows = 4, cols = 4 } in its "
+           "[[groups]] table (Python: attributes[\"formation\"]), placed at the spawn's centre")
     if spec is None:
-        if isinstance(group.spawn, Points):
+        if isinstance(group.spawn, Points) and len(group.spawn.points) == group.count:
             return Template(group.spawn.points - group.spawn.points.mean(axis=0))
-        raise ValueError(f"group {group.name!r}: the formation method needs a template: set "
-                         "attributes['formation'] (e.g. {'kind': 'block', 'rows': 10, 'cols': 10}) or spawn points")
+        if isinstance(group.spawn, Points):
+            raise ValueError(f"group {group.name!r}: count = {group.count} but the spawn gives "
+                             f"{len(group.spawn.points)} position(s), and without a formation template the "
+                             f"spawn points are the formation: {how}, or list {group.count} spawn points")
+        raise ValueError(f"group {group.name!r}: the formation method needs a template: {how}, "
+                         f"or a spawn of shape \"points\" listing each agent")
     tpl = from_spec(spec)
     if tpl.count != group.count:
-        raise ValueError(f"group {group.name!r}: count is {group.count} but its {tpl.kind} template holds "
-                         f"{tpl.count} agents")
+        raise ValueError(f"group {group.name!r}: count = {group.count} but its formation template "
+                         f"({tpl.kind}) holds {tpl.count} agents")
     return tpl
 
 

@@ -7,7 +7,7 @@ from tqdm.auto import tqdm
 
 from crowdmotion import metrics
 from crowdmotion.mdp.params import MDPParams
-from crowdmotion.mdp.simulation import MDPRun, run
+from crowdmotion.mdp.simulation import MDPRun, run, setup
 
 Params = MDPParams
 
@@ -28,6 +28,22 @@ def goal_test(result: MDPRun):
         return masks[(field_of, *cells.T)]
 
     return reached
+
+
+def check_scenario(scene, groups, params: MDPParams) -> None:
+    """Everything a run refuses, refused before it starts: the set-up itself (cell size,
+    goal and spawn cells, slots, room for every agent), then a goal no agent can reach."""
+    from crowdmotion.checks import describe_region, where
+    from crowdmotion.mdp.solvers import fast_values
+
+    su = setup(scene, groups, params, np.random.default_rng(0))
+    for k, g in enumerate(groups):
+        values = fast_values(su.grid.occupancy, [tuple(c) for c in su.goal_cells[k]], params.corner_cutting)
+        starts = su.starts[su.field_of == k]
+        if not np.isfinite(values[tuple(starts.T)]).any():
+            raise ValueError(f"{where(k, g)} goal: no agent can reach {describe_region(g.goal)} from its spawn "
+                             f"{describe_region(g.spawn)}: obstacles cut the way on the grid of "
+                             f"{su.cell:.3g} m cells")
 
 
 def run_scenario(scene, groups, params: MDPParams, rng, progress: bool = True):

@@ -7,6 +7,7 @@ from typing import Callable, Sequence
 
 import numpy as np
 
+from crowdmotion.checks import describe_region
 from crowdmotion.groups import Group, MovingTarget, Points
 from crowdmotion.mdp.goal_fill import fill_depth, nearest_cells
 from crowdmotion.mdp.params import MDPParams
@@ -14,7 +15,8 @@ from crowdmotion.mdp.grid import GridMap, mark_obstacle, max_radius, min_cell_si
 from crowdmotion.mdp.solvers import solve, value_iteration
 from crowdmotion.mdp.trajectory import Walker
 from crowdmotion.scene import Scene
-from crowdmotion.trajectories import Trajectories, resample
+from crowdmotion.smoothing import resample_checked
+from crowdmotion.trajectories import Trajectories
 
 
 @dataclass
@@ -52,13 +54,15 @@ def region_cells(grid: GridMap, region, what: str) -> np.ndarray:
             if not grid.in_grid(c):
                 raise ValueError(f"{what}: point {p.tolist()} lies outside the scene")
             if grid.occupancy[tuple(c)]:
-                raise ValueError(f"{what}: point {p.tolist()} lies in an obstacle (cell {tuple(c)})")
+                raise ValueError(f"{what}: the point {p.tolist()} lies in a grid cell an obstacle touches "
+                                 f"(cell {tuple(int(x) for x in c)} of {grid.cell_size:.3g} m)")
         return cells
     centers = grid.all_centers().reshape(-1, grid.dim)
     inside = region.contains(centers) & (grid.occupancy.ravel() == 0)
     cells = np.stack(np.unravel_index(np.flatnonzero(inside), grid.shape), axis=1)
     if len(cells) == 0:
-        raise ValueError(f"{what}: region {region!r} holds no free grid cell (cell size {grid.cell_size:.3f} m)")
+        raise ValueError(f"{what}: {describe_region(region)} holds no grid cell free of obstacles "
+                         f"(cell size {grid.cell_size:.3f} m)")
     return cells
 
 
@@ -72,7 +76,9 @@ def spawn_cells(grid: GridMap, group: Group, taken: set, rng: np.random.Generato
         cand = region_cells(grid, group.spawn, what)
         cand = np.array([c for c in cand if tuple(c) not in taken])
         if len(cand) < group.count:
-            raise ValueError(f"{what}: {group.count} agents need distinct free cells but the region has {len(cand)}")
+            raise ValueError(f"{what}: {describe_region(group.spawn)} has {len(cand)} free grid cells of "
+                             f"{grid.cell_size:.3g} m but count = {group.count} agents need one each: enlarge "
+                             f"the spawn region or lower the count")
         cells = cand[rng.choice(len(cand), size=group.count, replace=False)]
     for c in cells:
         if tuple(c) in taken:
@@ -88,9 +94,23 @@ def solve_field(occupancy, goals, params: MDPParams, previous=None) -> np.ndarra
     return solve(occupancy, [tuple(g) for g in goals], params.solver, params.theta, params.corner_cutting)
 
 
-def run(scene: Scene, groups: Sequence[Group], params: MDPParams, rng: np.random.Generator,
-        progress: Callable[[int], None] | None = None) -> MDPRun:
-    """Run the MDP method on a scene; ``progress(steps_done)`` is called after each chunk."""
+@dataclass
+class Setup:
+    """What a run starts from: the grids, each group's goal cells (and the point they
+    fill toward, for slots round a shared point), the agents' start cells and fields."""
+
+    cell: float
+    static: GridMap
+    grid: GridMap
+    goal_cells: list[np.ndarray]
+    toward: list[np.ndarray | None]
+    starts: np.ndarray
+    field_of: np.ndarray
+
+
+def setup(scene: Scene, groups: Sequence[Group], params: MDPParams, rng: np.random.Generator) -> Setup:
+    """Rasterise, find goal cells and slots, place the agents: everything before stepping,
+    so that a scenario check refuses exactly what a run would."""
     if not groups:
         raise ValueError("at least one group is needed")
     for g in groups:
@@ -112,6 +132,15 @@ def run(scene: Scene, groups: Sequence[Group], params: MDPParams, rng: np.random
     taken: set = set()
     starts = np.concatenate([spawn_cells(grid, g, taken, rng) for g in groups])
     field_of = np.repeat(np.arange(len(groups)), [g.count for g in groups])
+    return Setup(cell, static, grid, goal_cells, toward, starts, field_of)
+
+
+def run(scene: Scene, groups: Sequence[Group], params: MDPParams, rng: np.random.Generator,
+        progress: Callable[[int], None] | None = None) -> MDPRun:
+    """Run the MDP method on a scene; ``progress(steps_done)`` is called after each chunk."""
+    su = setup(scene, groups, params, rng)
+    cell, static, grid, goal_cells, toward = su.cell, su.static, su.grid, su.goal_cells, su.toward
+    starts, field_of = su.starts, su.field_of
     masks = []
     for gc in goal_cells:
         m = np.zeros(grid.shape, dtype=bool)
@@ -168,7 +197,8 @@ def run(scene: Scene, groups: Sequence[Group], params: MDPParams, rng: np.random
                   "scene": scene.to_dict()},
     )
     if params.smoothing is not None:
-        traj = resample(traj, params.fps, params.smoothing)
+        traj = resample_checked(traj, params.fps, params.smoothing, scene,
+                                np.concatenate([np.full(g.count, g.max_speed) for g in groups]))
     return MDPRun(traj, grid, values, goal_cells, unreachable, field_of)
 
 

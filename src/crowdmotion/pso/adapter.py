@@ -16,6 +16,8 @@ Params = PSOParams
 
 
 def check_scenario(scene, groups, params: PSOParams) -> None:
+    from crowdmotion.checks import where
+
     """Problems a scenario can be refused for before running: obstacle kinds, v_max axes,
     targets covered by an obstacle."""
     ObstacleArrays.from_scene(scene)
@@ -25,7 +27,7 @@ def check_scenario(scene, groups, params: PSOParams) -> None:
         clear = scene.obstacle_distance(points, 0.0)
         if np.any(clear < g.radius):
             bad = points[int(np.argmin(clear))].tolist()
-            raise ValueError(f"groups.{i}.goal: the target {bad} is covered by an obstacle "
+            raise ValueError(f"{where(i, g)} goal: the target {bad} is covered by an obstacle "
                              f"(clearance {clear.min():.3g} m < radius {g.radius} m)")
 
 
@@ -44,6 +46,8 @@ def run_scenario(scene, groups, params: PSOParams, rng, progress: bool = True):
         "within_threshold_rate": float(sr.within_threshold().mean()),
         "mean_time_to_goal_s": float(sr.arrival_iteration[arrived].mean() * sr.iteration_time) if arrived.any()
         else None,
+        "time_to_goal_by_group_s": metrics.time_to_goal_by_group(
+            traj, np.where(arrived, sr.arrival_iteration * sr.iteration_time, np.nan)),
         "groups_gathered": {n: bool(sr.stopped[names == n].all()) for n in result.group_names},
         "rules": dict(sr.stats),
         "generated_obstacles": len(result.scene.obstacles) - len(scene.obstacles),

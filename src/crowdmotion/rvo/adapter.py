@@ -7,9 +7,34 @@ from tqdm.auto import tqdm
 
 from crowdmotion import metrics
 from crowdmotion.rvo.params import RVOParams
-from crowdmotion.rvo.simulation import RVORun, run
+from crowdmotion.rvo.simulation import RVORun, build_simulator, run
 
 Params = RVOParams
+
+
+def check_scenario(scene, groups, params: RVOParams) -> None:
+    """Everything a run refuses, refused before it starts: a 3D scene, goals an agent
+    cannot stand on, spawn regions too small, then the set-up itself (placement, personality,
+    guidance fields) and goals the field says no agent can reach."""
+    from crowdmotion.checks import check_dimension, check_goal_clear, check_spawn_capacity, describe_region, where
+
+    check_dimension("rvo", scene, (2,), "use method = 'mdp' or 'pso' for 3D scenes")
+    for k, g in enumerate(groups):
+        check_goal_clear(scene, k, g)
+        check_spawn_capacity(scene, k, g, params.spawn_gap)
+    sim = build_simulator(scene, groups, params, np.random.default_rng(0))
+    try:
+        sim.preferred_velocities()  # builds the guidance fields the first step would
+    except ValueError as exc:
+        raise ValueError(f"rvo guidance: {exc}") from None
+    stranded = sim.unreachable()
+    if stranded.any():
+        i = int(np.flatnonzero(stranded)[0])
+        k = int(sim.group[i])
+        raise ValueError(f"{where(k, groups[k])} goal: {describe_region(groups[k].goal)} cannot be reached from "
+                         f"the spawn {describe_region(groups[k].spawn)} (e.g. an agent placed at "
+                         f"{np.round(sim.positions[i], 2).tolist()}): obstacles close the way for a body of radius "
+                         f"{groups[k].radius:g} m")
 
 
 def run_scenario(scene, groups, params: RVOParams, rng, progress: bool = True):
@@ -21,6 +46,7 @@ def run_scenario(scene, groups, params: RVOParams, rng, progress: bool = True):
     summary = metrics.summary(traj, scene)
     summary["arrival_rate"] = float(arrived.mean())
     summary["mean_time_to_goal_s"] = float(np.nanmean(sim.arrival_time)) if arrived.any() else None
+    summary["time_to_goal_by_group_s"] = metrics.time_to_goal_by_group(traj, sim.arrival_time)
     stats = sim.stats
     steps = max(stats["agent_steps"], 1)
     summary.update({

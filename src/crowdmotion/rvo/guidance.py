@@ -33,6 +33,22 @@ class DistanceFields:
         return out
 
 
+    def reachable(self, field_of: np.ndarray, points: np.ndarray, window: int = 2) -> np.ndarray:
+        """Whether some cell within ``window`` cells of each point has a finite distance
+        to the point's goal (field ``field_of``)."""
+        shape = np.array(self.dist.shape[1:])
+        idx = np.floor((np.asarray(points) - self.origin) / self.cell).astype(np.int64)
+        out = np.zeros(len(idx), dtype=bool)
+        for dx in range(-window, window + 1):
+            for dy in range(-window, window + 1):
+                c = idx + [dx, dy]
+                inside = np.all((c >= 0) & (c < shape), axis=1)
+                ok = np.zeros(len(idx), dtype=bool)
+                ok[inside] = np.isfinite(self.dist[field_of[inside], c[inside, 0], c[inside, 1]])
+                out |= ok
+        return out
+
+
 def default_cell(scene: Scene, radius: float) -> float:
     """Field cell edge: the agent radius, coarsened so the grid stays under 4M cells."""
     extent = scene.upper - scene.lower

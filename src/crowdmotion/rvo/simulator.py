@@ -323,6 +323,14 @@ class Simulator:
             self.active &= ~now
             self.velocities[now] = 0.0
 
+    def unreachable(self) -> np.ndarray:
+        """(N,) active agents the guidance field says cannot reach their goal: no cell of
+        the 5 × 5 window round them has a finite distance (all False without a field)."""
+        self._ensure_fields()
+        if self._fields is None:
+            return np.zeros(self.n_agents, dtype=bool)
+        return self.active & ~self._fields.reachable(self.group, self.positions, window=2)
+
     @property
     def arrived(self) -> np.ndarray:
         """(N,) whether each agent has reached its goal."""

@@ -1,0 +1,152 @@
+"""`validate` is `run` (issue 15): what a run would refuse, validate refuses first, in the
+scenario file's own terms; runs never quietly give something other than what was asked."""
+
+import json
+
+import pytest
+
+from crowdmotion.cli import main
+
+BASE = """
+name = "{name}"
+method = "{method}"
+[scene]
+bounds = {bounds}
+obstacles = [{{ shape = "box", lower = [20, 5], upper = [25, 15] }}]
+[[groups]]
+name = "walkers"
+count = {count}
+spawn = {spawn}
+goal = {goal}
+"""
+
+
+def scenario(tmp_path, method="rvo", count=9, spawn='{ shape = "rect", lower = [2, 5], upper = [8, 15] }',
+             goal='{ shape = "point", position = [28, 10] }', bounds="[[0, 0], [30, 20]]", extra="", name="s"):
+    path = tmp_path / f"{name}.toml"
+    path.write_text(BASE.format(name=name, method=method, count=count, spawn=spawn, goal=goal, bounds=bounds)
+                    + extra)
+    return path
+
+
+def refused(capsys, argv, *words):
+    """The command exits 2 and its error names every one of ``words``."""
+    assert main(argv) == 2
+    err = capsys.readouterr().err
+    for w in words:
+        assert w in err, err
+    return err
+
+
+def test_a_formation_of_16_with_a_point_spawn_is_refused_not_shrunk_to_one(tmp_path, capsys):
+    path = scenario(tmp_path, "formation", 16, spawn='{ shape = "point", position = [5, 10] }')
+    refused(capsys, ["validate", str(path)], str(path), "group 'walkers'", "count = 16",
+            "1 position", 'formation = { kind = "block"')
+    refused(capsys, ["run", str(path), "-o", str(tmp_path / "out"), "-q"], "count = 16")
+
+
+def test_a_formation_without_a_template_is_told_the_toml_to_write(tmp_path, capsys):
+    path = scenario(tmp_path, "formation", 16)
+    refused(capsys, ["validate", str(path)], "group 'walkers'", 'formation = { kind = "block"', "[[groups]]")
+
+
+@pytest.mark.parametrize("method", ["rvo", "mdp", "pso"])
+def test_a_goal_inside_an_obstacle_is_refused_by_validate(tmp_path, capsys, method):
+    path = scenario(tmp_path, method, goal='{ shape = "point", position = [22, 10] }')
+    refused(capsys, ["validate", str(path)], str(path), "'walkers'", "goal", "22")
+
+
+def test_a_goal_inside_an_obstacle_names_the_obstacle_in_toml_terms(tmp_path, capsys):
+    path = scenario(tmp_path, goal='{ shape = "point", position = [22, 10] }')
+    err = refused(capsys, ["validate", str(path)], "scene.obstacles.0 (box [20, 5]-[25, 15])")
+    assert "Points(" not in err and "Rect(" not in err, "no internal class names"
+
+
+def test_500_agents_in_a_2_by_2_spawn_are_refused_at_once(tmp_path, capsys):
+    path = scenario(tmp_path, count=500, spawn='{ shape = "rect", lower = [2, 2], upper = [4, 4] }')
+    refused(capsys, ["validate", str(path)], "spawn: rect [2, 2]-[4, 4] has room for about", "count = 500")
+
+
+def test_mdp_spawn_with_too_few_cells_is_refused_by_validate(tmp_path, capsys):
+    path = scenario(tmp_path, "mdp", count=40, spawn='{ shape = "rect", lower = [2, 2], upper = [4, 4] }')
+    refused(capsys, ["validate", str(path)], "spawn: rect [2, 2]-[4, 4] has", "count = 40")
+
+
+def test_a_3d_scene_with_rvo_is_refused_by_validate(tmp_path, capsys):
+    path = tmp_path / "drones.toml"
+    path.write_text("""
+method = "rvo"
+[scene]
+bounds = [[0, 0, 0], [30, 20, 10]]
+[[groups]]
+name = "drones"
+count = 5
+spawn = { shape = "rect", lower = [2, 2, 2], upper = [8, 8, 8] }
+goal = { shape = "point", position = [22, 10, 5] }
+""")
+    refused(capsys, ["validate", str(path)], "method 'rvo' works in 2D", "the scene is 3D", "mdp")
+
+
+def test_a_goal_walled_off_from_the_spawn_is_refused_by_validate(tmp_path, capsys):
+    wall = '\nobstacles = [{ shape = "box", lower = [14, 0], upper = [15, 20] }]\n'
+    for method in ("rvo", "mdp"):
+        path = scenario(tmp_path, method, name=f"walled_{method}")
+        path.write_text(path.read_text().replace(
+            'obstacles = [{ shape = "box", lower = [20, 5], upper = [25, 15] }]', wall.strip()))
+        refused(capsys, ["validate", str(path)], "'walkers'", "cannot be reached" if method == "rvo" else "reach")
+
+
+def test_validate_gives_a_size_estimate(tmp_path, capsys):
+    path = scenario(tmp_path, count=50, spawn='{ shape = "rect", lower = [2, 2], upper = [12, 18] }')
+    assert main(["validate", str(path)]) == 0
+    out = capsys.readouterr().out
+    assert "50 agents x at most 2000 steps = 100,000 agent-steps" in out and "MiB in memory" in out
+
+
+def test_an_unwritable_output_folder_is_refused_before_simulating(tmp_path, capsys):
+    path = scenario(tmp_path)
+    blocker = tmp_path / "a_file"
+    blocker.write_text("not a folder")
+    refused(capsys, ["validate", str(path), "-o", str(blocker / "out")], "is a file")
+    refused(capsys, ["run", str(path), "-o", str(blocker / "out"), "-q"], "is a file")
+    assert not (tmp_path / "out").exists()
+
+
+def test_an_output_folder_holds_one_run(tmp_path, capsys):
+    mdp = scenario(tmp_path, "mdp", name="m", extra="[mdp]\nmax_steps = 40\n")
+    rvo = scenario(tmp_path, "rvo", name="r", extra="[rvo]\nmax_steps = 40\n")
+    out = tmp_path / "out"
+    assert main(["run", str(mdp), "-o", str(out), "-q"]) == 0
+    assert (out / "values.png").is_file()
+    refused(capsys, ["run", str(rvo), "-o", str(out), "-q"], "holds an earlier run", "--overwrite")
+    refused(capsys, ["validate", str(rvo), "-o", str(out)], "holds an earlier run")
+    assert main(["run", str(rvo), "-o", str(out), "-q", "--overwrite"]) == 0
+    assert not (out / "values.png").exists(), "the MDP run's value field is gone with it"
+    assert json.loads((out / "summary.json").read_text())["method"] == "rvo"
+
+
+def test_a_run_that_ends_with_collisions_exits_non_zero_unless_allowed(tmp_path, capsys):
+    # the paper's own Algorithm 3 without the crossing test lets diagonal moves cross
+    path = scenario(tmp_path, "mdp", count=60, spawn='{ shape = "rect", lower = [1, 1], upper = [12, 19] }',
+                    extra="[mdp]\nforbid_crossing = false\ncorner_cutting = true\nmax_steps = 80\n")
+    assert main(["run", str(path), "-o", str(tmp_path / "a"), "-q"]) == 3
+    assert "--allow-collisions" in capsys.readouterr().err
+    assert (tmp_path / "a" / "summary.json").is_file(), "the files are kept for inspection"
+    assert main(["run", str(path), "-o", str(tmp_path / "b"), "-q", "--allow-collisions"]) == 0
+
+
+def test_built_in_scenes_run_by_name_and_typos_get_a_suggestion(tmp_path, capsys):
+    assert main(["run", "mdp_robots_2d", "-o", str(tmp_path / "r"), "-q"]) == 0
+    refused(capsys, ["run", "mdp_robot_2d"], "did you mean the built-in 'mdp_robots_2d'")
+    assert main(["report", str(tmp_path / "r")]) == 0
+    row = json.loads((tmp_path / "r" / "report.json").read_text())["robots"]
+    assert row["time_to_goal_s"] is not None, "report reads the arrival times the run measured"
+
+
+def test_library_warnings_print_as_one_clean_line(tmp_path, capsys):
+    path = scenario(tmp_path, "mdp", count=20, extra='[mdp]\nsmoothing = "catmull-rom"\nmax_steps = 60\n')
+    assert main(["run", str(path), "-o", str(tmp_path / "o"), "-q"]) == 0
+    err = capsys.readouterr().err
+    assert "catmull-rom smoothing would have" in err
+    for line in err.splitlines():
+        assert line.startswith("crowdmotion: warning: ") and ".py" not in line, err
