@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import argparse
+import math
 import sys
 import warnings
 from importlib import resources
@@ -192,9 +193,22 @@ def cmd_export(args) -> int:
     src, traj = _load_run(args.output)
     folder = src.parent
     dest = Path(args.dest) if args.dest else folder / f"trajectories{EXPORT_FORMATS[args.to]}"
+    if args.fps is not None:
+        traj = _at_fps(traj, args.fps)
     traj.save(dest)
-    print(f"wrote {dest} ({traj.n_agents} agents, {traj.n_frames} frames at {1 / traj.dt:g} fps)")
+    print(f"wrote {dest} ({traj.n_agents} agents, {traj.n_frames} frames at {traj.fps:g} fps)")
     return 0
+
+
+def _at_fps(traj, fps: float):
+    """The run resampled to ``fps`` by straight moves between its frames (which keeps the
+    continuous-time audit's verdict), re-audited against the run's scene."""
+    from crowdmotion.render.animation import scene_of
+    from crowdmotion.smoothing import resample_checked
+
+    if not (fps > 0 and math.isfinite(fps)):
+        raise ValueError(f"--fps must be a positive number of frames per second, got {fps!r}")
+    return resample_checked(traj, float(fps), "linear", scene_of(traj))
 
 
 def cmd_render(args) -> int:
@@ -262,6 +276,29 @@ def cmd_sweep(args) -> int:
     return 0
 
 
+def cmd_verify(args) -> int:
+    import json
+
+    from tqdm.auto import tqdm
+
+    from crowdmotion import verify
+    from crowdmotion.io.atomic import atomic_path
+
+    pairs = verify.select(quick=args.quick, names=args.case, methods=args.method)
+    out = Path(args.output)
+    out.mkdir(parents=True, exist_ok=True)
+    verdicts = []
+    for case, method in tqdm(pairs, desc="verify", unit="case", disable=args.quiet, leave=False):
+        verdicts.append(verify.run_case(case, method, out=out))
+    print(verify.table(verdicts))
+    with atomic_path(out / "verify.json") as tmp:
+        tmp.write_text(json.dumps([v.as_dict() for v in verdicts], indent=2))
+    failed = [f"{v.case}/{v.method}" for v in verdicts if not v.passed]
+    print(f"{len(verdicts) - len(failed)}/{len(verdicts)} passed; pictures and verify.json in {out}/"
+          + (f"; failed: {', '.join(failed)}" if failed else ""))
+    return 1 if failed else 0
+
+
 def cmd_list(args) -> int:
     from crowdmotion.scenario import load_scenario
 
@@ -315,6 +352,7 @@ def main(argv=None) -> int:
     p.add_argument("--to", required=True, choices=sorted(EXPORT_FORMATS),
                    help="sqlite/jupedsim: JuPedSim v2 (PedPy reads it); usd/usdc: binary USD; usda: text USD")
     p.add_argument("-o", "--dest", help="file to write (default: trajectories.<ext> beside the input)")
+    p.add_argument("--fps", type=float, help="resample to this frame rate first (e.g. 24 for Blender's default)")
     p.set_defaults(func=cmd_export)
 
     p = sub.add_parser("render", help="animation (MP4/GIF), density map and paths of a run")
@@ -342,6 +380,14 @@ def main(argv=None) -> int:
     p.add_argument("-o", "--output", help="output folder (default ./sweeps/<scenario>)")
     p.add_argument("-q", "--quiet", action="store_true")
     p.set_defaults(func=cmd_sweep)
+
+    p = sub.add_parser("verify", help="the field's public test cases (RiMEA, SteerBench) with their pass criteria")
+    p.add_argument("--quick", action="store_true", help="only the quick subset (seconds)")
+    p.add_argument("--case", nargs="*", help="only these cases (names as in the table)")
+    p.add_argument("--method", nargs="*", choices=["rvo", "mdp", "formation"], help="only these methods")
+    p.add_argument("-o", "--output", default="verify", help="folder for the pictures and verify.json (default ./verify)")
+    p.add_argument("-q", "--quiet", action="store_true", help="no progress bar")
+    p.set_defaults(func=cmd_verify)
 
     p = sub.add_parser("scenarios", help="list the built-in scenarios")
     p.set_defaults(func=cmd_list)

@@ -69,6 +69,13 @@ class Trajectories:
         return self.positions.shape[2]
 
     @property
+    def fps(self) -> float:
+        """Frames per second, 1 / dt: a whole number when it is one to 1e-6 (24.0, not
+        23.999999999999957), so files say 24 fps."""
+        rate = 1.0 / self.dt
+        return float(round(rate)) if abs(rate - round(rate)) < 1e-6 * rate else rate
+
+    @property
     def times(self) -> np.ndarray:
         """Time of each frame, seconds."""
         return np.arange(self.n_frames) * self.dt

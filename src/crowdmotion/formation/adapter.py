@@ -4,7 +4,7 @@ summary with the formation measures, figures."""
 from __future__ import annotations
 
 import numpy as np
-from tqdm.auto import tqdm
+from crowdmotion.progress import step_bar
 
 from crowdmotion import metrics
 from crowdmotion.formation.params import FormationParams
@@ -20,9 +20,8 @@ def check_scenario(scene, groups, params: FormationParams) -> None:
 
 
 def run_scenario(scene, groups, params: FormationParams, rng, progress: bool = True):
-    with tqdm(total=params.max_steps, desc="formation steps", unit="step", disable=not progress, delay=1.0,
-              leave=False) as bar:
-        result = run(scene, groups, params, rng, progress=bar.update)
+    with step_bar(params.max_steps, "formation steps", progress) as bar:
+        result = run(scene, groups, params, rng, progress=bar.advance)
     traj = result.trajectories
     summary = metrics.summary(traj, scene)
     sim = result.simulator

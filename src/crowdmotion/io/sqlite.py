@@ -85,7 +85,7 @@ def write(traj: Trajectories, path: Path) -> None:
     geo = walkable_area(traj.metadata.get("scene"), traj.positions).wkt
     geo_hash = zlib.crc32(geo.encode())
     xmin, ymin, xmax, ymax = shapely.from_wkt(geo).bounds
-    meta = [("version", str(VERSION)), ("fps", repr(1.0 / traj.dt)), ("xmin", repr(xmin)), ("xmax", repr(xmax)),
+    meta = [("version", str(VERSION)), ("fps", repr(traj.fps)), ("xmin", repr(xmin)), ("xmax", repr(xmax)),
             ("ymin", repr(ymin)), ("ymax", repr(ymax)), ("crowdmotion", metadata_json(traj))]
     if traj.dim == 3:
         meta.append(("projection", "3D run projected onto the ground plane (x, y); z dropped"))

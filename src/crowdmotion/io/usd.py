@@ -95,7 +95,7 @@ def _obstacles(stage, scene_dict: dict, UsdGeom, Gf) -> None:
 
 def write(traj: Trajectories, path: Path) -> None:
     Gf, Sdf, Usd, UsdGeom, Vt = _pxr()
-    fps = 1.0 / traj.dt
+    fps = traj.fps
     pos = to_usd_frame(traj.positions).astype(np.float32)
     act = traj.active_mask
     heading = traj.heading

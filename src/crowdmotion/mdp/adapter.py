@@ -3,7 +3,7 @@
 from __future__ import annotations
 
 import numpy as np
-from tqdm.auto import tqdm
+from crowdmotion.progress import step_bar
 
 from crowdmotion import metrics
 from crowdmotion.mdp.params import MDPParams
@@ -47,9 +47,8 @@ def check_scenario(scene, groups, params: MDPParams) -> None:
 
 
 def run_scenario(scene, groups, params: MDPParams, rng, progress: bool = True):
-    with tqdm(total=params.max_steps, desc="mdp steps", unit="step", disable=not progress, delay=1.0,
-              leave=False) as bar:
-        result = run(scene, groups, params, rng, progress=lambda done: bar.update(done - bar.n))
+    with step_bar(params.max_steps, "mdp steps", progress) as bar:
+        result = run(scene, groups, params, rng, progress=bar.done)
     traj = result.trajectories
     summary = metrics.summary(traj, scene, goal_test(result))
     field_of = result.field_of

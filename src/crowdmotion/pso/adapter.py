@@ -4,7 +4,7 @@ summary, figures."""
 from __future__ import annotations
 
 import numpy as np
-from tqdm.auto import tqdm
+from crowdmotion.progress import step_bar
 
 from crowdmotion import metrics
 from crowdmotion.groups import MovingTarget
@@ -31,9 +31,22 @@ def check_scenario(scene, groups, params: PSOParams) -> None:
                              f"(clearance {clear.min():.3g} m < radius {g.radius} m)")
 
 
+def expected_iterations(groups, params: PSOParams) -> int:
+    """Iterations a run records at most: k, or k per target update when targets move
+    (capped at ``max_iterations``); gathering may stop sooner."""
+    from crowdmotion.pso.swarm import follow_schedule
+
+    paths = [g.goal for g in groups if isinstance(g.goal, MovingTarget)]
+    updates = 1
+    if paths:
+        updates = len(follow_schedule(min(p.times[0] for p in paths), max(p.times[-1] for p in paths),
+                                      params.iterations, params.iteration_time)) + 1
+    return min(updates * params.iterations, params.max_iterations)
+
+
 def run_scenario(scene, groups, params: PSOParams, rng, progress: bool = True):
-    with tqdm(desc="pso iterations", unit="it", disable=not progress, delay=1.0, leave=False) as bar:
-        result = run(scene, groups, params, rng, progress=bar.update)
+    with step_bar(expected_iterations(groups, params), "pso iterations", progress, unit="it") as bar:
+        result = run(scene, groups, params, rng, progress=bar.advance)
     sr = result.swarm_run
     traj = result.trajectories
     summary = metrics.summary(traj, result.scene)

@@ -3,7 +3,7 @@
 from __future__ import annotations
 
 import numpy as np
-from tqdm.auto import tqdm
+from crowdmotion.progress import step_bar
 
 from crowdmotion import metrics
 from crowdmotion.rvo.params import RVOParams
@@ -38,9 +38,8 @@ def check_scenario(scene, groups, params: RVOParams) -> None:
 
 
 def run_scenario(scene, groups, params: RVOParams, rng, progress: bool = True):
-    with tqdm(total=params.max_steps, desc="rvo steps", unit="step", disable=not progress, delay=1.0,
-              leave=False) as bar:
-        result = run(scene, groups, params, rng, progress=lambda done: bar.update(done - bar.n))
+    with step_bar(params.max_steps, "rvo steps", progress) as bar:
+        result = run(scene, groups, params, rng, progress=bar.done)
     traj, sim = result.trajectories, result.simulator
     arrived = sim.arrived
     summary = metrics.summary(traj, scene)

@@ -34,6 +34,7 @@ from __future__ import annotations
 import numpy as np
 from scipy.spatial import cKDTree
 
+BLOCKER_CANDIDATES = 6  # nearest neighbours searched for the one in an agent's way
 KEEP_RIGHT_LOOK_S = 5.0  # keep right for an oncoming agent met within this many seconds
 SLOW = 0.1             # progress along v_pref below this fraction of pref_speed is "held up"
 YIELD_TURN = np.deg2rad(30.0)  # a yielding agent backs away turned this far to its right
@@ -110,8 +111,13 @@ class Deadlock:
         if len(cand) == 0:
             return 0
         live = np.flatnonzero(active)
-        pairs = _pairs(pos, cand, live, float(sight.max()))
-        i, j = pairs[:, 0], pairs[:, 1]
+        # the blocker is among an agent's nearest neighbours within its D
+        d, k = cKDTree(pos[live]).query(pos[cand], k=min(BLOCKER_CANDIDATES + 1, len(live)),
+                                        distance_upper_bound=float(sight.max()))
+        d, k = np.atleast_2d(d).reshape(len(cand), -1), np.atleast_2d(k).reshape(len(cand), -1)
+        found = np.isfinite(d)
+        i = np.repeat(cand, found.sum(axis=1))
+        j = live[k[found]]
         gap = np.linalg.norm(pos[j] - pos[i], axis=1) - radius[i] - radius[j]
         mutual = (self.stuck[j] >= self.patience / 2) | (self.yield_to[j] >= 0)
         prio = self.priority(np.arange(len(pos)))

@@ -14,6 +14,7 @@ from crowdmotion.obstacle_primitives import ObstaclePrimitives
 from crowdmotion.scene import Scene
 
 MAX_FIELD_CELLS = 16_000_000
+FIELD_WINDOW = 2  # cells: agents aim within this many cells along the field
 
 
 @dataclass
@@ -23,6 +24,8 @@ class DistanceFields:
     dist: np.ndarray
     origin: np.ndarray
     cell: float
+    blocked: np.ndarray | None = None  # (nx, ny) cells a body does not fit in
+    goal_cells: list | None = None     # per field, (K, 2) goal cells
 
     def at(self, field: int, points: np.ndarray) -> np.ndarray:
         """Field values at the cells holding ``points`` (inf outside the grid)."""
@@ -75,7 +78,7 @@ def distance_fields(scene: Scene, goals: list, radius: float, cell: float | None
     for ob in scene.static_obstacles:
         clearance = np.minimum(clearance, ob.signed_distance(centres))
     blocked = (clearance < radius).reshape(shape)
-    fields = []
+    fields, goal_cells = [], []
     for k, goal in enumerate(goals):
         if isinstance(goal, MovingTarget):
             raise ValueError(f"groups.{k}: field guidance needs a fixed goal, not a moving target")
@@ -89,9 +92,11 @@ def distance_fields(scene: Scene, goals: list, radius: float, cell: float | None
         if not cells:
             raise ValueError(f"groups.{k}: the goal {goal!r} has no cell free of obstacles "
                              f"(field cell {cell:.3f} m, agent radius {radius} m)")
-        v = fast_values(blocked.astype(np.uint8), sorted(set(cells)), corner_cutting=False)
+        cells = sorted(set(cells))
+        v = fast_values(blocked.astype(np.uint8), cells, corner_cutting=False)
         fields.append(-v * cell)
-    return DistanceFields(np.stack(fields), scene.lower.astype(float).copy(), cell)
+        goal_cells.append(np.array(cells, dtype=np.int64))
+    return DistanceFields(np.stack(fields), scene.lower.astype(float).copy(), cell, blocked, goal_cells)
 
 
 def preferred_velocities(pos, goal, pref_speed, active, dt, fields: DistanceFields | None, field_of,
@@ -114,7 +119,7 @@ def preferred_velocities(pos, goal, pref_speed, active, dt, fields: DistanceFiel
         if use.any():
             fdir = np.zeros_like(pos)
             K.field_directions(pos, field_of, fields.dist, float(fields.origin[0]), float(fields.origin[1]),
-                               fields.cell, 2, use, radius, prims.circ_c, prims.circ_r, prims.seg_a, prims.seg_b,
+                               fields.cell, FIELD_WINDOW, use, radius, prims.circ_c, prims.circ_r, prims.seg_a, prims.seg_b,
                                fdir)
             reach = np.linalg.norm(fdir, axis=1)
             ok = use & (reach > 0)

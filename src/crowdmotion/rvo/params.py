@@ -32,6 +32,10 @@ class RVOParams(BaseModel):
                              ahead (0 = off); rvo.deadlock, a documented addition
     patience : float         seconds two agents may hold each other up before the one
                              of lower priority yields (rvo.deadlock)
+    congestion : float       field guidance cost per metre 1 + congestion × density
+                             (agents/m²), so crowds use a corridor's width (0 = exact
+                             distances only); rvo.congestion, a documented addition
+    replan_s : float         seconds between re-solves of the congestion-aware field
     """
 
     model_config = ConfigDict(extra="forbid", frozen=True)
@@ -51,6 +55,8 @@ class RVOParams(BaseModel):
     spawn_gap: Annotated[float, Field(ge=0, allow_inf_nan=False)] = 0.05
     keep_right_deg: Annotated[float, Field(ge=0, lt=90, allow_inf_nan=False)] = 15.0
     patience: PosFloat = 2.0
+    congestion: Annotated[float, Field(ge=0, allow_inf_nan=False)] = 1.0
+    replan_s: PosFloat = 2.0
 
 
 Params = RVOParams

@@ -44,7 +44,8 @@ def build_simulator(scene: Scene, groups: Sequence[Group], params: RVOParams, rn
     """A Simulator holding every group's agents, placed and personalised."""
     sim = Simulator(scene, params.time_step, guidance=params.guidance, remove_on_arrival=params.remove_on_arrival,
                     arrival_radius=params.arrival_radius, field_cell=params.field_cell, dominant=params.dominant,
-                    rng=rng, keep_right_deg=params.keep_right_deg, patience=params.patience)
+                    rng=rng, keep_right_deg=params.keep_right_deg, patience=params.patience,
+                    congestion=params.congestion, replan_s=params.replan_s)
     placed = np.zeros((0, 2))
     placed_r = np.zeros(0)
     for k, g in enumerate(groups):

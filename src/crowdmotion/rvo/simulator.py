@@ -9,6 +9,7 @@ from crowdmotion._rng import step_key
 from crowdmotion.geometry import finite_array
 from crowdmotion.groups import MovingTarget
 from crowdmotion.rvo import _kernels as K
+from crowdmotion.rvo.congestion import CongestionRouter
 from crowdmotion.rvo.deadlock import KEEP_RIGHT_LOOK_S, Deadlock, contact_arrivals
 from crowdmotion.rvo.guidance import DistanceFields, distance_fields, preferred_velocities
 from crowdmotion._contact import grid_for
@@ -76,13 +77,20 @@ class Simulator:
     patience : float
         Seconds two agents may hold each other up before the one of lower priority
         yields; see :mod:`crowdmotion.rvo.deadlock`.
+    congestion : float
+        With field guidance, walking through a cell costs ``1 + congestion × density``
+        (agents/m²) per metre, and the field is re-solved every ``replan_s`` seconds, so a
+        crowd spreads over a corridor's width (:mod:`crowdmotion.rvo.congestion`); 0 = the
+        exact distance field only.
+    replan_s : float
+        Seconds between two re-solves of the congestion-aware field.
     """
 
     def __init__(self, scene: Scene, time_step: float = 0.25, guidance: str = "auto",
                  remove_on_arrival: bool = True, arrival_radius: float = 0.5,
                  field_cell: float | None = None, dominant: str = "abs",
                  rng: np.random.Generator | None = None, keep_right_deg: float = 15.0,
-                 patience: float = 2.0):
+                 patience: float = 2.0, congestion: float = 1.0, replan_s: float = 2.0):
         if not isinstance(scene, Scene):
             raise TypeError(f"scene must be a crowdmotion.Scene, got {scene!r}")
         if not (np.isfinite(time_step) and time_step > 0):
@@ -97,6 +105,12 @@ class Simulator:
             raise ValueError(f"keep_right_deg must be in [0, 90) degrees, got {keep_right_deg!r}")
         if not (np.isfinite(patience) and patience > 0):
             raise ValueError(f"patience must be a positive number of seconds, got {patience!r}")
+        if not (np.isfinite(congestion) and congestion >= 0):
+            raise ValueError(f"congestion must be a number >= 0, got {congestion!r}")
+        if not (np.isfinite(replan_s) and replan_s > 0):
+            raise ValueError(f"replan_s must be a positive number of seconds, got {replan_s!r}")
+        self.congestion = float(congestion)
+        self.replan_steps = max(1, int(round(replan_s / time_step)))
         self.scene = scene
         self.dt = float(time_step)
         self.guidance = guidance
@@ -123,6 +137,8 @@ class Simulator:
         self._targets: list[tuple[MovingTarget, np.ndarray]] = []
         self._goal_regions: list = []
         self._fields: DistanceFields | None = None
+        self._exact: np.ndarray | None = None  # the exact distances, while _fields holds the weighted ones
+        self._router: CongestionRouter | None = None
         self._fields_stale = True
         self.deadlock = Deadlock(np.deg2rad(keep_right_deg), float(patience))
         self.stats = {"safety_stops": 0, "forced_choices": 0, "agent_steps": 0, "yields": 0,
@@ -256,7 +272,15 @@ class Simulator:
         if self._use_field() and self.n_agents:
             self._fields = distance_fields(self.scene, self._goal_regions, float(self.params["radius"].max()),
                                            self.field_cell)
+            self._exact = self._fields.dist
+            self._router = CongestionRouter(self._fields, self.congestion)
         self._fields_stale = False
+
+    def _replan(self) -> None:
+        """Re-solve the congestion-aware field from where the agents are now."""
+        if self._router is None or not self._router.enabled or self.steps % self.replan_steps:
+            return
+        self._fields.dist = self._router.resolve(self.positions[self.active], self._exact)
 
     def preferred_velocities(self) -> np.ndarray:
         """(N, 2) v_pref of every agent now (zero for agents that left)."""
@@ -265,6 +289,7 @@ class Simulator:
     def _guidance(self, prims) -> tuple[np.ndarray, np.ndarray]:
         """v_pref and the distance to each agent's aim point, with obstacles placed now."""
         self._ensure_fields()
+        self._replan()
         for target, ids in self._targets:
             self.goals[ids] = target.at(self.time)
         v, aim = preferred_velocities(self.positions, self.goals, self.params["pref_speed"], self.active, self.dt,

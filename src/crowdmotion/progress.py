@@ -1,0 +1,41 @@
+"""Progress bars for the methods' step loops: a total, and a clock that starts after the
+first step, so the numba compile of a cold first run does not make the ETA read hours."""
+
+from __future__ import annotations
+
+from contextlib import contextmanager
+from typing import Iterator
+
+from tqdm.auto import tqdm
+
+FIRST = "first step: compiling kernels (once, then cached)"
+
+
+class StepBar:
+    """``done(n)`` reports n steps done in all, ``advance(k)`` k more."""
+
+    def __init__(self, bar: tqdm):
+        self.bar = bar
+        self.started = False
+
+    def done(self, n: int) -> None:
+        if not self.started:  # the first report: restart the clock from here
+            self.started = True
+            self.bar.reset(total=self.bar.total)
+            self.bar.initial = self.bar.n = self.bar.last_print_n = n
+            self.bar.set_postfix_str("")
+            self.bar.refresh()
+            return
+        self.bar.update(n - self.bar.n)
+
+    def advance(self, k: int = 1) -> None:
+        self.done(self.bar.n + k)
+
+
+@contextmanager
+def step_bar(total: int | None, desc: str, enabled: bool = True, unit: str = "step", file=None) -> Iterator[StepBar]:
+    """A bar of ``total`` steps (shown after a second; on ``file``, default stderr) that
+    says it is compiling until the first step is reported."""
+    with tqdm(total=total, desc=desc, unit=unit, disable=not enabled, delay=1.0, leave=False, file=file) as bar:
+        bar.set_postfix_str(FIRST, refresh=False)
+        yield StepBar(bar)

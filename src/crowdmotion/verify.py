@@ -1,0 +1,431 @@
+"""The verification suite: the field's public test cases (RiMEA guideline tests,
+SteerBench-style cases), written from their public descriptions, run for every method
+they apply to and judged by each case's own pass criterion.
+
+``run_suite(quick=True)`` runs the quick subset (seconds); the full suite takes minutes.
+Each case builds its scene(s) per method, runs them through the same registry as
+``crowdmotion run``, and returns a :class:`Verdict` per method: the criterion in words,
+the measured value, pass or fail, the continuous-time audit and the wall time.
+"""
+
+from __future__ import annotations
+
+import time
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Callable
+
+import numpy as np
+
+from crowdmotion.groups import Group, Rect
+from crowdmotion.registry import get_method, method_params
+from crowdmotion.scene import Box, Scene
+from crowdmotion.trajectories import Trajectories
+
+RADIUS = 0.25
+SPEED = 1.33  # RiMEA's walking speed for test 1
+
+
+@dataclass
+class Setup:
+    """One simulation of a case: scene, groups and the method's parameter block."""
+
+    scene: Scene
+    groups: list[Group]
+    params: dict = field(default_factory=dict)
+
+
+@dataclass
+class Outcome:
+    """A finished setup: trajectories, the method's summary, wall time."""
+
+    setup: Setup
+    traj: Trajectories
+    summary: dict
+    wall_s: float
+
+
+@dataclass
+class Verdict:
+    """What a case says about one method."""
+
+    case: str
+    method: str
+    criterion: str
+    measured: str
+    passed: bool
+    overlaps: int
+    penetrations: int
+    wall_s: float
+    picture: Path | None = None
+
+    @property
+    def clean(self) -> bool:
+        return self.overlaps == 0 and self.penetrations == 0
+
+    def as_dict(self) -> dict:
+        return {"case": self.case, "method": self.method, "criterion": self.criterion, "measured": self.measured,
+                "passed": self.passed, "agent_overlaps": self.overlaps, "obstacle_penetrations": self.penetrations,
+                "wall_s": round(self.wall_s, 2), "picture": None if self.picture is None else self.picture.name}
+
+
+@dataclass
+class Case:
+    """A public test case: how to build it per method and how to judge the runs."""
+
+    name: str
+    source: str
+    description: str
+    methods: tuple[str, ...]
+    build: Callable[[str], dict[str, Setup]]
+    judge: Callable[[dict[str, Outcome]], tuple[str, str, bool]]
+    quick: bool = False
+
+
+def simulate(method: str, setup: Setup, seed: int = 0) -> Outcome:
+    """Run one setup through the method's registry entry, as ``crowdmotion run`` does."""
+    m = get_method(method)
+    params = method_params(method, setup.params)
+    check = getattr(m.module, "check_scenario", None)
+    if check is not None:
+        check(setup.scene, setup.groups, params)
+    t0 = time.perf_counter()
+    traj, _, summary = m.run(setup.scene, setup.groups, params, np.random.default_rng(seed), progress=False)
+    return Outcome(setup, traj, summary, time.perf_counter() - t0)
+
+
+# ---- measures --------------------------------------------------------------------------------
+def crossing_times(traj: Trajectories, axis: int, value: float, sign: float = 1.0) -> np.ndarray:
+    """(N,) first time each agent's coordinate ``axis`` passes ``value`` going the way of
+    ``sign`` (linear between frames); NaN if never."""
+    x = sign * (traj.positions[..., axis] - value)  # > 0 once past
+    act = traj.active_mask
+    out = np.full(traj.n_agents, np.nan)
+    past = (x >= 0) & act
+    for i in np.flatnonzero(past.any(axis=0)):
+        f = int(np.argmax(past[:, i]))
+        if f == 0:
+            out[i] = 0.0
+            continue
+        a, b = x[f - 1, i], x[f, i]
+        out[i] = (f - 1 + (-a / (b - a) if b != a else 1.0)) * traj.dt
+    return out
+
+
+def flow(times: np.ndarray) -> float:
+    """Persons per second through a line: count over the span of crossing times."""
+    t = np.sort(times[np.isfinite(times)])
+    return float((len(t) - 1) / (t[-1] - t[0])) if len(t) > 1 and t[-1] > t[0] else float("nan")
+
+
+def _all_clean(outcomes: dict[str, Outcome]) -> tuple[int, int]:
+    o = sum(r.summary["agent_agent_overlaps"] for r in outcomes.values())
+    p = sum(r.summary["agent_obstacle_penetrations"] for r in outcomes.values())
+    return o, p
+
+
+def _arrived(r: Outcome) -> float:
+    return float(r.summary.get("arrival_rate", 0.0))
+
+
+def _params(method: str, **rvo) -> dict:
+    """Each method's parameter block for the suite (long enough runs, arrivals leave)."""
+    if method == "rvo":
+        return {"max_steps": 4000, **rvo}
+    if method == "mdp":
+        return {"max_steps": 3000, "despawn": True}
+    return {"max_steps": 4000}
+
+
+# ---- RiMEA 1: walking speed kept in a corridor -----------------------------------------------
+def _rimea_1(method: str) -> dict[str, Setup]:
+    scene = Scene(bounds=([0, 0], [44, 2]))
+    g = Group("walker", 1, spawn=[1.0, 1.0], goal=Rect([42.5, 0.3], [43.5, 1.7]), radius=RADIUS,
+              max_speed=1.5, pref_speed=SPEED)
+    return {"corridor": Setup(scene, [g], _params(method))}
+
+
+def _judge_rimea_1(out: dict[str, Outcome]) -> tuple[str, str, bool]:
+    r = out["corridor"]
+    t0 = crossing_times(r.traj, 0, 1.5)[0]
+    t1 = crossing_times(r.traj, 0, 41.5)[0]
+    took = t1 - t0
+    return ("40 m at 1.33 m/s in 26-34 s", f"{took:.1f} s", bool(26.0 <= took <= 34.0))
+
+
+# ---- RiMEA 4: the fundamental diagram's shape -------------------------------------------------
+DENSITIES = (0.5, 1.0, 2.0, 3.0)
+
+
+def _rimea_4(method: str) -> dict[str, Setup]:
+    out = {}
+    for rho in DENSITIES:
+        scene = Scene(bounds=([0, 0], [120, 4]))
+        n = int(rho * 20 * 4)
+        g = Group(f"rho{rho:g}", n, spawn=Rect([0.2, 0.2], [20, 3.8]), goal=Rect([110, 0.3], [119, 3.7]),
+                  radius=0.2, max_speed=1.5, pref_speed=SPEED)
+        out[f"{rho:g}"] = Setup(scene, [g], _params(method, spawn_gap=0.01, max_steps=60))
+    return out
+
+
+def _judge_rimea_4(out: dict[str, Outcome]) -> tuple[str, str, bool]:
+    speeds = []
+    for rho in DENSITIES:
+        tr = out[f"{rho:g}"].traj
+        frames = slice(1, int(10 / tr.dt) + 1)  # the first 10 s, rear half of the block
+        rear = tr.positions[0, :, 0] < np.median(tr.positions[0, :, 0])
+        speeds.append(float(np.nanmean(tr.speed[frames][:, rear])))
+    falling = all(a > b for a, b in zip(speeds, speeds[1:]))
+    measured = ", ".join(f"{rho:g}/m²: {v:.2f} m/s" for rho, v in zip(DENSITIES, speeds))
+    return ("mean speed falls as density rises (0.5, 1, 2, 3 /m²)", measured, falling)
+
+
+# ---- RiMEA 6: 20 persons round a left corner ---------------------------------------------------
+def _rimea_6(method: str) -> dict[str, Setup]:
+    scene = Scene(bounds=([0, 0], [12, 12]), obstacles=[Box([0, 2], [10, 12])])
+    g = Group("walkers", 20, spawn=Rect([0.3, 0.3], [6, 1.7]), goal=Rect([10.3, 10.5], [11.7, 11.7]),
+              radius=0.2, max_speed=1.5, pref_speed=SPEED)
+    return {"corner": Setup(scene, [g], _params(method))}
+
+
+def _judge_rimea_6(out: dict[str, Outcome]) -> tuple[str, str, bool]:
+    r = out["corner"]
+    pen = r.summary["agent_obstacle_penetrations"]
+    return ("all 20 round the corner, none through the walls", f"arrived {_arrived(r):.0%}, wall penetrations {pen}",
+            bool(_arrived(r) == 1.0 and pen == 0))
+
+
+# ---- RiMEA 9: a crowd leaves a room by four exits, then by two -------------------------------
+ROOM_X = (6.0, 36.0)  # the 30 m room of RiMEA 9; 6 m of open ground outside each short wall
+
+
+def _room_with_exits(open_exits: list[tuple[float, float]]) -> Scene:
+    """30 x 20 m room (x 6..36) with 1 m exits in its short walls at heights 3 and 17, walls
+    0.5 m thick outside the room, open ground beyond. ``open_exits``: (wall x, exit centre y)."""
+    obs = []
+    for xw in ROOM_X:
+        ys = sorted(y for x, y in open_exits if x == xw)
+        edges = [0.0] + [v for y in ys for v in (y - 0.5, y + 0.5)] + [20.0]
+        lo = xw - 0.5 if xw == ROOM_X[0] else xw
+        for a, b in zip(edges[::2], edges[1::2]):
+            obs.append(Box([lo, a], [lo + 0.5, b]))
+    return Scene(bounds=([0, 0], [ROOM_X[1] + 6, 20]), obstacles=obs)
+
+
+def _rimea_9(method: str) -> dict[str, Setup]:
+    left, right = ROOM_X
+    out = {}
+    for name, exits in (("4 exits", [(left, 3.0), (left, 17.0), (right, 3.0), (right, 17.0)]),
+                        ("2 exits", [(right, 3.0), (right, 17.0)])):
+        scene = _room_with_exits(exits)
+        # each person heads for the exit nearest its start: one group per exit's share of the room,
+        # its goal the open ground beyond that exit
+        groups = []
+        for k, (xw, y) in enumerate(exits):
+            if len(exits) == 4:
+                x0, x1 = (left + 0.6, (left + right) / 2) if xw == left else ((left + right) / 2, right - 0.6)
+            else:
+                x0, x1 = left + 0.6, right - 0.6
+            y0, y1 = (0.4, 10.0) if y < 10 else (10.0, 19.6)
+            gx = (0.5, left - 2.0) if xw == left else (right + 2.0, right + 5.5)
+            groups.append(Group(f"exit{k + 1}", 1000 // len(exits), spawn=Rect([x0, y0], [x1, y1]),
+                                goal=Rect([gx[0], y0], [gx[1], y1]), radius=0.2, max_speed=1.5, pref_speed=SPEED))
+        out[name] = Setup(scene, groups, _params(method, spawn_gap=0.02))
+    return out
+
+
+def _evacuation_time(r: Outcome) -> float:
+    """When the last agent is out of the room."""
+    x = r.traj.positions[..., 0]
+    inside = (x > ROOM_X[0]) & (x < ROOM_X[1]) & r.traj.active_mask
+    frames = np.flatnonzero(inside.any(axis=1))
+    return float((frames[-1] + 1) * r.traj.dt) if len(frames) else 0.0
+
+
+def _judge_rimea_9(out: dict[str, Outcome]) -> tuple[str, str, bool]:
+    t4, t2 = _evacuation_time(out["4 exits"]), _evacuation_time(out["2 exits"])
+    ratio = t2 / t4
+    everyone = all(_arrived(r) == 1.0 for r in out.values())
+    return ("closing 2 of 4 exits about doubles the time (1.5-2.5x; RiMEA: documentation)",
+            f"{t4:.0f} s -> {t2:.0f} s ({ratio:.2f}x)", bool(everyone and 1.5 <= ratio <= 2.5))
+
+
+# ---- RiMEA 12: no jam behind a bottleneck -----------------------------------------------------
+def _rimea_12(method: str) -> dict[str, Setup]:
+    # room 10 x 10 m, a 1 m wide, 1 m deep bottleneck, an 18 m corridor 2 m wide, its open end
+    scene = Scene(bounds=([0, 0], [30, 10]), obstacles=[
+        Box([10, 0], [11, 4.5]), Box([10, 5.5], [11, 10]),
+        Box([11, 0], [30, 4]), Box([11, 6], [30, 10])])
+    g = Group("room", 150, spawn=Rect([0.3, 0.3], [9.5, 9.7]), goal=Rect([28.8, 4.3], [29.7, 5.7]),
+              radius=0.2, max_speed=1.5, pref_speed=SPEED)
+    return {"bottleneck": Setup(scene, [g], _params(method, spawn_gap=0.02))}
+
+
+def _judge_rimea_12(out: dict[str, Outcome]) -> tuple[str, str, bool]:
+    tr = out["bottleneck"].traj
+    j_bottleneck = flow(crossing_times(tr, 0, 11.0))
+    j_last = flow(crossing_times(tr, 0, 28.0))
+    return ("no jam at the last exit: its flow >= the bottleneck's - 0.05 /s",
+            f"bottleneck {j_bottleneck:.2f} /s, last exit {j_last:.2f} /s",
+            bool(_arrived(out["bottleneck"]) == 1.0 and j_last >= j_bottleneck - 0.05))
+
+
+# ---- RiMEA 15: a large crowd round a corner ---------------------------------------------------
+def _rimea_15(method: str) -> dict[str, Setup]:
+    """A 25 x 10 m room of 500 persons, then a 3 m wide corridor: 15 m straight (short),
+    33 m straight (long), or 15 m east, a 3 x 3 m corner and 15 m north (corner: 33 m of
+    centre line, as long as the long one); each corridor opens into a 4 m deep exit area,
+    the goal."""
+    out = {}
+    room = Rect([0.3, 0.3], [24.7, 9.7])
+    for name, length in (("short", 15.0), ("long", 33.0)):
+        end = 25 + length
+        scene = Scene(bounds=([0, 0], [end + 4, 10]),
+                      obstacles=[Box([25, 0], [end, 3.5]), Box([25, 6.5], [end, 10])])
+        g = Group(name, 500, spawn=room, goal=Rect([end + 0.5, 0.5], [end + 3.5, 9.5]),
+                  radius=0.2, max_speed=1.5, pref_speed=SPEED)
+        out[name] = Setup(scene, [g], _params(method, spawn_gap=0.02))
+    scene = Scene(bounds=([0, 0], [50, 25.5]), obstacles=[
+        Box([25, 0], [50, 3.5]), Box([25, 6.5], [40, 21.5]), Box([43, 3.5], [50, 21.5]),
+        Box([0, 10], [25, 25.5]), Box([25, 21.5], [33, 25.5])])
+    g = Group("corner", 500, spawn=room, goal=Rect([36.5, 22], [46.5, 25]), radius=0.2, max_speed=1.5,
+              pref_speed=SPEED)
+    out["corner"] = Setup(scene, [g], _params(method, spawn_gap=0.02))
+    return out
+
+
+def _last_arrival(r: Outcome) -> float:
+    """Seconds until the last agent arrived (left the scene at its goal)."""
+    frames = np.flatnonzero(r.traj.active_mask.any(axis=1))
+    return float(frames[-1] * r.traj.dt) if len(frames) else 0.0
+
+
+def _judge_rimea_15(out: dict[str, Outcome]) -> tuple[str, str, bool]:
+    t = {k: _last_arrival(r) for k, r in out.items()}
+    ok = all(_arrived(r) == 1.0 for r in out.values()) and t["short"] <= t["corner"] <= t["long"]
+    return ("corner time between the short (15 m) and long (33 m) corridors'",
+            f"short {t['short']:.0f} s, corner {t['corner']:.0f} s, long {t['long']:.0f} s", bool(ok))
+
+
+# ---- SteerBench-style cases ------------------------------------------------------------------
+def _doorway_two_way(method: str) -> dict[str, Setup]:
+    scene = Scene(bounds=([0, 0], [20, 10]), obstacles=[Box([9.75, 0], [10.25, 4.55]), Box([9.75, 5.45], [10.25, 10])])
+    a = Group("east", 1, spawn=[5.0, 5.0], goal=[16.0, 5.0], radius=RADIUS)
+    b = Group("west", 1, spawn=[15.0, 5.0], goal=[4.0, 5.0], radius=RADIUS)
+    return {"doorway": Setup(scene, [a, b], _params(method, time_step=0.1))}
+
+
+def _judge_all_arrive(name: str, free_walk_s: float, slack: float = 3.0):
+    def judge(out: dict[str, Outcome]) -> tuple[str, str, bool]:
+        r = out[name]
+        t = r.summary.get("mean_time_to_goal_s")
+        measured = f"arrived {_arrived(r):.0%}" + (f", mean time {t:.1f} s" if t is not None else "")
+        return (f"everyone arrives, mean time within {slack:g}x the free walk ({free_walk_s:.0f} s)", measured,
+                bool(_arrived(r) == 1.0 and t is not None and t <= slack * free_walk_s))
+    return judge
+
+
+def _bottleneck_evacuation(method: str) -> dict[str, Setup]:
+    scene = Scene(bounds=([0, 0], [20, 12]), obstacles=[Box([12, 0], [12.5, 5.4]), Box([12, 6.6], [12.5, 12])])
+    g = Group("room", 50, spawn=Rect([1, 1], [10, 11]), goal=Rect([16, 4], [19, 8]), radius=RADIUS)
+    return {"bottleneck": Setup(scene, [g], _params(method))}
+
+
+def _hallway_two_way(method: str) -> dict[str, Setup]:
+    scene = Scene(bounds=([0, 0], [40, 4]))
+    a = Group("east", 10, spawn=Rect([0.5, 0.4], [6, 3.6]), goal=Rect([36, 0.4], [39.5, 3.6]), radius=RADIUS)
+    b = Group("west", 10, spawn=Rect([34, 0.4], [39.5, 3.6]), goal=Rect([0.5, 0.4], [4, 3.6]), radius=RADIUS)
+    return {"hallway": Setup(scene, [a, b], _params(method, goal_assignment="shift"))}
+
+
+def _oncoming_groups(method: str) -> dict[str, Setup]:
+    scene = Scene(bounds=([0, 0], [40, 20]))
+    a = Group("east", 20, spawn=Rect([2, 6], [8, 14]), goal=Rect([32, 6], [38, 14]), radius=RADIUS)
+    b = Group("west", 20, spawn=Rect([32, 6], [38, 14]), goal=Rect([2, 6], [8, 14]), radius=RADIUS)
+    return {"groups": Setup(scene, [a, b], _params(method, goal_assignment="shift"))}
+
+
+def _crossing(method: str) -> dict[str, Setup]:
+    scene = Scene(bounds=([0, 0], [30, 30]))
+    a = Group("east", 15, spawn=Rect([1, 12], [7, 18]), goal=Rect([23, 12], [29, 18]), radius=RADIUS)
+    b = Group("north", 15, spawn=Rect([12, 1], [18, 7]), goal=Rect([12, 23], [18, 29]), radius=RADIUS)
+    return {"crossing": Setup(scene, [a, b], _params(method, goal_assignment="shift"))}
+
+
+CASES: list[Case] = [
+    Case("rimea_1_corridor", "RiMEA test 1",
+         "one person keeps its walking speed of 1.33 m/s along a 2 m wide, 40 m corridor",
+         ("rvo", "mdp"), _rimea_1, _judge_rimea_1, quick=True),
+    Case("rimea_4_fundamental_diagram", "RiMEA test 4",
+         "speed against density (0.5-3 persons/m²) in a 4 m corridor: the shape of the fundamental diagram",
+         ("rvo",), _rimea_4, _judge_rimea_4),
+    Case("rimea_6_corner", "RiMEA test 6",
+         "20 persons round a left corner of a 2 m corridor without passing through its walls",
+         ("rvo", "mdp"), _rimea_6, _judge_rimea_6, quick=True),
+    Case("rimea_9_four_exits", "RiMEA test 9",
+         "1000 persons leave a 30 x 20 m room by four 1 m exits, then with two of them closed",
+         ("rvo", "mdp"), _rimea_9, _judge_rimea_9),
+    Case("rimea_12_bottleneck", "RiMEA test 12",
+         "150 persons leave a 10 x 10 m room through a 1 m bottleneck into a 2 m corridor",
+         ("rvo", "mdp"), _rimea_12, _judge_rimea_12),
+    Case("rimea_15_corner_crowd", "RiMEA test 15",
+         "500 persons: a corridor with a 90° corner against a short and a long straight corridor",
+         ("rvo",), _rimea_15, _judge_rimea_15),
+    # not mdp: the paper's cell (> √2 × the body's diameter) leaves no free cell in a 0.9 m door
+    Case("doorway_two_way", "SteerBench doorway-two-way",
+         "two walkers meet at a 0.9 m doorway from opposite sides",
+         ("rvo",), _doorway_two_way, _judge_all_arrive("doorway", 11 / 1.3), quick=True),
+    Case("bottleneck_evacuation", "SteerBench bottleneck-evacuation",
+         "50 agents leave a room through a 1.2 m door", ("rvo", "mdp"), _bottleneck_evacuation,
+         _judge_all_arrive("bottleneck", 12 / 1.3)),
+    Case("hallway_two_way", "SteerBench hallway-two-way",
+         "two groups of 10 walk past each other in a 4 m wide hallway", ("rvo", "mdp"), _hallway_two_way,
+         _judge_all_arrive("hallway", 34 / 1.3, slack=1.5), quick=True),
+    Case("oncoming_groups", "SteerBench oncoming-groups",
+         "two groups of 20 walk through each other in the open", ("rvo", "mdp"), _oncoming_groups,
+         _judge_all_arrive("groups", 30 / 1.3, slack=1.5)),
+    Case("crossing", "SteerBench crossing",
+         "two streams of 15 cross at right angles", ("rvo", "mdp"), _crossing,
+         _judge_all_arrive("crossing", 22 / 1.3, slack=1.5)),
+]
+
+
+def run_case(case: Case, method: str, out: Path | None = None, seed: int = 0) -> Verdict:
+    """Run one case for one method; with ``out``, draw the first setup's paths there."""
+    t0 = time.perf_counter()
+    outcomes = {name: simulate(method, setup, seed) for name, setup in case.build(method).items()}
+    criterion, measured, passed = case.judge(outcomes)
+    overlaps, penetrations = _all_clean(outcomes)
+    picture = None
+    if out is not None:
+        from crowdmotion.render import plot_paths
+
+        name, first = next(iter(outcomes.items()))
+        picture = plot_paths(first.traj, first.setup.scene, Path(out) / f"{case.name}_{method}.png",
+                             title=f"{case.source}, {method} ({name}): {measured}")
+    return Verdict(case.name, method, criterion, measured, passed and overlaps == 0 and penetrations == 0,
+                   overlaps, penetrations, time.perf_counter() - t0, picture)
+
+
+def select(quick: bool = False, names=None, methods=None) -> list[tuple[Case, str]]:
+    """The (case, method) pairs to run."""
+    known = {c.name for c in CASES}
+    unknown = sorted(set(names or []) - known)
+    if unknown:
+        raise ValueError(f"unknown verify case(s) {unknown}; cases: {sorted(known)}")
+    pairs = []
+    for c in CASES:
+        if (quick and not c.quick) or (names and c.name not in names):
+            continue
+        pairs += [(c, m) for m in c.methods if not methods or m in methods]
+    return pairs
+
+
+def table(verdicts: list[Verdict]) -> str:
+    """The markdown table ``crowdmotion verify`` prints and docs/verification.md shows."""
+    rows = ["| case | method | criterion | measured | overlaps / penetrations | pass | wall s |",
+            "|---|---|---|---|---|---|---|"]
+    for v in verdicts:
+        rows.append(f"| {v.case} | {v.method} | {v.criterion} | {v.measured} | {v.overlaps} / {v.penetrations} | "
+                    f"{'PASS' if v.passed else 'FAIL'} | {v.wall_s:.1f} |")
+    return "\n".join(rows)
