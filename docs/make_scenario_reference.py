@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import inspect
 import re
+import types
 from pathlib import Path
 from typing import Union, get_args, get_origin
 
@@ -36,17 +37,34 @@ SECTIONS = [
 
 
 def _type_name(tp) -> str:
+    """A type in the scenario file's own (TOML) terms."""
     origin = get_origin(tp)
     if origin is None:
-        return getattr(tp, "__name__", str(tp)).replace("NoneType", "none")
-    args = [a for a in get_args(tp) if not isinstance(a, (int, float, str)) or origin.__name__ == "Literal"]
-    if getattr(origin, "__name__", "") == "Literal" or str(origin).endswith("Literal"):
-        return " \\| ".join(repr(a) for a in get_args(tp))
-    if origin is Union or str(origin) == "types.UnionType":
+        if isinstance(tp, type) and issubclass(tp, BaseModel):
+            return f"table ({tp.__name__})"
+        return {"float": "number", "int": "integer", "str": "string", "bool": "true or false",
+                "NoneType": "none", "Any": "any"}.get(getattr(tp, "__name__", str(tp)), getattr(tp, "__name__", str(tp)))
+    args = get_args(tp)
+    name = getattr(origin, "__name__", str(origin))
+    if name == "Literal" or str(origin).endswith("Literal"):
+        return " \\| ".join(repr(a) for a in args)
+    if origin is Union or origin is types.UnionType:
+        models = [a.__name__ for a in args if isinstance(a, type) and issubclass(a, BaseModel)]
+        rest = [_type_name(a) for a in args if not (isinstance(a, type) and issubclass(a, BaseModel))]
+        if len(models) > 1:
+            tables = f"table ({', '.join(models[:-1])} or {models[-1]})"
+            return " or ".join([tables, *rest])
         return " or ".join(_type_name(a) for a in args)
-    if getattr(origin, "__name__", "") == "Annotated" or str(origin).endswith("Annotated"):
-        return _type_name(get_args(tp)[0])
-    return f"{getattr(origin, '__name__', str(origin))}[{', '.join(_type_name(a) for a in args)}]"
+    if name == "Annotated" or str(origin).endswith("Annotated"):
+        return _type_name(args[0])
+    if origin is list:
+        inner = _type_name(args[0])
+        if inner.startswith("table"):
+            return f"array of {inner.replace('table', 'tables', 1)}"
+        return {"number": "array of numbers", "array of numbers": "array of points"}.get(inner, f"array of {inner}")
+    if origin is dict:
+        return "table"
+    return f"{name}[{', '.join(_type_name(a) for a in args)}]"
 
 
 def _descriptions(model) -> dict[str, str]:
@@ -90,10 +108,88 @@ def table(model: type[BaseModel]) -> str:
         value = None if f.is_required() else f.get_default(call_default_factory=True)
         default = "required" if f.is_required() else ("its own table below" if isinstance(value, BaseModel)
                                                       else repr(value))
-        type_name = _type_name(f.annotation)
-        tp = type_name if "\\|" in type_name else type_name.replace("|", "\\|")
+        tp = _type_name(f.annotation)
         rows.append(f"| `{name}` | {tp} | `{default}` | {_constraints(f)} | {desc.get(name, '')} |")
     return "\n".join(rows) + "\n"
+
+
+# ---- which shapes each method takes: found by asking each method, not written down ----------
+PROBE = """
+method = "{method}"
+[scene]
+bounds = {bounds}
+obstacles = [{obstacle}]
+[[groups]]
+name = "g"
+count = 4
+spawn = {spawn}
+goal = {goal}
+{extra}
+"""
+OBSTACLES = {
+    "circle": (2, '{ shape = "circle", center = [20, 10], radius = 2 }'),
+    "sphere": (3, '{ shape = "sphere", center = [20, 10, 10], radius = 2 }'),
+    "box": (2, '{ shape = "box", lower = [18, 8], upper = [22, 12] }'),
+    "polygon": (2, '{ shape = "polygon", vertices = [[18, 8], [22, 8], [20, 12]] }'),
+    "moving (path)": (2, '{ shape = "circle", center = [20, 10], radius = 1, '
+                         'path = { times = [0, 20], positions = [[20, 10], [20, 16]] } }'),
+}
+SPAWNS = {
+    "point": '{ shape = "point", position = [5, 10] }',
+    "points": '{ shape = "points", points = [[4, 8], [4, 12], [6, 8], [6, 12]] }',
+    "rect": '{ shape = "rect", lower = [2, 5], upper = [8, 15] }',
+    "disc": '{ shape = "disc", center = [5, 10], radius = 3 }',
+    "ring": '{ shape = "ring", center = [5, 10], radius = 2 }',
+}
+GOALS = {
+    "point": '{ shape = "point", position = [35, 10] }',
+    "points": '{ shape = "points", points = [[34, 8], [34, 12], [36, 8], [36, 12]] }',
+    "rect": '{ shape = "rect", lower = [32, 5], upper = [38, 15] }',
+    "disc": '{ shape = "disc", center = [35, 10], radius = 3 }',
+    "moving": '{ shape = "moving", times = [0, 30], positions = [[30, 10], [35, 12]] }',
+    "antipodal": '{ shape = "antipodal", center = [20, 10] }',
+}
+METHODS = ("mdp", "rvo", "pso", "formation")
+
+
+def _accepts(method: str, dim: int = 2, obstacle: str = "", spawn: str = SPAWNS["rect"],
+             goal: str = GOALS["point"]) -> bool:
+    """Whether loading (which runs the method's own checks) accepts such a scenario."""
+    bounds = "[[0, 0], [40, 20]]" if dim == 2 else "[[0, 0, 0], [40, 20, 20]]"
+    if dim == 3:
+        spawn = spawn.replace("[2, 5]", "[2, 5, 5]").replace("[8, 15]", "[8, 15, 15]")
+        goal = goal.replace("[35, 10]", "[35, 10, 10]")
+    extra = '[formation]\nmax_steps = 10\n' if method != "formation" else ""
+    group_extra = 'formation = { kind = "block", rows = 2, cols = 2, spacing = 1.2 }' \
+        if method == "formation" and '"points"' not in spawn else ""
+    text = PROBE.format(method=method, bounds=bounds, obstacle=obstacle, spawn=spawn, goal=goal,
+                        extra=group_extra + "\n" + extra)
+    try:
+        S.parse_scenario(text)
+    except (S.ScenarioError, ValueError):
+        return False
+    return True
+
+
+def support() -> str:
+    """The support table: each obstacle, spawn and goal shape against each method."""
+    rows = ["| shape | " + " | ".join(METHODS) + " |", "|---|" + "---|" * len(METHODS)]
+    mark = {True: "yes", False: "—"}
+    for name, (dim, ob) in OBSTACLES.items():
+        rows.append(f"| obstacle `{name}` | " + " | ".join(mark[_accepts(m, dim, ob)] for m in METHODS) + " |")
+    for name, sp in SPAWNS.items():
+        rows.append(f"| spawn `{name}` | " + " | ".join(mark[_accepts(m, spawn=sp)] for m in METHODS) + " |")
+    for name, g in GOALS.items():
+        sp = SPAWNS["ring"] if name == "antipodal" else SPAWNS["rect"]
+        rows.append(f"| goal `{name}` | " + " | ".join(mark[_accepts(m, spawn=sp, goal=g)] for m in METHODS) + " |")
+    rows.append("| 3D scene | " + " | ".join(mark[_accepts(m, 3)] for m in METHODS) + " |")
+    return "\n".join(rows) + "\n"
+
+
+def personality_names() -> str:
+    from crowdmotion.rvo.personality import TABLE4
+
+    return ", ".join(f"`{k}`" for k in TABLE4)
 
 
 def render() -> str:
@@ -101,6 +197,13 @@ def render() -> str:
     parts = ["# Scenario file reference", "",
              "Generated from the schema by `python docs/make_scenario_reference.py`; the loader accepts exactly "
              "this. Unknown fields are errors; every error names the field and the value.", ""]
+    parts += ["## What each method takes", "",
+              "Found by loading a small scenario of each kind with each method (the loader runs the method's "
+              "own checks), so it cannot drift from the code. \"—\" means `validate` refuses it with a "
+              "message that says why.", "", support(), "",
+              f"RVO personalities (a group's `personality`): the poles {personality_names()} (Table 4 of paper "
+              "004), a list of five traits [O, C, E, A, N] each in [-1, 1], or a distribution table "
+              "(see docs/rvo.md).", ""]
     for title, models in SECTIONS:
         parts += [f"## {title}", ""]
         for m in models:

@@ -3,7 +3,7 @@
 import io
 
 from crowdmotion.progress import FIRST, step_bar
-from crowdmotion.pso.adapter import expected_iterations
+from crowdmotion.pso.adapter import expected_steps
 from crowdmotion.scenario import load_scenario
 from crowdmotion.cli import builtin_scenarios
 
@@ -22,6 +22,6 @@ def test_the_bar_says_compiling_until_the_first_step_then_counts_from_it():
 def test_pso_bars_have_a_total():
     scenes = {p.stem: p for p in builtin_scenarios()}
     gathering = load_scenario(scenes["pso_gathering"])
-    assert expected_iterations(gathering.groups, gathering.params) == gathering.params.iterations
+    assert expected_steps(gathering.groups, gathering.params) == gathering.params.iterations
     following = load_scenario(scenes["pso_following"])
-    assert expected_iterations(following.groups, following.params) > following.params.iterations
+    assert expected_steps(following.groups, following.params) > following.params.iterations

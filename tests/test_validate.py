@@ -150,3 +150,27 @@ def test_library_warnings_print_as_one_clean_line(tmp_path, capsys):
     assert "catmull-rom smoothing would have" in err
     for line in err.splitlines():
         assert line.startswith("crowdmotion: warning: ") and ".py" not in line, err
+
+
+def test_a_typo_gets_a_did_you_mean_and_the_group_by_name(tmp_path, capsys):
+    path = scenario(tmp_path, extra="[rvo]\ntime_stp = 0.1\n")
+    path.write_text(path.read_text().replace("count = 9", "count = 9\nradus = 0.3"))
+    refused(capsys, ["validate", str(path)], "groups.0.radus (group 'walkers')", "did you mean 'radius'?",
+            "rvo.time_stp", "did you mean 'time_step'?")
+
+
+def test_a_pso_point_spawn_for_four_is_refused_by_validate_as_run_would(tmp_path, capsys):
+    path = scenario(tmp_path, "pso", count=4, spawn='{ shape = "point", position = [5, 10] }')
+    refused(capsys, ["validate", str(path)], "1 points given for count = 4")
+
+
+def test_the_scenario_reference_explains_every_field_in_toml_terms():
+    from pathlib import Path
+
+    text = (Path(__file__).parent.parent / "docs" / "scenario-reference.md").read_text()
+    rows = [line for line in text.splitlines() if line.startswith("| `")]
+    empty = [r.split("|")[1] for r in rows if r.rstrip(" |").endswith("|") or r.split("|")[-2].strip() == ""]
+    assert not empty, f"fields without a meaning: {empty}"
+    assert "UnionType" not in text and "NoneType" not in text and "Annotated" not in text
+    assert "| obstacle `polygon` | yes | yes | — | yes |" in text, "per-method support, PSO refuses polygons"
+    assert "`O+`" in text and "`N-`" in text, "the personality names"

@@ -60,8 +60,11 @@ def _output_folder(args, sc) -> Path:
 
 def _size_estimate(sc) -> str:
     """Upper bounds a user can plan with: steps, agent-steps, trajectory memory."""
+    from crowdmotion.registry import get_method
+
     n = sum(g.count for g in sc.groups)
-    steps = getattr(sc.params, "max_steps", None) or getattr(sc.params, "max_iterations", None)
+    expected = getattr(get_method(sc.method).module, "expected_steps", None)
+    steps = expected(sc.groups, sc.params) if expected else getattr(sc.params, "max_steps", None)
     if steps is None:
         return f"{n} agents"
     frames = steps + 1

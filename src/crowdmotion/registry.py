@@ -46,7 +46,7 @@ def method_params(name: str, block: dict):
     try:
         return cls(**block)
     except ValidationError as exc:
-        raise ValueError("; ".join(error_lines(exc, name))) from None
+        raise ValueError("; ".join(error_lines(exc, name, known=cls.model_fields))) from None
     except (TypeError, ValueError) as exc:
         msg = str(exc)
         raise ValueError(msg if msg.startswith(f"{name}.") else f"{name}: {msg}") from None

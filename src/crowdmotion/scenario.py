@@ -7,6 +7,7 @@ in the file is ever executed. Each method adds its block here without changing t
 
 from __future__ import annotations
 
+import re
 import tomllib
 from dataclasses import dataclass
 from pathlib import Path
@@ -16,7 +17,7 @@ import numpy as np
 from pydantic import BaseModel, ConfigDict, Field, ValidationError, field_validator, model_validator
 
 from crowdmotion import groups as G
-from crowdmotion._validation import error_lines
+from crowdmotion._validation import error_lines, field_names
 from crowdmotion.formation.params import FormationParams, TemplateSpec
 from crowdmotion.mdp.params import MDPParams
 from crowdmotion.pso.params import PSOParams
@@ -37,11 +38,26 @@ PosFloat = Annotated[float, Field(gt=0, allow_inf_nan=False)]
 
 
 class PathSpec(_Model):
+    """A keyframed path: the obstacle's centre moves through ``positions`` at ``times``,
+    linearly between keyframes (held before the first and after the last).
+
+    times : list       keyframe times, seconds, increasing
+    positions : list   one [x, y] or [x, y, z] centre per keyframe, metres
+    """
+
     times: list[Annotated[float, Field(allow_inf_nan=False)]]
     positions: list[Coord]
 
 
 class CircleSpec(_Model):
+    """A disc obstacle (2D scenes).
+
+    shape : str        "circle"
+    center : list      [x, y] centre, metres
+    radius : float     metres
+    path : table       optional keyframed motion (PathSpec); without one it stands still
+    """
+
     shape: Literal["circle"]
     center: Coord
     radius: PosFloat
@@ -49,6 +65,14 @@ class CircleSpec(_Model):
 
 
 class SphereSpec(_Model):
+    """A ball obstacle (3D scenes).
+
+    shape : str        "sphere"
+    center : list      [x, y, z] centre, metres
+    radius : float     metres
+    path : table       optional keyframed motion (PathSpec)
+    """
+
     shape: Literal["sphere"]
     center: Coord
     radius: PosFloat
@@ -56,6 +80,14 @@ class SphereSpec(_Model):
 
 
 class BoxSpec(_Model):
+    """An axis-aligned box obstacle (a rectangle in 2D).
+
+    shape : str        "box"
+    lower : list       lowest corner [x, y(, z)], metres
+    upper : list       highest corner, metres
+    path : table       optional keyframed motion (PathSpec)
+    """
+
     shape: Literal["box"]
     lower: Coord
     upper: Coord
@@ -63,6 +95,13 @@ class BoxSpec(_Model):
 
 
 class PolygonSpec(_Model):
+    """A simple polygon obstacle (2D scenes), through shapely.
+
+    shape : str        "polygon"
+    vertices : list    at least three [x, y] corners, in order, metres
+    path : table       optional keyframed motion (PathSpec)
+    """
+
     shape: Literal["polygon"]
     vertices: list[Annotated[list[float], Field(min_length=2, max_length=2)]] = Field(min_length=3)
     path: PathSpec | None = None
@@ -72,40 +111,85 @@ ObstacleSpec = Annotated[Union[CircleSpec, SphereSpec, BoxSpec, PolygonSpec], Fi
 
 
 class SceneSpec(_Model):
+    """The world: axis-aligned bounds (their dimension makes the scene 2D or 3D) and obstacles.
+
+    bounds : list      [lower corner, upper corner], each [x, y] or [x, y, z], metres
+    obstacles : list   obstacle tables, each with a ``shape`` (see the tables below)
+    """
+
     bounds: Annotated[list[Coord], Field(min_length=2, max_length=2)]
     obstacles: list[ObstacleSpec] = []
 
 
 class PointRegion(_Model):
+    """One point: a spawn (one agent, or a formation placed there) or a goal shared by the group.
+
+    shape : str        "point"
+    position : list    [x, y(, z)], metres
+    """
+
     shape: Literal["point"]
     position: Coord
 
 
 class PointsRegion(_Model):
+    """Listed points: one start per agent (spawn), or goal points (one, or one per agent).
+
+    shape : str        "points"
+    points : list      [x, y(, z)] points, metres
+    """
+
     shape: Literal["points"]
     points: list[Coord] = Field(min_length=1)
 
 
 class RectRegion(_Model):
+    """An axis-aligned rectangle (a box in 3D) to spawn in or to reach.
+
+    shape : str        "rect"
+    lower : list       lowest corner, metres
+    upper : list       highest corner, metres
+    """
+
     shape: Literal["rect"]
     lower: Coord
     upper: Coord
 
 
 class DiscRegion(_Model):
+    """A disc (a ball in 3D) to spawn in or to reach.
+
+    shape : str        "disc"
+    center : list      centre, metres
+    radius : float     metres
+    """
+
     shape: Literal["disc"]
     center: Coord
     radius: PosFloat
 
 
 class MovingRegion(_Model):
+    """Goal only: a target moving through keyframes (linear in between).
+
+    shape : str        "moving"
+    times : list       keyframe times, seconds, increasing
+    positions : list   one point per keyframe, metres
+    """
+
     shape: Literal["moving"]
     times: list[Annotated[float, Field(allow_inf_nan=False)]]
     positions: list[Coord]
 
 
 class RingRegion(_Model):
-    """Spawn only: the group's agents evenly spaced on a circle (the antipodal-circle scene)."""
+    """Spawn only: the group's agents evenly spaced on a circle (the antipodal-circle scene).
+
+    shape : str        "ring"
+    center : list      [x, y] centre, metres
+    radius : float     metres
+    phase_deg : float  angle of the first agent, degrees
+    """
 
     shape: Literal["ring"]
     center: Annotated[list[float], Field(min_length=2, max_length=2)]
@@ -114,7 +198,11 @@ class RingRegion(_Model):
 
 
 class AntipodalRegion(_Model):
-    """Goal only: each agent heads for the mirror image of its start through ``center``."""
+    """Goal only: each agent heads for the mirror image of its start through ``center``.
+
+    shape : str        "antipodal"
+    center : list      the mirror point, metres
+    """
 
     shape: Literal["antipodal"]
     center: Coord
@@ -125,6 +213,23 @@ RegionSpec = Annotated[Union[PointRegion, PointsRegion, RectRegion, DiscRegion, 
 
 
 class GroupSpec(_Model):
+    """A named set of agents: how many, where they start, where they go, their bodies.
+
+    name : str          the group's name in outputs, reports and error messages
+    count : int         number of agents
+    spawn : table       where they start: a region table (point, points, rect, disc, ring)
+    goal : table        where they go: a region table (point, points, rect, disc, moving,
+                        antipodal)
+    radius : float      body radius, metres (bounding circle / sphere)
+    max_speed : float   metres per second
+    pref_speed : float  preferred walking speed, metres per second (≤ max_speed)
+    personality : str   rvo: an OCEAN pole name (O+, O-, C+, C-, E+, E-, A+, A-, N+, N-),
+                        a 5-vector of traits in [-1, 1], or a distribution table
+    formation : table   formation: the group's template (see "Formation templates")
+    attributes : table  method-specific extras passed through to the method (Python:
+                        Group.attributes)
+    """
+
     name: str = Field(min_length=1)
     count: Annotated[int, Field(gt=0, le=10_000_000)]
     spawn: RegionSpec
@@ -148,11 +253,33 @@ class GroupSpec(_Model):
 
 
 class OutputSpec(_Model):
+    """What ``crowdmotion run`` writes beside summary.json.
+
+    formats : list      trajectory files: "parquet" and/or "csv"
+    plots : list        pictures: "paths", "values" (mdp), "snapshots" (formation), "player"
+                        (view.html)
+    """
+
     formats: list[Literal["parquet", "csv"]] = ["parquet"]
     plots: list[Literal["paths", "values", "snapshots", "player"]] = ["paths", "values", "snapshots", "player"]
 
 
 class ScenarioSpec(_Model):
+    """One scenario file: a scene, groups, a method and its parameters, a seed, outputs.
+
+    name : str          the scenario's name (default output folder out/<name>)
+    description : str   one line shown by ``crowdmotion scenarios`` and the demo
+    method : str        "mdp", "rvo", "pso" or "formation"
+    seed : int          random seed: the same seed gives the same trajectories
+    scene : table       [scene]: bounds and obstacles
+    groups : list       [[groups]]: one table per group of agents
+    mdp : table         [mdp] parameters (used when method = "mdp")
+    rvo : table         [rvo] parameters (used when method = "rvo")
+    pso : table         [pso] parameters (used when method = "pso")
+    formation : table   [formation] parameters (used when method = "formation")
+    output : table      [output]: files and pictures to write
+    """
+
     name: str = "scenario"
     description: str = ""
     method: Literal["mdp", "rvo", "pso", "formation"]
@@ -220,8 +347,17 @@ class Scenario:
         return method_params(self.spec.method, getattr(self.spec, self.spec.method).model_dump())
 
 
-def _fmt_errors(err: ValidationError, source: str) -> str:
-    return "\n".join([f"{source}: {err.error_count()} problem(s)"] + ["  " + line for line in error_lines(err)])
+def _fmt_errors(err: ValidationError, source: str, data: dict | None = None) -> str:
+    lines = error_lines(err, known=field_names(ScenarioSpec))
+    groups = (data or {}).get("groups")
+    if isinstance(groups, list):  # name the group too: groups.0.radius (group 'walkers'): ...
+        def named(m: re.Match) -> str:
+            k = int(m.group(2))
+            g = groups[k] if k < len(groups) else None
+            name = g.get("name") if isinstance(g, dict) else None
+            return f"{m.group(1)} (group {name!r}):" if isinstance(name, str) else m.group(0)
+        lines = [re.sub(r"^(groups\.(\d+)[^:]*):", named, line) for line in lines]
+    return "\n".join([f"{source}: {err.error_count()} problem(s)"] + ["  " + line for line in lines])
 
 
 def ring_points(center, radius: float, count: int, phase_deg: float = 0.0) -> np.ndarray:
@@ -320,7 +456,7 @@ def parse_scenario(text: str, source: str = "scenario") -> Scenario:
     try:
         spec = ScenarioSpec.model_validate(data)
     except ValidationError as exc:
-        raise ScenarioError(_fmt_errors(exc, source)) from None
+        raise ScenarioError(_fmt_errors(exc, source, data)) from None
     return build(spec, source)
 
 

@@ -18,7 +18,13 @@ class _Model(BaseModel):
 
 
 class BlockTemplate(_Model):
-    """A rectangular block: ``rows`` ranks one behind the other, ``cols`` files across."""
+    """A rectangular block: ``rows`` ranks one behind the other, ``cols`` files across.
+
+    kind : str         "block"
+    rows : int         ranks, one behind the other
+    cols : int         files across the direction of travel
+    spacing : float    metres between neighbours
+    """
 
     kind: Literal["block"]
     rows: Count
@@ -27,7 +33,12 @@ class BlockTemplate(_Model):
 
 
 class WedgeTemplate(_Model):
-    """A wedge (arrow head) pointing forward: row k holds 2k + 1 agents."""
+    """A wedge (arrow head) pointing forward: row k holds 2k + 1 agents.
+
+    kind : str         "wedge"
+    rows : int         rows from the tip back (rows² agents in all)
+    spacing : float    metres between neighbours
+    """
 
     kind: Literal["wedge"]
     rows: Count
@@ -35,7 +46,12 @@ class WedgeTemplate(_Model):
 
 
 class CircleTemplate(_Model):
-    """``count`` agents evenly spaced on a circle of ``radius``."""
+    """``count`` agents evenly spaced on a circle of ``radius``.
+
+    kind : str         "circle"
+    count : int        agents on the circle (at least 3)
+    radius : float     metres
+    """
 
     kind: Literal["circle"]
     count: Annotated[int, Field(ge=3, le=1_000_000)]
@@ -43,7 +59,12 @@ class CircleTemplate(_Model):
 
 
 class LineTemplate(_Model):
-    """``count`` agents abreast in one line across the direction of travel."""
+    """``count`` agents abreast in one line across the direction of travel.
+
+    kind : str         "line"
+    count : int        agents in the line
+    spacing : float    metres between neighbours
+    """
 
     kind: Literal["line"]
     count: Count
@@ -52,7 +73,15 @@ class LineTemplate(_Model):
 
 class CarsTemplate(_Model):
     """Traffic: ``lanes`` × ``per_lane`` cars, each car two agents ``car_width`` apart
-    side by side (the car's heading is the angle of the pair plus 90°)."""
+    side by side (the car's heading is the angle of the pair plus 90°).
+
+    kind : str         "cars"
+    lanes : int        lanes side by side
+    per_lane : int     cars one behind the other in each lane
+    car_width : float  metres between a car's two agents
+    car_gap : float    metres from one car to the next in its lane
+    lane_width : float  metres between lane centres
+    """
 
     kind: Literal["cars"]
     lanes: Count
@@ -63,7 +92,11 @@ class CarsTemplate(_Model):
 
 
 class PointsTemplate(_Model):
-    """Any point set, in the formation's own frame (x forward, y to the left)."""
+    """Any point set, in the formation's own frame (x forward, y to the left).
+
+    kind : str         "points"
+    points : list      [x, y] of each agent, metres
+    """
 
     kind: Literal["points"]
     points: list[Annotated[list[float], Field(min_length=2, max_length=2)]] = Field(min_length=1)
@@ -108,8 +141,7 @@ class FormationParams(_Model):
                                torn set may cost a factorisation; 0: every step)
     occupy_distance : float    [L] an agent within L of its vertex occupies it; beyond it
                                is dislocated (§3.2)
-    attraction_radius : float | None
-                               [R(a)] of eq. (4); None: the formation's largest vertex
+    attraction_radius : float  [R(a)] of eq. (4); None: the formation's largest vertex
                                distance, as the paper suggests
     reassign : bool            dislocated agents may take any free vertex (§3.2); False
                                keeps every agent on its own vertex (cars keep their pair)

@@ -7,7 +7,7 @@ import numpy as np
 from crowdmotion.progress import step_bar
 
 from crowdmotion import metrics
-from crowdmotion.groups import MovingTarget
+from crowdmotion.groups import MovingTarget, Points
 from crowdmotion.pso.obstacles import ObstacleArrays
 from crowdmotion.pso.params import PSOParams
 from crowdmotion.pso.simulation import PSORun, run
@@ -16,7 +16,11 @@ Params = PSOParams
 
 
 def check_scenario(scene, groups, params: PSOParams) -> None:
-    from crowdmotion.checks import where
+    from crowdmotion.checks import check_spawn_capacity, where
+
+    for i, g in enumerate(groups):  # the placement run does: listed starts, room when bodies keep apart
+        if isinstance(g.spawn, Points) or params.avoid_agents:
+            check_spawn_capacity(scene, i, g, params.spawn_gap)
 
     """Problems a scenario can be refused for before running: obstacle kinds, v_max axes,
     targets covered by an obstacle."""
@@ -31,7 +35,7 @@ def check_scenario(scene, groups, params: PSOParams) -> None:
                              f"(clearance {clear.min():.3g} m < radius {g.radius} m)")
 
 
-def expected_iterations(groups, params: PSOParams) -> int:
+def expected_steps(groups, params: PSOParams) -> int:
     """Iterations a run records at most: k, or k per target update when targets move
     (capped at ``max_iterations``); gathering may stop sooner."""
     from crowdmotion.pso.swarm import follow_schedule
@@ -45,7 +49,7 @@ def expected_iterations(groups, params: PSOParams) -> int:
 
 
 def run_scenario(scene, groups, params: PSOParams, rng, progress: bool = True):
-    with step_bar(expected_iterations(groups, params), "pso iterations", progress, unit="it") as bar:
+    with step_bar(expected_steps(groups, params), "pso iterations", progress, unit="it") as bar:
         result = run(scene, groups, params, rng, progress=bar.advance)
     sr = result.swarm_run
     traj = result.trajectories

@@ -28,6 +28,15 @@ class ObstacleField(_Model):
     ``upper`` bound the region (default: the box spanned by the groups' spawn regions and
     targets). Obstacles never cover a target or a spawn point: they keep ``clear`` metres
     (default: radius + threshold + 1) from each target.
+
+    count : int        obstacles to generate
+    radius : float     each obstacle's radius, metres
+    layout : str       "random" or "grouped"
+    clusters : int     with "grouped": how many clumps
+    spread : float     with "grouped": metres round each clump's centre (None: 3 × radius)
+    lower : list       lowest corner of the region (None: from the spawns and targets)
+    upper : list       highest corner of the region
+    clear : float      metres kept free round each target (None: radius + threshold + 1)
     """
 
     count: Annotated[int, Field(gt=0, le=100_000)]
