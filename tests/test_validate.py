@@ -174,3 +174,33 @@ def test_the_scenario_reference_explains_every_field_in_toml_terms():
     assert "UnionType" not in text and "NoneType" not in text and "Annotated" not in text
     assert "| obstacle `polygon` | yes | yes | — | yes |" in text, "per-method support, PSO refuses polygons"
     assert "`O+`" in text and "`N-`" in text, "the personality names"
+
+
+@pytest.mark.parametrize("method,extra", [
+    ("rvo", "[rvo]\nmax_steps = 400\n"),
+    ("mdp", "[mdp]\nmax_steps = 400\nstop_when_done = false\n"),
+    ("pso", "[pso]\niterations = 400\nstop_when_done = false\n"),
+    ("formation", "[formation]\nmax_steps = 400\n"),
+])
+def test_ctrl_c_stops_cleanly_and_keeps_the_frames_so_far(tmp_path, capsys, monkeypatch, method, extra):
+    from crowdmotion.progress import StepBar
+
+    calls = {"n": 0}
+    done = StepBar.done
+
+    def press_ctrl_c(self, n):  # the user presses Ctrl-C during the run
+        calls["n"] += 1
+        if calls["n"] == 3:
+            raise KeyboardInterrupt
+        done(self, n)
+
+    monkeypatch.setattr(StepBar, "done", press_ctrl_c)
+    group = 'formation = { kind = "block", rows = 3, cols = 3, spacing = 1.2 }\n' if method == "formation" else ""
+    path = scenario(tmp_path, method, extra=extra)
+    path.write_text(path.read_text().replace("count = 9\n", "count = 9\n" + group))
+    out = tmp_path / "out"
+    assert main(["run", str(path), "-o", str(out)]) == 130
+    assert "interrupted: kept the" in capsys.readouterr().err
+    summary = json.loads((out / "summary.json").read_text())
+    assert summary["partial"] is True and summary["frames"] > 1
+    assert (out / "trajectories.parquet").is_file()

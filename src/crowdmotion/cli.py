@@ -87,6 +87,10 @@ def cmd_run(args) -> int:
     for f in files:
         print(f"  wrote {f}")
     s = result.summary
+    if s["partial"]:
+        print(f"crowdmotion: interrupted: kept the {s['frames']} frames simulated so far (summary.json says "
+              f"partial = true)", file=sys.stderr)
+        return 130
     if (s["agent_agent_overlaps"] or s["agent_obstacle_penetrations"]) and not args.allow_collisions:
         print(f"crowdmotion: error: the run ends with {s['agent_agent_overlaps']} agent overlaps and "
               f"{s['agent_obstacle_penetrations']} obstacle penetrations (first: {s.get('first_events', [])[:1]}); "
@@ -402,6 +406,9 @@ def main(argv=None) -> int:
     except (ValueError, FileNotFoundError, MemoryError, OSError) as exc:
         print(f"crowdmotion: error: {exc}", file=sys.stderr)
         return 2
+    except KeyboardInterrupt:
+        print("crowdmotion: interrupted", file=sys.stderr)
+        return 130
 
 
 if __name__ == "__main__":  # pragma: no cover

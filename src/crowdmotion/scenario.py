@@ -498,4 +498,5 @@ def run_scenario(scenario, seed: int | None = None, progress: bool = True) -> Ru
     rng = np.random.default_rng(seed)
     traj, extras, summary = method.run(scenario.scene, scenario.groups, scenario.params, rng, progress=progress)
     traj.metadata.update({"seed": seed, "scenario": scenario.spec.name})
+    summary["partial"] = bool(traj.metadata.get("partial", False))  # Ctrl-C stopped it: the frames so far
     return RunResult(scenario, traj, extras, summary, seed)

@@ -97,25 +97,33 @@ def run(scene: Scene, groups: Sequence[Group], params: FormationParams | dict | 
     torn = [[g.mesh.torn.copy()] for g in sim.groups]
     field_steps = [[False] for _ in sim.groups]
     dislocated = [[np.zeros(len(g.agents), bool)] for g in sim.groups]
-    for _ in range(params.max_steps):
-        sim.step()
-        frames.append(sim.positions.copy())
-        for k, g in enumerate(sim.groups):
-            verts[k].append(g.vertices.copy())
-            torn[k].append(g.mesh.torn.copy())
-            field_steps[k].append(g.handles > 0)
-            dislocated[k].append(g.guide.dislocated.copy())
-        if progress is not None:
-            progress(1)
-        if sim.done:
-            break
-    frames = np.array(frames)
+    partial = False
+    try:
+        for _ in range(params.max_steps):
+            sim.step()
+            frames.append(sim.positions.copy())
+            for k, g in enumerate(sim.groups):
+                verts[k].append(g.vertices.copy())
+                torn[k].append(g.mesh.torn.copy())
+                field_steps[k].append(g.handles > 0)
+                dislocated[k].append(g.guide.dislocated.copy())
+            if progress is not None:
+                progress(1)
+            if sim.done:
+                break
+    except KeyboardInterrupt:  # Ctrl-C: keep the steps so far, marked partial
+        partial = True
+    n = min(len(frames), *(len(x) for lists in (verts, torn, field_steps, dislocated) for x in lists))
+    frames = np.array(frames[:n])
+    verts, torn = [v[:n] for v in verts], [t[:n] for t in torn]
+    field_steps, dislocated = [f[:n] for f in field_steps], [d[:n] for d in dislocated]
     from crowdmotion import __version__
 
     names = np.concatenate([np.full(len(g.agents), g.name, dtype=object) for g in sim.groups])
     traj = Trajectories(frames, sim.dt, group=names, radius=sim.radius.copy(),
                         metadata={"method": "formation", "params": params.model_dump(), "scene": scene.to_dict(),
-                                  "version": __version__, "steps": sim.steps, "stats": dict(sim.stats)})
+                                  "version": __version__, "steps": sim.steps, "stats": dict(sim.stats),
+                                  "partial": partial})
     dislocated = [np.array(d) for d in dislocated]
     report = {g.name: _group_report(sim, k, g, np.array(field_steps[k]), dislocated[k].sum(axis=1))
               for k, g in enumerate(sim.groups)}

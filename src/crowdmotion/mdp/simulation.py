@@ -155,34 +155,40 @@ def run(scene: Scene, groups: Sequence[Group], params: MDPParams, rng: np.random
     cells_out = [starts[None]]
     active_out = [np.ones((1, len(starts)), dtype=bool)]
     done = 0
-    while done < params.max_steps:
-        chunk = min(params.replan_every if moving else 64, params.max_steps - done)
-        if values is None or moving:
-            occ = static.occupancy.copy()
-            for ob in moving:  # current cells and those covered over the look-ahead
-                for k in range(params.lookahead + 1):
-                    tmp = GridMap(occ, cell, static.origin)
-                    mark_obstacle(tmp, ob, (done + k) * dt)
-            prev = values
-            values = np.stack([
-                solve_field(occ, [c for c in gc if not occ[tuple(c)]] or gc, params,
-                            None if prev is None else prev[k])
-                for k, gc in enumerate(goal_cells)
-            ])
-            walker.set_blocked(occ)
-            # Algorithm 3 follows v + the goal areas' fill depth (goal_fill: goals that fill)
-            walker.set_values(values + np.stack([fill_depth(occ, gc, params.corner_cutting, toward[k])
-                                                 for k, gc in enumerate(goal_cells)]))
-        before = walker.cells.copy()
-        c, a = walker.advance(chunk, rng, params.tau, params.forbid_crossing, params.despawn)
-        cells_out.append(c)
-        active_out.append(a)
-        done += chunk
-        if progress is not None:
-            progress(done)
-        if (params.stop_when_done and not moving and _all_settled(walker, masks, values)
-                and (np.array_equal(before, walker.cells) or not walker.can_fill_deeper().any())):
-            break
+    partial = False
+    try:
+        while done < params.max_steps:
+            chunk = min(params.replan_every if moving else 64, params.max_steps - done)
+            if values is None or moving:
+                occ = static.occupancy.copy()
+                for ob in moving:  # current cells and those covered over the look-ahead
+                    for k in range(params.lookahead + 1):
+                        tmp = GridMap(occ, cell, static.origin)
+                        mark_obstacle(tmp, ob, (done + k) * dt)
+                prev = values
+                values = np.stack([
+                    solve_field(occ, [c for c in gc if not occ[tuple(c)]] or gc, params,
+                                None if prev is None else prev[k])
+                    for k, gc in enumerate(goal_cells)
+                ])
+                walker.set_blocked(occ)
+                # Algorithm 3 follows v + the goal areas' fill depth (goal_fill: goals that fill)
+                walker.set_values(values + np.stack([fill_depth(occ, gc, params.corner_cutting, toward[k])
+                                                     for k, gc in enumerate(goal_cells)]))
+            before = walker.cells.copy()
+            c, a = walker.advance(chunk, rng, params.tau, params.forbid_crossing, params.despawn)
+            cells_out.append(c)
+            active_out.append(a)
+            done += chunk
+            if progress is not None:
+                progress(done)
+            if (params.stop_when_done and not moving and _all_settled(walker, masks, values)
+                    and (np.array_equal(before, walker.cells) or not walker.can_fill_deeper().any())):
+                break
+    except KeyboardInterrupt:  # Ctrl-C: keep the steps so far, marked partial
+        partial = True
+    n = min(len(cells_out), len(active_out))
+    cells_out, active_out = cells_out[:n], active_out[:n]
     cells = np.concatenate(cells_out)
     active = np.concatenate(active_out)
     positions = grid.centers(cells)
@@ -193,7 +199,7 @@ def run(scene: Scene, groups: Sequence[Group], params: MDPParams, rng: np.random
     traj = Trajectories(
         positions, dt, group=names, radius=radius, active=None if active.all() else active,
         metadata={"method": "mdp", "params": params.model_dump(), "cell_size": cell, "grid_shape": list(grid.shape),
-                  "steps": int(len(cells) - 1), "unreachable_agents": unreachable.tolist(),
+                  "steps": int(len(cells) - 1), "unreachable_agents": unreachable.tolist(), "partial": partial,
                   "scene": scene.to_dict()},
     )
     if params.smoothing is not None:

@@ -222,6 +222,7 @@ class SwarmRun:
     scene : Scene          the scene, generated obstacles included
     stats : dict           rule and guard counts
     iteration_time : float seconds per iteration
+    partial : bool         stopped early by Ctrl-C
     """
 
     paths: np.ndarray
@@ -234,6 +235,7 @@ class SwarmRun:
     params: PSOParams
     stats: dict = field(default_factory=dict)
     iteration_time: float = 0.25
+    partial: bool = False
 
     @property
     def arrival_rate(self) -> float:
@@ -254,7 +256,8 @@ class SwarmRun:
         traj = Trajectories(self.paths, self.iteration_time, group=names[self.swarm], radius=self.radius,
                             metadata={"method": "pso", "params": self.params.model_dump(),
                                       "scene": self.scene.to_dict(), "version": __version__,
-                                      "iterations": int(self.paths.shape[0] - 1), "stats": dict(self.stats)})
+                                      "iterations": int(self.paths.shape[0] - 1), "stats": dict(self.stats),
+                                      "partial": self.partial})
         return traj if fps is None else resample(traj, fps, "linear")
 
 
@@ -281,20 +284,27 @@ def drive(swarm: Swarm, schedule=None, targets_at: Callable[[float], np.ndarray]
     """
     p = swarm.params
     frames, targets = [swarm.x.copy()], [swarm.target.copy()]
-    if schedule is None:
-        until = (lambda s: s.done) if p.stop_when_done else None
-        if not (until and swarm.done):
-            _record(swarm, min(p.iterations, p.max_iterations), frames, targets, progress, until)
+    try:
+        if schedule is None:
+            until = (lambda s: s.done) if p.stop_when_done else None
+            if not (until and swarm.done):
+                _record(swarm, min(p.iterations, p.max_iterations), frames, targets, progress, until)
+        else:
+            for u, t in enumerate(schedule):
+                if u:
+                    swarm.retarget(targets_at(t), which=which)
+                _record(swarm, min(p.iterations, p.max_iterations + 1 - len(frames)), frames, targets, progress)
+                if len(frames) > p.max_iterations:
+                    break
+    except KeyboardInterrupt:  # Ctrl-C: keep the iterations so far, marked partial
+        partial = True
+        n = min(len(frames), len(targets))
+        frames, targets = frames[:n], targets[:n]
     else:
-        for u, t in enumerate(schedule):
-            if u:
-                swarm.retarget(targets_at(t), which=which)
-            _record(swarm, min(p.iterations, p.max_iterations + 1 - len(frames)), frames, targets, progress)
-            if len(frames) > p.max_iterations:
-                break
+        partial = False
     return SwarmRun(np.array(frames), swarm.swarm.copy(), np.array(targets), swarm.stopped.copy(),
                     swarm.arrival_iteration.copy(), swarm.radius.copy(), swarm.scene, p, swarm.stats,
-                    p.iteration_time)
+                    p.iteration_time, partial)
 
 
 # ---- the paper's behaviours ----------------------------------------------------------------

@@ -82,20 +82,25 @@ def run(scene: Scene, groups: Sequence[Group], params: RVOParams, rng: np.random
     sim = build_simulator(scene, groups, params, rng)
     frames = [sim.positions.copy()]
     present = [sim.present.copy()]
-    while sim.steps < params.max_steps and (sim.active & ~sim.arrived).any():
-        sim.step()
-        frames.append(sim.positions.copy())
-        present.append(sim.present.copy())
-        if progress is not None and sim.steps % 10 == 0:
-            progress(sim.steps)
+    partial = False
+    try:
+        while sim.steps < params.max_steps and (sim.active & ~sim.arrived).any():
+            sim.step()
+            frames.append(sim.positions.copy())
+            present.append(sim.present.copy())
+            if progress is not None and sim.steps % 10 == 0:
+                progress(sim.steps)
+    except KeyboardInterrupt:  # Ctrl-C: keep the frames so far, marked partial
+        partial = True
+    n = min(len(frames), len(present))
     names = np.array([g.name for g in groups], dtype=object)
-    active = np.array(present)
+    active = np.array(present[:n])
     traj = Trajectories(
-        np.array(frames), params.time_step, group=names[sim.group], radius=sim.params["radius"],
+        np.array(frames[:n]), params.time_step, group=names[sim.group], radius=sim.params["radius"],
         active=None if active.all() else active,
         metadata={"method": "rvo", "params": params.model_dump(), "scene": scene.to_dict(), "version": __version__,
                   "steps": sim.steps, "stats": dict(sim.stats),
-                  "personality": sim.personality.tolist()},
+                  "personality": sim.personality.tolist(), "partial": partial},
     )
     return RVORun(traj, sim)
 
