@@ -58,7 +58,8 @@ class FormationRun:
         """Every group's mesh and agents at raw step ``step`` (for figures)."""
         out = []
         for k, g in enumerate(self.simulator.groups):
-            out.append({"vertices": self.vertices[k][step], "edges": g.mesh.edges, "torn": self.torn[k][step],
+            out.append({"name": g.name, "vertices": self.vertices[k][step], "edges": g.mesh.edges,
+                        "torn": self.torn[k][step],
                         "agents": self.frames[step][g.agents], "radius": g.radius,
                         "dislocated": self.dislocated[k][step]})
         return out

@@ -11,6 +11,7 @@ import matplotlib
 
 matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
+from matplotlib import patches  # noqa: E402
 import numpy as np  # noqa: E402
 from matplotlib.collections import EllipseCollection, LineCollection  # noqa: E402
 from tqdm.auto import tqdm  # noqa: E402
@@ -104,6 +105,12 @@ def frame_images(traj: Trajectories, frames, trail_s: float = 2.0, width_px: int
         ax.set_xlim(lo[0], hi[0])
         ax.set_ylim(lo[1], hi[1])
         ax.set_aspect("equal")
+        ax.set_xlabel("x (m)", fontsize=8)
+        ax.set_ylabel("y (m)", fontsize=8)
+        ax.tick_params(labelsize=7)
+        fig.subplots_adjust(right=0.86)  # the group legend beside the scene, covering nobody
+        fig.legend(handles=[patches.Patch(color=c, label=str(n)) for n, c in colours.items()], loc="center right",
+                   fontsize=8, frameon=False)
         trails = LineCollection([], linewidths=1.0, animated=blit)
         ax.add_collection(trails)
         d = 2 * traj.radius
@@ -163,13 +170,25 @@ def plot_density(traj: Trajectories, path, cell: float = 0.5, title: str = "") -
                                                                           [lo[1], lo[1] + ny * cell]])
     density = counts / traj.n_frames / cell**2
     fig, ax = plt.subplots(figsize=(8, 8 * (hi[1] - lo[1]) / (hi[0] - lo[0]) + 0.8))
-    im = ax.imshow(np.ma.masked_equal(density.T, 0), origin="lower", cmap="viridis",
+    # one hot cell (a goal where arrivals stand) must not wash out the rest: clip the scale
+    # at the 99th percentile of the occupied cells and say so on the bar
+    occupied = density[density > 0]
+    top = float(np.percentile(occupied, 99)) if occupied.size else 1.0
+    clipped = occupied.size and density.max() > top * 1.001
+    im = ax.imshow(np.ma.masked_equal(density.T, 0), origin="lower", cmap="viridis", vmin=0, vmax=top,
                    extent=(lo[0], lo[0] + nx * cell, lo[1], lo[1] + ny * cell))
     if scene is not None:
         _draw_obstacles_2d(ax, scene)
-    fig.colorbar(im, ax=ax, label="mean density (agents / m²)", shrink=0.8)
+    wide = (hi[1] - lo[1]) / (hi[0] - lo[0]) < 0.6
+    fig.colorbar(im, ax=ax, label="mean density (agents / m²)", shrink=0.8, extend="max" if clipped else "neither",
+                 orientation="horizontal" if wide else "vertical", pad=0.3 if wide else 0.05)
+    if clipped:
+        title = (title or f"mean density, {cell} m cells") + \
+            f"\n(colour scale clipped at the 99th percentile; the densest cell holds {density.max():.2g} /m²)"
     ax.set_xlim(lo[0], hi[0])
     ax.set_ylim(lo[1], hi[1])
     ax.set_aspect("equal")
+    ax.set_xlabel("x (m)")
+    ax.set_ylabel("y (m)")
     ax.set_title(title or f"mean density, {cell} m cells")
     return _save(fig, path)

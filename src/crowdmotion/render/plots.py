@@ -40,10 +40,46 @@ def _draw_obstacles_2d(ax, scene: Scene, t: float = 0.0) -> None:
             ax.plot(ob.path.positions[:, 0], ob.path.positions[:, 1], "k--", lw=1, zorder=2)
 
 
+def group_colours(names) -> dict:
+    """A colour per group: the group's own name when it names a colour ("red", "blue"),
+    else the next of matplotlib's tab10 colours not taken by such a name."""
+    from matplotlib.colors import is_color_like, to_rgba
+
+    names = list(dict.fromkeys(names))
+    cycle = (plt.get_cmap("tab10")(i) for i in range(1000))
+    own = {n: to_rgba(n) for n in names if isinstance(n, str) and is_color_like(n)}
+    taken = set(own.values())
+    out = {}
+    for n in names:
+        if n in own:
+            out[n] = own[n]
+            continue
+        c = next(cycle)
+        while c in taken:
+            c = next(cycle)
+        out[n] = c
+    return out
+
+
 def _group_colours(traj: Trajectories) -> dict:
-    names = list(dict.fromkeys(traj.group.tolist()))
-    cmap = plt.get_cmap("tab10")
-    return {n: cmap(i % 10) for i, n in enumerate(names)}
+    return group_colours(traj.group.tolist())
+
+
+MAX_PATHS = 400  # more paths than this turn into a solid block: draw an even sample
+
+
+def legend_outside(ax, handles, title: str | None = None) -> None:
+    """The legend to the right of the axes, where it covers no agent."""
+    ax.legend(handles=handles, loc="upper left", bbox_to_anchor=(1.01, 1.0), fontsize=8, title=title,
+              title_fontsize=8, frameon=False)
+
+
+def marker_handles() -> list:
+    """Legend entries that explain the start and end markers."""
+    from matplotlib.lines import Line2D
+
+    return [Line2D([], [], marker="o", ls="", mfc="none", mec="0.3", ms=5, label="start"),
+            Line2D([], [], marker="o", ls="", color="0.3", ms=6, label="end (body to scale)")]
 
 
 def _draw_mesh(ax, vertices: np.ndarray, edges: np.ndarray, torn: np.ndarray, colour, lw: float,
@@ -77,10 +113,13 @@ def plot_paths(traj: Trajectories, scene: Scene, path, title: str = "", goals=No
     """Every agent's path (start ○, end ●) over the scene's obstacles; 2D or 3D."""
     colours = _group_colours(traj)
     act = traj.active_mask
+    drawn = np.arange(traj.n_agents)
+    if traj.n_agents > MAX_PATHS:  # an even sample: every group keeps its share
+        drawn = drawn[np.linspace(0, traj.n_agents - 1, MAX_PATHS).astype(int)]
     if traj.dim == 2:
         fig, ax = plt.subplots(figsize=(8, 8 * (scene.upper[1] - scene.lower[1]) / (scene.upper[0] - scene.lower[0]) + 0.8))
         _draw_obstacles_2d(ax, scene)
-        for i in range(traj.n_agents):
+        for i in drawn:
             p = traj.positions[act[:, i], i]
             c = colours[traj.group[i]]
             ax.plot(p[:, 0], p[:, 1], "-", color=c, lw=0.8, alpha=0.7, zorder=3)
@@ -88,7 +127,7 @@ def plot_paths(traj: Trajectories, scene: Scene, path, title: str = "", goals=No
             ax.add_patch(patches.Circle(p[-1], traj.radius[i], color=c, zorder=5))
         if goals is not None:
             g = np.atleast_2d(goals)
-            ax.plot(g[:, 0], g[:, 1], "s", color="gold", alpha=0.35, ms=6, zorder=1, label="goal")
+            ax.plot(g[:, 0], g[:, 1], "s", color="gold", alpha=0.35, ms=6, zorder=1)
         ax.set_xlim(scene.lower[0], scene.upper[0])
         ax.set_ylim(scene.lower[1], scene.upper[1])
         ax.set_aspect("equal")
@@ -105,7 +144,7 @@ def plot_paths(traj: Trajectories, scene: Scene, path, title: str = "", goals=No
                                 ob.center[2] + ob.radius * np.cos(v), color="0.5", alpha=0.35)
             elif isinstance(ob, Box):
                 _box_3d(ax, ob.lower, ob.upper)
-        for i in range(traj.n_agents):
+        for i in drawn:
             p = traj.positions[act[:, i], i]
             c = colours[traj.group[i]]
             ax.plot(p[:, 0], p[:, 1], p[:, 2], "-", color=c, lw=0.8, alpha=0.8)
@@ -120,8 +159,15 @@ def plot_paths(traj: Trajectories, scene: Scene, path, title: str = "", goals=No
         ax.set_ylabel("y (m)")
         ax.set_zlabel("z (m)")
     handles = [patches.Patch(color=c, label=n) for n, c in colours.items()]
-    ax.legend(handles=handles, loc="upper left", fontsize=8)
-    ax.set_title(title or f"{traj.n_agents} agents, {traj.n_frames} frames")
+    if traj.dim == 2:
+        handles += marker_handles()
+    if goals is not None:
+        from matplotlib.lines import Line2D
+
+        handles.append(Line2D([], [], marker="s", ls="", color="gold", alpha=0.5, label="goal cells / targets"))
+    legend_outside(ax, handles)
+    note = f" ({len(drawn)} of {traj.n_agents} paths drawn)" if len(drawn) < traj.n_agents else ""
+    ax.set_title((title or f"{traj.n_agents} agents, {traj.n_frames} frames") + note)
     return _save(fig, path)
 
 
@@ -218,22 +264,40 @@ def plot_formation_snapshots(scene: Scene, snapshots: list[dict], path, title: s
     cols = 2 if k > 1 else 1
     rows = (k + cols - 1) // cols
     fig, axes = plt.subplots(rows, cols, figsize=(6.5 * cols, 6.5 * rows * aspect + 0.7), squeeze=False)
-    cmap = plt.get_cmap("tab10")
+    colours = _snapshot_colours(snapshots)
     for ax, snap in zip(axes.ravel(), snapshots):
         _draw_obstacles_2d(ax, scene, snap["time"])
         for gi, g in enumerate(snap["groups"]):
-            _draw_mesh(ax, g["vertices"], g["edges"], g["torn"], cmap(gi % 10), lw=0.6, alpha=0.7)
+            c = colours[g.get("name", gi)]
+            _draw_mesh(ax, g["vertices"], g["edges"], g["torn"], c, lw=0.6, alpha=0.7)
             for p, lost in zip(g["agents"], g["dislocated"]):
-                ax.add_patch(patches.Circle(p, g["radius"], color="k" if lost else cmap(gi % 10), zorder=4))
+                ax.add_patch(patches.Circle(p, g["radius"], color="k" if lost else c, zorder=4))
         ax.set_xlim(lo[0], hi[0])
         ax.set_ylim(lo[1], hi[1])
         ax.set_aspect("equal")
+        ax.set_xlabel("x (m)")
+        ax.set_ylabel("y (m)")
         ax.set_title(f"{snap.get('label', '')} t = {snap['time']:.1f} s", fontsize=10)
     for ax in axes.ravel()[k:]:
         ax.axis("off")
+    legend_outside(axes.ravel()[min(k, cols) - 1], _mesh_handles(colours))
     if title:
         fig.suptitle(title)
     return _save(fig, path)
+
+
+def _snapshot_colours(snapshots: list[dict]) -> dict:
+    """Group colours for formation snapshots, by group name where given (else index)."""
+    return group_colours([g.get("name", gi) for gi, g in enumerate(snapshots[0]["groups"])])
+
+
+def _mesh_handles(colours: dict) -> list:
+    """Legend entries for formation pictures: groups, dislocated agents, torn edges."""
+    from matplotlib.lines import Line2D
+
+    return ([patches.Patch(color=c, label=str(n)) for n, c in colours.items()]
+            + [Line2D([], [], marker="o", ls="", color="k", label="dislocated agent"),
+               Line2D([], [], color="red", ls="--", label="torn edge")])
 
 
 def animate_formation_snapshots(scene: Scene, snapshots: list[dict], path, fps: float = 10.0, title: str = "",
@@ -243,22 +307,25 @@ def animate_formation_snapshots(scene: Scene, snapshots: list[dict], path, fps: 
     lo, hi = (scene.lower, scene.upper) if window is None else (np.asarray(window[0]), np.asarray(window[1]))
     aspect = (hi[1] - lo[1]) / (hi[0] - lo[0])
     width = 8.0 if aspect > 0.4 else 12.0  # wide scenes (a road) get a wider picture
-    fig, ax = plt.subplots(figsize=(width, max(2.5, width * aspect) + 0.5))
-    cmap = plt.get_cmap("tab10")
+    fig, ax = plt.subplots(figsize=(width + 1.6, max(2.5, width * aspect) + 0.5))
+    group_colour = _snapshot_colours(snapshots)
 
     def draw(k):
         ax.clear()
         snap = snapshots[k]
         _draw_obstacles_2d(ax, scene, snap["time"])
         for gi, g in enumerate(snap["groups"]):
-            _draw_mesh(ax, g["vertices"], g["edges"], g["torn"], cmap(gi % 10), lw=0.5, alpha=0.6)
+            c = group_colour[g.get("name", gi)]
+            _draw_mesh(ax, g["vertices"], g["edges"], g["torn"], c, lw=0.5, alpha=0.6)
             a = g["agents"]
-            colours = np.where(g["dislocated"][:, None], np.array([[0.0, 0.0, 0.0, 1.0]]),
-                               np.array([cmap(gi % 10)]))
+            colours = np.where(g["dislocated"][:, None], np.array([[0.0, 0.0, 0.0, 1.0]]), np.array([c]))
             ax.scatter(a[:, 0], a[:, 1], s=8, c=colours, zorder=4)
         ax.set_xlim(lo[0], hi[0])
         ax.set_ylim(lo[1], hi[1])
         ax.set_aspect("equal")
+        ax.set_xlabel("x (m)")
+        ax.set_ylabel("y (m)")
+        legend_outside(ax, _mesh_handles(group_colour))
         ax.set_title(f"{title}  t = {snap['time']:.1f} s", fontsize=10)
 
     fig.set_dpi(72)

@@ -1,0 +1,63 @@
+"""Pictures a user can read (issue 15.8): group colours that match their names, legends
+beside the scene, start/end markers explained, big crowds sampled, density scale clipped."""
+
+import numpy as np
+import pytest
+
+import crowdmotion as cm
+from crowdmotion.render import animation, plots
+from crowdmotion.trajectories import Trajectories
+
+
+@pytest.fixture
+def captured(monkeypatch):
+    figs = []
+
+    def keep(fig, path):
+        figs.append(fig)
+        return path
+
+    monkeypatch.setattr(plots, "_save", keep)
+    monkeypatch.setattr(animation, "_save", keep)
+    return figs
+
+
+def test_groups_named_after_colours_get_those_colours():
+    c = plots.group_colours(["red", "blue", "walkers", "tab:blue"])
+    assert c["red"] == (1.0, 0.0, 0.0, 1.0) and c["blue"] == (0.0, 0.0, 1.0, 1.0)
+    assert len(set(c.values())) == 4, "a named colour is not handed to another group"
+
+
+def _crowd(n, frames=5):
+    rng = np.random.default_rng(0)
+    pos = np.cumsum(rng.normal(size=(frames, n, 2)), axis=0) + 20
+    return Trajectories(pos, 0.5, group=np.array(["a"] * (n // 2) + ["b"] * (n - n // 2), dtype=object))
+
+
+def test_paths_legend_sits_beside_the_scene_and_explains_the_markers(captured, tmp_path):
+    plots.plot_paths(_crowd(10), cm.Scene(bounds=([0, 0], [40, 40])), tmp_path / "p.png")
+    ax = captured[0].axes[0]
+    legend = ax.get_legend()
+    labels = [t.get_text() for t in legend.get_texts()]
+    assert labels[:2] == ["a", "b"] and "start" in labels and any("end" in t for t in labels)
+    assert legend.get_bbox_to_anchor().x0 >= ax.get_window_extent().x1 - 1, "outside the axes"
+    assert ax.get_xlabel() == "x (m)"
+
+
+def test_a_big_crowd_draws_a_sample_of_its_paths_and_says_so(captured, tmp_path):
+    plots.plot_paths(_crowd(2000), cm.Scene(bounds=([0, 0], [40, 40])), tmp_path / "p.png")
+    ax = captured[0].axes[0]
+    assert f"({plots.MAX_PATHS} of 2000 paths drawn)" in ax.get_title()
+    assert len(ax.lines) <= 2 * plots.MAX_PATHS
+
+
+def test_one_hot_cell_does_not_flatten_the_density_scale(captured, tmp_path):
+    pos = np.full((50, 40, 2), 5.0)  # agent 0 stands at (5, 5) all along
+    pos[:, 1:, 0] = np.linspace(0.5, 39.5, 50)[:, None]  # 39 walkers cross the scene in rows
+    pos[:, 1:, 1] = np.linspace(0.5, 9.5, 39)[None, :]
+    traj = Trajectories(pos, 0.5, metadata={"scene": cm.Scene(bounds=([0, 0], [40, 10])).to_dict()})
+    animation.plot_density(traj, tmp_path / "d.png", cell=1.0)
+    ax = captured[0].axes[0]
+    image = ax.get_images()[0]
+    assert image.norm.vmax < 0.5, "the standing agent's cell (1 /m²) is off the scale"
+    assert "clipped" in ax.get_title()
