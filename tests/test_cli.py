@@ -75,3 +75,24 @@ def test_export_to_every_format_and_bad_requests(tmp_path, capsys):
     assert main(["export", str(out), "--to", "sqlite", "-o", str(tmp_path / "no" / "such" / "dir.sqlite")]) == 2
     assert "does not exist" in capsys.readouterr().err
     assert not (tmp_path / "no").exists()
+
+
+def test_bench_reaches_every_methods_benchmark(capsys):
+    # peers (pyrvo, JuPedSim) come with the [bench] extra; without them their columns are empty
+    assert main(["bench", "formation", "--sizes", "200", "--steps", "2"]) == 0
+    assert "| agents | mesh generation |" in capsys.readouterr().out
+    assert main(["bench", "rvo", "--sizes", "200", "--steps", "2"]) == 0
+    assert "| circle | 200 |" in capsys.readouterr().out
+
+
+def test_every_argument_has_help_text():
+    import argparse
+
+    from crowdmotion.cli import build_parser
+
+    parser = build_parser()
+    sub = next(a for a in parser._actions if isinstance(a, argparse._SubParsersAction))
+    missing = [f"{name} {a.dest}" for name, p in sub.choices.items() for a in p._actions
+               if not a.help and not isinstance(a, argparse._HelpAction)]
+    assert not missing, missing
+    assert all(c.help for c in sub._choices_actions), "every subcommand has a one-line help"

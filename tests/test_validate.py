@@ -204,3 +204,10 @@ def test_ctrl_c_stops_cleanly_and_keeps_the_frames_so_far(tmp_path, capsys, monk
     summary = json.loads((out / "summary.json").read_text())
     assert summary["partial"] is True and summary["frames"] > 1
     assert (out / "trajectories.parquet").is_file()
+
+
+def test_a_pso_clamp_faster_than_the_groups_max_speed_is_said_not_silent(tmp_path, capsys):
+    path = scenario(tmp_path, "pso")  # max_speed 1.5 m/s; v_max 0.5 per axis per 0.25 s = 2.83 m/s in 2D
+    assert main(["validate", str(path)]) == 0
+    err = capsys.readouterr().err
+    assert "group 'walkers' (groups.0): pso.v_max [0.5, 0.5]" in err and "2.83 m/s" in err and "max_speed 1.5" in err

@@ -132,11 +132,15 @@ def cmd_validate(args) -> int:
 
 
 def cmd_bench(args) -> int:
+    if args.method != "mdp":  # the package's side-by-side benchmarks take their own options
+        import importlib
+
+        importlib.import_module(f"crowdmotion.bench.{args.method}").main(args.options)
+        return 0
     from crowdmotion.mdp.benchmark import print_tables, run_paper_tables
 
-    if args.method != "mdp":
-        print(f"no benchmark for method {args.method!r}", file=sys.stderr)
-        return 2
+    if args.options:
+        raise ValueError(f"bench mdp takes --no-reference, --repeats and -q, not {' '.join(args.options)}")
     rows = run_paper_tables(reference=not args.no_reference, repeats=args.repeats, progress=not args.quiet)
     print_tables(rows)
     return 0
@@ -276,8 +280,9 @@ def cmd_sweep(args) -> int:
     from crowdmotion.sweep import sweep
 
     settings = dict(_setting(s) for s in args.set or [])
-    out = Path(args.output or Path("sweeps") / Path(args.scenario).stem)
-    table = sweep(args.scenario, _seeds(args.seeds), settings, out, scheduler=args.scheduler, workers=args.workers,
+    source = scenario_path(args.scenario)
+    out = Path(args.output or Path("sweeps") / source.stem)
+    table = sweep(source, _seeds(args.seeds), settings, out, scheduler=args.scheduler, workers=args.workers,
                   progress=not args.quiet)
     print(f"{table.num_rows} runs; table {out / 'sweep.parquet'}, trajectories in {out / 'runs'}/")
     return 0
@@ -316,6 +321,20 @@ def cmd_list(args) -> int:
 
 
 def main(argv=None) -> int:
+    args = build_parser().parse_args(argv)
+    warnings.showwarning = _one_line_warning
+    try:
+        return args.func(args)
+    except (ValueError, FileNotFoundError, MemoryError, OSError) as exc:
+        print(f"crowdmotion: error: {exc}", file=sys.stderr)
+        return 2
+    except KeyboardInterrupt:
+        print("crowdmotion: interrupted", file=sys.stderr)
+        return 130
+
+
+def build_parser() -> argparse.ArgumentParser:
+    """The command line: one subcommand per job, every argument with its help."""
     parser = argparse.ArgumentParser(prog="crowdmotion", description="Collision-free crowd and group motion.")
     parser.add_argument("--version", action="version", version=f"crowdmotion {__version__}")
     sub = parser.add_subparsers(dest="command", required=True)
@@ -332,9 +351,10 @@ def main(argv=None) -> int:
     p.set_defaults(func=cmd_run)
 
     p = sub.add_parser("demo", help="run the built-in scenes (offline, no arguments needed)")
-    p.add_argument("-o", "--output", default="crowdmotion-demo")
+    p.add_argument("-o", "--output", default="crowdmotion-demo",
+                   help="folder for the scenes' outputs, one subfolder each (default ./crowdmotion-demo)")
     p.add_argument("--only", nargs="*", help="names of built-in scenes to run")
-    p.add_argument("-q", "--quiet", action="store_true")
+    p.add_argument("-q", "--quiet", action="store_true", help="no progress bars")
     p.set_defaults(func=cmd_demo)
 
     p = sub.add_parser("validate", help="check a scenario as `run` would, without simulating")
@@ -343,11 +363,17 @@ def main(argv=None) -> int:
     p.add_argument("--overwrite", action="store_true", help="as for run: an earlier run there may be replaced")
     p.set_defaults(func=cmd_validate)
 
-    p = sub.add_parser("bench", help="reproduce the papers' timing tables")
-    p.add_argument("method", choices=["mdp"])
-    p.add_argument("--no-reference", action="store_true", help="skip the slow plain-Python solvers")
-    p.add_argument("--repeats", type=int, default=3, help="runs per timing (the paper used 3)")
-    p.add_argument("-q", "--quiet", action="store_true")
+    p = sub.add_parser("bench", help="side-by-side benchmarks: the papers' tables beside our solvers and peers",
+                       description="mdp: paper 000's Tables 1-2 beside our fast solver and scipy. rvo: our step "
+                                   "against pyrvo (RVO2) and JuPedSim. pso: against PySwarms and the paper's plain "
+                                   "Python. formation: paper 003's Table 1 (mesh and deformation time). Peers come "
+                                   "with pip install \"crowdmotion[bench]\"; options after the method go to "
+                                   "that benchmark (e.g. crowdmotion bench rvo --sizes 1000 --steps 10).")
+    p.add_argument("method", choices=["mdp", "rvo", "pso", "formation"], help="which method's benchmark")
+    p.add_argument("--no-reference", action="store_true", help="mdp: skip the slow plain-Python solvers")
+    p.add_argument("--repeats", type=int, default=3, help="mdp: runs per timing (the paper used 3)")
+    p.add_argument("-q", "--quiet", action="store_true", help="mdp: no progress bar")
+    p.add_argument("options", nargs=argparse.REMAINDER, help="rvo, pso, formation: their own options (--help)")
     p.set_defaults(func=cmd_bench)
 
     p = sub.add_parser("report", help="per-group behaviour report of a run's trajectories")
@@ -364,28 +390,30 @@ def main(argv=None) -> int:
 
     p = sub.add_parser("render", help="animation (MP4/GIF), density map and paths of a run")
     p.add_argument("output", help="a run's output folder (or a trajectories file)")
-    p.add_argument("--to", choices=["mp4", "gif"], default="mp4")
+    p.add_argument("--to", choices=["mp4", "gif"], default="mp4", help="animation format (default mp4, H.264)")
     p.add_argument("--fps", type=float, help="frames per second (default: real time, at most 30)")
     p.add_argument("--trail", type=float, default=2.0, help="seconds of trail behind each agent")
-    p.add_argument("--max-frames", type=int, default=600)
+    p.add_argument("--max-frames", type=int, default=600,
+                   help="at most this many frames (a longer run is sampled evenly; default 600)")
     p.add_argument("--cell", type=float, default=0.5, help="density map cell, metres")
-    p.add_argument("-q", "--quiet", action="store_true")
+    p.add_argument("-q", "--quiet", action="store_true", help="no progress bar")
     p.set_defaults(func=cmd_render)
 
     p = sub.add_parser("view", help="write a self-contained HTML player of a run (works offline)")
     p.add_argument("output", help="a run's output folder (or a trajectories file)")
     p.add_argument("-o", "--dest", help="HTML file to write (default: view.html beside the input)")
-    p.add_argument("--max-frames", type=int, default=3000)
+    p.add_argument("--max-frames", type=int, default=3000,
+                   help="at most this many frames in the page (a longer run is sampled evenly; default 3000)")
     p.set_defaults(func=cmd_view)
 
     p = sub.add_parser("sweep", help="run a scenario over seeds and parameter values on Dask")
-    p.add_argument("scenario")
+    p.add_argument("scenario", help="a scenario TOML file, or the name of a built-in scene")
     p.add_argument("--seeds", default="0:8", help="0:100 (a range), 1,4,9 or 7 (default 0:8)")
     p.add_argument("--set", action="append", metavar="FIELD=V1,V2", help="e.g. rvo.safety=1,3,7.5 (repeatable)")
     p.add_argument("--scheduler", help="address of a running Dask scheduler (default: a LocalCluster)")
     p.add_argument("--workers", type=int, help="LocalCluster workers (default: the machine's cores)")
     p.add_argument("-o", "--output", help="output folder (default ./sweeps/<scenario>)")
-    p.add_argument("-q", "--quiet", action="store_true")
+    p.add_argument("-q", "--quiet", action="store_true", help="no progress bar")
     p.set_defaults(func=cmd_sweep)
 
     p = sub.add_parser("verify", help="the field's public test cases (RiMEA, SteerBench) with their pass criteria")
@@ -399,16 +427,7 @@ def main(argv=None) -> int:
     p = sub.add_parser("scenarios", help="list the built-in scenarios")
     p.set_defaults(func=cmd_list)
 
-    args = parser.parse_args(argv)
-    warnings.showwarning = _one_line_warning
-    try:
-        return args.func(args)
-    except (ValueError, FileNotFoundError, MemoryError, OSError) as exc:
-        print(f"crowdmotion: error: {exc}", file=sys.stderr)
-        return 2
-    except KeyboardInterrupt:
-        print("crowdmotion: interrupted", file=sys.stderr)
-        return 130
+    return parser
 
 
 if __name__ == "__main__":  # pragma: no cover

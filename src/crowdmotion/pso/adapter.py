@@ -3,6 +3,8 @@ summary, figures."""
 
 from __future__ import annotations
 
+import warnings
+
 import numpy as np
 from crowdmotion.progress import step_bar
 
@@ -21,6 +23,14 @@ def check_scenario(scene, groups, params: PSOParams) -> None:
     for i, g in enumerate(groups):  # the placement run does: listed starts, room when bodies keep apart
         if isinstance(g.spawn, Points) or params.avoid_agents:
             check_spawn_capacity(scene, i, g, params.spawn_gap)
+    # the paper's clamp is per axis and per iteration: say so when it allows more than a group's max_speed
+    top = float(np.linalg.norm(params.axis_vmax(scene.dim))) / params.iteration_time
+    for i, g in enumerate(groups):
+        if top > g.max_speed * (1 + 1e-9):
+            warnings.warn(f"{where(i, g)}: pso.v_max {params.axis_vmax(scene.dim)} per "
+                          f"{params.iteration_time:g} s iteration lets a particle move at up to {top:.2f} m/s, above "
+                          f"the group's max_speed {g.max_speed:g} m/s (PSO clamps per axis, as the paper does); "
+                          f"lower pso.v_max or raise pso.iteration_time to keep to it", stacklevel=2)
 
     """Problems a scenario can be refused for before running: obstacle kinds, v_max axes,
     targets covered by an obstacle."""
