@@ -120,10 +120,7 @@ def region_samples(scene: Scene, region, with_area: bool = False, per_axis: int 
 def _clearance(scene: Scene, pts: np.ndarray) -> np.ndarray:
     """Distance from each point to the nearest static obstacle or the scene's walls."""
     walls = np.minimum(pts - scene.lower, scene.upper - pts).min(axis=1)
-    static = np.full(len(pts), np.inf)
-    for ob in scene.static_obstacles:
-        static = np.minimum(static, ob.signed_distance(pts))
-    return np.minimum(walls, static)
+    return np.minimum(walls, scene.static_obstacle_distance(pts))
 
 
 def _blocker(scene: Scene, p: np.ndarray) -> str:

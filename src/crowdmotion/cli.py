@@ -212,8 +212,8 @@ def cmd_export(args) -> int:
 
 
 def _at_fps(traj, fps: float):
-    """The run resampled to ``fps`` by straight moves between its frames (which keeps the
-    continuous-time audit's verdict), re-audited against the run's scene."""
+    """The run resampled to ``fps`` by straight moves between its frames, re-audited
+    against the run's scene (a warning says if the new frames make bodies overlap)."""
     from crowdmotion.render.animation import scene_of
     from crowdmotion.smoothing import resample_checked
 

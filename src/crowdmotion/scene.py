@@ -273,6 +273,14 @@ class Scene:
             d = np.minimum(d, ob.signed_distance(p - ob.offset(t)))
         return d
 
+    def static_obstacle_distance(self, points) -> np.ndarray:
+        """Signed distance from each point to the nearest obstacle that does not move."""
+        p = as_points(points, self.dim)
+        d = np.full(p.shape[:-1], np.inf)
+        for ob in self.static_obstacles:
+            d = np.minimum(d, ob.signed_distance(p))
+        return d
+
     def to_dict(self) -> dict:
         """Plain description for metadata and plots (JSON-serialisable)."""
         obs = []

@@ -18,7 +18,9 @@ def resample_checked(traj: Trajectories, fps: float, kind: str, scene: Scene | N
                      max_speed: np.ndarray | None = None) -> Trajectories:
     """``resample(traj, fps, kind)``, audited in continuous time and fixed per segment.
 
-    Linear resampling keeps the straight moves, so it is as clean as ``traj``. A spline
+    Linear resampling at a whole multiple of the run's rate keeps every step, so it is as
+    clean as ``traj``; at another rate the frames fall between steps, and a warning says
+    if that makes bodies overlap. A spline
     rounds corners and can bring two bodies together, or overshoot past ``max_speed`` (a
     per-agent (N,) array). Every step of an agent's path (a segment between two input
     frames) where that happens falls back to the straight move — both pass through the
@@ -27,7 +29,17 @@ def resample_checked(traj: Trajectories, fps: float, kind: str, scene: Scene | N
     (``resampled.straight_segments`` of ``resampled.segments``); a warning says so too.
     """
     linear = resample(traj, fps, "linear")
-    if kind == "linear" or traj.n_frames < 2:
+    if traj.n_frames < 2:
+        return linear
+    if kind == "linear":
+        steps = fps * traj.dt
+        if abs(steps - round(steps)) > 1e-9:  # new frames miss the old ones: chords may cut corners
+            was, now = collision_audit(traj, scene), collision_audit(linear, scene)
+            if now.agent_agent > was.agent_agent or now.agent_obstacle > was.agent_obstacle:
+                warnings.warn(f"at {fps:g} fps the frames fall between the run's steps (every {traj.dt:.4g} s) and "
+                              f"the straight lines between them overlap {now.agent_agent - was.agent_agent} more "
+                              f"times; a rate that is a whole multiple of {1 / traj.dt:.4g} fps keeps every step",
+                              stacklevel=2)
         return linear
     smooth = resample(traj, fps, kind)
     seg = np.minimum(np.floor(smooth.times / traj.dt + 1e-9).astype(int), traj.n_frames - 2)  # segment of a frame

@@ -1,5 +1,5 @@
-"""Breaking RVO stand-offs: keep right, impatience, yielding by priority, and arrival by
-contact at a shared goal point.
+"""Breaking RVO stand-offs: keep right, yielding by priority, and arrival by contact at a
+shared goal point.
 
 Eq. (3) of the paper, penalty(v′) = w / tc(v′) + ‖v_pref − v′‖, lets an agent stand still
 for good: standing costs ‖v_pref‖ and every move towards a blocker costs at least as much,
@@ -12,10 +12,11 @@ break that; neither touches the continuous-time guarantee, which the step's safe
    neighbour turns its v_pref right by a few degrees, so head-on pairs pass left side to
    left side instead of meeting nose to nose (the pedestrians' convention that
    Helbing & Molnár's social force model also builds in).
-2. **Yielding by priority**: an agent held up (walking slower than half its preferred
-   speed along v_pref) for ``patience`` seconds — counted leakily, so a second of walking
+2. **Yielding by priority**: an agent held up (walking slower than a tenth of its
+   preferred speed along v_pref) for ``patience`` seconds — counted leakily, so a second of walking
    takes back a second of waiting — whose way is blocked by an agent that is held up
-   too (ahead on its line, within its neighbour distance D) and has the higher priority
+   too, comes head-on (its v_pref against ours), stands on our line within our neighbour
+   distance D among our six nearest, has us on its line, and has the higher priority
    (a fixed hash of the id), yields: while it stands in the other's way it backs off,
    away from the other and turned 30° to its right; once out of the way it waits until
    the other has walked past (or 10 s have gone). A one-body-wide passage thus clears.
@@ -24,7 +25,8 @@ Lowering w for agents held up ("impatience") was tried and dropped: in a four-wa
 crossing (RVO2's Blocks) everyone pushes in and the crossing jams for good.
 
 And for goals shared by a crowd when arrivals stay (``remove_on_arrival = False``):
-4. **Arrival by contact**: an agent touching (within 0.1 m) an agent already arrived at the
+
+3. **Arrival by contact**: an agent touching (within 0.1 m) an agent already arrived at the
    same goal point, which is nearer the point than itself, has arrived too. The arrived
    agents form a packed disc round the point that grows with the queue.
 """

@@ -74,10 +74,7 @@ def distance_fields(scene: Scene, goals: list, radius: float, cell: float | None
         raise ValueError(f"rvo.field_cell {cell} m gives a {shape} grid; use a larger cell")
     idx = np.indices(shape).reshape(2, -1).T
     centres = scene.lower + (idx + 0.5) * cell
-    clearance = np.full(len(centres), np.inf)
-    for ob in scene.static_obstacles:
-        clearance = np.minimum(clearance, ob.signed_distance(centres))
-    blocked = (clearance < radius).reshape(shape)
+    blocked = (scene.static_obstacle_distance(centres) < radius).reshape(shape)
     fields, goal_cells = [], []
     for k, goal in enumerate(goals):
         if isinstance(goal, MovingTarget):
