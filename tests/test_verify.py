@@ -48,9 +48,9 @@ def test_full_suite(case, method):
 def test_verify_command_prints_the_table_and_writes_pictures(tmp_path, capsys):
     assert main(["verify", "--quick", "--case", "rimea_1_corridor", "-o", str(tmp_path), "-q"]) == 0
     out = capsys.readouterr().out
-    assert "| rimea_1_corridor | rvo | 40 m at 1.33 m/s in 26-34 s |" in out and "2/2 passed" in out
+    assert "| rimea_1_corridor | rvo | 40 m at 1.33 m/s in 26-34 s |" in out and "3/3 passed" in out
     rows = json.loads((tmp_path / "verify.json").read_text())
-    assert {r["method"] for r in rows} == {"rvo", "mdp"}
+    assert {r["method"] for r in rows} == {"rvo", "mdp", "formation"}
     assert (tmp_path / "rimea_1_corridor_rvo.png").stat().st_size > 10_000
 
 

@@ -125,6 +125,10 @@ def _all_clean(outcomes: dict[str, Outcome]) -> tuple[int, int]:
 
 
 def _arrived(r: Outcome) -> float:
+    """Share of agents that arrived (formation: of groups whose formation reached its area)."""
+    form = r.summary.get("formation")
+    if form is not None:
+        return float(np.mean([g["arrived_s"] is not None for g in form.values()]))
     return float(r.summary.get("arrival_rate", 0.0))
 
 
@@ -138,10 +142,15 @@ def _params(method: str, **rvo) -> dict:
 
 
 # ---- RiMEA 1: walking speed kept in a corridor -----------------------------------------------
+def _formation(method: str, kind: str, **shape) -> dict:
+    """A group's template for the formation method (other methods take no template)."""
+    return {"formation": {"kind": kind, **shape}} if method == "formation" else {}
+
+
 def _rimea_1(method: str) -> dict[str, Setup]:
     scene = Scene(bounds=([0, 0], [44, 2]))
     g = Group("walker", 1, spawn=[1.0, 1.0], goal=Rect([42.5, 0.3], [43.5, 1.7]), radius=RADIUS,
-              max_speed=1.5, pref_speed=SPEED)
+              max_speed=1.5, pref_speed=SPEED, attributes=_formation(method, "points", points=[[0.0, 0.0]]))
     return {"corridor": Setup(scene, [g], _params(method))}
 
 
@@ -184,8 +193,28 @@ def _judge_rimea_4(out: dict[str, Outcome]) -> tuple[str, str, bool]:
 def _rimea_6(method: str) -> dict[str, Setup]:
     scene = Scene(bounds=([0, 0], [12, 12]), obstacles=[Box([0, 2], [10, 12])])
     g = Group("walkers", 20, spawn=Rect([0.3, 0.3], [6, 1.7]), goal=Rect([10.3, 10.5], [11.7, 11.7]),
-              radius=0.2, max_speed=1.5, pref_speed=SPEED)
+              radius=0.2, max_speed=1.5, pref_speed=SPEED,
+              attributes={**_formation(method, "block", rows=10, cols=2, spacing=0.55), "heading_deg": 0.0})
     return {"corner": Setup(scene, [g], _params(method))}
+
+
+def _corridor_two_corners(method: str) -> dict[str, Setup]:
+    """A U: 4 m corridor east 26 m, north 16 m, back west; a 10 x 2 column (or 20 walkers)."""
+    scene = Scene(bounds=([0, 0], [40, 40]), obstacles=[Box([0, 4], [26, 16]), Box([30, 0], [40, 40]),
+                                                        Box([0, 20], [30, 40])])
+    g = Group("column", 20, spawn=Rect([2, 0.5], [12, 3.5]), goal=Rect([1, 16.5], [10, 19.5]), radius=0.3,
+              attributes={**_formation(method, "block", rows=10, cols=2, spacing=1.0), "heading_deg": 0.0})
+    return {"corridor": Setup(scene, [g], _params(method))}
+
+
+def _judge_corridor(out: dict[str, Outcome]) -> tuple[str, str, bool]:
+    r = out["corridor"]
+    form = r.summary.get("formation", {}).get("column")
+    if form is not None:
+        rec = form["recovered_s"]
+        measured = f"recovered at {rec:.0f} s" if rec is not None else "never recovered"
+        return ("the column rounds both corners and recovers its shape", measured, rec is not None)
+    return ("everyone rounds both corners", f"arrived {_arrived(r):.0%}", _arrived(r) == 1.0)
 
 
 def _judge_rimea_6(out: dict[str, Outcome]) -> tuple[str, str, bool]:
@@ -355,13 +384,16 @@ def _crossing(method: str) -> dict[str, Setup]:
 CASES: list[Case] = [
     Case("rimea_1_corridor", "RiMEA test 1",
          "one person keeps its walking speed of 1.33 m/s along a 2 m wide, 40 m corridor",
-         ("rvo", "mdp"), _rimea_1, _judge_rimea_1, quick=True),
+         ("rvo", "mdp", "formation"), _rimea_1, _judge_rimea_1, quick=True),
     Case("rimea_4_fundamental_diagram", "RiMEA test 4",
          "speed against density (0.5-3 persons/m²) in a 4 m corridor: the shape of the fundamental diagram",
          ("rvo",), _rimea_4, _judge_rimea_4),
     Case("rimea_6_corner", "RiMEA test 6",
          "20 persons round a left corner of a 2 m corridor without passing through its walls",
-         ("rvo", "mdp"), _rimea_6, _judge_rimea_6, quick=True),
+         ("rvo", "mdp", "formation"), _rimea_6, _judge_rimea_6, quick=True),
+    Case("corridor_two_corners", "issue 13",
+         "a 10 x 2 column (or 20 walkers) follows a 4 m corridor round two 90° corners, back the way it came",
+         ("formation", "rvo", "mdp"), _corridor_two_corners, _judge_corridor, quick=True),
     Case("rimea_9_four_exits", "RiMEA test 9",
          "1000 persons leave a 30 x 20 m room by four 1 m exits, then with two of them closed",
          ("rvo", "mdp"), _rimea_9, _judge_rimea_9),

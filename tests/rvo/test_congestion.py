@@ -5,7 +5,7 @@ import numpy as np
 import crowdmotion as cm
 from crowdmotion.groups import Rect
 from crowdmotion.rvo.congestion import CongestionRouter
-from crowdmotion.rvo.guidance import distance_fields
+from crowdmotion.routing import distance_fields
 
 
 def _fields():

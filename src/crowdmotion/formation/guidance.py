@@ -60,9 +60,10 @@ class AttractionGuide:
         self.dislocations = 0  # agents that became dislocated, summed over steps
         self.reassignments = 0  # times an agent changed vertex
 
-    def update(self, agents: np.ndarray, vertices: np.ndarray) -> np.ndarray:
-        """Mark dislocated agents (farther than L from their vertex) and, with reassignment,
-        give each the nearest vertex no other agent occupies or has just claimed.
+    def update(self, agents: np.ndarray, vertices: np.ndarray, hold: bool = False) -> np.ndarray:
+        """Mark dislocated agents (farther than L from their vertex) and, with reassignment
+        (and not ``hold``), give each the nearest vertex no other agent occupies or has
+        just claimed.
 
         Only dislocated agents are searched, among the free vertices only (a k-d tree of
         them; an agent whose candidates were all claimed asks for more).
@@ -72,7 +73,7 @@ class AttractionGuide:
         now = d >= self.L
         self.dislocations += int((now & ~self.dislocated).sum())
         self.dislocated = now
-        if not self.reassign or not now.any():
+        if not self.reassign or hold or not now.any():
             return now
         lost = np.flatnonzero(now)
         taken = np.zeros(len(vertices), dtype=bool)

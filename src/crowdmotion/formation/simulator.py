@@ -31,19 +31,26 @@ from scipy.spatial import cKDTree
 from crowdmotion._contact import grid_for, obstacle_safe_moves, resolve_conflicts
 from crowdmotion.formation.arap import ARAPSolver
 from crowdmotion.formation.field import PotentialField, disc_field
-from crowdmotion.formation.guidance import AttractionGuide, attraction_magnitude
+from crowdmotion.formation.guidance import REBALANCE_MAX, AttractionGuide, attraction_magnitude
 from crowdmotion.formation.mesh import FormationMesh, MeshView
 from crowdmotion.formation.params import FormationParams, make_params
 from crowdmotion.formation.templates import Template, from_spec
 from crowdmotion.geometry import positive_number
-from crowdmotion.groups import Disc, MovingTarget, Rect, as_region
+from crowdmotion.groups import Disc, MovingTarget, Points, Rect, as_region
 from crowdmotion.formation._kernels import edge_length_error as edge_errors
 from crowdmotion.formation._kernels import repulsion
 from crowdmotion.obstacle_primitives import ObstacleSet
+from crowdmotion.routing import DistanceFields, clear_lines, distance_fields
 from crowdmotion.scene import Scene
 
 GROUP_FIELDS = ("radius", "max_speed", "pref_speed", "start", "heading", "name", "reassign")
 SLOW_DOWN = 2.0  # metres from the goal over which the attraction fades
+ROUTE_LOOKAHEAD_M = 1.5  # vertices aim this far down the route to the goal
+
+
+def _rotation(angle: float) -> np.ndarray:
+    c, s = np.cos(angle), np.sin(angle)
+    return np.array([[c, -s], [s, c]])
 REBALANCE_EVERY = 2.0  # seconds between whole-group reassignments in the target area
 
 
@@ -64,10 +71,17 @@ class FormationGroup:
     max_speed: float
     radius: float
     extent: float
+    heading0: float = 0.0  # the rest shape's heading as placed
+    heading: float = 0.0   # where the rest shape faces now (turned to the direction of travel)
     arrived_at: float | None = None
     recovered_at: float | None = None
     handles: int = 0
     rebalanced_step: int = -10**9
+
+    def rest_shape(self) -> np.ndarray:
+        """The rest shape about its centre, turned to the group's heading now."""
+        c, s = np.cos(self.heading - self.heading0), np.sin(self.heading - self.heading0)
+        return (self.mesh.rest - self.mesh.rest.mean(axis=0)) @ np.array([[c, s], [-s, c]])
 
     @property
     def all_vertices(self) -> np.ndarray:
@@ -105,6 +119,8 @@ class Simulator:
         self.scene = scene
         self.dt = float(self.params.time_step)
         self.field = PotentialField(scene, self.params.field_range, self.params.field_cell)
+        self._route: DistanceFields | None = None  # routes round static walls to each group's goal
+        self._route_stale = True
         self.obstacles = ObstacleSet(scene, "formation", "the guiding-mesh method")
         self.rng = np.random.default_rng(0) if rng is None else rng
         self.groups: list[FormationGroup] = []
@@ -142,6 +158,7 @@ class Simulator:
         if pref_speed > max_speed:
             raise ValueError(f"{what}: pref_speed {pref_speed} exceeds max_speed {max_speed}")
         region, gc = _region_goal(goal)
+        heading = 0.0
         if isinstance(template, (np.ndarray, list, tuple)):  # start positions, any point set
             pts = np.asarray(template, float)
             start_pos = pts
@@ -166,7 +183,8 @@ class Simulator:
         extent = float(np.linalg.norm(start_pos - start_pos.mean(axis=0), axis=1).max()) + radius
         idx = np.arange(len(self.positions), len(self.positions) + n)
         grp = FormationGroup(name, tpl, mesh, solver, guide, start_pos.copy(), idx, region, gc, pref_speed, max_speed,
-                             radius, extent)
+                             radius, extent, float(heading), float(heading))
+        self._route_stale = True
         self.groups.append(grp)
         self.positions = np.concatenate([self.positions, start_pos])
         self.velocities = np.concatenate([self.velocities, np.zeros((n, 2))])
@@ -224,7 +242,13 @@ class Simulator:
             if dist <= p.arrive_distance or inside:
                 g.arrived_at = self.time
                 in_area = True
-        if in_area:
+                # recover facing the way the mesh stands (best-fit turn of the rest shape),
+                # so a column that came round corners into a narrow area need not spin round
+                a = g.mesh.rest - g.mesh.rest.mean(axis=0)
+                b = V - centroid
+                g.heading = g.heading0 + float(np.arctan2(np.sum(a[:, 0] * b[:, 1] - a[:, 1] * b[:, 0]),
+                                                          np.sum(a[:, 0] * b[:, 0] + a[:, 1] * b[:, 1])))
+        if in_area:  # the heading stays as it arrived
             u = np.zeros(2)
             handles = np.zeros(0, np.int64)
             fvec = np.zeros((len(V), 2))
@@ -232,7 +256,7 @@ class Simulator:
         else:
             # the mesh waits for its agents: the attraction fades as more are dislocated
             wait = max(0.1, 1.0 - 2.0 * float(g.guide.dislocated.mean()))
-            u = wait * g.pref_speed * to_goal / dist * min(1.0, dist / SLOW_DOWN)
+            u = wait * g.pref_speed * self._route_directions(k, V, to_goal / dist) * min(1.0, dist / SLOW_DOWN)
             fvec, fmag = self.field.sample(V)
             others = np.arange(len(self.groups)) != k
             if others.any():
@@ -241,21 +265,23 @@ class Simulator:
                 fmag = np.maximum(fmag, gf)
             handles = np.flatnonzero(fmag > 0)
         g.handles = len(handles)
-        moved = V + dt * u
-        if in_area:  # recovery: back to the rest shape, facing as at the start, on the goal
-            slot = g.mesh.rest - g.mesh.rest.mean(axis=0) + g.goal_center
+        drift = u.mean(axis=0) if u.ndim == 2 else u
+        turn = self._turn(g, drift)  # the rest shape turns to the direction of travel
+        moved = centroid + (V - centroid) @ _rotation(turn).T + dt * u
+        if in_area:  # recovery: back to the rest shape, facing the way it arrived, on the goal
+            slot = g.rest_shape() + g.goal_center
             gap = slot - V
             gl = np.linalg.norm(gap, axis=1, keepdims=True)
             moved = V + gap * np.minimum(1.0, g.pref_speed * dt / np.maximum(gl, 1e-300))
         # every vertex is pulled weakly to its place in the rest shape (with the group's
         # heading) centred on the mesh: torn-off vertices come back until their edges
         # relink, and the formation keeps facing the way it set out
-        anchor = g.mesh.rest - g.mesh.rest.mean(axis=0) + centroid + dt * u
+        anchor = g.rest_shape() + centroid + dt * drift
         if self.steps % max(1, int(round(p.tear_interval / dt))) == 0:  # the mesh changes at most this often
             torn, relinked = g.mesh.update_tearing(V, p.tear_ratio, p.relink_ratio)
             g.torn += torn
             g.relinked += relinked
-        targets = V[handles] + dt * self._steer(V[handles], np.broadcast_to(u, (len(handles), 2)), fvec[handles],
+        targets = V[handles] + dt * self._steer(V[handles], np.broadcast_to(u, V.shape)[handles], fvec[handles],
                                                 fmag[handles], V[handles] - centroid, g.pref_speed, g.max_speed)
         if p.handles == "exact":
             # the paper's handles: only field vertices are constrained; the others move
@@ -275,6 +301,50 @@ class Simulator:
         cap = g.max_speed * dt
         new = V + np.where(sl > cap, step * cap / np.maximum(sl, 1e-300), step)
         g.vertices = np.clip(new, self.scene.lower + g.radius, self.scene.upper - g.radius)
+
+    def _route_directions(self, k: int, V: np.ndarray, straight: np.ndarray) -> np.ndarray:
+        """(n, 2) unit directions for the mesh's vertices: straight at the goal for those
+        that see it past every static obstacle (all of them in an open scene); down the
+        exact distance field to the group's goal (crowdmotion.routing), ROUTE_LOOKAHEAD_M
+        ahead, for the others, so the mesh follows corridors round their corners. Vertices
+        off the field take the others' mean direction."""
+        if self._route_stale:
+            self._build_route()
+        if self._route is None:
+            return np.broadcast_to(straight, V.shape)
+        g = self.groups[k]
+        sight = clear_lines(self.scene, V, g.goal_center, g.radius)
+        if sight.all():  # nothing between: straight at the goal, as without walls
+            return np.broadcast_to(straight, V.shape)
+        steps = max(1, int(np.ceil(ROUTE_LOOKAHEAD_M / self._route.cell)))
+        aim = self._route.descend(k, V, steps)
+        aim[sight] = V[sight] + straight  # vertices that see the goal head straight for it
+        d = aim - V
+        n = np.linalg.norm(d, axis=1, keepdims=True)
+        on = n[:, 0] > 1e-9
+        out = np.divide(d, n, out=np.zeros_like(d), where=n > 0)
+        mean = out[on].sum(axis=0) if on.any() else straight
+        out[~on] = mean / max(float(np.linalg.norm(mean)), 1e-12)
+        return out
+
+    def _build_route(self) -> None:
+        self._route_stale = False
+        self._route = None
+        if self.groups and self.scene.static_obstacles:
+            goals = [g.goal if isinstance(g.goal, (Rect, Disc)) else Points([g.goal_center]) for g in self.groups]
+            self._route = distance_fields(self.scene, goals, min(g.radius for g in self.groups))
+
+    def _turn(self, g: FormationGroup, drift: np.ndarray) -> float:
+        """Turn the group's rest heading toward its direction of travel, at most
+        pref_speed / extent radians per second; returns the turn made this step."""
+        if not np.any(drift):
+            return 0.0
+        want = float(np.arctan2(drift[1], drift[0]))  # the template's front (its +x) leads
+        delta = (want - g.heading + np.pi) % (2 * np.pi) - np.pi
+        limit = g.pref_speed / max(g.extent, 1.0) * self.dt
+        turn = float(np.clip(delta, -limit, limit))
+        g.heading += turn
+        return turn
 
     def _steer(self, X, u, fvec, fmag, side, pref, vmax) -> np.ndarray:
         """Velocity at points X (k, 2) in a potential field: the attraction u (k, 2) plus
@@ -305,7 +375,10 @@ class Simulator:
                     (self.steps - g.rebalanced_step) * dt >= REBALANCE_EVERY:
                 g.guide.rebalance(o, g.vertices)
                 g.rebalanced_step = self.steps
-            lost = g.guide.update(o, g.vertices)
+            # in the target area the whole-group assignment above decides; the nearest-free-
+            # vertex rule would undo it (an agent sent forward is "dislocated" and takes its
+            # old vertex back), and a column in a corridor would never close up
+            lost = g.guide.update(o, g.vertices, hold=g.arrived_at is not None and len(o) <= REBALANCE_MAX)
             target = g.vertices[g.guide.assignment]
             v = (target - o) / dt  # occupied: follow the vertex
             if lost.any():  # dislocated: eqs. (3)-(4), full speed at distance L and beyond
@@ -374,7 +447,7 @@ class Simulator:
             g.edge_error.append(mean)
             if g.arrived_at is None or g.recovered_at is not None:
                 continue
-            slot = g.mesh.rest - g.mesh.rest.mean(axis=0) + g.goal_center
+            slot = g.rest_shape() + g.goal_center
             settled = np.abs(g.vertices - slot).max() < self.params.occupy_distance
             if settled and mean < self.params.recovered_error and not g.guide.dislocated.any():
                 g.recovered_at = self.time

@@ -17,7 +17,7 @@ from scipy.ndimage import gaussian_filter
 from scipy.sparse import csr_matrix
 from scipy.sparse.csgraph import dijkstra
 
-from crowdmotion.rvo.guidance import DistanceFields
+from crowdmotion.routing import DistanceFields
 
 SMOOTH_M = 0.75          # density is smoothed with a Gaussian of this many metres
 MAX_CELLS = 1_000_000    # larger fields keep the exact distances (re-solving would cost seconds)

@@ -11,7 +11,8 @@ from crowdmotion.groups import MovingTarget
 from crowdmotion.rvo import _kernels as K
 from crowdmotion.rvo.congestion import CongestionRouter
 from crowdmotion.rvo.deadlock import KEEP_RIGHT_LOOK_S, Deadlock, contact_arrivals
-from crowdmotion.rvo.guidance import DistanceFields, distance_fields, preferred_velocities
+from crowdmotion.routing import DistanceFields, distance_fields
+from crowdmotion.rvo.guidance import preferred_velocities
 from crowdmotion._contact import grid_for
 from crowdmotion.obstacle_primitives import ObstacleSet
 from crowdmotion.rvo.personality import PARAM_KEYS, params_for_vectors, sample_personalities

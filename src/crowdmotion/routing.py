@@ -1,0 +1,132 @@
+"""Routes round walls for every method: exact 8-connected distance fields to goal regions
+on a grid over the scene (the MDP fast solver, corner cutting off), and walking down them.
+
+RVO aims its preferred velocities along them; formations move their guiding mesh along
+them, vertex by vertex, so a formation follows a corridor round its corners.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from crowdmotion.groups import MovingTarget, Points
+from crowdmotion.mdp.solvers import fast_values
+from crowdmotion.scene import Scene
+
+MAX_FIELD_CELLS = 16_000_000
+
+
+@dataclass
+class DistanceFields:
+    """Metres to each goal region along free space, on one grid: (F, nx, ny), inf = blocked."""
+
+    dist: np.ndarray
+    origin: np.ndarray
+    cell: float
+    blocked: np.ndarray | None = None  # (nx, ny) cells a body does not fit in
+    goal_cells: list | None = None     # per field, (K, 2) goal cells
+
+    def at(self, field: int, points: np.ndarray) -> np.ndarray:
+        """Field values at the cells holding ``points`` (inf outside the grid)."""
+        idx = np.floor((np.asarray(points) - self.origin) / self.cell).astype(np.int64)
+        inside = np.all((idx >= 0) & (idx < np.array(self.dist.shape[1:])), axis=1)
+        out = np.full(len(idx), np.inf)
+        out[inside] = self.dist[field, idx[inside, 0], idx[inside, 1]]
+        return out
+
+
+    def reachable(self, field_of: np.ndarray, points: np.ndarray, window: int = 2) -> np.ndarray:
+        """Whether some cell within ``window`` cells of each point has a finite distance
+        to the point's goal (field ``field_of``)."""
+        shape = np.array(self.dist.shape[1:])
+        idx = np.floor((np.asarray(points) - self.origin) / self.cell).astype(np.int64)
+        out = np.zeros(len(idx), dtype=bool)
+        for dx in range(-window, window + 1):
+            for dy in range(-window, window + 1):
+                c = idx + [dx, dy]
+                inside = np.all((c >= 0) & (c < shape), axis=1)
+                ok = np.zeros(len(idx), dtype=bool)
+                ok[inside] = np.isfinite(self.dist[field_of[inside], c[inside, 0], c[inside, 1]])
+                out |= ok
+        return out
+
+    def descend(self, field: int, points: np.ndarray, steps: int) -> np.ndarray:
+        """Where walking ``steps`` cells down field ``field`` from each point leads (the
+        centre of the last cell reached; the point itself where it has no finite value)."""
+        shape = np.array(self.dist.shape[1:])
+        d = self.dist[field]
+        padded = np.pad(d, 1, constant_values=np.inf)
+        idx = np.floor((np.asarray(points) - self.origin) / self.cell).astype(np.int64)
+        ok = np.all((idx >= 0) & (idx < shape), axis=1)
+        ok[ok] &= np.isfinite(d[idx[ok, 0], idx[ok, 1]])
+        cur = idx.copy()
+        moves = np.array([(a, b) for a in (-1, 0, 1) for b in (-1, 0, 1) if a or b])
+        for _ in range(steps):
+            c = cur[ok]
+            around = padded[c[:, 0, None] + 1 + moves[None, :, 0], c[:, 1, None] + 1 + moves[None, :, 1]]
+            best = np.argmin(around, axis=1)
+            better = around[np.arange(len(c)), best] < padded[c[:, 0] + 1, c[:, 1] + 1]
+            c[better] += moves[best[better]]
+            cur[ok] = c
+        out = np.asarray(points, float).copy()
+        out[ok] = self.origin + (cur[ok] + 0.5) * self.cell
+        return out
+
+
+def default_cell(scene: Scene, radius: float) -> float:
+    """Field cell edge: the agent radius, coarsened so the grid stays under 4M cells."""
+    extent = scene.upper - scene.lower
+    return float(max(radius, np.sqrt(np.prod(extent) / 4e6)))
+
+
+def distance_fields(scene: Scene, goals: list, radius: float, cell: float | None = None) -> DistanceFields:
+    """Exact 8-connected distances (corner cutting off) to each goal region, in metres.
+
+    A cell is blocked when its centre lies within ``radius`` of a static obstacle, so the
+    field routes agents' centres where their bodies fit. Goals are regions (their free
+    cells) or Points (the cells of the points).
+    """
+    cell = default_cell(scene, radius) if cell is None else float(cell)
+    if not (np.isfinite(cell) and cell > 0):
+        raise ValueError(f"rvo.field_cell must be a positive number of metres, got {cell!r}")
+    extent = scene.upper - scene.lower
+    shape = tuple(int(n) for n in np.maximum(np.ceil(extent / cell - 1e-9), 1))
+    if np.prod(shape) > MAX_FIELD_CELLS:
+        raise ValueError(f"rvo.field_cell {cell} m gives a {shape} grid; use a larger cell")
+    idx = np.indices(shape).reshape(2, -1).T
+    centres = scene.lower + (idx + 0.5) * cell
+    blocked = (scene.static_obstacle_distance(centres) < radius).reshape(shape)
+    fields, goal_cells = [], []
+    for k, goal in enumerate(goals):
+        if isinstance(goal, MovingTarget):
+            raise ValueError(f"groups.{k}: field guidance needs a fixed goal, not a moving target")
+        if isinstance(goal, Points):
+            gi = np.floor((goal.points - scene.lower) / cell).astype(np.int64)
+            gi = np.clip(gi, 0, np.array(shape) - 1)
+            cells = [tuple(c) for c in gi if not blocked[tuple(c)]]
+        else:
+            inside = goal.contains(centres).reshape(shape) & ~blocked
+            cells = [tuple(c) for c in np.argwhere(inside)]
+        if not cells:
+            raise ValueError(f"groups.{k}: the goal {goal!r} has no cell free of obstacles "
+                             f"(field cell {cell:.3f} m, agent radius {radius} m)")
+        cells = sorted(set(cells))
+        v = fast_values(blocked.astype(np.uint8), cells, corner_cutting=False)
+        fields.append(-v * cell)
+        goal_cells.append(np.array(cells, dtype=np.int64))
+    return DistanceFields(np.stack(fields), scene.lower.astype(float).copy(), cell, blocked, goal_cells)
+
+
+def clear_lines(scene: Scene, starts: np.ndarray, end: np.ndarray, radius: float) -> np.ndarray:
+    """(n,) whether a body of ``radius`` walks straight from each start to ``end`` past every
+    static obstacle (the segment sampled every half radius)."""
+    starts = np.asarray(starts, float)
+    length = np.linalg.norm(end - starts, axis=1)
+    m = max(2, int(np.ceil(length.max(initial=0.0) / (0.5 * radius))) + 1)
+    t = np.linspace(0.0, 1.0, m)
+    pts = starts[:, None, :] + t[None, :, None] * (end - starts)[:, None, :]
+    clear = scene.static_obstacle_distance(pts.reshape(-1, 2)).reshape(len(starts), m)
+    return np.all(clear >= radius, axis=1)
+

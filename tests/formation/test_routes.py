@@ -1,0 +1,50 @@
+"""Formations that follow a route round walls (issue 13): the mesh walks down the exact
+distance field where walls hide the goal, turns to its direction of travel, and recovers."""
+
+import numpy as np
+
+import crowdmotion as cm
+from crowdmotion import formation
+from crowdmotion.metrics import collision_audit
+from crowdmotion.trajectories import Trajectories
+
+
+def _walk(scene, template, goal, start, heading=None, limit=3000):
+    sim = formation.Simulator(scene, time_step=0.1)
+    kw = {} if heading is None else {"heading": heading}
+    sim.add_group(template, goal=goal, start=start, radius=0.3, **kw)
+    frames = [sim.positions.copy()]
+    while not sim.done and sim.steps < limit:
+        sim.step()
+        frames.append(sim.positions.copy())
+    return sim, Trajectories(np.array(frames), sim.dt, radius=0.3)
+
+
+def test_a_column_follows_a_u_shaped_corridor_round_two_corners_and_recovers():
+    # east 26 m, north 16 m, back west: the goal lies straight north of the start, behind a wall
+    scene = cm.Scene(bounds=([0, 0], [40, 40]), obstacles=[cm.Box([0, 4], [26, 16]), cm.Box([30, 0], [40, 40]),
+                                                           cm.Box([0, 20], [30, 40])])
+    sim, traj = _walk(scene, formation.block(10, 2, spacing=1.0), cm.Rect([1, 16.5], [10, 19.5]), (7, 2), 0.0)
+    g = sim.groups[0]
+    assert g.recovered_at is not None, "the column never recovered in the target area"
+    assert collision_audit(traj, scene).clean
+    assert abs(np.cos(g.heading) + 1) < 0.05, "it faces west, the way it arrived, not its start heading"
+    assert g.edge_error[-1] < 0.02
+
+
+def test_a_block_goes_room_to_room_through_a_door_narrower_than_itself_and_recovers():
+    # a 6 m wide block, a 3 m door off the straight line between start and goal
+    scene = cm.Scene(bounds=([0, 0], [41, 20]), obstacles=[cm.Box([20, 5], [21, 20]), cm.Box([20, 0], [21, 2])])
+    sim, traj = _walk(scene, formation.block(5, 5, spacing=1.2), cm.Rect([29, 12], [37, 18]), (8, 14))
+    g = sim.groups[0]
+    assert g.recovered_at is not None
+    assert collision_audit(traj, scene).clean
+    assert (traj.positions[-1, :, 0] > 21).all(), "all 25 came through the 3 m door"
+    assert max(g.edge_error) > 0.05, "the door squeezed the mesh (edge lengths off by over 5 %) on the way"
+
+
+def test_without_walls_between_the_formation_walks_straight_as_before():
+    scene = cm.Scene(bounds=([0, -15], [60, 15]), obstacles=[cm.Circle([30, 12], 1.0)])  # off the line
+    sim, traj = _walk(scene, formation.block(3, 3, spacing=1.2), (50, 0), (8, 0))
+    assert sim.groups[0].recovered_at is not None
+    assert np.abs(traj.positions[..., 1]).max() < 2.5, "no detour when the goal is in sight"
