@@ -391,7 +391,7 @@ def build_parser() -> argparse.ArgumentParser:
     p = sub.add_parser("render", help="animation (MP4/GIF), density map and paths of a run")
     p.add_argument("output", help="a run's output folder (or a trajectories file)")
     p.add_argument("--to", choices=["mp4", "gif"], default="mp4", help="animation format (default mp4, H.264)")
-    p.add_argument("--fps", type=float, help="frames per second (default: real time, at most 30)")
+    p.add_argument("--fps", type=float, help="video frames per second (default 24; the run is resampled to it)")
     p.add_argument("--trail", type=float, default=2.0, help="seconds of trail behind each agent")
     p.add_argument("--max-frames", type=int, default=600,
                    help="at most this many frames (a longer run is sampled evenly; default 600)")

@@ -33,14 +33,38 @@ def test_stage_is_y_up_in_metres_at_the_run_frame_rate_with_headings(tmp_path):
     path = Trajectories(pos, 0.5).save(tmp_path / "north.usda")
     stage = Usd.Stage.Open(str(path))
     assert UsdGeom.GetStageUpAxis(stage) == "Y" and UsdGeom.GetStageMetersPerUnit(stage) == 1.0
-    assert stage.GetTimeCodesPerSecond() == 2.0 and stage.GetEndTimeCode() == 2
+    # a 2 fps run on a 24 fps stage: frame f at time code f x 0.5 s x 24
+    assert stage.GetTimeCodesPerSecond() == 24.0 and stage.GetEndTimeCode() == 24
     inst = UsdGeom.PointInstancer(stage.GetPrimAtPath("/World/Crowd"))
-    q = inst.GetOrientationsAttr().Get(1)[0]
+    q = inst.GetOrientationsAttr().Get(12)[0]
     # +x of the prototype turned to north, which is USD -Z
     from pxr import Gf
     v = Gf.Rotation(Gf.Quatd(q.GetReal(), Gf.Vec3d(q.GetImaginary()))).TransformDir(Gf.Vec3d(1, 0, 0))
     assert (v[0], v[1], v[2]) == pytest.approx((0.0, 0.0, -1.0), abs=1e-3)
-    np.testing.assert_allclose(np.array(inst.GetPositionsAttr().Get(2))[0], [0.0, 0.0, -2.0])
+    np.testing.assert_allclose(np.array(inst.GetPositionsAttr().Get(24))[0], [0.0, 0.0, -2.0])
+    np.testing.assert_allclose(np.array(inst.GetPositionsAttr().Get(6))[0], [0.0, 0.0, -0.5], atol=1e-6)
+
+
+def test_obstacles_sit_where_the_scene_has_them_and_move_on_time(tmp_path):
+    # issue 17: box translates were scaled, moving obstacles' samples were in seconds
+    from pxr import Usd, UsdGeom
+
+    import crowdmotion as cm
+
+    scene = cm.Scene(bounds=([0, 0], [60, 20]), obstacles=[
+        cm.Box([10, 2], [14, 5]), cm.Circle([30, 10], 1.0, path=([0, 3, 4], [[30, 10], [36, 10], [36, 14]]))])
+    pos = np.zeros((41, 1, 2))
+    pos[:, 0, 0] = np.linspace(1, 5, 41)
+    tr = Trajectories(pos, 0.1, metadata={"scene": scene.to_dict()})
+    stage = Usd.Stage.Open(str(tr.save(tmp_path / "o.usda")))
+    cache = UsdGeom.BBoxCache(Usd.TimeCode.Default(), ["default"])
+    box = cache.ComputeWorldBound(stage.GetPrimAtPath("/World/Obstacles/obstacle_0")).ComputeAlignedRange()
+    lo, hi = np.array(box.GetMin()), np.array(box.GetMax())
+    np.testing.assert_allclose([lo[0], -hi[2], hi[0], -lo[2]], [10, 2, 14, 5], atol=1e-6)  # USD (x, z) = (x, -y)
+    moving = UsdGeom.Xformable(stage.GetPrimAtPath("/World/Obstacles/obstacle_1"))
+    for t, (x, y) in ((0, (30, 10)), (3, (36, 10)), (3.5, (36, 12))):
+        m = moving.ComputeLocalToWorldTransform(Usd.TimeCode(t * 24.0))
+        np.testing.assert_allclose([m[3][0], -m[3][2]], [x, y], atol=1e-6)
 
 
 def test_axis_mapping_is_its_own_inverse():

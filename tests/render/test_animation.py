@@ -20,18 +20,26 @@ def _run():
 
 
 @pytest.mark.parametrize("suffix", ["mp4", "gif"])
-def test_animation_has_a_frame_per_step_and_the_frames_change(tmp_path, suffix):
+def test_animation_plays_the_run_in_real_time_at_24_fps_and_the_frames_change(tmp_path, suffix):
+    # 30 steps of 0.2 s (a 5 fps run, as RVO and MDP runs are): 5.8 s at 24 fps
     path = animate(_run(), tmp_path / f"a.{suffix}", width_px=320, progress=False)
     if suffix == "mp4":
         reader = imageio_ffmpeg.read_frames(str(path))
-        w, h = next(reader)["size"]
+        meta = next(reader)
+        assert meta["fps"] == 24
+        w, h = meta["size"]
         frames = [np.frombuffer(b, np.uint8).reshape(h, w, 3) for b in reader]
     else:
         frames = list(iio.mimread(path))
-    assert len(frames) == 30
+    assert len(frames) == int(5.8 * 24) + 1
     first, last = np.asarray(frames[0], float), np.asarray(frames[-1], float)
     assert np.abs(first - last).mean() > 1.0  # agents (and the moving obstacle) have moved
     assert [p.name for p in tmp_path.iterdir()] == [f"a.{suffix}"]  # no temporary file left
+
+
+def test_a_long_run_is_shown_faster_in_at_most_max_frames(tmp_path):
+    path = animate(_run(), tmp_path / "a.gif", width_px=320, max_frames=40, progress=False)
+    assert len(iio.mimread(path)) == 40
 
 
 def test_density_map_and_bad_suffix(tmp_path):

@@ -1,8 +1,10 @@
 """USD files (``usd-core``) that Blender, Houdini, Maya and Unity import.
 
 The stage is Y-up (USD's and Maya's, Houdini's and Unity's default; Blender converts on
-import), ``metersPerUnit`` = 1 and ``timeCodesPerSecond`` = ``framesPerSecond`` = the
-run's frame rate, one time code per frame. World (x, y[, z]) with z up maps to USD
+import), ``metersPerUnit`` = 1 and ``timeCodesPerSecond`` = ``framesPerSecond`` = 24 (or
+the run's own rate when that is 25, 30, 48, 50 or 60): each frame of the run is sampled at
+time code t × rate, so an MDP run stepping every 0.85 s plays at its true speed in a 24 fps
+scene (USD interpolates between samples). World (x, y[, z]) with z up maps to USD
 (x, z, −y): a 2D run lies on the ground plane at height 0. Under ``/World``:
 
 - ``Agents`` — a ``UsdGeomPoints`` with time-sampled ``points``, ``widths`` (body
@@ -11,7 +13,8 @@ run's frame rate, one time code per frame. World (x, y[, z]) with z up maps to U
   group's body size, standing up), time-sampled ``positions``, ``orientations`` (turned
   about the up axis to the heading) and ``invisibleIds`` for inactive agents;
 - ``Obstacles`` — cylinders, spheres, cubes and flat polygon meshes for the scene's static
-  obstacles (moving ones at their start place, with their path as ``translate`` samples).
+  obstacles (moving ones at their start place, with their path as ``translate`` samples
+  at t × rate; a box's translate comes before its scale in ``xformOpOrder``).
 
 ``customLayerData`` keeps crowdmotion's metadata (method, seed, parameters) as JSON.
 """
@@ -50,7 +53,18 @@ def from_usd_frame(points: np.ndarray, dim: int) -> np.ndarray:
     return world[..., :dim]
 
 
-def _obstacles(stage, scene_dict: dict, UsdGeom, Gf) -> None:
+STANDARD_RATES = (24.0, 25.0, 30.0, 48.0, 50.0, 60.0)
+
+
+def stage_rate(traj: Trajectories) -> float:
+    """Time codes per second of the stage: the run's own rate when it is a standard video
+    rate (24, 25, 30, ...), else 24, the rate Blender, Maya and Houdini scenes start at.
+    Samples sit at t × rate, so the motion plays at its true speed at that rate (USD
+    interpolates between samples)."""
+    return traj.fps if traj.fps in STANDARD_RATES else 24.0
+
+
+def _obstacles(stage, scene_dict: dict, UsdGeom, Gf, rate: float) -> None:
     from crowdmotion.scene import Box, Circle, Polygon, Scene, Sphere
 
     scene = Scene.from_dict(scene_dict)
@@ -75,7 +89,7 @@ def _obstacles(stage, scene_dict: dict, UsdGeom, Gf) -> None:
                 lo, hi = np.append(lo, 0.0), np.append(hi, 2.0)
             a, b = to_usd_frame(lo), to_usd_frame(hi)
             centre = (a + b) / 2
-            prim.AddScaleOp().Set(Gf.Vec3f(*np.abs(b - a).tolist()))
+            size = np.abs(b - a)
         elif isinstance(ob, Polygon):
             prim = UsdGeom.Mesh.Define(stage, name)
             v = to_usd_frame(ob.vertices)
@@ -85,17 +99,20 @@ def _obstacles(stage, scene_dict: dict, UsdGeom, Gf) -> None:
             centre = np.zeros(3)
         else:  # pragma: no cover
             continue
-        op = prim.AddTranslateOp()
-        if ob.is_moving:
+        op = prim.AddTranslateOp()  # first in xformOpOrder: the translate is not scaled
+        if isinstance(ob, Box):
+            prim.AddScaleOp().Set(Gf.Vec3f(*size.tolist()))
+        if ob.is_moving:  # keyframes in seconds -> time codes
             for t, shift in zip(ob.path.times, ob.path.positions - ob.center):
-                op.Set(Gf.Vec3d(*(centre + to_usd_frame(shift)).tolist()), float(t))
+                op.Set(Gf.Vec3d(*(centre + to_usd_frame(shift)).tolist()), float(t) * rate)
         else:
             op.Set(Gf.Vec3d(*np.asarray(centre, float).tolist()))
 
 
 def write(traj: Trajectories, path: Path) -> None:
     Gf, Sdf, Usd, UsdGeom, Vt = _pxr()
-    fps = traj.fps
+    rate = stage_rate(traj)
+    codes = np.arange(traj.n_frames) * traj.dt * rate  # the time code of each frame
     pos = to_usd_frame(traj.positions).astype(np.float32)
     act = traj.active_mask
     heading = traj.heading
@@ -110,10 +127,10 @@ def write(traj: Trajectories, path: Path) -> None:
         try:
             UsdGeom.SetStageUpAxis(stage, UsdGeom.Tokens.y)
             UsdGeom.SetStageMetersPerUnit(stage, 1.0)
-            stage.SetTimeCodesPerSecond(fps)
-            stage.SetFramesPerSecond(fps)
+            stage.SetTimeCodesPerSecond(rate)
+            stage.SetFramesPerSecond(rate)
             stage.SetStartTimeCode(0)
-            stage.SetEndTimeCode(traj.n_frames - 1)
+            stage.SetEndTimeCode(float(np.ceil(codes[-1] - 1e-9)))
             stage.SetMetadata("customLayerData", {"crowdmotion": metadata_json(traj), "crowdmotion_dim": traj.dim})
             world = UsdGeom.Xform.Define(stage, "/World")
             stage.SetDefaultPrim(world.GetPrim())
@@ -138,7 +155,7 @@ def write(traj: Trajectories, path: Path) -> None:
                 inst.CreateInvisibleIdsAttr()
             half = heading / 2  # a turn about +Y by the heading (world z up maps to USD +Y)
             for f in range(traj.n_frames):
-                tc = Usd.TimeCode(f)
+                tc = Usd.TimeCode(float(codes[f]))
                 p_attr.Set(Vt.Vec3fArray.FromNumpy(pos[f]), tc)
                 w_attr.Set(Vt.FloatArray.FromNumpy(np.where(act[f], width, 0.0).astype(np.float32)), tc)
                 ip_attr.Set(Vt.Vec3fArray.FromNumpy(pos[f]), tc)
@@ -146,7 +163,7 @@ def write(traj: Trajectories, path: Path) -> None:
                 io_attr.Set(quats, tc)
                 iv_attr.Set(Vt.Int64Array.FromNumpy(ids[~act[f]]), tc)
             if traj.metadata.get("scene"):
-                _obstacles(stage, traj.metadata["scene"], UsdGeom, Gf)
+                _obstacles(stage, traj.metadata["scene"], UsdGeom, Gf, rate)
             stage.GetRootLayer().Save()
             ok = True
         finally:
@@ -169,9 +186,11 @@ def read(path: Path) -> Trajectories:
     layer_data = stage.GetMetadata("customLayerData") or {}
     meta = json.loads(layer_data.get("crowdmotion", "{}"))
     dim = int(layer_data.get("crowdmotion_dim", 3))
-    t0, t1 = int(stage.GetStartTimeCode()), int(stage.GetEndTimeCode())
-    frames = [np.asarray(points.GetPointsAttr().Get(f), float) for f in range(t0, t1 + 1)]
-    widths = [np.asarray(points.GetWidthsAttr().Get(f), float) for f in range(t0, t1 + 1)]
+    codes = points.GetPointsAttr().GetTimeSamples()  # the run's frames, at t × rate
+    frames = [np.asarray(points.GetPointsAttr().Get(c), float) for c in codes]
+    widths = [np.asarray(points.GetWidthsAttr().Get(c), float) for c in codes]
+    rate = stage.GetTimeCodesPerSecond()
+    dt = (codes[1] - codes[0]) / rate if len(codes) > 1 else 1.0 / rate
     pos = from_usd_frame(np.array(frames), dim)
     active = np.array(widths) > 0
     radius = np.array(widths).max(axis=0) / 2
@@ -182,5 +201,5 @@ def read(path: Path) -> Trajectories:
         names = [stage.GetPrimAtPath(p).GetCustomDataByKey("crowdmotion:group") for p in
                  inst.GetPrototypesRel().GetTargets()]
         group = np.array([names[k] for k in inst.GetProtoIndicesAttr().Get()], dtype=object)
-    return Trajectories(pos, 1.0 / stage.GetTimeCodesPerSecond(), ids=ids, group=group, radius=radius,
+    return Trajectories(pos, dt, ids=ids, group=group, radius=radius,
                         active=None if active.all() else active, metadata=meta)

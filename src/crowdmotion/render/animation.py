@@ -19,7 +19,9 @@ from tqdm.auto import tqdm  # noqa: E402
 from crowdmotion.io.atomic import atomic_path  # noqa: E402
 from crowdmotion.render.plots import _draw_obstacles_2d, _group_colours, _save, gif_image, write_gif  # noqa: E402
 from crowdmotion.scene import Scene  # noqa: E402
-from crowdmotion.trajectories import Trajectories  # noqa: E402
+from crowdmotion.trajectories import Trajectories, resample  # noqa: E402
+
+VIDEO_FPS = 24.0  # the rate animators' scenes start at
 
 
 def scene_of(traj: Trajectories) -> Scene | None:
@@ -40,15 +42,19 @@ def animate(traj: Trajectories, path, fps: float | None = None, trail_s: float =
     """Write an MP4 (``.mp4``, H.264 through imageio-ffmpeg) or GIF (``.gif``) of the run
     seen from above: obstacles where they are at each moment, agents as discs of their
     radius in their group's colour, a fading trail of the last ``trail_s`` seconds, the
-    time. At most ``max_frames`` frames (evenly picked); ``fps`` defaults to real time.
-    3D runs are shown from above (x, y)."""
+    time. The video plays at ``fps`` (default 24): the run is resampled to that rate by
+    straight moves between its frames (an MDP run stepping every 0.85 s moves smoothly,
+    in real time); a run longer than ``max_frames`` frames at that rate is shown faster
+    than real time (the clock says the run's time). 3D runs are shown from above (x, y)."""
     path = Path(path)
     kind = path.suffix.lower()
     if kind not in (".mp4", ".gif"):
         raise ValueError(f"animations are .mp4 or .gif, got {path.name!r}")
-    frames = np.unique(np.linspace(0, traj.n_frames - 1, min(traj.n_frames, max_frames)).round().astype(int))
-    step_s = traj.dt * (frames[1] - frames[0]) if len(frames) > 1 else traj.dt
-    fps = float(fps) if fps else min(30.0, 1.0 / step_s)
+    fps = float(fps) if fps else VIDEO_FPS
+    duration = (traj.n_frames - 1) * traj.dt
+    if duration > 0:  # one video frame per 1/fps s of the run, or fewer for a long run
+        traj = resample(traj, min(fps, (max_frames - 1) / duration), "linear")
+    frames = np.arange(min(traj.n_frames, max_frames))
     images = frame_images(traj, frames, trail_s, width_px)
     first = next(images)
     h_px, w_px = first.shape[:2]
