@@ -211,3 +211,32 @@ def test_a_pso_clamp_faster_than_the_groups_max_speed_is_said_not_silent(tmp_pat
     assert main(["validate", str(path)]) == 0
     err = capsys.readouterr().err
     assert "group 'walkers' (groups.0): pso.v_max [0.5, 0.5]" in err and "2.83 m/s" in err and "max_speed 1.5" in err
+
+
+def test_a_formation_walled_off_from_its_goal_is_refused_by_validate(tmp_path, capsys):
+    path = scenario(tmp_path, "formation")
+    path.write_text(path.read_text()
+                    .replace('obstacles = [{ shape = "box", lower = [20, 5], upper = [25, 15] }]',
+                             'obstacles = [{ shape = "box", lower = [14, 0], upper = [15, 20] }]')
+                    .replace("count = 9\n", 'count = 9\nformation = { kind = "block", rows = 3, cols = 3 }\n'))
+    refused(capsys, ["validate", str(path)], "group 'walkers' (groups.0) goal", "walls close the way")
+
+
+def test_files_say_a_whole_frame_rate_and_export_resamples_to_the_one_asked(tmp_path, capsys):
+    import sqlite3
+
+    import numpy as np
+
+    from crowdmotion.trajectories import Trajectories
+
+    pos = np.cumsum(np.full((11, 2, 2), 0.1), axis=0)
+    pos[:, 1, 1] += 3
+    run = tmp_path / "run"
+    run.mkdir()
+    Trajectories(pos, 0.2000000000000028).save(run / "trajectories.parquet")  # a resampled run's dt
+    assert main(["export", str(run), "--to", "sqlite"]) == 0
+    con = sqlite3.connect(run / "trajectories.sqlite")
+    assert con.execute("select value from metadata where key = 'fps'").fetchone()[0] == "5.0"
+    assert main(["export", str(run), "--to", "csv", "--fps", "24", "-o", str(run / "t24.csv")]) == 0
+    assert "at 24 fps" in capsys.readouterr().out
+    assert Trajectories.load(run / "t24.csv").n_frames == 49

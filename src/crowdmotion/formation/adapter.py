@@ -15,8 +15,19 @@ Params = FormationParams
 
 def check_scenario(scene, groups, params: FormationParams) -> None:
     """Problems a scenario can be refused for before running: a 3D scene, a template
-    that does not match the count, duplicate or blocked starts, a goal in an obstacle."""
-    build_simulator(scene, groups, params, np.random.default_rng(0))
+    that does not match the count, duplicate or blocked starts, a goal in an obstacle,
+    a goal that walls cut off from the formation's start."""
+    from crowdmotion.checks import describe_region, where
+
+    sim = build_simulator(scene, groups, params, np.random.default_rng(0))
+    try:
+        stranded = sim.cut_off()
+    except ValueError as exc:
+        raise ValueError(f"formation route: {exc}") from None
+    if stranded:
+        k = stranded[0]
+        raise ValueError(f"{where(k, groups[k])} goal: {describe_region(groups[k].goal)} cannot be reached from the "
+                         f"spawn {describe_region(groups[k].spawn)}: walls close the way")
 
 
 def run_scenario(scene, groups, params: FormationParams, rng, progress: bool = True):

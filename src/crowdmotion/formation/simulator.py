@@ -327,6 +327,14 @@ class Simulator:
         out[~on] = mean / max(float(np.linalg.norm(mean)), 1e-12)
         return out
 
+    def cut_off(self) -> list[int]:
+        """Groups whose every vertex the route field says cannot reach the goal."""
+        if self._route_stale:
+            self._build_route()
+        if self._route is None:
+            return []
+        return [k for k, g in enumerate(self.groups) if not np.isfinite(self._route.at(k, g.vertices)).any()]
+
     def _build_route(self) -> None:
         self._route_stale = False
         self._route = None
