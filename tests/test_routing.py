@@ -4,7 +4,7 @@ import numpy as np
 
 import crowdmotion as cm
 from crowdmotion.groups import Rect
-from crowdmotion.routing import clear_lines, distance_fields
+from crowdmotion.routing import distance_fields
 
 
 def test_descending_the_field_gets_nearer_the_goal_by_the_cells_walked():
@@ -23,7 +23,23 @@ def test_descending_goes_round_a_wall_not_through_it():
     assert aim[1] > 2.0 + 2.0, "from beside the wall the way leads up round its end"
 
 
-def test_clear_lines_see_past_a_wall_only_where_there_is_no_wall():
-    scene = cm.Scene(bounds=([0, 0], [20, 10]), obstacles=[cm.Box([9, 0], [10, 8])])
-    seen = clear_lines(scene, np.array([[2.0, 2.0], [2.0, 9.0]]), np.array([18.0, 9.0]), 0.3)
-    assert seen.tolist() == [False, True]
+def test_line_of_sight_agrees_with_dense_sampling_of_the_clearance():
+    # the exact segment test (crowdmotion._contact) against the scene's own distances sampled
+    # every centimetre along each segment
+    from crowdmotion._contact import line_of_sight
+    from crowdmotion.obstacle_primitives import ObstacleSet
+
+    scene = cm.Scene(bounds=([0, 0], [20, 10]), obstacles=[cm.Box([9, 0], [10, 8]), cm.Circle([15, 7], 1.0),
+                                                           cm.Polygon([[3, 6], [5, 6], [4, 8]])])
+    rng = np.random.default_rng(3)
+    a = rng.uniform([0.5, 0.5], [19.5, 9.5], (300, 2))
+    b = rng.uniform([0.5, 0.5], [19.5, 9.5], (300, 2))
+    prims = ObstacleSet(scene, "test", "test").at(0.0, 0.1)
+    got = np.empty(300, dtype=bool)
+    line_of_sight(a, b, np.full(300, 0.3), np.ones(300, bool), prims.circ_c, prims.circ_r, prims.seg_a,
+                  prims.seg_b, got)
+    t = np.linspace(0, 1, 2000)
+    pts = a[:, None] + t[None, :, None] * (b - a)[:, None]
+    sampled = (scene.static_obstacle_distance(pts.reshape(-1, 2)).reshape(300, -1) >= 0.3).all(axis=1)
+    start_inside = scene.static_obstacle_distance(a) < 0  # a segment wholly inside one box never crosses an edge
+    assert (got == sampled)[~start_inside].mean() > 0.99

@@ -117,16 +117,3 @@ def distance_fields(scene: Scene, goals: list, radius: float, cell: float | None
         fields.append(-v * cell)
         goal_cells.append(np.array(cells, dtype=np.int64))
     return DistanceFields(np.stack(fields), scene.lower.astype(float).copy(), cell, blocked, goal_cells)
-
-
-def clear_lines(scene: Scene, starts: np.ndarray, end: np.ndarray, radius: float) -> np.ndarray:
-    """(n,) whether a body of ``radius`` walks straight from each start to ``end`` past every
-    static obstacle (the segment sampled every half radius)."""
-    starts = np.asarray(starts, float)
-    length = np.linalg.norm(end - starts, axis=1)
-    m = max(2, int(np.ceil(length.max(initial=0.0) / (0.5 * radius))) + 1)
-    t = np.linspace(0.0, 1.0, m)
-    pts = starts[:, None, :] + t[None, :, None] * (end - starts)[:, None, :]
-    clear = scene.static_obstacle_distance(pts.reshape(-1, 2)).reshape(len(starts), m)
-    return np.all(clear >= radius, axis=1)
-

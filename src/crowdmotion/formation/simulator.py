@@ -28,7 +28,7 @@ from typing import Any
 import numpy as np
 from scipy.spatial import cKDTree
 
-from crowdmotion._contact import grid_for, obstacle_safe_moves, resolve_conflicts
+from crowdmotion._contact import grid_for, line_of_sight, obstacle_safe_moves, resolve_conflicts
 from crowdmotion.formation.arap import ARAPSolver
 from crowdmotion.formation.field import PotentialField, disc_field
 from crowdmotion.formation.guidance import REBALANCE_MAX, AttractionGuide, attraction_magnitude
@@ -40,7 +40,7 @@ from crowdmotion.groups import Disc, MovingTarget, Points, Rect, as_region
 from crowdmotion.formation._kernels import edge_length_error as edge_errors
 from crowdmotion.formation._kernels import repulsion
 from crowdmotion.obstacle_primitives import ObstacleSet
-from crowdmotion.routing import DistanceFields, clear_lines, distance_fields
+from crowdmotion.routing import DistanceFields, distance_fields
 from crowdmotion.scene import Scene
 
 GROUP_FIELDS = ("radius", "max_speed", "pref_speed", "start", "heading", "name", "reassign")
@@ -304,7 +304,7 @@ class Simulator:
 
     def _route_directions(self, k: int, V: np.ndarray, straight: np.ndarray) -> np.ndarray:
         """(n, 2) unit directions for the mesh's vertices: straight at the goal for those
-        that see it past every static obstacle (all of them in an open scene); down the
+        that see it past every obstacle (all of them in an open scene); down the
         exact distance field to the group's goal (crowdmotion.routing), ROUTE_LOOKAHEAD_M
         ahead, for the others, so the mesh follows corridors round their corners. Vertices
         off the field take the others' mean direction."""
@@ -313,7 +313,10 @@ class Simulator:
         if self._route is None:
             return np.broadcast_to(straight, V.shape)
         g = self.groups[k]
-        sight = clear_lines(self.scene, V, g.goal_center, g.radius)
+        prims = self._prims
+        sight = np.empty(len(V), dtype=bool)
+        line_of_sight(V, np.broadcast_to(g.goal_center, V.shape), np.full(len(V), g.radius),
+                      np.ones(len(V), dtype=bool), prims.circ_c, prims.circ_r, prims.seg_a, prims.seg_b, sight)
         if sight.all():  # nothing between: straight at the goal, as without walls
             return np.broadcast_to(straight, V.shape)
         steps = max(1, int(np.ceil(ROUTE_LOOKAHEAD_M / self._route.cell)))
@@ -429,12 +432,12 @@ class Simulator:
             return
         self.field.update(self.time)
         self._grid = None  # built once per step, on first need
+        prims = self._prims = self.obstacles.at(self.time, self.dt)  # obstacles placed now
         centers, reach = self._discs()
         for k, g in enumerate(self.groups):
             self._advance_mesh(k, g, centers, reach)
         self._agent_velocities()
         active = np.ones(len(self.positions), dtype=bool)
-        prims = self.obstacles.at(self.time, self.dt)
         scale = np.ones(len(self.positions))
         obstacle_safe_moves(self.positions, self.velocities, self.radius, self.max_speed, active, self.dt, prims.circ_c, prims.circ_r,
                             prims.circ_v, prims.seg_a, prims.seg_b, prims.seg_v, scale)

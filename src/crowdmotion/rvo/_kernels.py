@@ -10,8 +10,8 @@ from __future__ import annotations
 import numpy as np
 from numba import njit, prange
 
-from crowdmotion._contact import (INF, _point_segment_distance, _ray_capsule, _ray_disc,  # noqa: F401
-                                  build_grid, resolve_conflicts)
+from crowdmotion._contact import (INF, _clear, _point_segment_distance, _ray_capsule, _ray_disc,  # noqa: F401
+                                  build_grid, line_of_sight, resolve_conflicts)
 from crowdmotion._rng import uniform as _uniform
 
 GOLDEN_COS = float(np.cos(np.pi * (3.0 - np.sqrt(5.0))))
@@ -299,44 +299,7 @@ def _choose_one(i, pos, vel, vpref, aim_dist, radius, vmax, max_nb, nb_dist, sam
         out_forced[i] = True
 
 
-# ---- guidance: line of sight and the distance field ---------------------------------------
-@njit(inline="always")
-def _segments_distance(px, py, qx, qy, ax, ay, bx, by):
-    """Least distance between segments pq and ab."""
-    # proper intersection -> 0
-    d1x, d1y = qx - px, qy - py
-    d2x, d2y = bx - ax, by - ay
-    den = d1x * d2y - d1y * d2x
-    if den != 0.0:
-        s = ((ax - px) * d2y - (ay - py) * d2x) / den
-        t = ((ax - px) * d1y - (ay - py) * d1x) / den
-        if 0.0 <= s <= 1.0 and 0.0 <= t <= 1.0:
-            return 0.0
-    return min(min(_point_segment_distance(px, py, ax, ay, bx, by), _point_segment_distance(qx, qy, ax, ay, bx, by)),
-               min(_point_segment_distance(ax, ay, px, py, qx, qy), _point_segment_distance(bx, by, px, py, qx, qy)))
-
-
-@njit(cache=True)
-def _clear(px, py, qx, qy, r, circ_c, circ_r, seg_a, seg_b):
-    """Whether a body of radius r can walk straight from p to q past every obstacle."""
-    for o in range(circ_c.shape[0]):
-        if _point_segment_distance(circ_c[o, 0], circ_c[o, 1], px, py, qx, qy) < circ_r[o] + r:
-            return False
-    for o in range(seg_a.shape[0]):
-        if _segments_distance(px, py, qx, qy, seg_a[o, 0], seg_a[o, 1], seg_b[o, 0], seg_b[o, 1]) < r:
-            return False
-    return True
-
-
-@njit(parallel=True, cache=True)
-def line_of_sight(pos, goal, radius, active, circ_c, circ_r, seg_a, seg_b, out):
-    """Whether the straight walk from each agent to its goal keeps clear of every obstacle."""
-    n = pos.shape[0]
-    for i in prange(n):
-        out[i] = True if not active[i] else _clear(pos[i, 0], pos[i, 1], goal[i, 0], goal[i, 1], radius[i],
-                                                   circ_c, circ_r, seg_a, seg_b)
-
-
+# ---- guidance: the distance field (line of sight lives in crowdmotion._contact) --------------
 @njit(parallel=True, cache=True)
 def field_directions(pos, field_of, dist, origin_x, origin_y, cell, window, use, radius,
                      circ_c, circ_r, seg_a, seg_b, out):
