@@ -335,3 +335,23 @@ def field_directions(pos, field_of, dist, origin_x, origin_y, cell, window, use,
                     best, bx, by = cost, ex, ey
         out[i, 0] = bx
         out[i, 1] = by
+
+
+@njit(cache=True)
+def held_up_time(wanted, chosen, pref_speed, active, yield_to, slow, dt, stuck):
+    """Seconds each agent has been held up, in place (``rvo.deadlock``): + dt for a step
+    walked slower than ``slow`` x its preferred speed along a v_pref of at least a fifth
+    of it, - dt (not below 0) for any other step: leaky, so inching forward now and then
+    does not wipe out the wait. Zero for agents gone or yielding."""
+    for i in range(stuck.shape[0]):
+        if not active[i] or yield_to[i] >= 0:
+            stuck[i] = 0.0
+            continue
+        wx, wy = wanted[i, 0], wanted[i, 1]
+        speed = np.sqrt(wx * wx + wy * wy)
+        along = (chosen[i, 0] * wx + chosen[i, 1] * wy) / speed if speed > 0.0 else 0.0
+        if speed > 0.2 * pref_speed[i] and along < slow * pref_speed[i]:
+            stuck[i] += dt
+        else:
+            stuck[i] = max(stuck[i] - dt, 0.0)
+

@@ -36,6 +36,8 @@ from __future__ import annotations
 import numpy as np
 from scipy.spatial import cKDTree
 
+from crowdmotion.rvo._kernels import held_up_time
+
 BLOCKER_CANDIDATES = 6  # nearest neighbours searched for the one in an agent's way
 KEEP_RIGHT_LOOK_S = 5.0  # keep right for an oncoming agent met within this many seconds
 SLOW = 0.1             # progress along v_pref below this fraction of pref_speed is "held up"
@@ -94,12 +96,7 @@ class Deadlock:
 
         ``sight`` is each agent's neighbour distance D: how far ahead a blocker counts.
         """
-        speed = np.linalg.norm(wanted, axis=1)
-        along = np.einsum("ij,ij->i", chosen, _unit(wanted))
-        blocked = active & (speed > 0.2 * pref_speed) & (along < SLOW * pref_speed) & (self.yield_to < 0)
-        # leaky: inching forward a step now and then does not wipe out the time held up
-        self.stuck = np.where(blocked, self.stuck + dt, np.maximum(self.stuck - dt, 0.0))
-        self.stuck[~active | (self.yield_to >= 0)] = 0.0
+        held_up_time(wanted, chosen, pref_speed, active, self.yield_to, SLOW, dt, self.stuck)
         # yields end once the other has walked past, is gone, or after YIELD_MAX_S
         y = np.flatnonzero(self.yield_to >= 0)
         if len(y):
@@ -122,10 +119,9 @@ class Deadlock:
         j = live[k[found]]
         gap = np.linalg.norm(pos[j] - pos[i], axis=1) - radius[i] - radius[j]
         mutual = (self.stuck[j] >= self.patience / 2) | (self.yield_to[j] >= 0)
-        prio = self.priority(np.arange(len(pos)))
         head_on = np.einsum("ij,ij->i", _unit(wanted[i]), _unit(wanted[j])) < -0.5
         keep = ((i != j) & head_on & _blocks(pos, wanted, radius, i, j, sight[i])
-                & _blocks(pos, wanted, radius, j, i, sight[j]) & mutual & (prio[j] > prio[i]))
+                & _blocks(pos, wanted, radius, j, i, sight[j]) & mutual & (self.priority(j) > self.priority(i)))
         i, j, gap = i[keep], j[keep], gap[keep]
         if len(i) == 0:
             return 0
