@@ -9,6 +9,7 @@ from __future__ import annotations
 import inspect
 import re
 import types
+import warnings
 from pathlib import Path
 from typing import Union, get_args, get_origin
 
@@ -165,7 +166,9 @@ def _accepts(method: str, dim: int = 2, obstacle: str = "", spawn: str = SPAWNS[
     text = PROBE.format(method=method, bounds=bounds, obstacle=obstacle, spawn=spawn, goal=goal,
                         extra=group_extra + "\n" + extra)
     try:
-        S.parse_scenario(text)
+        with warnings.catch_warnings():  # e.g. PSO's speed note: accepted is accepted
+            warnings.simplefilter("ignore")
+            S.parse_scenario(text)
     except (S.ScenarioError, ValueError):
         return False
     return True

@@ -240,3 +240,9 @@ def test_files_say_a_whole_frame_rate_and_export_resamples_to_the_one_asked(tmp_
     assert main(["export", str(run), "--to", "csv", "--fps", "24", "-o", str(run / "t24.csv")]) == 0
     assert "at 24 fps" in capsys.readouterr().out
     assert Trajectories.load(run / "t24.csv").n_frames == 49
+
+
+def test_a_speed_range_beyond_max_speed_is_refused_by_validate(tmp_path, capsys):
+    path = scenario(tmp_path)
+    path.write_text(path.read_text().replace("count = 9\n", "count = 9\nattributes = { pref_speed_range = [1.0, 2.0] }\n"))
+    refused(capsys, ["validate", str(path)], "group 'walkers'", "pref_speed_range", "max_speed")

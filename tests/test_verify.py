@@ -57,3 +57,16 @@ def test_verify_command_prints_the_table_and_writes_pictures(tmp_path, capsys):
 def test_unknown_cases_are_named(capsys):
     assert main(["verify", "--case", "rimea_99"]) == 2
     assert "unknown verify case(s) ['rimea_99']" in capsys.readouterr().err
+
+
+def test_a_group_can_walk_at_speeds_drawn_from_a_range():
+    import crowdmotion as cm
+    from crowdmotion.rvo.simulation import preferred_speeds
+
+    g = cm.Group("older", 200, spawn=cm.Rect([0, 0], [10, 10]), goal=[20, 5], max_speed=1.5,
+                 attributes={"pref_speed_range": [0.68, 1.41]})
+    v = preferred_speeds(g, np.random.default_rng(0))
+    assert v.shape == (200,) and v.min() >= 0.68 and v.max() <= 1.41 and np.ptp(v) > 0.6
+    bad = cm.Group("x", 3, spawn=cm.Rect([0, 0], [10, 10]), goal=[20, 5], attributes={"pref_speed_range": [1, 2]})
+    with pytest.raises(ValueError, match="max_speed"):
+        preferred_speeds(bad, np.random.default_rng(0))

@@ -227,7 +227,8 @@ class GroupSpec(_Model):
                         a 5-vector of traits in [-1, 1], or a distribution table
     formation : table   formation: the group's template (see "Formation templates")
     attributes : table  method-specific extras passed through to the method (Python:
-                        Group.attributes)
+                        Group.attributes), e.g. rvo: pref_speed_range = [low, high]
+                        (each agent's speed drawn uniformly, RiMEA test 7), heading_deg
     """
 
     name: str = Field(min_length=1)

@@ -224,6 +224,37 @@ def _judge_rimea_6(out: dict[str, Outcome]) -> tuple[str, str, bool]:
             bool(_arrived(r) == 1.0 and pen == 0))
 
 
+# ---- RiMEA 7: walking speeds drawn from Weidmann's age groups ---------------------------------
+WEIDMANN = {"under 30": (0.58, 1.61), "30 to 50": (1.41, 1.54), "over 50": (0.68, 1.41),
+            "limited mobility": (0.46, 0.76)}  # m/s on the flat, RiMEA Table 1
+
+
+def _rimea_7(method: str) -> dict[str, Setup]:
+    scene = Scene(bounds=([0, 0], [60, 42]))
+    groups = []
+    for k, (name, (lo, hi)) in enumerate(WEIDMANN.items()):  # one lane of 10 m per age group
+        y0 = 1 + 10.5 * k
+        groups.append(Group(name, 25, spawn=Rect([1, y0], [6, y0 + 8]), goal=Rect([55, y0], [59, y0 + 8]),
+                            radius=0.2, max_speed=1.7, pref_speed=min(1.3, hi),
+                            attributes={"pref_speed_range": [lo, hi]}))
+    return {"lanes": Setup(scene, groups, _params(method, goal_assignment="shift", spawn_gap=0.3))}
+
+
+def _judge_rimea_7(out: dict[str, Outcome]) -> tuple[str, str, bool]:
+    tr = out["lanes"].traj
+    ok, parts = True, []
+    for name, (lo, hi) in WEIDMANN.items():
+        sel = tr.group == name
+        t_in, t_out = crossing_times(tr, 0, 15.0)[sel], crossing_times(tr, 0, 45.0)[sel]
+        speed = 30.0 / (t_out - t_in)  # free walking over 30 m in the middle of the lane
+        inside = np.all((speed >= lo - 0.05) & (speed <= hi + 0.02))  # passing others costs a little
+        spread = np.ptp(speed) >= 0.3 * (hi - lo)
+        ok &= bool(inside and spread and np.isfinite(speed).all())
+        parts.append(f"{name}: {speed.min():.2f}-{speed.max():.2f}")
+    return ("each age group walks within its Weidmann range (-0.05 m/s for passing), spread over it",
+            "; ".join(parts), ok)
+
+
 # ---- RiMEA 9: a crowd leaves a room by four exits, then by two -------------------------------
 ROOM_X = (6.0, 36.0)  # the 30 m room of RiMEA 9; 6 m of open ground outside each short wall
 
@@ -394,6 +425,9 @@ CASES: list[Case] = [
     Case("corridor_two_corners", "issue 13",
          "a 10 x 2 column (or 20 walkers) follows a 4 m corridor round two 90° corners, back the way it came",
          ("formation", "rvo", "mdp"), _corridor_two_corners, _judge_corridor, quick=True),
+    Case("rimea_7_speeds", "RiMEA test 7",
+         "four age groups of 25 (Weidmann's speed ranges) walk 50 m in their own lanes",
+         ("rvo",), _rimea_7, _judge_rimea_7),
     Case("rimea_9_four_exits", "RiMEA test 9",
          "1000 persons leave a 30 x 20 m room by four 1 m exits, then with two of them closed",
          ("rvo", "mdp"), _rimea_9, _judge_rimea_9),

@@ -8,6 +8,7 @@ from typing import Callable, Sequence
 import numpy as np
 
 from crowdmotion import __version__
+from crowdmotion.checks import where
 from crowdmotion.groups import Disc, Group, MovingTarget, Points, Rect
 from crowdmotion.placement import spawn_positions
 from crowdmotion.rvo.params import RVOParams
@@ -40,6 +41,23 @@ def goal_points(group: Group, starts: np.ndarray, assignment: str, rng: np.rando
     return goal.sample(group.count, rng)
 
 
+def preferred_speeds(group: Group, rng: np.random.Generator):
+    """The group's pref_speed, or one speed per agent drawn uniformly from
+    ``attributes["pref_speed_range"] = [low, high]`` (m/s, within max_speed): walking speeds
+    that differ, as RiMEA test 7 asks (Weidmann's age groups)."""
+    spec = group.attributes.get("pref_speed_range")
+    if spec is None:
+        return group.pref_speed
+    try:
+        lo, hi = (float(v) for v in spec)
+    except (TypeError, ValueError):
+        raise ValueError(f"attributes.pref_speed_range must be [low, high] in m/s, got {spec!r}") from None
+    if not (0 < lo <= hi <= group.max_speed):
+        raise ValueError(f"attributes.pref_speed_range must satisfy 0 < low <= high <= max_speed "
+                         f"({group.max_speed:g}), got {spec!r}")
+    return rng.uniform(lo, hi, group.count)
+
+
 def build_simulator(scene: Scene, groups: Sequence[Group], params: RVOParams, rng: np.random.Generator) -> Simulator:
     """A Simulator holding every group's agents, placed and personalised."""
     sim = Simulator(scene, params.time_step, guidance=params.guidance, remove_on_arrival=params.remove_on_arrival,
@@ -50,7 +68,7 @@ def build_simulator(scene: Scene, groups: Sequence[Group], params: RVOParams, rn
     placed_r = np.zeros(0)
     for k, g in enumerate(groups):
         if g.dim != 2:
-            raise ValueError(f"groups.{k} ({g.name!r}): the RVO method is 2D, the group is {g.dim}D")
+            raise ValueError(f"{where(k, g)}: the RVO method is 2D, the group is {g.dim}D")
         starts = spawn_positions(scene, g, placed, placed_r, params.spawn_gap, rng)
         goals = goal_points(g, starts, params.goal_assignment, rng)
         persona = g.attributes.get("personality")
@@ -59,10 +77,10 @@ def build_simulator(scene: Scene, groups: Sequence[Group], params: RVOParams, rn
                 kw = {key: g.attributes.get(key, getattr(params, key)) for key in PARAM_KEYS}
             else:
                 kw = {"personality": sample_personalities(persona, g.count, rng, f"groups.{k}.personality")}
-            sim.add_agents(starts, goals, radius=g.radius, max_speed=g.max_speed, pref_speed=g.pref_speed,
-                           goal_region=g.goal, **kw)
+            sim.add_agents(starts, goals, radius=g.radius, max_speed=g.max_speed,
+                           pref_speed=preferred_speeds(g, rng), goal_region=g.goal, **kw)
         except ValueError as exc:
-            raise ValueError(f"groups.{k} ({g.name!r}): {exc}") from None
+            raise ValueError(f"{where(k, g)}: {exc}") from None
         placed = np.vstack([placed, starts])
         placed_r = np.append(placed_r, np.full(len(starts), g.radius))
     return sim
