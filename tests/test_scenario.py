@@ -196,3 +196,13 @@ def test_formation_scenario_runs_and_reports_the_formation():
 ])
 def test_formation_scenario_errors_name_the_field(old, new, words):
     _refused(FORMATION.replace(old, new), words)
+
+
+def test_remove_on_arrival_is_one_option_in_mdp_and_rvo_and_the_old_mdp_name_still_reads():
+    from crowdmotion.mdp import MDPParams
+    from crowdmotion.rvo import RVOParams
+
+    assert "remove_on_arrival" in MDPParams.model_fields and "remove_on_arrival" in RVOParams.model_fields
+    assert MDPParams(despawn=True) == MDPParams(remove_on_arrival=True)
+    sc = parse_scenario(GOOD.replace("max_steps = 30", "max_steps = 30\nremove_on_arrival = true"))
+    assert sc.params.remove_on_arrival is True

@@ -137,7 +137,7 @@ def _params(method: str, **rvo) -> dict:
     if method == "rvo":
         return {"max_steps": 4000, **rvo}
     if method == "mdp":
-        return {"max_steps": 3000, "despawn": True}
+        return {"max_steps": 3000, "remove_on_arrival": True}
     return {"max_steps": 4000}
 
 

@@ -5,7 +5,7 @@ from __future__ import annotations
 
 from typing import Annotated, Literal
 
-from pydantic import BaseModel, ConfigDict, Field
+from pydantic import AliasChoices, BaseModel, ConfigDict, Field
 
 PosFloat = Annotated[float, Field(gt=0, allow_inf_nan=False)]
 
@@ -24,8 +24,9 @@ class MDPParams(BaseModel):
     corner_cutting : bool      False (default for scenes) = diagonal moves only past free
                                cells, so a body never clips an obstacle's corner; True =
                                the paper's rule
-    despawn : bool             remove agents that reach the goal so others can take the
-                               goal cells
+    remove_on_arrival : bool   agents that reach a goal cell leave the scene so others can
+                               take the goal cells (the same option as rvo's; the old
+                               name ``despawn`` is still read)
     stop_when_done : bool      end the run early once every agent has arrived (or is stuck)
     replan_every : int         with moving obstacles, re-solve the values every this many steps
     lookahead : int            ... marking the cells the obstacles cover this many steps ahead
@@ -43,7 +44,7 @@ class MDPParams(BaseModel):
     max_steps: Annotated[int, Field(gt=0, le=1_000_000)] = 400
     forbid_crossing: bool = True
     corner_cutting: bool = False
-    despawn: bool = False
+    remove_on_arrival: bool = Field(False, validation_alias=AliasChoices("remove_on_arrival", "despawn"))
     stop_when_done: bool = True
     replan_every: Annotated[int, Field(gt=0)] = 4
     lookahead: Annotated[int, Field(ge=0)] = 4

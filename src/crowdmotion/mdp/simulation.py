@@ -123,7 +123,7 @@ def setup(scene: Scene, groups: Sequence[Group], params: MDPParams, rng: np.rand
     # a point goal shared by more agents than it has points: the nearest free cells as slots
     toward = [None] * len(groups)
     for k, g in enumerate(groups):
-        if isinstance(g.goal, Points) and len(goal_cells[k]) < g.count and not params.despawn:
+        if isinstance(g.goal, Points) and len(goal_cells[k]) < g.count and not params.remove_on_arrival:
             toward[k] = goal_cells[k]
             try:
                 goal_cells[k] = nearest_cells(grid.occupancy, goal_cells[k], g.count, params.corner_cutting)
@@ -176,7 +176,7 @@ def run(scene: Scene, groups: Sequence[Group], params: MDPParams, rng: np.random
                 walker.set_values(values + np.stack([fill_depth(occ, gc, params.corner_cutting, toward[k])
                                                      for k, gc in enumerate(goal_cells)]))
             before = walker.cells.copy()
-            c, a = walker.advance(chunk, rng, params.tau, params.forbid_crossing, params.despawn)
+            c, a = walker.advance(chunk, rng, params.tau, params.forbid_crossing, params.remove_on_arrival)
             cells_out.append(c)
             active_out.append(a)
             done += chunk
