@@ -51,3 +51,23 @@ def test_failed_write_leaves_no_file(tmp_path, monkeypatch):
 def test_unwritable_folder(tmp_path):
     with pytest.raises(FileNotFoundError, match="does not exist"):
         sample().save(tmp_path / "missing" / "t.parquet")
+
+
+def test_tables_are_typed_for_any_reader_and_say_rate_units_and_axes(tmp_path):
+    # issue 17: a 2D CSV wrote an empty z that polars/DuckDB read as text; no fps in the metadata
+    import csv
+    import json
+
+    import pyarrow.parquet as pq
+
+    pos = np.cumsum(np.full((5, 2, 2), 0.5), axis=0)
+    tr = Trajectories(pos, 0.25)
+    with open(tr.save(tmp_path / "t.csv")) as f:
+        header = next(csv.reader(f))
+    assert "z" not in header
+    meta = json.loads((tmp_path / "t.csv.meta.json").read_text())
+    assert meta["fps"] == 4.0 and meta["dim"] == 2 and meta["units"]["length"] == "m" and "axes" in meta
+    table = pq.read_table(tr.save(tmp_path / "t.parquet"))
+    assert "z" not in table.column_names
+    assert all(str(t) in ("int64", "double", "string", "bool") for t in table.schema.types)
+    assert Trajectories.load(tmp_path / "t.parquet").dim == 2

@@ -13,24 +13,24 @@ COLUMNS = ("frame", "time", "agent", "group", "x", "y", "z", "radius", "active")
 
 
 def to_table(traj: Trajectories) -> pa.Table:
-    """One row per (frame, agent); z is null for 2D runs."""
+    """One row per (frame, agent); 2D runs have no z column (every column is numeric or
+    text, so pandas, polars and DuckDB read the types right)."""
     t, n, d = traj.positions.shape
     frame = np.repeat(np.arange(t, dtype=np.int64), n)
     pos = traj.positions.reshape(t * n, d)
-    z = pa.array(pos[:, 2]) if d == 3 else pa.nulls(t * n, pa.float64())
-    return pa.table(
-        {
-            "frame": frame,
-            "time": frame * traj.dt,
-            "agent": np.tile(traj.ids, t),
-            "group": pa.array(np.tile(traj.group.astype(str), t)),
-            "x": pos[:, 0],
-            "y": pos[:, 1],
-            "z": z,
-            "radius": np.tile(traj.radius, t),
-            "active": traj.active_mask.reshape(-1),
-        }
-    )
+    columns = {
+        "frame": frame,
+        "time": frame * traj.dt,
+        "agent": np.tile(traj.ids, t),
+        "group": pa.array(np.tile(traj.group.astype(str), t)),
+        "x": pos[:, 0],
+        "y": pos[:, 1],
+    }
+    if d == 3:
+        columns["z"] = pos[:, 2]
+    columns["radius"] = np.tile(traj.radius, t)
+    columns["active"] = traj.active_mask.reshape(-1)
+    return pa.table(columns)
 
 
 def from_table(table: pa.Table, metadata: dict | None = None) -> Trajectories:
@@ -72,8 +72,11 @@ def from_table(table: pa.Table, metadata: dict | None = None) -> Trajectories:
 
 
 def metadata_json(traj: Trajectories) -> str:
-    """Metadata as JSON, numpy values turned into plain lists/numbers."""
-    return json.dumps({**traj.metadata, "dt": traj.dt}, default=_plain)
+    """Metadata as JSON, numpy values turned into plain lists/numbers, with what a reader
+    needs to use the numbers: frame rate, dimension, units and axes."""
+    return json.dumps({**traj.metadata, "dt": traj.dt, "fps": traj.fps, "dim": traj.dim,
+                       "units": {"length": "m", "time": "s", "speed": "m/s"},
+                       "axes": "x east, y north, z up; 2D runs lie on the ground plane"}, default=_plain)
 
 
 def _plain(obj):
