@@ -78,3 +78,16 @@ def test_a_corrupt_file_is_refused(tmp_path):
     (tmp_path / "bad.sqlite").write_bytes(b"not a database at all" * 10)
     with pytest.raises(ValueError, match="not a JuPedSim trajectory SQLite"):
         Trajectories.load(tmp_path / "bad.sqlite")
+
+
+def test_every_frame_comes_back_after_the_last_agent_has_left(tmp_path):
+    # issue 17: an MDP SQLite with despawned agents loaded back 68 of 151 frames
+    pos = np.cumsum(np.full((10, 2, 2), 0.3), axis=0)
+    pos[:, 1, 1] += 2
+    act = np.ones((10, 2), bool)
+    act[4:, 0] = False
+    act[6:, 1] = False  # nobody active after frame 5
+    tr = Trajectories(pos, 0.5, active=act)
+    back = Trajectories.load(tr.save(tmp_path / "t.sqlite"))
+    assert back.n_frames == 10
+    np.testing.assert_array_equal(back.active_mask, act)

@@ -86,7 +86,8 @@ def write(traj: Trajectories, path: Path) -> None:
     geo_hash = zlib.crc32(geo.encode())
     xmin, ymin, xmax, ymax = shapely.from_wkt(geo).bounds
     meta = [("version", str(VERSION)), ("fps", repr(traj.fps)), ("xmin", repr(xmin)), ("xmax", repr(xmax)),
-            ("ymin", repr(ymin)), ("ymax", repr(ymax)), ("crowdmotion", metadata_json(traj))]
+            ("ymin", repr(ymin)), ("ymax", repr(ymax)), ("crowdmotion", metadata_json(traj)),
+            ("crowdmotion_frames", str(t))]
     if traj.dim == 3:
         meta.append(("projection", "3D run projected onto the ground plane (x, y); z dropped"))
     with atomic_path(path) as tmp:
@@ -136,7 +137,8 @@ def read(path: Path) -> Trajectories:
     frames = rows[:, 0].astype(np.int64)
     ids, col = np.unique(rows[:, 1].astype(np.int64), return_inverse=True)
     f0 = frames.min()
-    t = int(frames.max() - f0) + 1
+    # frames after the last active agent have no rows: the frame count says how many there were
+    t = max(int(frames.max() - f0) + 1, int(meta.get("crowdmotion_frames", 0)) - int(f0))
     pos = np.zeros((t, len(ids), 2))
     active = np.zeros((t, len(ids)), bool)
     pos[frames - f0, col] = rows[:, 2:4]
