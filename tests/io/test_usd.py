@@ -85,3 +85,21 @@ def test_failed_usd_write_leaves_nothing(tmp_path, monkeypatch):
     with pytest.raises(RuntimeError):
         tr.save(tmp_path / "t.usdc")
     assert list(tmp_path.iterdir()) == []
+
+
+def test_prototypes_are_named_after_groups_and_points_carry_velocity_and_colour(tmp_path):
+    from pxr import Usd, UsdGeom
+
+    pos = np.zeros((4, 2, 2))
+    pos[:, 0, 0] = [0.0, 1.0, 2.0, 3.0]  # walking east at 2 m/s (dt 0.5)
+    pos[:, 1, 1] = 5.0
+    tr = Trajectories(pos, 0.5, group=np.array(["red", "walkers"], dtype=object))
+    stage = Usd.Stage.Open(str(tr.save(tmp_path / "v.usda")))
+    inst = UsdGeom.PointInstancer(stage.GetPrimAtPath("/World/Crowd"))
+    names = [str(p.name) for p in inst.GetPrototypesRel().GetTargets()]
+    assert names == ["red_0", "walkers_1"]
+    points = UsdGeom.Points(stage.GetPrimAtPath("/World/Agents"))
+    v = np.array(points.GetVelocitiesAttr().Get(12.0))  # frame 1 at 24 time codes per second
+    np.testing.assert_allclose(v[0], [2.0, 0.0, 0.0], atol=1e-6)  # east is USD +x
+    colour = np.array(points.GetDisplayColorPrimvar().Get())
+    np.testing.assert_allclose(colour[0], [1.0, 0.0, 0.0])

@@ -7,10 +7,12 @@ time code t × rate, so an MDP run stepping every 0.85 s plays at its true speed
 scene (USD interpolates between samples). World (x, y[, z]) with z up maps to USD
 (x, z, −y): a 2D run lies on the ground plane at height 0. Under ``/World``:
 
-- ``Agents`` — a ``UsdGeomPoints`` with time-sampled ``points``, ``widths`` (body
-  diameters; 0 while an agent is inactive) and ``ids``;
-- ``Crowd`` — a ``UsdGeomPointInstancer`` with one prototype per group (a capsule of the
-  group's body size, standing up), time-sampled ``positions``, ``orientations`` (turned
+- ``Agents`` — a ``UsdGeomPoints`` with time-sampled ``points``, ``velocities`` (m/s, for
+  motion blur), ``widths`` (body diameters; 0 while an agent is inactive), ``ids`` and a
+  per-point ``displayColor`` by group;
+- ``Crowd`` — a ``UsdGeomPointInstancer`` with one prototype per group, named after it (a
+  capsule of the group's body size, standing up), time-sampled ``positions``,
+  ``velocities``, ``orientations`` (turned
   about the up axis to the heading) and ``invisibleIds`` for inactive agents;
 - ``Obstacles`` — cylinders, spheres, cubes and flat polygon meshes for the scene's static
   obstacles (moving ones at their start place, with their path as ``translate`` samples
@@ -141,8 +143,10 @@ def write(traj: Trajectories, path: Path) -> None:
             inst.CreateIdsAttr(Vt.Int64Array.FromNumpy(ids))
             inst.CreateProtoIndicesAttr(Vt.IntArray.FromNumpy(proto_index))
             targets = []
-            for k, g in enumerate(groups):
-                cap = UsdGeom.Capsule.Define(stage, f"/World/Crowd/Prototypes/group_{k}")
+            from pxr import Tf
+
+            for k, g in enumerate(groups):  # a prototype per group, named after it
+                cap = UsdGeom.Capsule.Define(stage, f"/World/Crowd/Prototypes/{Tf.MakeValidIdentifier(str(g))}_{k}")
                 r = float(traj.radius[traj.group == g].max())
                 cap.CreateRadiusAttr(r)
                 cap.CreateHeightAttr(max(1.7 - 2 * r, 0.1))
@@ -153,12 +157,22 @@ def write(traj: Trajectories, path: Path) -> None:
             inst.CreatePrototypesRel().SetTargets(targets)
             ip_attr, io_attr, iv_attr = inst.CreatePositionsAttr(), inst.CreateOrientationsAttr(), \
                 inst.CreateInvisibleIdsAttr()
+            # velocities (m/s) for motion blur; a colour per agent by group (displayColor)
+            vel = to_usd_frame(np.nan_to_num(traj.velocity)).astype(np.float32)
+            pv_attr, iv_vel = points.CreateVelocitiesAttr(), inst.CreateVelocitiesAttr()
+            from crowdmotion.render.colours import group_colours
+
+            colours = group_colours(groups)
+            rgb = np.array([colours[g][:3] for g in traj.group.tolist()], np.float32)
+            points.CreateDisplayColorPrimvar(UsdGeom.Tokens.vertex).Set(Vt.Vec3fArray.FromNumpy(rgb))
             half = heading / 2  # a turn about +Y by the heading (world z up maps to USD +Y)
             for f in range(traj.n_frames):
                 tc = Usd.TimeCode(float(codes[f]))
                 p_attr.Set(Vt.Vec3fArray.FromNumpy(pos[f]), tc)
                 w_attr.Set(Vt.FloatArray.FromNumpy(np.where(act[f], width, 0.0).astype(np.float32)), tc)
                 ip_attr.Set(Vt.Vec3fArray.FromNumpy(pos[f]), tc)
+                pv_attr.Set(Vt.Vec3fArray.FromNumpy(vel[f]), tc)
+                iv_vel.Set(Vt.Vec3fArray.FromNumpy(vel[f]), tc)
                 quats = [Gf.Quath(float(c), 0.0, float(s), 0.0) for c, s in zip(np.cos(half[f]), np.sin(half[f]))]
                 io_attr.Set(quats, tc)
                 iv_attr.Set(Vt.Int64Array.FromNumpy(ids[~act[f]]), tc)

@@ -12,6 +12,7 @@ import numpy as np  # noqa: E402
 from matplotlib import patches  # noqa: E402
 
 from crowdmotion.io.atomic import atomic_path  # noqa: E402
+from crowdmotion.render.colours import group_colours  # noqa: E402
 from crowdmotion.scene import Box, Circle, Polygon, Scene, Sphere  # noqa: E402
 from crowdmotion.trajectories import Trajectories  # noqa: E402
 
@@ -38,27 +39,6 @@ def _draw_obstacles_2d(ax, scene: Scene, t: float = 0.0) -> None:
             ax.add_patch(patches.Polygon(ob.vertices + shift, closed=True, **style))
         if ob.is_moving:
             ax.plot(ob.path.positions[:, 0], ob.path.positions[:, 1], "k--", lw=1, zorder=2)
-
-
-def group_colours(names) -> dict:
-    """A colour per group: the group's own name when it names a colour ("red", "blue"),
-    else the next of matplotlib's tab10 colours not taken by such a name."""
-    from matplotlib.colors import is_color_like, to_rgba
-
-    names = list(dict.fromkeys(names))
-    cycle = (plt.get_cmap("tab10")(i) for i in range(1000))
-    own = {n: to_rgba(n) for n in names if isinstance(n, str) and is_color_like(n)}
-    taken = set(own.values())
-    out = {}
-    for n in names:
-        if n in own:
-            out[n] = own[n]
-            continue
-        c = next(cycle)
-        while c in taken:
-            c = next(cycle)
-        out[n] = c
-    return out
 
 
 def _group_colours(traj: Trajectories) -> dict:
