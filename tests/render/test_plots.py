@@ -61,3 +61,11 @@ def test_one_hot_cell_does_not_flatten_the_density_scale(captured, tmp_path):
     image = ax.get_images()[0]
     assert image.norm.vmax < 0.5, "the standing agent's cell (1 /m²) is off the scale"
     assert "clipped" in ax.get_title()
+
+
+def test_the_player_uses_the_same_group_colours_as_the_pictures():
+    from crowdmotion.render.player import player_data
+
+    traj = Trajectories(np.zeros((2, 2, 2)) + [[1, 1], [2, 2]], 1.0, group=np.array(["red", "crowd"], dtype=object))
+    data = player_data(traj)
+    assert data["groups"] == [{"name": "red", "colour": "#ff0000"}, {"name": "crowd", "colour": "#1f77b4"}]

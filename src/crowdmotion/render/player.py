@@ -16,12 +16,11 @@ from pathlib import Path
 
 import numpy as np
 
+from matplotlib.colors import to_hex
+
 from crowdmotion.io.atomic import atomic_path
+from crowdmotion.render.colours import group_colours
 from crowdmotion.trajectories import Trajectories
-
-PALETTE = ["#1f77b4", "#ff7f0e", "#2ca02c", "#d62728", "#9467bd", "#8c564b", "#e377c2", "#7f7f7f", "#bcbd22",
-           "#17becf"]
-
 
 def _b64(a: np.ndarray) -> str:
     return base64.b64encode(np.ascontiguousarray(a).tobytes()).decode("ascii")
@@ -32,13 +31,14 @@ def player_data(traj: Trajectories, max_frames: int = 3000) -> dict:
     frames = np.unique(np.linspace(0, traj.n_frames - 1, min(traj.n_frames, max_frames)).round().astype(int))
     pos = traj.positions[frames].astype(np.float32)
     names = list(dict.fromkeys(traj.group.tolist()))
+    colours = group_colours(names)  # as in the pictures: a group called "red" is red
     return {
         "frames": int(len(frames)), "agents": int(traj.n_agents), "dim": int(traj.dim),
         "times": (frames * traj.dt).round(6).tolist(),
         "positions": _b64(pos), "active": _b64(traj.active_mask[frames].astype(np.uint8)),
         "radius": np.asarray(traj.radius, float).round(4).tolist(),
         "group": [names.index(g) for g in traj.group.tolist()],
-        "groups": [{"name": str(n), "colour": PALETTE[k % len(PALETTE)]} for k, n in enumerate(names)],
+        "groups": [{"name": str(n), "colour": to_hex(colours[n])} for n in names],
         "scene": traj.metadata.get("scene"),
         "title": str(traj.metadata.get("scenario") or traj.metadata.get("method") or "crowdmotion run"),
     }
