@@ -100,7 +100,7 @@ def check_spawn_capacity(scene: Scene, k: int, group: Group, gap: float) -> None
                          f"{group.count}: enlarge the spawn region or lower the count")
 
 
-def region_samples(scene: Scene, region, with_area: bool = False, per_axis: int | None = None):
+def region_samples(scene: Scene, region, with_area: bool = False):
     """Points of a regular lattice filling ``region`` within the scene bounds (and the area
     or volume each stands for, with ``with_area``)."""
     lo, hi = (region.lower, region.upper) if isinstance(region, Rect) else \
@@ -108,7 +108,7 @@ def region_samples(scene: Scene, region, with_area: bool = False, per_axis: int 
     lo, hi = np.maximum(lo, scene.lower), np.minimum(hi, scene.upper)
     if np.any(hi <= lo):
         return (np.empty((0, scene.dim)), 0.0) if with_area else np.empty((0, scene.dim))
-    n = per_axis or (200 if scene.dim == 2 else 40)
+    n = 200 if scene.dim == 2 else 40
     axes = [lo[d] + (np.arange(n) + 0.5) * (hi[d] - lo[d]) / n for d in range(scene.dim)]
     pts = np.stack(np.meshgrid(*axes, indexing="ij"), axis=-1).reshape(-1, scene.dim)
     pts = pts[region.contains(pts)]

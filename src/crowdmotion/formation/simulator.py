@@ -80,8 +80,7 @@ class FormationGroup:
 
     def rest_shape(self) -> np.ndarray:
         """The rest shape about its centre, turned to the group's heading now."""
-        c, s = np.cos(self.heading - self.heading0), np.sin(self.heading - self.heading0)
-        return (self.mesh.rest - self.mesh.rest.mean(axis=0)) @ np.array([[c, s], [-s, c]])
+        return (self.mesh.rest - self.mesh.rest.mean(axis=0)) @ _rotation(self.heading - self.heading0).T
 
     @property
     def all_vertices(self) -> np.ndarray:

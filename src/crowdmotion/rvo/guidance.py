@@ -6,7 +6,7 @@ from __future__ import annotations
 import numpy as np
 
 from crowdmotion.obstacle_primitives import ObstaclePrimitives
-from crowdmotion.routing import DistanceFields, distance_fields  # noqa: F401  (the RVO guidance API)
+from crowdmotion.routing import DistanceFields
 from crowdmotion.rvo import _kernels as K
 
 FIELD_WINDOW = 2  # cells: agents aim within this many cells along the field
