@@ -32,13 +32,8 @@ def test_quick_cases_pass_with_a_clean_audit(case, method):
     assert v.passed, f"{case}/{method}: {v.criterion}: measured {v.measured}"
 
 
-KNOWN_FAILING = {("rimea_15_corner_crowd", "rvo")}  # the corner costs ~15 % of the corridor's flow
-
-
 @pytest.mark.slow
-@pytest.mark.parametrize("case,method", [
-    pytest.param(c.name, m, marks=[pytest.mark.xfail(strict=True)] if (c.name, m) in KNOWN_FAILING else [])
-    for c, m in verify.select()])
+@pytest.mark.parametrize("case,method", [(c.name, m) for c, m in verify.select()])
 def test_full_suite(case, method):
     c = next(c for c in verify.CASES if c.name == case)
     v = verify.run_case(c, method)
