@@ -7,13 +7,17 @@ import pytest
 
 from crowdmotion.cli import builtin_scenarios
 from crowdmotion.scenario import load_scenario, run_scenario
+from tests.io.readers import assert_sqlite_opens_in_pedpy_and_jupedsim, assert_usd_obstacles_where_the_scene_has_them
 
 SCENES = {p.stem: p for p in builtin_scenarios()}
 
 
 @pytest.mark.parametrize("name", sorted(SCENES))
-def test_builtin_scene_is_clean_and_gathers(name):
+def test_builtin_scene_is_clean_gathers_and_opens_in_the_readers(name, tmp_path):
     result = run_scenario(load_scenario(SCENES[name]), progress=False)
+    # issue 17: its SQLite in PedPy and JuPedSim, its USD obstacles in pxr
+    assert_sqlite_opens_in_pedpy_and_jupedsim(result.trajectories, tmp_path)
+    assert_usd_obstacles_where_the_scene_has_them(result.trajectories, tmp_path)
     s = result.summary
     assert s["agent_agent_overlaps"] == 0, s["first_events"]
     assert s["agent_obstacle_penetrations"] == 0, s["first_events"]

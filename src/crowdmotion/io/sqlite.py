@@ -4,12 +4,15 @@
 Tables as JuPedSim writes them: ``trajectory_data(frame, id, pos_x, pos_y, ori_x, ori_y)``
 (one row per present agent and frame; the orientation is the unit heading),
 ``metadata(key, value)`` with ``version`` = 2, ``fps`` and the bounds ``xmin`` .. ``ymax``,
-``geometry(hash, wkt)`` holding the walkable area (the scene's bounds less its static
-obstacles, as WKT) and ``frame_data(frame, geometry_hash)``. crowdmotion adds
+``geometry(hash, wkt)`` holding the walkable area (one polygon: see :func:`walkable_area`)
+and ``frame_data(frame, geometry_hash)``. Positions are written with a fixed jitter of
+at most ``JITTER_M`` (1 µm, the ``jitter_m`` metadata entry) so that PedPy's Voronoi
+density (GEOS) runs on every frame: it fails on exact lattices and coincident points. crowdmotion adds
 ``crowdmotion_agents(id, grp, radius)`` and a ``crowdmotion`` metadata entry (JSON) so
 that its own reader gets the groups, radii and metadata back; JuPedSim and PedPy ignore
 them. 3D runs are projected onto the ground plane (x, y): the ``projection`` metadata
-entry says so, and so does a ``UserWarning`` on writing.
+entry says so, and so does a ``UserWarning`` on writing. Drones stacked in z then stand
+1 µm apart on the ground: their Voronoi density there is meaningless.
 """
 
 from __future__ import annotations
@@ -30,27 +33,61 @@ from crowdmotion.scene import Box, Circle, Polygon, Scene, Sphere
 from crowdmotion.trajectories import Trajectories
 
 VERSION = 2
+JITTER_M = 1e-6  # positions are written within this many metres of the run's (see write)
 
 
-def walkable_area(scene_dict: dict | None, positions: np.ndarray) -> shapely.Geometry:
-    """The scene's bounds less its static obstacles, in the ground plane; without a scene,
-    the box round every position, 1 m wider."""
+def _footprint(ob) -> shapely.Geometry | None:
+    """An obstacle's outline in the ground plane (x, y)."""
+    if isinstance(ob, (Circle, Sphere)):
+        return shapely.Point(ob.center[:2]).buffer(ob.radius, quad_segs=16)
+    if isinstance(ob, Box):
+        return shapely.box(*ob.lower[:2], *ob.upper[:2])
+    if isinstance(ob, Polygon):
+        return ob.geometry
+    return None
+
+
+def _sample_xy(positions: np.ndarray, active: np.ndarray, most: int = 200_000) -> np.ndarray:
+    """(k, 2) ground-plane positions of active agents, evenly thinned to at most ``most``."""
+    xy = positions[..., :2][active]
+    return xy[:: max(1, len(xy) // most)]
+
+
+def walkable_area(scene_dict: dict | None, positions: np.ndarray, active: np.ndarray | None = None
+                  ) -> tuple[shapely.Polygon, str | None]:
+    """One polygon, the ground-plane region the agents use, as PedPy and JuPedSim need it:
+    the scene's bounds less the footprints of its static obstacles, except, in 3D, footprints
+    that an agent's centre enters (agents flying over or under an obstacle). When obstacles cut
+    the bounds into pieces, the piece holding the most agent positions. Without a scene,
+    the box round every position, 1 m wider. Returns the polygon and a warning (or None)
+    when agents stand outside it."""
+    if active is None:
+        active = np.ones(positions.shape[:2], bool)
+    xy = _sample_xy(positions, active)
     if not scene_dict:
-        lo, hi = positions[..., :2].reshape(-1, 2).min(axis=0) - 1.0, positions[..., :2].reshape(-1, 2).max(axis=0) + 1.0
-        return shapely.box(*lo, *hi)
+        lo, hi = xy.min(axis=0) - 1.0, xy.max(axis=0) + 1.0
+        return shapely.box(*lo, *hi), None
     scene = Scene.from_dict(scene_dict)
     area = shapely.box(*scene.lower[:2], *scene.upper[:2])
     holes = []
     for ob in scene.obstacles:
-        if ob.is_moving:
-            continue  # walkable at some moments: not cut out of the static area
-        if isinstance(ob, (Circle, Sphere)):
-            holes.append(shapely.Point(ob.center[:2]).buffer(ob.radius, quad_segs=16))
-        elif isinstance(ob, Box):
-            holes.append(shapely.box(*ob.lower[:2], *ob.upper[:2]))
-        elif isinstance(ob, Polygon):
-            holes.append(ob.geometry)
-    return area.difference(shapely.union_all(holes)) if holes else area
+        foot = None if ob.is_moving else _footprint(ob)  # a moving one is walkable at times
+        if foot is None or (scene.dim == 3 and shapely.contains_xy(foot, xy[:, 0], xy[:, 1]).any()):
+            continue  # moving, or flown over (under) in 3D
+        holes.append(foot)
+    if holes:
+        area = shapely.make_valid(area.difference(shapely.union_all(holes)))
+    parts = [g for g in shapely.get_parts(area) if isinstance(g, shapely.Polygon) and g.area > 0]
+    parts = [shapely.Polygon(g.exterior, [h for h in g.interiors]) for g in parts]
+    inside = [int(shapely.intersects_xy(g, xy[:, 0], xy[:, 1]).sum()) for g in parts]
+    best = int(np.argmax(inside))
+    left_out = len(xy) - inside[best]
+    note = None
+    if left_out:
+        why = (f"obstacles cut the scene into {len(parts)} pieces; the one most agents use is kept"
+               if len(parts) > 1 else "inside obstacles or out of bounds")
+        note = f"{left_out} of {len(xy)} agent positions lie outside the walkable area written ({why})"
+    return parts[best], note
 
 
 def _orientation(traj: Trajectories) -> np.ndarray:
@@ -79,15 +116,21 @@ def write(traj: Trajectories, path: Path) -> None:
     t, n, _ = traj.positions.shape
     act = traj.active_mask
     frame, agent = np.nonzero(act)
-    pos = traj.positions[frame, agent, :2]
+    # a fixed sub-micrometre jitter: GEOS's Voronoi (PedPy's density) fails on exact lattices
+    # (MDP cells, formation templates) and on drones stacked in z once projected
+    pos = traj.positions[frame, agent, :2] + np.random.default_rng(0).uniform(-JITTER_M, JITTER_M, (len(frame), 2))
     ori = _orientation(traj)[frame, agent]
     rows = np.column_stack([frame, traj.ids[agent], pos, ori])
-    geo = walkable_area(traj.metadata.get("scene"), traj.positions).wkt
+    area, note = walkable_area(traj.metadata.get("scene"), traj.positions, act)
+    if note:
+        warnings.warn(f"{path.name}: {note}", UserWarning, stacklevel=_first_caller_outside_package())
+    geo = area.wkt
     geo_hash = zlib.crc32(geo.encode())
     xmin, ymin, xmax, ymax = shapely.from_wkt(geo).bounds
     meta = [("version", str(VERSION)), ("fps", repr(traj.fps)), ("xmin", repr(xmin)), ("xmax", repr(xmax)),
             ("ymin", repr(ymin)), ("ymax", repr(ymax)), ("crowdmotion", metadata_json(traj)),
             ("crowdmotion_frames", str(t))]
+    meta.append(("jitter_m", repr(JITTER_M)))
     if traj.dim == 3:
         meta.append(("projection", "3D run projected onto the ground plane (x, y); z dropped"))
     with atomic_path(path) as tmp:

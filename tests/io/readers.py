@@ -1,0 +1,76 @@
+"""Checks that a run's files open right in the programs users open them in (issue 17):
+PedPy and JuPedSim for the SQLite, pxr for the USD. Used on every built-in scene."""
+
+from __future__ import annotations
+
+import pathlib
+
+import numpy as np
+import pytest
+
+from crowdmotion import Trajectories
+from crowdmotion.scene import Polygon, Scene
+
+
+def assert_sqlite_opens_in_pedpy_and_jupedsim(traj: Trajectories, folder: pathlib.Path) -> None:
+    """PedPy loads the trajectory and the walkable area and its Voronoi density runs on
+    every frame; JuPedSim's Recording reads it and its RoutingEngine takes the geometry."""
+    pedpy = pytest.importorskip("pedpy")
+    jps = pytest.importorskip("jupedsim")
+    with pytest.warns() if traj.dim == 3 else _no_warning():  # 3D: "projected onto the ground plane"
+        path = pathlib.Path(traj.save(folder / "run.sqlite"))
+    data = pedpy.load_trajectory_from_jupedsim_sqlite(trajectory_file=path)
+    area = pedpy.load_walkable_area_from_jupedsim_sqlite(trajectory_file=path)
+    assert data.frame_rate == pytest.approx(traj.fps)
+    assert len(data.data) == int(traj.active_mask.sum())
+    voronoi = pedpy.compute_individual_voronoi_polygons(traj_data=data, walkable_area=area)
+    assert len(voronoi) == len(data.data)
+    assert np.isfinite(voronoi["density"]).all() and (voronoi["density"] > 0).all()
+    recording = jps.Recording(str(path))
+    assert recording.num_frames == traj.n_frames
+    engine = jps.RoutingEngine(recording.geometry())
+    assert engine.is_routable(tuple(data.data[["x", "y"]].iloc[0]))
+
+
+class _no_warning:
+    def __enter__(self):
+        import warnings
+
+        self._catch = warnings.catch_warnings()
+        self._catch.__enter__()
+        warnings.simplefilter("error", UserWarning)
+
+    def __exit__(self, *exc):
+        self._catch.__exit__(*exc)
+
+
+def _scene_bound(ob, dim: int, t: float) -> tuple[np.ndarray, np.ndarray]:
+    """World (lo, hi) of an obstacle at time t; 2D obstacles are written 2 m tall
+    (a polygon flat on the ground)."""
+    lo, hi = (np.asarray(b, float) + ob.offset(t) for b in ob.bounds())
+    if dim == 2:
+        lo, hi = np.append(lo, 0.0), np.append(hi, 0.0 if isinstance(ob, Polygon) else 2.0)
+    return lo, hi
+
+
+def assert_usd_obstacles_where_the_scene_has_them(traj: Trajectories, folder: pathlib.Path) -> None:
+    """pxr's world bound of every obstacle equals the scene's, at the first, middle and last
+    frame (a moving obstacle along its path at f / fps)."""
+    pytest.importorskip("pxr")
+    from pxr import Usd, UsdGeom
+
+    from crowdmotion.io.usd import from_usd_frame, stage_rate
+
+    scene = Scene.from_dict(traj.metadata["scene"])
+    stage = Usd.Stage.Open(str(traj.save(folder / "run.usdc")))
+    rate = stage_rate(traj)
+    for f in sorted({0, traj.n_frames // 2, traj.n_frames - 1}):
+        t = f * traj.dt
+        cache = UsdGeom.BBoxCache(Usd.TimeCode(t * rate), ["default"])
+        for k, ob in enumerate(scene.obstacles):
+            box = cache.ComputeWorldBound(stage.GetPrimAtPath(f"/World/Obstacles/obstacle_{k}")).ComputeAlignedRange()
+            corners = from_usd_frame(np.array([box.GetMin(), box.GetMax()]), 3)
+            lo, hi = corners.min(axis=0), corners.max(axis=0)
+            want_lo, want_hi = _scene_bound(ob, scene.dim, t)
+            np.testing.assert_allclose(np.concatenate([lo, hi]), np.concatenate([want_lo, want_hi]), atol=2e-3,
+                                       err_msg=f"obstacle {k} ({type(ob).__name__}) at frame {f}")
