@@ -114,6 +114,15 @@ class Trajectories:
             out[t] = np.where(moving[t], ang[t], prev)
         return out
 
+    @property
+    def pitch(self) -> np.ndarray:
+        """(T, N) climb angle of a 3D run, radians above the x-y plane (0 in 2D, and level
+        while an agent hovers)."""
+        if self.dim == 2:
+            return np.zeros(self.positions.shape[:2])
+        v = self.velocity
+        return np.arctan2(v[..., 2], np.linalg.norm(v[..., :2], axis=-1))
+
     def select(self, agents=None, frames=None) -> "Trajectories":
         """A sub-set of agents and/or frames (indices or boolean masks)."""
         a = slice(None) if agents is None else agents

@@ -103,3 +103,56 @@ def test_prototypes_are_named_after_groups_and_points_carry_velocity_and_colour(
     np.testing.assert_allclose(v[0], [2.0, 0.0, 0.0], atol=1e-6)  # east is USD +x
     colour = np.array(points.GetDisplayColorPrimvar().Get())
     np.testing.assert_allclose(colour[0], [1.0, 0.0, 0.0])
+
+
+def test_3d_flyers_face_their_way_with_pitch_and_are_centred_on_the_point(tmp_path):
+    # issue 17: 3D runs got a yaw-only orientation and a capsule standing on the point
+    from pxr import Gf, Usd, UsdGeom
+
+    pos = np.zeros((3, 1, 3))
+    pos[:, 0, 1] = [0.0, 1.0, 2.0]  # north ...
+    pos[:, 0, 2] = [5.0, 6.0, 7.0]  # ... climbing at 45°
+    stage = Usd.Stage.Open(str(Trajectories(pos, 0.5, radius=[0.3]).save(tmp_path / "drone.usda")))
+    inst = UsdGeom.PointInstancer(stage.GetPrimAtPath("/World/Crowd"))
+    q = inst.GetOrientationsAttr().Get(12)[0]
+    forward = Gf.Rotation(Gf.Quatd(q.GetReal(), Gf.Vec3d(q.GetImaginary()))).TransformDir(Gf.Vec3d(1, 0, 0))
+    s = np.sqrt(0.5)
+    assert tuple(forward) == pytest.approx((0.0, s, -s), abs=2e-3)  # world (0, s, s): north is USD -Z
+    proto = stage.GetPrimAtPath(inst.GetPrototypesRel().GetTargets()[0])
+    cap = UsdGeom.Capsule(proto)
+    assert cap.GetAxisAttr().Get() == "X" and not UsdGeom.Xformable(proto).GetOrderedXformOps()
+    lo, hi = (np.array(v) for v in cap.GetExtentAttr().Get())
+    np.testing.assert_allclose(lo, -hi)  # centred on the point
+
+
+def test_orientations_turn_then_raise_like_gf_rotations():
+    from pxr import Gf
+
+    from crowdmotion.io.usd import orientations
+
+    rng = np.random.default_rng(1)
+    for heading, pitch in zip(rng.uniform(-np.pi, np.pi, 5), rng.uniform(-1.2, 1.2, 5)):
+        w, i, j, k = orientations(np.array(heading), np.array(pitch))
+        want = (Gf.Rotation(Gf.Vec3d(0, 0, 1), np.degrees(pitch)) * Gf.Rotation(Gf.Vec3d(0, 1, 0), np.degrees(heading)))
+        got = Gf.Rotation(Gf.Quatd(float(w), Gf.Vec3d(float(i), float(j), float(k))))
+        for axis in (Gf.Vec3d(1, 0, 0), Gf.Vec3d(0, 1, 0)):
+            assert tuple(got.TransformDir(axis)) == pytest.approx(tuple(want.TransformDir(axis)), abs=1e-9)
+
+
+def test_every_boundable_prim_has_its_extent(tmp_path):
+    from pxr import Usd, UsdGeom
+
+    tr = sample(2)
+    tr.metadata["scene"] = Scene(((-5, -5), (5, 5)), [Circle((3, 3), 0.5), Box((-4, -4), (-3, -2))]).to_dict()
+    stage = Usd.Stage.Open(str(tr.save(tmp_path / "e.usda")))
+    boundables = [p for p in stage.Traverse() if p.IsA(UsdGeom.Boundable)]
+    assert len(boundables) >= 5  # agents, crowd, a prototype, two obstacles
+    for prim in boundables:
+        assert UsdGeom.Boundable(prim).GetExtentAttr().HasAuthoredValue(), prim.GetPath()
+    points = UsdGeom.Points(stage.GetPrimAtPath("/World/Agents"))
+    code = points.GetPointsAttr().GetTimeSamples()[3]
+    lo, hi = (np.array(v) for v in points.GetExtentAttr().Get(code))
+    p = np.array(points.GetPointsAttr().Get(code))
+    w = np.array(points.GetWidthsAttr().Get(code))[:, None] / 2
+    np.testing.assert_allclose(lo, (p - w).min(axis=0), atol=1e-6)
+    np.testing.assert_allclose(hi, (p + w).max(axis=0), atol=1e-6)

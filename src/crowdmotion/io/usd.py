@@ -11,14 +11,17 @@ scene (USD interpolates between samples). World (x, y[, z]) with z up maps to US
   motion blur), ``widths`` (body diameters; 0 while an agent is inactive), ``ids`` and a
   per-point ``displayColor`` by group;
 - ``Crowd`` — a ``UsdGeomPointInstancer`` with one prototype per group, named after it (a
-  capsule of the group's body size, standing up), time-sampled ``positions``,
-  ``velocities``, ``orientations`` (turned
-  about the up axis to the heading) and ``invisibleIds`` for inactive agents;
+  capsule of the group's body size: in 2D standing on the point, 1.7 m tall; in 3D lying
+  along the body's forward axis, centred on the point), time-sampled ``positions``,
+  ``velocities``, ``orientations`` (the prototype's +X turned to the heading about the up
+  axis and, in 3D, raised by the climb angle) and ``invisibleIds`` for inactive agents;
 - ``Obstacles`` — cylinders, spheres, cubes and flat polygon meshes for the scene's static
   obstacles (moving ones at their start place, with their path as ``translate`` samples
   at t × rate; a box's translate comes before its scale in ``xformOpOrder``).
 
-``customLayerData`` keeps crowdmotion's metadata (method, seed, parameters) as JSON.
+Every boundable prim has its ``extent`` (time-sampled on the agents and the instancer),
+as renderers and USD validators expect. ``customLayerData`` keeps crowdmotion's metadata
+(method, seed, parameters) as JSON.
 """
 
 from __future__ import annotations
@@ -66,6 +69,25 @@ def stage_rate(traj: Trajectories) -> float:
     return traj.fps if traj.fps in STANDARD_RATES else 24.0
 
 
+def orientations(heading: np.ndarray, pitch: np.ndarray) -> np.ndarray:
+    """(..., 4) quaternions (real, i, j, k) in the USD frame turning a prototype's +X to the
+    heading (radians about world z, USD +Y) after raising it by the pitch (about its own
+    lateral axis, USD +Z before the turn): q = q_yaw · q_pitch."""
+    cy, sy = np.cos(heading / 2), np.sin(heading / 2)
+    cp, sp = np.cos(pitch / 2), np.sin(pitch / 2)
+    return np.stack([cy * cp, sy * sp, sy * cp, cy * sp], axis=-1)
+
+
+def _set_extent(prim, UsdGeom, time=None) -> None:
+    """Author a boundable prim's extent from its own schema (at ``time`` if given)."""
+    from pxr import Usd
+
+    tc = Usd.TimeCode.Default() if time is None else time
+    extent = UsdGeom.Boundable.ComputeExtentFromPlugins(UsdGeom.Boundable(prim), tc)
+    if extent is not None:
+        UsdGeom.Boundable(prim).CreateExtentAttr().Set(extent, tc)
+
+
 def _obstacles(stage, scene_dict: dict, UsdGeom, Gf, rate: float) -> None:
     from crowdmotion.scene import Box, Circle, Polygon, Scene, Sphere
 
@@ -101,6 +123,7 @@ def _obstacles(stage, scene_dict: dict, UsdGeom, Gf, rate: float) -> None:
             centre = np.zeros(3)
         else:  # pragma: no cover
             continue
+        _set_extent(prim, UsdGeom)
         op = prim.AddTranslateOp()  # first in xformOpOrder: the translate is not scaled
         if isinstance(ob, Box):
             prim.AddScaleOp().Set(Gf.Vec3f(*size.tolist()))
@@ -117,7 +140,8 @@ def write(traj: Trajectories, path: Path) -> None:
     codes = np.arange(traj.n_frames) * traj.dt * rate  # the time code of each frame
     pos = to_usd_frame(traj.positions).astype(np.float32)
     act = traj.active_mask
-    heading = traj.heading
+    # Vt.QuathArray.FromNumpy takes (i, j, k, real)
+    quat = orientations(traj.heading, traj.pitch)[..., [1, 2, 3, 0]].astype(np.float16)
     ids = np.asarray(traj.ids, np.int64)
     width = (2 * traj.radius).astype(np.float32)
     groups = list(dict.fromkeys(traj.group.tolist()))
@@ -149,9 +173,14 @@ def write(traj: Trajectories, path: Path) -> None:
                 cap = UsdGeom.Capsule.Define(stage, f"/World/Crowd/Prototypes/{Tf.MakeValidIdentifier(str(g))}_{k}")
                 r = float(traj.radius[traj.group == g].max())
                 cap.CreateRadiusAttr(r)
-                cap.CreateHeightAttr(max(1.7 - 2 * r, 0.1))
-                cap.CreateAxisAttr("Y")
-                cap.AddTranslateOp().Set(Gf.Vec3d(0.0, 0.85, 0.0))
+                if traj.dim == 2:  # a walker standing on the point
+                    cap.CreateHeightAttr(max(1.7 - 2 * r, 0.1))
+                    cap.CreateAxisAttr("Y")
+                    cap.AddTranslateOp().Set(Gf.Vec3d(0.0, 0.85, 0.0))
+                else:  # a flyer centred on the point, its body along its forward axis
+                    cap.CreateHeightAttr(2 * r)
+                    cap.CreateAxisAttr("X")
+                _set_extent(cap.GetPrim(), UsdGeom)
                 cap.GetPrim().SetCustomDataByKey("crowdmotion:group", str(g))
                 targets.append(cap.GetPath())
             inst.CreatePrototypesRel().SetTargets(targets)
@@ -165,7 +194,7 @@ def write(traj: Trajectories, path: Path) -> None:
             colours = group_colours(groups)
             rgb = np.array([colours[g][:3] for g in traj.group.tolist()], np.float32)
             points.CreateDisplayColorPrimvar(UsdGeom.Tokens.vertex).Set(Vt.Vec3fArray.FromNumpy(rgb))
-            half = heading / 2  # a turn about +Y by the heading (world z up maps to USD +Y)
+            pe_attr, ie_attr = points.CreateExtentAttr(), inst.CreateExtentAttr()
             for f in range(traj.n_frames):
                 tc = Usd.TimeCode(float(codes[f]))
                 p_attr.Set(Vt.Vec3fArray.FromNumpy(pos[f]), tc)
@@ -173,9 +202,10 @@ def write(traj: Trajectories, path: Path) -> None:
                 ip_attr.Set(Vt.Vec3fArray.FromNumpy(pos[f]), tc)
                 pv_attr.Set(Vt.Vec3fArray.FromNumpy(vel[f]), tc)
                 iv_vel.Set(Vt.Vec3fArray.FromNumpy(vel[f]), tc)
-                quats = [Gf.Quath(float(c), 0.0, float(s), 0.0) for c, s in zip(np.cos(half[f]), np.sin(half[f]))]
-                io_attr.Set(quats, tc)
+                io_attr.Set(Vt.QuathArray.FromNumpy(quat[f]), tc)
                 iv_attr.Set(Vt.Int64Array.FromNumpy(ids[~act[f]]), tc)
+                pe_attr.Set(UsdGeom.Points.ComputeExtent(p_attr.Get(tc), w_attr.Get(tc)), tc)
+                ie_attr.Set(inst.ComputeExtentAtTime(tc, tc), tc)
             if traj.metadata.get("scene"):
                 _obstacles(stage, traj.metadata["scene"], UsdGeom, Gf, rate)
             stage.GetRootLayer().Save()
