@@ -103,6 +103,9 @@ def test_prototypes_are_named_after_groups_and_points_carry_velocity_and_colour(
     np.testing.assert_allclose(v[0], [2.0, 0.0, 0.0], atol=1e-6)  # east is USD +x
     colour = np.array(points.GetDisplayColorPrimvar().Get())
     np.testing.assert_allclose(colour[0], [1.0, 0.0, 0.0])
+    primvars = UsdGeom.PrimvarsAPI(points)
+    assert list(primvars.GetPrimvar("group").Get()) == [0, 1]  # red_0, walkers_1
+    np.testing.assert_allclose(primvars.GetPrimvar("speed").Get(12.0), [2.0, 0.0], atol=1e-6)
 
 
 def test_3d_flyers_face_their_way_with_pitch_and_are_centred_on_the_point(tmp_path):

@@ -9,7 +9,9 @@ scene (USD interpolates between samples). World (x, y[, z]) with z up maps to US
 
 - ``Agents`` — a ``UsdGeomPoints`` with time-sampled ``points``, ``velocities`` (m/s, for
   motion blur), ``widths`` (body diameters; 0 while an agent is inactive), ``ids`` and a
-  per-point ``displayColor`` by group;
+  per-point ``displayColor`` by group, and primvars ``group`` (the index of the agent's
+  group in ``/World/Crowd``'s prototypes) and ``speed`` (m/s, time-sampled) for shaders
+  and Houdini/Blender attributes;
 - ``Crowd`` — a ``UsdGeomPointInstancer`` with one prototype per group, named after it (a
   capsule of the group's body size: in 2D standing on the point, 1.7 m tall; in 3D lying
   along the body's forward axis, centred on the point), time-sampled ``positions``,
@@ -194,6 +196,11 @@ def write(traj: Trajectories, path: Path) -> None:
             colours = group_colours(groups)
             rgb = np.array([colours[g][:3] for g in traj.group.tolist()], np.float32)
             points.CreateDisplayColorPrimvar(UsdGeom.Tokens.vertex).Set(Vt.Vec3fArray.FromNumpy(rgb))
+            primvars = UsdGeom.PrimvarsAPI(points)
+            primvars.CreatePrimvar("group", Sdf.ValueTypeNames.IntArray, UsdGeom.Tokens.vertex).Set(
+                Vt.IntArray.FromNumpy(proto_index))
+            speed = np.nan_to_num(traj.speed).astype(np.float32)
+            speed_var = primvars.CreatePrimvar("speed", Sdf.ValueTypeNames.FloatArray, UsdGeom.Tokens.vertex)
             pe_attr, ie_attr = points.CreateExtentAttr(), inst.CreateExtentAttr()
             for f in range(traj.n_frames):
                 tc = Usd.TimeCode(float(codes[f]))
@@ -201,6 +208,7 @@ def write(traj: Trajectories, path: Path) -> None:
                 w_attr.Set(Vt.FloatArray.FromNumpy(np.where(act[f], width, 0.0).astype(np.float32)), tc)
                 ip_attr.Set(Vt.Vec3fArray.FromNumpy(pos[f]), tc)
                 pv_attr.Set(Vt.Vec3fArray.FromNumpy(vel[f]), tc)
+                speed_var.Set(Vt.FloatArray.FromNumpy(speed[f]), tc)
                 iv_vel.Set(Vt.Vec3fArray.FromNumpy(vel[f]), tc)
                 io_attr.Set(Vt.QuathArray.FromNumpy(quat[f]), tc)
                 iv_attr.Set(Vt.Int64Array.FromNumpy(ids[~act[f]]), tc)
