@@ -7,6 +7,22 @@ from crowdmotion.groups import Rect
 from crowdmotion.routing import distance_fields
 
 
+def test_small_fields_by_scipy_equal_large_ones_by_the_mdp_fast_solver(monkeypatch):
+    # fields up to SCIPY_MAX_CELLS are solved by scipy's Dijkstra (nothing to compile),
+    # larger ones by the MDP bucket solver: the same distances either way
+    from crowdmotion import routing
+
+    scene = cm.Scene(bounds=([0, 0], [20, 10]), obstacles=[cm.Box([8, 2], [10, 10]), cm.Circle([15, 4], 1.5)])
+    goals = [Rect([18, 8], [19.5, 9.5]), Rect([1, 1], [2, 2])]
+    by_scipy = distance_fields(scene, goals, 0.3, 0.25)
+    monkeypatch.setattr(routing, "SCIPY_MAX_CELLS", 0)
+    by_bucket = distance_fields(scene, goals, 0.3, 0.25)
+    assert np.array_equal(np.isfinite(by_scipy.dist), np.isfinite(by_bucket.dist))
+    finite = np.isfinite(by_scipy.dist)
+    assert finite.sum() > 5000
+    np.testing.assert_allclose(by_scipy.dist[finite], by_bucket.dist[finite], atol=1e-9)
+
+
 def test_descending_the_field_gets_nearer_the_goal_by_the_cells_walked():
     scene = cm.Scene(bounds=([0, 0], [20, 10]))
     f = distance_fields(scene, [Rect([18, 4], [19, 6])], 0.25, 0.5)

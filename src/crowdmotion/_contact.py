@@ -44,7 +44,7 @@ def build_grid(pos, active, origin_x, origin_y, h, nx, ny):
 
 
 # ---- time to collision ------------------------------------------------------------------
-@njit(inline="always")
+@njit(cache=True)
 def _ray_disc(px, py, vx, vy, r):
     """First t ≥ 0 at which p + v·t enters the disc of radius r at the origin (0 if inside)."""
     c = px * px + py * py - r * r
@@ -60,7 +60,7 @@ def _ray_disc(px, py, vx, vy, r):
     return (-b - np.sqrt(disc)) / a
 
 
-@njit(inline="always")
+@njit(cache=True)
 def _ray_capsule(px, py, vx, vy, ax, ay, bx, by, r):
     """First t ≥ 0 at which p + v·t comes within r of the segment ab (0 if already)."""
     t = min(_ray_disc(px - ax, py - ay, vx, vy, r), _ray_disc(px - bx, py - by, vx, vy, r))
@@ -88,7 +88,7 @@ def _ray_capsule(px, py, vx, vy, ax, ay, bx, by, r):
     return t
 
 
-@njit(inline="always")
+@njit(cache=True)
 def _point_segment_distance(px, py, ax, ay, bx, by):
     ex, ey = bx - ax, by - ay
     l2 = ex * ex + ey * ey
@@ -106,7 +106,7 @@ def max_cell(cell_start):
     return m
 
 
-@njit(inline="always")
+@njit(cache=True)
 def grid_neighbours(i, pos, cell_start, items, origin_x, origin_y, h, nx, ny, out):
     """Agents other than i in the 3 × 3 cells round agent i's cell, into ``out``;
     returns how many."""
@@ -123,7 +123,7 @@ def grid_neighbours(i, pos, cell_start, items, origin_x, origin_y, h, nx, ny, ou
     return k
 
 
-@njit(inline="always")
+@njit(cache=True)
 def _conflict(i, pos, vel, radius, stopped, priority, cell_start, items, origin_x, origin_y, h, nx, ny, dt, buf):
     """Whether agent i's straight move this step would touch an agent that does not yield to it."""
     px, py = pos[i, 0], pos[i, 1]
@@ -194,7 +194,7 @@ def resolve_conflicts(pos, vel, radius, active, priority, cell_start, items, ori
     return count
 
 
-@njit(inline="always")
+@njit(cache=True)
 def _first_block(px, py, vx, vy, r, dt, circ_c, circ_r, circ_v, seg_a, seg_b, seg_v, normal):
     """Whether the move (vx, vy) over dt meets an obstacle; ``normal`` gets the unit
     vector from the first obstacle met toward the agent."""
@@ -272,7 +272,7 @@ def obstacle_safe_moves(pos, vel, radius, vmax, active, dt, circ_c, circ_r, circ
 
 
 # ---- line of sight past obstacles (RVO guidance, formation routes) ------------------------
-@njit(inline="always")
+@njit(cache=True)
 def _segments_distance(px, py, qx, qy, ax, ay, bx, by):
     """Least distance between segments pq and ab."""
     # proper intersection -> 0

@@ -1,8 +1,14 @@
 """Routes round walls for every method: exact 8-connected distance fields to goal regions
-on a grid over the scene (the MDP fast solver, corner cutting off), and walking down them.
+on a grid over the scene (corner cutting off), and walking down them.
 
 RVO aims its preferred velocities along them; formations move their guiding mesh along
 them, vertex by vertex, so a formation follows a corridor round its corners.
+
+Fields of up to ``SCIPY_MAX_CELLS`` cells are solved by scipy's Dijkstra on the grid's
+graph (:class:`GridGraph`, a few hundred milliseconds at a million cells, nothing to
+compile); larger ones by the MDP fast solver (:func:`crowdmotion.mdp.solvers.fast_values`,
+tens of milliseconds, but its numba kernels take about ten seconds to compile on a fresh
+install). Both give the same distances (tests/test_routing.py).
 """
 
 from __future__ import annotations
@@ -11,11 +17,56 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from scipy.sparse import csr_matrix
+from scipy.sparse.csgraph import dijkstra
+
 from crowdmotion.groups import MovingTarget, Points
-from crowdmotion.mdp.solvers import fast_values
 from crowdmotion.scene import Scene
 
 MAX_FIELD_CELLS = 16_000_000
+SCIPY_MAX_CELLS = 1_000_000  # larger fields go to the MDP fast solver
+
+
+class GridGraph:
+    """The 8-connected graph of a grid's free cells (diagonals only where both cells beside
+    them are free: no corner cutting), edges in metres, for scipy's Dijkstra."""
+
+    def __init__(self, free: np.ndarray, cell: float):
+        shape = free.shape
+        node = np.full(shape, -1, dtype=np.int64)
+        node[free] = np.arange(free.sum())
+        self.node = node
+        self.cell_index = np.flatnonzero(free.ravel())
+        padded = np.pad(free, 1, constant_values=False)
+
+        def at(dx: int, dy: int) -> np.ndarray:  # free[i + dx, j + dy], False off the grid
+            return padded[1 + dx:1 + dx + shape[0], 1 + dy:1 + dy + shape[1]]
+
+        src, dst, length = [], [], []
+        # each undirected edge once: right, up, and the two diagonals going right
+        for dx, dy in ((1, 0), (0, 1), (1, 1), (1, -1)):
+            ok = free & at(dx, dy)
+            if dx and dy:
+                ok &= at(dx, 0) & at(0, dy)
+            i, j = np.nonzero(ok)
+            src.append(node[i, j])
+            dst.append(node[i + dx, j + dy])
+            length.append(np.full(len(i), np.hypot(dx, dy) * cell))
+        self.src, self.dst, self.length = np.concatenate(src), np.concatenate(dst), np.concatenate(length)
+
+    def distances(self, goal_cells: list, shape: tuple, cost: np.ndarray | None = None) -> np.ndarray:
+        """(F, nx, ny) least cost from every cell to each field's goal cells (inf where none
+        leads); an edge costs its length times the mean ``cost`` of its two cells (per free
+        cell, default 1)."""
+        w = self.length if cost is None else self.length * 0.5 * (cost[self.src] + cost[self.dst])
+        n = len(self.cell_index)
+        graph = csr_matrix((w, (self.src, self.dst)), shape=(n, n))
+        out = np.full((len(goal_cells),) + tuple(shape), np.inf)
+        for k, goals in enumerate(goal_cells):
+            goals = np.asarray(goals, dtype=np.int64).reshape(-1, 2)
+            d = dijkstra(graph, directed=False, indices=self.node[goals[:, 0], goals[:, 1]], min_only=True)
+            out[k].ravel()[self.cell_index] = d
+        return out
 
 
 @dataclass
@@ -98,7 +149,7 @@ def distance_fields(scene: Scene, goals: list, radius: float, cell: float | None
     idx = np.indices(shape).reshape(2, -1).T
     centres = scene.lower + (idx + 0.5) * cell
     blocked = (scene.static_obstacle_distance(centres) < radius).reshape(shape)
-    fields, goal_cells = [], []
+    goal_cells = []
     for k, goal in enumerate(goals):
         if isinstance(goal, MovingTarget):
             raise ValueError(f"groups.{k}: field guidance needs a fixed goal, not a moving target")
@@ -112,8 +163,12 @@ def distance_fields(scene: Scene, goals: list, radius: float, cell: float | None
         if not cells:
             raise ValueError(f"groups.{k}: the goal {goal!r} has no cell free of obstacles "
                              f"(field cell {cell:.3f} m, agent radius {radius} m)")
-        cells = sorted(set(cells))
-        v = fast_values(blocked.astype(np.uint8), cells, corner_cutting=False)
-        fields.append(-v * cell)
-        goal_cells.append(np.array(cells, dtype=np.int64))
-    return DistanceFields(np.stack(fields), scene.lower.astype(float).copy(), cell, blocked, goal_cells)
+        goal_cells.append(np.array(sorted(set(cells)), dtype=np.int64))
+    if blocked.size <= SCIPY_MAX_CELLS:
+        dist = GridGraph(~blocked, cell).distances(goal_cells, shape)
+    else:
+        from crowdmotion.mdp.solvers import fast_values
+
+        dist = np.stack([-fast_values(blocked.astype(np.uint8), [tuple(c) for c in cells], corner_cutting=False) * cell
+                         for cells in goal_cells])
+    return DistanceFields(dist, scene.lower.astype(float).copy(), cell, blocked, goal_cells)

@@ -13,7 +13,7 @@ def _fields():
     return distance_fields(scene, [Rect([18, 8], [19.5, 9.5])], 0.3, 0.25)
 
 
-def test_with_nobody_about_scipy_dijkstra_gives_the_exact_field_of_the_bucket_solver():
+def test_with_nobody_about_the_re_solved_field_is_the_exact_one():
     f = _fields()
     d = CongestionRouter(f, 1.0).resolve(np.array([[-50.0, -50.0]]), f.dist)
     finite = np.isfinite(f.dist)

@@ -64,11 +64,14 @@ def marker_handles() -> list:
 
 def _draw_mesh(ax, vertices: np.ndarray, edges: np.ndarray, torn: np.ndarray, colour, lw: float,
                alpha: float) -> None:
-    """A formation mesh: intact edges in ``colour``, torn ones red and dashed."""
-    for sel, style in ((~torn, dict(color=colour, alpha=alpha)), (torn, dict(color="red", alpha=0.6, ls="--"))):
+    """A formation mesh: intact edges in ``colour``, torn ones red and dashed (one line
+    collection each: a Line2D per edge made the formation GIF take half a minute)."""
+    from matplotlib.collections import LineCollection
+
+    for sel, style in ((~torn, dict(colors=[colour], alpha=alpha)),
+                       (torn, dict(colors="red", alpha=0.6, linestyles="--"))):
         if sel.any():
-            seg = vertices[edges[sel]]
-            ax.plot(seg[:, :, 0].T, seg[:, :, 1].T, lw=lw, zorder=3, **style)
+            ax.add_collection(LineCollection(vertices[edges[sel]][:, :, :2], linewidths=lw, zorder=3, **style))
 
 
 def gif_frame(fig):
@@ -81,7 +84,8 @@ def gif_image(rgb: np.ndarray):
     """An (H, W, 3) uint8 image as one palette image of a GIF."""
     from PIL import Image
 
-    return Image.fromarray(rgb).convert("P", palette=Image.ADAPTIVE)
+    # Pillow's fast octree: its own 256 colours per frame, 5x faster than ADAPTIVE's median cut
+    return Image.fromarray(rgb).quantize(colors=256, method=Image.Quantize.FASTOCTREE)
 
 
 def write_gif(frames: list, path, fps: float) -> None:
@@ -290,29 +294,42 @@ def animate_formation_snapshots(scene: Scene, snapshots: list[dict], path, fps: 
     fig, ax = plt.subplots(figsize=(width + 1.6, max(2.5, width * aspect) + 0.5))
     group_colour = _snapshot_colours(snapshots)
 
-    def draw(k):
-        ax.clear()
-        snap = snapshots[k]
-        _draw_obstacles_2d(ax, scene, snap["time"])
+    # axes, labels, legend and resting obstacles are drawn once; each frame restores that
+    # background and draws only what moves (blitting: about 4x faster than redrawing)
+    moving = any(ob.is_moving for ob in scene.obstacles)
+    if not moving:
+        _draw_obstacles_2d(ax, scene)
+    ax.set_xlim(lo[0], hi[0])
+    ax.set_ylim(lo[1], hi[1])
+    ax.set_aspect("equal")
+    ax.set_xlabel("x (m)")
+    ax.set_ylabel("y (m)")
+    legend_outside(ax, _mesh_handles(group_colour))
+    label = ax.set_title(" ", fontsize=10)
+    label.set_animated(True)
+    fig.set_dpi(72)
+    fig.canvas.draw()
+    background = fig.canvas.copy_from_bbox(fig.bbox)
+    images = []
+    for snap in snapshots:
+        before = set(ax.get_children())
+        if moving:
+            _draw_obstacles_2d(ax, scene, snap["time"])
         for gi, g in enumerate(snap["groups"]):
             c = group_colour[g.get("name", gi)]
             _draw_mesh(ax, g["vertices"], g["edges"], g["torn"], c, lw=0.5, alpha=0.6)
             a = g["agents"]
             colours = np.where(g["dislocated"][:, None], np.array([[0.0, 0.0, 0.0, 1.0]]), np.array([c]))
             ax.scatter(a[:, 0], a[:, 1], s=8, c=colours, zorder=4)
-        ax.set_xlim(lo[0], hi[0])
-        ax.set_ylim(lo[1], hi[1])
-        ax.set_aspect("equal")
-        ax.set_xlabel("x (m)")
-        ax.set_ylabel("y (m)")
-        legend_outside(ax, _mesh_handles(group_colour))
-        ax.set_title(f"{title}  t = {snap['time']:.1f} s", fontsize=10)
-
-    fig.set_dpi(72)
-    images = []
-    for k in range(len(snapshots)):
-        draw(k)
-        images.append(gif_frame(fig))
+        label.set_text(f"{title}  t = {snap['time']:.1f} s")
+        fig.canvas.restore_region(background)
+        # matplotlib's order: by zorder, ties in the order the artists were added
+        new = [x for x in ax.get_children() if x not in before]
+        for artist in sorted(new, key=lambda x: x.get_zorder()) + [label]:
+            ax.draw_artist(artist)
+        images.append(gif_image(np.asarray(fig.canvas.buffer_rgba())[..., :3]))
+        for artist in new:
+            artist.remove()
     plt.close(fig)
     path = Path(path)
     with atomic_path(path) as tmp:

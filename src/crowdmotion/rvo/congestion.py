@@ -14,10 +14,8 @@ from __future__ import annotations
 
 import numpy as np
 from scipy.ndimage import gaussian_filter
-from scipy.sparse import csr_matrix
-from scipy.sparse.csgraph import dijkstra
 
-from crowdmotion.routing import DistanceFields
+from crowdmotion.routing import DistanceFields, GridGraph
 
 SMOOTH_M = 0.75          # density is smoothed with a Gaussian of this many metres
 MAX_CELLS = 1_000_000    # larger fields keep the exact distances (re-solving would cost seconds)
@@ -30,30 +28,9 @@ class CongestionRouter:
         self.fields = fields
         self.congestion = float(congestion)
         free = ~fields.blocked
-        shape = free.shape
         self.enabled = self.congestion > 0 and free.size <= MAX_CELLS
-        if not self.enabled:
-            return
-        node = np.full(shape, -1, dtype=np.int64)
-        node[free] = np.arange(free.sum())
-        self.node = node
-        padded = np.pad(free, 1, constant_values=False)
-
-        def at(dx: int, dy: int) -> np.ndarray:  # free[i + dx, j + dy], False off the grid
-            return padded[1 + dx:1 + dx + shape[0], 1 + dy:1 + dy + shape[1]]
-
-        src, dst, length = [], [], []
-        # each undirected edge once: right, up, and the two diagonals going right
-        for dx, dy in ((1, 0), (0, 1), (1, 1), (1, -1)):
-            ok = free & at(dx, dy)
-            if dx and dy:  # no corner cutting: both cells beside the diagonal are free too
-                ok &= at(dx, 0) & at(0, dy)
-            i, j = np.nonzero(ok)
-            src.append(node[i, j])
-            dst.append(node[i + dx, j + dy])
-            length.append(np.full(len(i), np.hypot(dx, dy) * fields.cell))
-        self.src, self.dst, self.length = np.concatenate(src), np.concatenate(dst), np.concatenate(length)
-        self.cell_index = np.flatnonzero(free.ravel())
+        if self.enabled:
+            self.graph = GridGraph(free, fields.cell)
 
     def density(self, positions: np.ndarray) -> np.ndarray:
         """(nx, ny) agents per m² on the field grid, smoothed over ~SMOOTH_M metres."""
@@ -69,12 +46,5 @@ class CongestionRouter:
         """New (F, nx, ny) fields: the weighted distance to each field's goal cells."""
         if not self.enabled or len(positions) == 0:
             return exact
-        cost = 1.0 + self.congestion * self.density(positions).ravel()[self.cell_index]
-        w = self.length * 0.5 * (cost[self.src] + cost[self.dst])
-        n = len(self.cell_index)
-        graph = csr_matrix((w, (self.src, self.dst)), shape=(n, n))
-        out = np.full_like(exact, np.inf)
-        for k, goals in enumerate(self.fields.goal_cells):
-            d = dijkstra(graph, directed=False, indices=self.node[goals[:, 0], goals[:, 1]], min_only=True)
-            out[k].ravel()[self.cell_index] = d
-        return out
+        cost = 1.0 + self.congestion * self.density(positions).ravel()[self.graph.cell_index]
+        return self.graph.distances(self.fields.goal_cells, self.fields.blocked.shape, cost)
