@@ -10,12 +10,12 @@ from crowdmotion.routing import distance_fields
 def test_small_fields_by_scipy_equal_large_ones_by_the_mdp_fast_solver(monkeypatch):
     # fields up to SCIPY_MAX_CELLS are solved by scipy's Dijkstra (nothing to compile),
     # larger ones by the MDP bucket solver: the same distances either way
-    from crowdmotion import routing
+    from crowdmotion.mdp import solvers
 
     scene = cm.Scene(bounds=([0, 0], [20, 10]), obstacles=[cm.Box([8, 2], [10, 10]), cm.Circle([15, 4], 1.5)])
     goals = [Rect([18, 8], [19.5, 9.5]), Rect([1, 1], [2, 2])]
     by_scipy = distance_fields(scene, goals, 0.3, 0.25)
-    monkeypatch.setattr(routing, "SCIPY_MAX_CELLS", 0)
+    monkeypatch.setattr(solvers, "SCIPY_MAX_CELLS", 0)
     by_bucket = distance_fields(scene, goals, 0.3, 0.25)
     assert np.array_equal(np.isfinite(by_scipy.dist), np.isfinite(by_bucket.dist))
     finite = np.isfinite(by_scipy.dist)

@@ -366,14 +366,16 @@ def build_parser() -> argparse.ArgumentParser:
     p = sub.add_parser("bench", help="side-by-side benchmarks: the papers' tables beside our solvers and peers",
                        description="mdp: paper 000's Tables 1-2 beside our fast solver and scipy. rvo: our step "
                                    "against pyrvo (RVO2) and JuPedSim. pso: against PySwarms and the paper's plain "
-                                   "Python. formation: paper 003's Table 1 (mesh and deformation time). Peers come "
+                                   "Python. formation: paper 003's Table 1 (mesh and deformation time). startup: cold and "
+                                   "warm `crowdmotion run` of every built-in scene. Peers come "
                                    "with pip install \"crowdmotion[bench]\"; options after the method go to "
                                    "that benchmark (e.g. crowdmotion bench rvo --sizes 1000 --steps 10).")
-    p.add_argument("method", choices=["mdp", "rvo", "pso", "formation"], help="which method's benchmark")
+    p.add_argument("method", choices=["mdp", "rvo", "pso", "formation", "startup"],
+                   help="which benchmark: a method's, or startup (cold and warm runs of the built-in scenes)")
     p.add_argument("--no-reference", action="store_true", help="mdp: skip the slow plain-Python solvers")
     p.add_argument("--repeats", type=int, default=3, help="mdp: runs per timing (the paper used 3)")
     p.add_argument("-q", "--quiet", action="store_true", help="mdp: no progress bar")
-    p.add_argument("options", nargs=argparse.REMAINDER, help="rvo, pso, formation: their own options (--help)")
+    p.add_argument("options", nargs=argparse.REMAINDER, help="rvo, pso, formation, startup: their own options (--help)")
     p.set_defaults(func=cmd_bench)
 
     p = sub.add_parser("report", help="per-group behaviour report of a run's trajectories")

@@ -4,11 +4,10 @@ on a grid over the scene (corner cutting off), and walking down them.
 RVO aims its preferred velocities along them; formations move their guiding mesh along
 them, vertex by vertex, so a formation follows a corridor round its corners.
 
-Fields of up to ``SCIPY_MAX_CELLS`` cells are solved by scipy's Dijkstra on the grid's
-graph (:class:`GridGraph`, a few hundred milliseconds at a million cells, nothing to
-compile); larger ones by the MDP fast solver (:func:`crowdmotion.mdp.solvers.fast_values`,
-tens of milliseconds, but its numba kernels take about ten seconds to compile on a fresh
-install). Both give the same distances (tests/test_routing.py).
+The exact fields come from :func:`crowdmotion.mdp.solvers.exact_values` (scipy's
+Dijkstra on small grids, nothing to compile; the numba bucket solver on large ones); the
+congestion-aware re-solves of :mod:`crowdmotion.rvo.congestion` from scipy's Dijkstra on
+:class:`GridGraph`, the same graph with weighted edges.
 """
 
 from __future__ import annotations
@@ -21,10 +20,10 @@ from scipy.sparse import csr_matrix
 from scipy.sparse.csgraph import dijkstra
 
 from crowdmotion.groups import MovingTarget, Points
+from crowdmotion.mdp.solvers import exact_values
 from crowdmotion.scene import Scene
 
 MAX_FIELD_CELLS = 16_000_000
-SCIPY_MAX_CELLS = 1_000_000  # larger fields go to the MDP fast solver
 
 
 class GridGraph:
@@ -164,11 +163,6 @@ def distance_fields(scene: Scene, goals: list, radius: float, cell: float | None
             raise ValueError(f"groups.{k}: the goal {goal!r} has no cell free of obstacles "
                              f"(field cell {cell:.3f} m, agent radius {radius} m)")
         goal_cells.append(np.array(sorted(set(cells)), dtype=np.int64))
-    if blocked.size <= SCIPY_MAX_CELLS:
-        dist = GridGraph(~blocked, cell).distances(goal_cells, shape)
-    else:
-        from crowdmotion.mdp.solvers import fast_values
-
-        dist = np.stack([-fast_values(blocked.astype(np.uint8), [tuple(c) for c in cells], corner_cutting=False) * cell
-                         for cells in goal_cells])
+    dist = np.stack([-exact_values(blocked.astype(np.uint8), [tuple(c) for c in cells], corner_cutting=False) * cell
+                     for cells in goal_cells])
     return DistanceFields(dist, scene.lower.astype(float).copy(), cell, blocked, goal_cells)

@@ -34,11 +34,11 @@ def check_scenario(scene, groups, params: MDPParams) -> None:
     """Everything a run refuses, refused before it starts: the set-up itself (cell size,
     goal and spawn cells, slots, room for every agent), then a goal no agent can reach."""
     from crowdmotion.checks import describe_region, where
-    from crowdmotion.mdp.solvers import fast_values
+    from crowdmotion.mdp.solvers import exact_values
 
     su = setup(scene, groups, params, np.random.default_rng(0))
     for k, g in enumerate(groups):
-        values = fast_values(su.grid.occupancy, [tuple(c) for c in su.goal_cells[k]], params.corner_cutting)
+        values = exact_values(su.grid.occupancy, [tuple(c) for c in su.goal_cells[k]], params.corner_cutting)
         starts = su.starts[su.field_of == k]
         if not np.isfinite(values[tuple(starts.T)]).any():
             raise ValueError(f"{where(k, g)} goal: no agent can reach {describe_region(g.goal)} from its spawn "

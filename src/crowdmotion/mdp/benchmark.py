@@ -6,12 +6,10 @@ import time
 from dataclasses import dataclass, field
 
 import numpy as np
-import scipy.sparse as sp
-from scipy.sparse.csgraph import dijkstra as csgraph_dijkstra
 from tqdm.auto import tqdm
 
-from crowdmotion.mdp.moves import move_costs, move_offsets, swept_offsets
-from crowdmotion.mdp.solvers import dijkstra, fast_values, heuristic_value_iteration, improved_value_iteration
+from crowdmotion.mdp.solvers import (csgraph_values, dijkstra, fast_values, heuristic_value_iteration,
+                                     improved_value_iteration)
 
 # (shape, goal, obstacle slice lower corner, upper corner inclusive), paper §3.1
 PAPER_GRIDS = [
@@ -47,30 +45,6 @@ def paper_grid(shape, lower, upper) -> np.ndarray:
     g = np.zeros(shape, dtype=np.uint8)
     g[tuple(slice(lo, hi + 1) for lo, hi in zip(lower, upper))] = 1
     return g
-
-
-def csgraph_values(grid: np.ndarray, goals, corner_cutting: bool = True) -> np.ndarray:
-    """Values by scipy.sparse.csgraph.dijkstra on the same move graph (graph build included)."""
-    dim = grid.ndim
-    free = grid == 0
-    idx = np.arange(grid.size).reshape(grid.shape)
-    rows, cols, wts = [], [], []
-    for off, cost, sweep in zip(move_offsets(dim), move_costs(dim), swept_offsets(dim)):
-        src = tuple(slice(max(0, -o), s - max(0, o)) for o, s in zip(off, grid.shape))
-        dst = tuple(slice(max(0, o), s - max(0, -o)) for o, s in zip(off, grid.shape))
-        ok = free[src] & free[dst]
-        if not corner_cutting:
-            for sub in sweep:
-                mid = tuple(slice(max(0, -o) + q, s - max(0, o) + q) for o, q, s in zip(off, sub, grid.shape))
-                ok &= free[mid]
-        rows.append(idx[src][ok])
-        cols.append(idx[dst][ok])
-        wts.append(np.full(int(ok.sum()), cost))
-    graph = sp.csr_matrix((np.concatenate(wts), (np.concatenate(rows), np.concatenate(cols))),
-                          shape=(grid.size, grid.size))
-    flat = [int(np.ravel_multi_index(g, grid.shape)) for g in goals]
-    d = csgraph_dijkstra(graph, directed=True, indices=flat, min_only=True)
-    return -d.reshape(grid.shape)
 
 
 def timed_runs(fn, repeats: int) -> tuple[list[float], object]:

@@ -20,7 +20,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from crowdmotion.mdp.solvers import fast_values
+from crowdmotion.mdp.solvers import exact_values
 
 
 def nearest_cells(occupancy: np.ndarray, seeds: np.ndarray, count: int, corner_cutting: bool) -> np.ndarray:
@@ -29,7 +29,7 @@ def nearest_cells(occupancy: np.ndarray, seeds: np.ndarray, count: int, corner_c
     Raises ValueError when fewer than ``count`` cells can reach a seed.
     """
     seeds = np.asarray(seeds, dtype=np.int64)
-    v = fast_values(occupancy, [tuple(c) for c in seeds], corner_cutting)
+    v = exact_values(occupancy, [tuple(c) for c in seeds], corner_cutting)
     flat = v.ravel()
     reach = np.flatnonzero(np.isfinite(flat))
     if len(reach) < count:
@@ -62,7 +62,7 @@ def fill_depth(occupancy: np.ndarray, goal_cells: np.ndarray, corner_cutting: bo
     depth = np.zeros(occupancy.shape)
     if not seeds:
         return depth
-    d = -fast_values(inside, seeds, corner_cutting)
+    d = -exact_values(inside, seeds, corner_cutting)
     reach = goal & np.isfinite(d)
     if toward is not None:  # closeness to the point: the point itself is the deepest
         d = d.max(initial=0.0, where=reach) + 1.0 - d

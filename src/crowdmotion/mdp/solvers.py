@@ -8,7 +8,10 @@ length from s to the nearest goal.
 ``value_iteration``, ``heuristic_value_iteration``, ``improved_value_iteration`` and
 ``dijkstra`` are the paper's reference implementations in plain Python, written as
 literally as the pseudo-code allows; they are slow on purpose and serve as baselines.
-``fast_values`` is exact and numba-compiled; it is what the library uses.
+``fast_values`` is exact and numba-compiled; ``csgraph_values`` is exact by scipy's
+Dijkstra on the same move graph. The library uses ``exact_values``: scipy on grids of up
+to ``SCIPY_MAX_CELLS`` cells (tens of milliseconds, nothing to compile: a fresh install's
+first run does not wait ten seconds for numba), the numba solver on larger ones.
 """
 
 from __future__ import annotations
@@ -18,6 +21,8 @@ import math
 from typing import Iterable, Sequence
 
 import numpy as np
+import scipy.sparse as sp
+from scipy.sparse.csgraph import dijkstra as csgraph_dijkstra
 
 from crowdmotion.mdp._kernels import PAD, bucket_distances, mark_near
 from crowdmotion.mdp.grid import validate_grid
@@ -25,6 +30,7 @@ from crowdmotion.mdp.moves import flat_move_tables, move_costs, move_offsets, su
 
 NEG_INF = -math.inf
 METHODS = ("fast", "vi", "hvi", "ivi", "dijkstra")
+SCIPY_MAX_CELLS = 250_000  # exact_values: scipy up to here (<= 0.1 s), the numba solver beyond
 
 
 def normalise_goals(grid: np.ndarray, goal) -> list[tuple[int, ...]]:
@@ -83,6 +89,38 @@ def fast_values(grid: np.ndarray, goals: Sequence[tuple[int, ...]], corner_cutti
     bucket_distances(kind, dist, parent, g, offsets, costs, swept, count, successors, successor_count,
                      not corner_cutting, int(strides[0]), grid.ndim == 3)
     return interior(dist, shape)  # a view: a contiguous copy would cost another big allocation
+
+
+def csgraph_values(grid: np.ndarray, goals, corner_cutting: bool = True) -> np.ndarray:
+    """Values by scipy.sparse.csgraph.dijkstra on the same move graph (graph build included)."""
+    dim = grid.ndim
+    free = grid == 0
+    idx = np.arange(grid.size).reshape(grid.shape)
+    rows, cols, wts = [], [], []
+    for off, cost, sweep in zip(move_offsets(dim), move_costs(dim), swept_offsets(dim)):
+        src = tuple(slice(max(0, -o), s - max(0, o)) for o, s in zip(off, grid.shape))
+        dst = tuple(slice(max(0, o), s - max(0, -o)) for o, s in zip(off, grid.shape))
+        ok = free[src] & free[dst]
+        if not corner_cutting:
+            for sub in sweep:
+                mid = tuple(slice(max(0, -o) + q, s - max(0, o) + q) for o, q, s in zip(off, sub, grid.shape))
+                ok &= free[mid]
+        rows.append(idx[src][ok])
+        cols.append(idx[dst][ok])
+        wts.append(np.full(int(ok.sum()), cost))
+    graph = sp.csr_matrix((np.concatenate(wts), (np.concatenate(rows), np.concatenate(cols))),
+                          shape=(grid.size, grid.size))
+    flat = [int(np.ravel_multi_index(g, grid.shape)) for g in goals]
+    d = csgraph_dijkstra(graph, directed=True, indices=flat, min_only=True)
+    return -d.reshape(grid.shape)
+
+
+def exact_values(grid: np.ndarray, goals: Sequence[tuple[int, ...]], corner_cutting: bool = True) -> np.ndarray:
+    """Exact values by whichever solver gives a first result sooner: scipy's Dijkstra up
+    to ``SCIPY_MAX_CELLS`` cells, the numba bucket solver (``fast_values``) beyond."""
+    if grid.size <= SCIPY_MAX_CELLS:
+        return csgraph_values(grid, goals, corner_cutting)
+    return fast_values(grid, goals, corner_cutting)
 
 
 # ---------------------------------------------------------------------------------
@@ -277,7 +315,7 @@ def solve(grid, goal, method: str = "fast", theta: float = 1.0, corner_cutting: 
     ----------
     grid : array of 0/1, 2 or 3 axes (1 = obstacle)
     goal : one cell index tuple, or a list of them (every goal cell starts at 0)
-    method : "fast" (exact, numba), or the paper's reference solvers "vi" (Algorithm 1),
+    method : "fast" (exact: ``exact_values``), or the paper's reference solvers "vi" (Algorithm 1),
         "hvi" (Algorithm 1 from -Euclidean distance), "ivi" (Algorithm 2 then 1),
         "dijkstra" (heapq)
     theta : the stopping threshold of Algorithm 1 (paper: 1.0); ignored by exact methods
@@ -296,7 +334,7 @@ def solve(grid, goal, method: str = "fast", theta: float = 1.0, corner_cutting: 
     grid = validate_grid(grid)
     goals = normalise_goals(grid, goal)
     if method == "fast":
-        return fast_values(grid, goals, corner_cutting)
+        return exact_values(grid, goals, corner_cutting)
     if method == "dijkstra":
         return dijkstra(grid, goals, corner_cutting)
     solver = {"vi": value_iteration, "hvi": heuristic_value_iteration, "ivi": improved_value_iteration}[method]
