@@ -106,8 +106,8 @@ def frame_images(traj: Trajectories, frames, trail_s: float = 2.0, width_px: int
         if traj.dim == 3:
             title += " (seen from above)"
         moving = scene is not None and any(ob.is_moving for ob in scene.obstacles)
-        if scene is not None and not moving:
-            _draw_obstacles_2d(ax, scene)
+        if scene is not None:
+            _draw_obstacles_2d(ax, scene, moving=False)  # the resting ones once, in the background
         ax.set_xlim(lo[0], hi[0])
         ax.set_ylim(lo[1], hi[1])
         ax.set_aspect("equal")
@@ -135,7 +135,7 @@ def frame_images(traj: Trajectories, frames, trail_s: float = 2.0, width_px: int
                 for artist in shapes:
                     artist.remove()
                 before = set(ax.patches) | set(ax.lines)
-                _draw_obstacles_2d(ax, scene, f * traj.dt)
+                _draw_obstacles_2d(ax, scene, f * traj.dt, moving=True)
                 shapes = [a for a in list(ax.patches) + list(ax.lines) if a not in before]
                 for artist in shapes:
                     artist.set_animated(blit)

@@ -25,9 +25,12 @@ def _save(fig, path: Path) -> Path:
     return path
 
 
-def _draw_obstacles_2d(ax, scene: Scene, t: float = 0.0) -> None:
-    """The scene's obstacles at time t, seen from above (3D shapes projected on x, y)."""
+def _draw_obstacles_2d(ax, scene: Scene, t: float = 0.0, moving: bool | None = None) -> None:
+    """The scene's obstacles at time t, seen from above (3D shapes projected on x, y):
+    all of them, or (``moving`` True / False) only the moving / resting ones."""
     for ob in scene.obstacles:
+        if moving is not None and ob.is_moving != moving:
+            continue
         shift = ob.offset(t)[:2]
         style = dict(facecolor="0.35", edgecolor="0.1", alpha=0.5 if ob.is_moving else 0.85, zorder=2)
         if isinstance(ob, (Circle, Sphere)):
@@ -291,14 +294,13 @@ def animate_formation_snapshots(scene: Scene, snapshots: list[dict], path, fps: 
     lo, hi = (scene.lower, scene.upper) if window is None else (np.asarray(window[0]), np.asarray(window[1]))
     aspect = (hi[1] - lo[1]) / (hi[0] - lo[0])
     width = 8.0 if aspect > 0.4 else 12.0  # wide scenes (a road) get a wider picture
-    fig, ax = plt.subplots(figsize=(width + 1.6, max(2.5, width * aspect) + 0.5))
+    fig, ax = plt.subplots(figsize=(width + 1.6, max(2.5, width * aspect) + 0.5), layout="constrained")
     group_colour = _snapshot_colours(snapshots)
 
     # axes, labels, legend and resting obstacles are drawn once; each frame restores that
     # background and draws only what moves (blitting: about 4x faster than redrawing)
     moving = any(ob.is_moving for ob in scene.obstacles)
-    if not moving:
-        _draw_obstacles_2d(ax, scene)
+    _draw_obstacles_2d(ax, scene, moving=False)
     ax.set_xlim(lo[0], hi[0])
     ax.set_ylim(lo[1], hi[1])
     ax.set_aspect("equal")
@@ -314,7 +316,7 @@ def animate_formation_snapshots(scene: Scene, snapshots: list[dict], path, fps: 
     for snap in snapshots:
         before = set(ax.get_children())
         if moving:
-            _draw_obstacles_2d(ax, scene, snap["time"])
+            _draw_obstacles_2d(ax, scene, snap["time"], moving=True)
         for gi, g in enumerate(snap["groups"]):
             c = group_colour[g.get("name", gi)]
             _draw_mesh(ax, g["vertices"], g["edges"], g["torn"], c, lw=0.5, alpha=0.6)
