@@ -10,6 +10,8 @@ from __future__ import annotations
 import numpy as np
 from numba import njit, prange
 
+from crowdmotion._threads import threaded
+
 INF = np.inf
 
 
@@ -145,7 +147,7 @@ def _conflict(i, pos, vel, radius, stopped, priority, cell_start, items, origin_
     return False
 
 
-@njit(parallel=True, cache=True)
+@threaded
 def resolve_conflicts(pos, vel, radius, active, priority, cell_start, items, origin_x, origin_y, h, nx, ny, dt):
     """Make agents stand still until no two would touch during this step; returns how many
     had to stop.
@@ -219,7 +221,7 @@ def _first_block(px, py, vx, vy, r, dt, circ_c, circ_r, circ_v, seg_a, seg_b, se
     return False
 
 
-@njit(parallel=True, cache=True)
+@threaded
 def obstacle_safe_moves(pos, vel, radius, vmax, active, dt, circ_c, circ_r, circ_v, seg_a, seg_b, seg_v, out_scale):
     """Change each active agent's move so that, with every obstacle moving at its own
     velocity, it does not come within its radius of one during the step.
@@ -300,7 +302,7 @@ def _clear(px, py, qx, qy, r, circ_c, circ_r, seg_a, seg_b):
     return True
 
 
-@njit(parallel=True, cache=True)
+@threaded
 def line_of_sight(pos, goal, radius, active, circ_c, circ_r, seg_a, seg_b, out):
     """Whether the straight walk from each agent to its goal keeps clear of every obstacle."""
     n = pos.shape[0]

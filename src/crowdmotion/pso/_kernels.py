@@ -17,6 +17,7 @@ from __future__ import annotations
 import numpy as np
 from numba import njit, prange
 
+from crowdmotion._threads import threaded
 from crowdmotion._rng import uniform
 
 # agents keep this much more than the sum of radii (metres) so that float rounding in the
@@ -29,7 +30,7 @@ N_COUNTERS = 8
 
 
 # ---- the canonical update ---------------------------------------------------------------
-@njit(parallel=True, cache=True)
+@threaded
 def propose_velocities(x, v, pb, gb, gid, moving, w, c1, c2, chi, vmax, key):
     """v ← χ(w·v + c1·r1·(p − x) + c2·r2·(g − x)), each component clamped to ±vmax.
 
@@ -55,7 +56,7 @@ def propose_velocities(x, v, pb, gb, gid, moving, w, c1, c2, chi, vmax, key):
             v[i, a] = va
 
 
-@njit(parallel=True, cache=True)
+@threaded
 def advance_free(x, v, radius, lo, hi):
     """x ← x + v with the body kept inside the bounds (no avoidance); v becomes the move."""
     n, d = x.shape
@@ -66,7 +67,7 @@ def advance_free(x, v, radius, lo, hi):
             x[i, a] = end
 
 
-@njit(parallel=True, cache=True)
+@threaded
 def update_bests(x, pb, pbd, gb, gbd, gid, target, moving, threshold, stopped, arrival_iter, iteration):
     """Personal best = closest position to the swarm's target so far; swarm best = best of
     those; a moving particle within ``threshold`` of its target stops."""
@@ -92,7 +93,7 @@ def update_bests(x, pb, pbd, gb, gbd, gid, target, moving, threshold, stopped, a
                 gb[g, a] = pb[i, a]
 
 
-@njit(parallel=True, cache=True)
+@threaded
 def target_distances(x, gid, target, out):
     n, d = x.shape
     for i in prange(n):

@@ -10,6 +10,7 @@ from __future__ import annotations
 import numpy as np
 from numba import njit, prange
 
+from crowdmotion._threads import threaded
 from crowdmotion._contact import (INF, _clear, _point_segment_distance, _ray_capsule, _ray_disc,  # noqa: F401
                                   build_grid, line_of_sight, resolve_conflicts)
 from crowdmotion._rng import uniform as _uniform
@@ -99,7 +100,7 @@ def _obstacle_time(px, py, cx_, cy_, r, circ_c, circ_r, circ_v, near_c, n_near_c
     return t_static, t_moving
 
 
-@njit(parallel=True, cache=True)
+@threaded
 def choose_velocities(pos, vel, vpref, aim_dist, radius, vmax, max_nb, nb_dist, samples, safety, active,
                       cell_start, items, origin_x, origin_y, h, nx, ny,
                       circ_c, circ_r, circ_v, seg_a, seg_b, seg_v, dt, key,
@@ -300,7 +301,7 @@ def _choose_one(i, pos, vel, vpref, aim_dist, radius, vmax, max_nb, nb_dist, sam
 
 
 # ---- guidance: the distance field (line of sight lives in crowdmotion._contact) --------------
-@njit(parallel=True, cache=True)
+@threaded
 def field_directions(pos, field_of, dist, origin_x, origin_y, cell, window, use, radius,
                      circ_c, circ_r, seg_a, seg_b, out):
     """Offset to the next aim point along an exact distance field, for agents with ``use``.
