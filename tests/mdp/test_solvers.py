@@ -11,6 +11,7 @@ from scipy.sparse.csgraph import dijkstra as sp_dijkstra
 from crowdmotion import mdp
 from crowdmotion.mdp._kernels import PARALLEL_MIN, PARALLEL_MIN_2D
 from crowdmotion.mdp.benchmark import PAPER_GRIDS, csgraph_values, paper_grid
+from crowdmotion.mdp.solvers import fast_values
 
 
 def scipy_reference(grid, goals, corner_cutting):
@@ -63,36 +64,40 @@ def random_grid(shape, density, seed):
 @pytest.mark.parametrize("shape,seed", [((40, 31), 0), ((25, 25), 1), ((9, 11, 8), 2), ((12, 12, 12), 3)])
 def test_fast_equals_scipy_shortest_paths(shape, seed, corner_cutting):
     grid, goals = random_grid(shape, 0.3, seed)
-    v = mdp.solve(grid, goals, "fast", corner_cutting=corner_cutting)
+    v = fast_values(grid.astype(np.uint8), goals, corner_cutting)
     ref = scipy_reference(grid, goals, corner_cutting)
     assert_same_values(v, ref)
     assert np.all(v[grid == 1] == -np.inf)
     assert all(v[g] == 0 for g in goals)
 
 
+@pytest.mark.parametrize("threads", [2, 7])
 @pytest.mark.parametrize("corner_cutting", [True, False])
-def test_fast_equals_scipy_on_a_3d_grid_big_enough_for_two_threads(corner_cutting):
-    """Buckets over PARALLEL_MIN cells are split between two threads by plane."""
+def test_fast_equals_scipy_on_a_3d_grid_big_enough_for_the_threads(corner_cutting, threads):
+    """Buckets over PARALLEL_MIN cells are split by plane into a part per thread, at most
+    MAX_PARTS (asking for 7 runs 4 parts on this machine's threads all the same: the
+    split and the three seams are exercised)."""
     grid, _ = random_grid((66, 60, 64), 0.08, 4)
     grid[20, 5:45, 3:50] = 1  # a wall the fronts must bend round
     goals = [(33, 30, 32), (60, 10, 50)]
     grid[tuple(np.array(goals).T)] = 0
-    v = mdp.solve(grid, goals, "fast", corner_cutting=corner_cutting)
+    v = fast_values(grid.astype(np.uint8), goals, corner_cutting, threads=threads)
     ref = csgraph_values(grid, goals, corner_cutting)
     fin = assert_same_values(v, ref)
     assert np.bincount((-ref[fin]).astype(int)).max() >= PARALLEL_MIN  # the split really ran
 
 
+@pytest.mark.parametrize("threads", [2, 7])
 @pytest.mark.parametrize("corner_cutting", [True, False])
 @pytest.mark.parametrize("goals", ["two cells", "a whole row"])
-def test_fast_equals_scipy_on_a_2d_grid_big_enough_for_two_threads(corner_cutting, goals):
-    """2D buckets over PARALLEL_MIN_2D cells are split by row; a row goal puts a whole
-    front into the seam rows."""
+def test_fast_equals_scipy_on_a_2d_grid_big_enough_for_the_threads(corner_cutting, goals, threads):
+    """2D buckets over PARALLEL_MIN_2D cells are split by row in two (whatever the threads); a
+    row goal puts a whole front into the seam rows."""
     grid, _ = random_grid((700, 600), 0.1, 5)
     grid[300, 50:550] = 1
     cells = [(350, 300), (10, 20)] if goals == "two cells" else [(699, c) for c in range(600)]
     grid[tuple(np.array(cells).T)] = 0
-    v = mdp.solve(grid, cells, "fast", corner_cutting=corner_cutting)
+    v = fast_values(grid.astype(np.uint8), cells, corner_cutting, threads=threads)
     ref = csgraph_values(grid, cells, corner_cutting)
     fin = assert_same_values(v, ref)
     assert np.bincount((-ref[fin]).astype(int)).max() >= PARALLEL_MIN_2D

@@ -35,11 +35,13 @@ cells out for agents that a move could pass too close to)."""
 #   9.2 in 3D, against 8 and 26. With corner cutting off this holds only where the
 #   cell's whole 3^d box is free (``NEAR`` cells expand fully);
 # - in 3D each bucket is counting-sorted by plane (the slowest axis), so cells are
-#   visited in near-memory order. Large 3D buckets are then split between two threads
-#   by plane: cells more than one plane apart touch disjoint cells, so the two halves
-#   run at once and the planes at the seam run after them. Cells of one bucket do not
-#   depend on each other, so the distances do not depend on that order. 2D buckets are
-#   split the same way by rows, around a sampled median row, without sorting.
+#   visited in near-memory order. Large 3D buckets are then split between the threads
+#   by plane: cells more than one plane apart touch disjoint cells, so the parts run at
+#   once and the two planes at each seam between parts run after them. Cells of one
+#   bucket do not depend on each other, so the distances do not depend on that order.
+#   A 3D bucket of n cells gets min(threads, n / (PARALLEL_MIN / 2), MAX_PARTS) parts,
+#   so every part has work enough to pay for its thread. 2D buckets are split in two the
+#   same way by rows, around a sampled median row, without sorting.
 
 BLOCKED = 1
 """``kind`` bit: obstacle or border cell."""
@@ -49,9 +51,17 @@ TIE = 1e-6
 """Offers this close to a cell's distance count as ties when choosing its parent move:
 any value below the pruning margin (0.58, see ``moves.successor_moves``) is safe."""
 PARALLEL_MIN = 4096
-"""Smallest 3D bucket worth splitting between two threads."""
+"""Smallest 3D bucket worth splitting between two threads (each further thread wants
+another PARALLEL_MIN / 2 cells)."""
 PARALLEL_MIN_2D = 512
 """Smallest 2D bucket worth splitting between two threads (by row, unsorted)."""
+MAX_PARTS = 4
+"""Most parts a 3D bucket is split into, whatever the thread count: measured on 16 cores
+(docs/performance.md), 200^3 gains from 1 to 2 and 4 threads and loses beyond, where
+each bucket's parallel region costs more to start and join than its share of work."""
+MAX_PARTS_2D = 2
+"""Most parts a 2D bucket is split into: a 2D front is too thin to share further (on
+16 cores 1000^2 gained nothing from 2 threads and lost from 4)."""
 
 
 @njit(cache=True, parallel=True)
@@ -168,7 +178,8 @@ def _successor_tables(offsets, costs, swept, swept_count, successors, successor_
 
 @njit(cache=True)
 def _reserve(buckets, sizes, extra):
-    """``buckets`` with room for ``extra`` more entries in every list (grown if needed)."""
+    """``buckets`` (one set of three lists per part) with room for ``extra`` more entries
+    in every list (grown if needed)."""
     need = 0
     for t in range(buckets.shape[0]):
         for b in range(3):
@@ -183,16 +194,17 @@ def _reserve(buckets, sizes, extra):
 
 
 @njit(cache=True, parallel=True)
-def _expand_split(order, ranges, lo, hi, dist, parent, kind, tables, check_near, buckets, sizes):
-    """Two threads expand ``order[ranges[t, 0]:ranges[t, 1]]``, pushing to list ``t``."""
-    for t in prange(2):
+def _expand_split(order, ranges, parts, lo, hi, dist, parent, kind, tables, check_near, buckets, sizes):
+    """One thread per part expands ``order[ranges[t, 0]:ranges[t, 1]]``, pushing to the
+    part's own lists ``t``."""
+    for t in prange(parts):
         _expand(order, ranges[t, 0], ranges[t, 1], lo, hi, dist, parent, kind, tables, check_near, buckets[t],
                 sizes[t])
 
 
 @njit(cache=True)
 def bucket_distances(kind, dist, parent, goals, offsets, costs, swept, swept_count, successors, successor_count,
-                     check_near, plane, three_d):
+                     check_near, plane, three_d, threads):
     """Exact 8/26-connected state values (minus the distance to the nearest goal) in ``dist``.
 
     Parameters
@@ -207,19 +219,22 @@ def bucket_distances(kind, dist, parent, goals, offsets, costs, swept, swept_cou
     check_near : bool    corner cutting is off: NEAR cells expand fully, with sweep checks
     plane : int          flat stride of the slowest axis (a plane in 3D, a row in 2D)
     three_d : bool       3D: sort each bucket by plane; 2D: partition large ones by row.
-                         Either way large buckets are split between two threads.
+                         Either way large buckets are split into parts, one per thread.
+    threads : int        most parts a bucket is split into (numba's thread count)
     """
     n_cells = kind.shape[0]
     n_moves = offsets.shape[0]
     n_planes = n_cells // plane + 1
+    parts_max = max(threads, 1)
     tables = _successor_tables(offsets, costs, swept, swept_count, successors, successor_count)
-    buckets = np.empty((2, 3, max(1024, goals.shape[0])), dtype=np.int64)
-    sizes = np.zeros((2, 3), dtype=np.int64)
+    buckets = np.empty((parts_max, 3, max(1024, goals.shape[0])), dtype=np.int64)
+    sizes = np.zeros((parts_max, 3), dtype=np.int64)
     order = np.empty(1024, dtype=np.int64)
     seam = np.empty(1024, dtype=np.int64)
-    hist = np.zeros((2, n_planes), dtype=np.int64)
-    ranges = np.zeros((2, 2), dtype=np.int64)
-    _over_all_cells(kind, dist, parent, True)
+    hist = np.zeros((parts_max, n_planes), dtype=np.int64)
+    ranges = np.zeros((parts_max, 2), dtype=np.int64)
+    minimum = PARALLEL_MIN if three_d else PARALLEL_MIN_2D
+    _over_all_cells(kind, dist, parent, True, parts_max)
     for g in goals:
         dist[g] = 0.0
         buckets[0, 0, sizes[0, 0]] = g
@@ -227,94 +242,136 @@ def bucket_distances(kind, dist, parent, goals, offsets, costs, swept, swept_cou
     k = 0
     while sizes.sum() > 0:
         b = k % 3
-        n = sizes[0, b] + sizes[1, b]
+        n = 0
+        for t in range(parts_max):
+            n += sizes[t, b]
         if order.shape[0] < n:
             order = np.empty(2 * n, dtype=np.int64)
             seam = np.empty(2 * n, dtype=np.int64)
-        split = n >= (PARALLEL_MIN if three_d else PARALLEL_MIN_2D)
+        parts = 1 if n < minimum else min(parts_max, n // (minimum // 2), MAX_PARTS if three_d else 2)
         if three_d:
-            _order_by_plane(buckets, sizes, b, plane, hist, order, ranges, split)
-        elif split:
+            _order_by_plane(buckets, sizes, b, plane, hist, order, ranges, parts)
+        elif parts > 1:
             _partition_by_row(buckets, sizes, b, plane, order, ranges, seam)
         else:
             m = 0
-            for t in range(2):
+            for t in range(parts_max):
                 order[m : m + sizes[t, b]] = buckets[t, b, : sizes[t, b]]
                 m += sizes[t, b]
-        sizes[0, b] = 0
-        sizes[1, b] = 0
+        for t in range(parts_max):
+            sizes[t, b] = 0
         lo = float(k)
         hi = lo + 1.0
-        if split:
-            buckets = _reserve(buckets, sizes, n * n_moves)
-            _expand_split(order, ranges, lo, hi, dist, parent, kind, tables, check_near, buckets, sizes)
-            buckets = _reserve(buckets, sizes, (ranges[1, 0] - ranges[0, 1]) * n_moves)
-            _expand(order, ranges[0, 1], ranges[1, 0], lo, hi, dist, parent, kind, tables, check_near, buckets[0],
-                    sizes[0])
+        if parts > 1:
+            longest = 0
+            for t in range(parts):
+                longest = max(longest, ranges[t, 1] - ranges[t, 0])
+            buckets = _reserve(buckets, sizes, longest * n_moves)
+            _expand_split(order, ranges, parts, lo, hi, dist, parent, kind, tables, check_near, buckets, sizes)
+            seams = 0
+            for t in range(parts - 1):
+                seams += ranges[t + 1, 0] - ranges[t, 1]
+            buckets = _reserve(buckets, sizes, seams * n_moves)
+            for t in range(parts - 1):  # the planes (rows) at each seam, after the parts
+                _expand(order, ranges[t, 1], ranges[t + 1, 0], lo, hi, dist, parent, kind, tables, check_near,
+                        buckets[0], sizes[0])
         else:
             buckets = _reserve(buckets, sizes, n * n_moves)
             _expand(order, 0, n, lo, hi, dist, parent, kind, tables, check_near, buckets[0], sizes[0])
         k += 1
-    _over_all_cells(kind, dist, parent, False)
+    _over_all_cells(kind, dist, parent, False, parts_max)
     return dist
 
 
 @njit(cache=True)
-def _order_by_plane(buckets, sizes, b, plane, hist, order, ranges, parallel):
-    """Counting-sort bucket ``b`` (both threads' lists) by plane into ``order``.
+def _seam_cuts(first, n, parts, n_rows, cuts):
+    """``parts - 1`` cut planes (rows), non-decreasing, at the quantiles of a bucket whose
+    plane r starts at slot ``first[r]``. Part t holds the planes ``cuts[t-1] + 1 ..
+    cuts[t] - 2`` and writes at most one plane beyond them, so parts touch disjoint cells;
+    the seams (planes ``cuts[t] - 1``, ``cuts[t]``) run after the parts, on one thread."""
+    j = 0
+    for r in range(n_rows):
+        while j < parts - 1 and first[r] >= (j + 1) * n // parts:
+            cuts[j] = max(r - 1, 0)
+            j += 1
+    while j < parts - 1:
+        cuts[j] = n_rows - 1
+        j += 1
 
-    Sets ``ranges`` to the two halves the threads may expand at once: planes below
-    ``cut - 1`` and above ``cut``, where ``cut`` is the bucket's median plane. Within a
-    plane, entries keep their list order.
-    """
-    if parallel:
+
+@njit(cache=True)
+def _ranges_from_cuts(first, n, parts, cuts, n_rows, ranges):
+    """Part t: the slots of rows ``cuts[t-1] + 1 .. cuts[t] - 2``; the seams (rows
+    ``cuts[t] - 1`` and ``cuts[t]``) lie between parts t and t + 1 in the order."""
+    for t in range(parts):
+        start = 0 if t == 0 else first[cuts[t - 1] + 1]
+        stop = n if t == parts - 1 else (first[cuts[t] - 1] if cuts[t] >= 1 else 0)
+        ranges[t, 0] = start
+        ranges[t, 1] = max(start, stop)
+
+
+@njit(cache=True)
+def _order_by_plane(buckets, sizes, b, plane, hist, order, ranges, parts):
+    """Counting-sort bucket ``b`` (every part's list) by plane into ``order``; with
+    ``parts`` > 1 set ``ranges`` to the parts the threads may expand at once (the planes
+    between consecutive seams, see ``_seam_cuts``). Within a plane, entries keep their
+    list order."""
+    lists = sizes.shape[0]
+    if parts > 1:
         _plane_histograms(buckets, sizes, b, plane, hist)
     else:
-        for t in range(2):
+        for t in range(lists):
             _plane_histogram(buckets[t, b, : sizes[t, b]], plane, hist[t])
-    n = sizes[0, b] + sizes[1, b]
+    n = 0
+    for t in range(lists):
+        n += sizes[t, b]
+    n_planes = hist.shape[1]
+    first = np.empty(n_planes + 1, dtype=np.int64)
     running = 0
-    cut = -1
-    for p in range(hist.shape[1]):  # hist becomes each list's first slot per plane
-        if cut < 0 and running >= (n + 1) // 2:
-            cut = max(p - 1, 0)
-        for t in range(2):
+    for p in range(n_planes):  # hist becomes each list's first slot per plane
+        first[p] = running
+        for t in range(lists):
             c = hist[t, p]
             hist[t, p] = running
             running += c
-    if cut < 0:
-        cut = hist.shape[1] - 1
-    ranges[0, 0] = 0
-    ranges[0, 1] = hist[0, cut - 1] if cut >= 1 else 0  # planes < cut - 1
-    ranges[1, 0] = hist[0, cut + 1] if cut + 1 < hist.shape[1] else n  # planes > cut
-    ranges[1, 1] = n
-    if parallel:
+    first[n_planes] = n
+    if parts > 1:
+        cuts = np.empty(parts - 1, dtype=np.int64)
+        _seam_cuts(first, n, parts, n_planes, cuts)
+        _ranges_from_cuts(first, n, parts, cuts, n_planes, ranges)
         _plane_scatters(buckets, sizes, b, plane, hist, order)
     else:
-        for t in range(2):
+        for t in range(lists):
             _plane_scatter(buckets[t, b, : sizes[t, b]], plane, hist[t], order)
 
 
 @njit(cache=True)
 def _partition_by_row(buckets, sizes, b, row, order, ranges, seam):
     """2D: split bucket ``b`` into rows below ``cut - 1``, the seam rows ``cut - 1`` and
-    ``cut``, and rows above ``cut``, without sorting (``ranges`` as ``_order_by_plane``).
+    ``cut``, and rows above ``cut``, without sorting (``ranges`` as ``_order_by_plane``
+    with two parts).
 
     ``cut`` is the median row of 63 evenly spaced entries: near enough to balance the
     two threads, and a few microseconds where a counting sort over all rows costs more
     than the split saves.
     """
-    n = sizes[0, b] + sizes[1, b]
+    lists = sizes.shape[0]
+    n = 0
+    for t in range(lists):
+        n += sizes[t, b]
     sample = np.empty(63, dtype=np.int64)
     for j in range(63):
         i = j * n // 63
-        t = 0 if i < sizes[0, b] else 1
-        sample[j] = buckets[t, b, i - t * sizes[0, b]] // row
+        t = 0
+        while i >= sizes[t, b]:
+            i -= sizes[t, b]
+            t += 1
+        sample[j] = buckets[t, b, i] // row
     cut = np.sort(sample)[31]
     front = 0
     back = n
     n_seam = 0
-    for t in range(2):
+    for t in range(lists):
         for i in range(sizes[t, b]):
             u = buckets[t, b, i]
             r = u // row
@@ -351,13 +408,13 @@ def _plane_scatter(cells, plane, slots, order):
 
 @njit(cache=True, parallel=True)
 def _plane_histograms(buckets, sizes, b, plane, hist):
-    for t in prange(2):
+    for t in prange(sizes.shape[0]):
         _plane_histogram(buckets[t, b, : sizes[t, b]], plane, hist[t])
 
 
 @njit(cache=True, parallel=True)
 def _plane_scatters(buckets, sizes, b, plane, hist, order):
-    for t in prange(2):
+    for t in prange(sizes.shape[0]):
         _plane_scatter(buckets[t, b, : sizes[t, b]], plane, hist[t], order)
 
 
@@ -377,12 +434,13 @@ def _to_values(dist, lo, hi):
 
 
 @njit(cache=True)
-def _over_all_cells(kind, dist, parent, start):
-    """``_start_distances`` (``start``) or ``_to_values`` over every cell: on two threads
-    for big grids, on this one for small ones (a parallel region costs more there)."""
+def _over_all_cells(kind, dist, parent, start, threads):
+    """``_start_distances`` (``start``) or ``_to_values`` over every cell: split between
+    the threads for big grids, on this one for small ones (a parallel region costs more
+    there)."""
     n = dist.shape[0]
-    if n >= PARALLEL_MIN * 64:
-        _in_halves(kind, dist, parent, start)
+    if n >= PARALLEL_MIN * 64 and threads > 1:
+        _in_parts(kind, dist, parent, start, threads)
     elif start:
         _start_distances(kind, dist, parent, 0, n)
     else:
@@ -390,12 +448,12 @@ def _over_all_cells(kind, dist, parent, start):
 
 
 @njit(cache=True, parallel=True)
-def _in_halves(kind, dist, parent, start):
-    """``_start_distances`` (``start``) or ``_to_values`` over all cells, on two threads."""
+def _in_parts(kind, dist, parent, start, parts):
+    """``_start_distances`` (``start``) or ``_to_values`` over all cells, in ``parts``."""
     n = dist.shape[0]
-    for t in prange(2):
-        lo = t * (n // 2)
-        hi = n if t == 1 else n // 2
+    for t in prange(parts):
+        lo = t * n // parts
+        hi = (t + 1) * n // parts
         if start:
             _start_distances(kind, dist, parent, lo, hi)
         else:

@@ -20,11 +20,12 @@ import heapq
 import math
 from typing import Iterable, Sequence
 
+import numba
 import numpy as np
 import scipy.sparse as sp
 from scipy.sparse.csgraph import dijkstra as csgraph_dijkstra
 
-from crowdmotion.mdp._kernels import PAD, bucket_distances, mark_near
+from crowdmotion.mdp._kernels import MAX_PARTS, MAX_PARTS_2D, PAD, bucket_distances, mark_near
 from crowdmotion.mdp.grid import validate_grid
 from crowdmotion.mdp.moves import flat_move_tables, move_costs, move_offsets, successor_moves, swept_offsets
 
@@ -71,8 +72,14 @@ def interior(flat: np.ndarray, shape: tuple[int, ...]) -> np.ndarray:
     return full[tuple(slice(PAD, PAD + s) for s in shape)]
 
 
-def fast_values(grid: np.ndarray, goals: Sequence[tuple[int, ...]], corner_cutting: bool = True) -> np.ndarray:
+def fast_values(grid: np.ndarray, goals: Sequence[tuple[int, ...]], corner_cutting: bool = True,
+                threads: int | None = None) -> np.ndarray:
     """Exact shortest-path values by Dial's bucket queue (numba), see ``_kernels``.
+
+    Large buckets are split into parts run on numba's threads: up to ``threads`` parts
+    (default: numba's thread count), at most ``MAX_PARTS`` in 3D and ``MAX_PARTS_2D`` in
+    2D, and numba runs the solve on no more threads than that (a parallel region on idle
+    threads costs their start and join).
 
     The result is a view into the padded work array (a contiguous copy would cost one
     more grid-sized allocation, a large share of the time on big 3D grids).
@@ -86,8 +93,14 @@ def fast_values(grid: np.ndarray, goals: Sequence[tuple[int, ...]], corner_cutti
     if not corner_cutting:
         mark_near(kind, strides, dist.view(np.uint8))  # dist's bytes as scratch: filled later
     g = np.array([int(np.dot(np.add(t, PAD), strides)) for t in goals], dtype=np.int64)
-    bucket_distances(kind, dist, parent, g, offsets, costs, swept, count, successors, successor_count,
-                     not corner_cutting, int(strides[0]), grid.ndim == 3)
+    available = numba.get_num_threads()
+    parts = min(available if threads is None else int(threads), MAX_PARTS if grid.ndim == 3 else MAX_PARTS_2D)
+    numba.set_num_threads(max(1, min(parts, available)))
+    try:
+        bucket_distances(kind, dist, parent, g, offsets, costs, swept, count, successors, successor_count,
+                         not corner_cutting, int(strides[0]), grid.ndim == 3, max(parts, 1))
+    finally:
+        numba.set_num_threads(available)
     return interior(dist, shape)  # a view: a contiguous copy would cost another big allocation
 
 
