@@ -91,6 +91,8 @@ def test_head_on_case_is_redirected():
     run = pso.gather(target=(10.0, 0.0), starts=[[-10.0, 0.0], [6.0, 0.0]], obstacles=scene,
                      rng=np.random.default_rng(0), w=0.0, iterations=100)
     assert run.stats["degenerate_redirects"] >= 1
+    # only the far particle meets the circle: the per-particle count says which
+    assert run.stats["particles_redirected"] == 1 and run.stats["obstacle_redirects"] >= 1
     assert np.abs(run.paths[:, 0, 1]).max() > 1.0  # it went round
     assert _audit(run).agent_obstacle == 0
 

@@ -434,7 +434,7 @@ def _first_contact(i, p, k, x, newx, radius, nb, cnt):
 def avoid_and_commit(order, x, v, newx, radius, gid, stopped, joined, avoid_obstacles, avoid_agents,
                      separation, detection, avoid_radius, cos_theta, join_gap, target, gather_radius,
                      sc, sr, bl, bu, ob_start, ob_items, lo, hi,
-                     origin, h, dims, start, items, reach, key, counters):
+                     origin, h, dims, start, items, reach, key, counters, redirected):
     """Move each particle of ``order`` (nearest to its target first) by v, after:
 
     1. the obstacle rule: if p + v enters an obstacle's detection range (clearance below
@@ -453,6 +453,8 @@ def avoid_and_commit(order, x, v, newx, radius, gid, stopped, joined, avoid_obst
     its own swarm is flagged in ``joined`` (it has gathered: the group arrival rule) when
     it is inside its swarm's ``gather_radius`` (G,) of the target, or when the separation
     step had to cut its move short (it is blocked at the edge of the gathered group).
+    ``counters`` counts the rules and guards; ``redirected`` (N,) each particle's
+    obstacle redirects.
     """
     n, d = x.shape
     p = np.empty(d)
@@ -476,6 +478,7 @@ def avoid_and_commit(order, x, v, newx, radius, gid, stopped, joined, avoid_obst
             for a in range(d):
                 k[a] = out[a]
             counters[OBSTACLE_REDIRECTS] += 1
+            redirected[i] += 1
         if avoid_agents:
             kk = 0.0
             for a in range(d):

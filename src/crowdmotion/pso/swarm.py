@@ -85,6 +85,7 @@ class Swarm:
         self.arrival_iteration = np.full(n, -1, np.int64)
         self.iteration = 0
         self.counters = np.zeros(K.N_COUNTERS, np.int64)
+        self.redirected = np.zeros(n, np.int64)  # obstacle redirects per particle, eqs. (4)-(5)
         self.pb, self.pbd = self.x.copy(), np.full(n, np.inf)
         self.gb, self.gbd = self.target.copy(), np.full(self.n_swarms, np.inf)
         self._reset_memory(np.ones(self.n_swarms, bool))
@@ -167,7 +168,7 @@ class Swarm:
                                p.avoid_radius, float(np.cos(np.deg2rad(p.avoid_angle_deg))), p.join_gap,
                                self.target, self.gather_radius,
                                ob.sc, ob.sr, ob.bl, ob.bu, *self._obstacle_grid, lo, hi, origin, h, dims, start,
-                               items, self._reach, key, self.counters)
+                               items, self._reach, key, self.counters, self.redirected)
             self.x = newx
         else:
             K.advance_free(self.x, self.v, self.radius, self._lo, self._hi)
@@ -183,6 +184,7 @@ class Swarm:
     def stats(self) -> dict:
         """Counts of the avoidance rules and guards so far (see :data:`COUNTER_NAMES`)."""
         out = {name: int(c) for name, c in zip(COUNTER_NAMES, self.counters)}
+        out["particles_redirected"] = int(np.count_nonzero(self.redirected))
         out["particle_iterations"] = int(self.iteration * self.n)
         out["moving_particle_iterations"] = self.moved
         return out
