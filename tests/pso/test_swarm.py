@@ -88,8 +88,9 @@ def test_head_on_case_is_redirected():
     # w = 0 and every particle on the x axis: the far particle is pulled by the swarm's
     # best (the near one, beyond the circle) straight at the circle's centre: k x u = 0
     scene = Scene(bounds=([-20, -20], [20, 20]), obstacles=[Circle([0.0, 0.0], 2.0)])
+    # the paper's rule alone: no pull at the target when the swarm stalls (w = 0 stalls it)
     run = pso.gather(target=(10.0, 0.0), starts=[[-10.0, 0.0], [6.0, 0.0]], obstacles=scene,
-                     rng=np.random.default_rng(0), w=0.0, iterations=100)
+                     rng=np.random.default_rng(0), w=0.0, iterations=100, stall_iterations=0)
     assert run.stats["degenerate_redirects"] >= 1
     # only the far particle meets the circle: the per-particle count says which
     assert run.stats["particles_redirected"] == 1 and run.stats["obstacle_redirects"] >= 1
@@ -190,3 +191,22 @@ def test_polygons_and_moving_obstacles_are_refused_by_name():
     moving = Circle([10.0, 10.0], 1.0, path=([0, 10], [[10, 10], [0, 10]]))
     with pytest.raises(ValueError, match="moves"):
         pso.gather(target=(0.0, 0.0), obstacles=[moving], rng=np.random.default_rng(0))
+
+
+def test_a_swarm_stalled_on_a_poor_best_is_pulled_at_its_target():
+    # issue 16/13 theme, found on a variant of pso_avoidance: the swarm climbed over a
+    # cluster of spheres, pressed against the ceiling 20 m above its target with its best
+    # there, and stood still for good (arrival 0); g <- target after 25 stale iterations
+    from pathlib import Path
+
+    from crowdmotion.scenario import parse_scenario, run_scenario
+
+    text = (Path(__file__).parents[2] / "src/crowdmotion/scenarios/pso_avoidance.toml").read_text()
+    text = text.replace("lower = [-18.0, -12.0, -12.0]", "lower = [-18.0, -6.0, -6.0]")
+    text = text.replace("upper = [18.0, 12.0, 12.0]", "upper = [18.0, 6.0, 6.0]")
+    stalled = run_scenario(parse_scenario(text.replace("[pso]", "[pso]\nstall_iterations = 0")), seed=4,
+                           progress=False).summary
+    assert stalled["arrival_rate"] == 0.0 and stalled["rules"]["stall_pulls"] == 0
+    pulled = run_scenario(parse_scenario(text), seed=4, progress=False).summary
+    assert pulled["arrival_rate"] == 1.0 and pulled["rules"]["stall_pulls"] >= 1
+    assert pulled["agent_agent_overlaps"] == 0 and pulled["agent_obstacle_penetrations"] == 0

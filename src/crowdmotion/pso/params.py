@@ -70,6 +70,9 @@ class PSOParams(_Model):
                               too (the group arrival rule, see ``swarm.gather_radius``)
     gather_slack : float      the gathering radius is threshold + slack × the radius of the
                               ball the group's bodies fill when densely packed
+    stall_iterations : int    a swarm whose best has not come nearer its target for this
+                              many iterations, none of it arrived, is pulled at the target
+                              itself (g ← target) until it finds a better best; 0 = off
     stop_when_done : bool     end a gathering once every particle has stopped
     max_iterations : int      hard cap on iterations in one run
     spawn_gap : float         extra clearance between sampled start positions
@@ -93,6 +96,7 @@ class PSOParams(_Model):
     separation: bool = True
     join_gap: NonNeg = 0.25
     gather_slack: Annotated[float, Field(ge=1, allow_inf_nan=False)] = 1.5
+    stall_iterations: Annotated[int, Field(ge=0, le=1_000_000)] = 25
     stop_when_done: bool = True
     max_iterations: Annotated[int, Field(gt=0, le=10_000_000)] = 100_000
     spawn_gap: NonNeg = 0.05

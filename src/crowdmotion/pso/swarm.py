@@ -10,6 +10,14 @@ target so far) and its swarm's best g::
 
 with r1, r2 ~ U(0, 1) per axis. Obstacle and agent avoidance redirect the step by the
 paper's eqs. (4)–(5) (see :mod:`crowdmotion.pso._kernels`).
+
+A documented addition against stagnation: g is the best position found, not the target,
+so a swarm that has collapsed onto a poor best (e.g. one that went over a cluster of
+obstacles and pressed against the scene's ceiling 20 m above its target) no longer feels
+any pull towards the target and stands there for good. When a swarm's best has not come
+nearer its target for ``stall_iterations`` iterations and none of its particles has
+arrived, g ← the target itself; the next better position found replaces it as usual.
+``stats["stall_pulls"]`` counts how often that happened.
 """
 
 from __future__ import annotations
@@ -31,6 +39,7 @@ from crowdmotion.trajectories import Trajectories
 
 COUNTER_NAMES = ("obstacle_redirects", "degenerate_redirects", "agent_redirects", "rule_conflicts",
                  "separation_truncations", "separation_stops", "obstacle_stops", "joins")
+IMPROVEMENT = 1e-6  # metres: a swarm best nearer by less than this has not improved
 
 
 class Swarm:
@@ -86,6 +95,8 @@ class Swarm:
         self.iteration = 0
         self.counters = np.zeros(K.N_COUNTERS, np.int64)
         self.redirected = np.zeros(n, np.int64)  # obstacle redirects per particle, eqs. (4)-(5)
+        self.stale = np.zeros(len(tg), np.int64)  # iterations since each swarm's best improved
+        self.stall_pulls = 0
         self.pb, self.pbd = self.x.copy(), np.full(n, np.inf)
         self.gb, self.gbd = self.target.copy(), np.full(self.n_swarms, np.inf)
         self._reset_memory(np.ones(self.n_swarms, bool))
@@ -173,18 +184,35 @@ class Swarm:
         else:
             K.advance_free(self.x, self.v, self.radius, self._lo, self._hi)
         self.iteration += 1
+        before = self.gbd.copy()
         K.update_bests(self.x, self.pb, self.pbd, self.gb, self.gbd, self.swarm, self.target, moving,
                        p.threshold, self.stopped, self.arrival_iteration, self.iteration)
+        self._pull_stalled_swarms(before)
         if p.avoid_agents:
             newly = joined & ~self.stopped
             self.stopped |= newly
             self.arrival_iteration[newly] = self.iteration
+
+    def _pull_stalled_swarms(self, before: np.ndarray) -> None:
+        """g ← target for swarms stalled ``stall_iterations`` iterations (module docstring)."""
+        limit = self.params.stall_iterations
+        if limit <= 0:
+            return
+        improved = self.gbd < before - IMPROVEMENT
+        arrived = np.bincount(self.swarm, weights=self.stopped, minlength=self.n_swarms) > 0
+        self.stale = np.where(improved | arrived, 0, self.stale + 1)
+        stalled = self.stale >= limit
+        if stalled.any():
+            self.gb[stalled] = self.target[stalled]
+            self.stale[stalled] = 0
+            self.stall_pulls += int(stalled.sum())
 
     @property
     def stats(self) -> dict:
         """Counts of the avoidance rules and guards so far (see :data:`COUNTER_NAMES`)."""
         out = {name: int(c) for name, c in zip(COUNTER_NAMES, self.counters)}
         out["particles_redirected"] = int(np.count_nonzero(self.redirected))
+        out["stall_pulls"] = self.stall_pulls
         out["particle_iterations"] = int(self.iteration * self.n)
         out["moving_particle_iterations"] = self.moved
         return out
