@@ -31,11 +31,6 @@ IMG = Path(__file__).parent / "img"
 RIMEA_15 = next(c for c in verify.CASES if c.name == "rimea_15_corner_crowd")
 
 
-def last_through_exit(name: str, r: verify.Outcome) -> float:
-    """Seconds until the last person crossed the exit line of RiMEA 15's setup ``name``."""
-    return float(np.nanmax(verify.crossing_times(r.traj, *verify._RIMEA_15_EXITS[name])))
-
-
 def time_step_table() -> None:
     print("| time step | seed | short | corner | long | corner between |")
     print("|---|---|---|---|---|---|")
@@ -44,7 +39,7 @@ def time_step_table() -> None:
             t = {}
             for name, setup in RIMEA_15.build("rvo").items():
                 setup.params = {**setup.params, "time_step": dt}
-                t[name] = last_through_exit(name, verify.simulate("rvo", setup, seed))
+                t[name] = verify.rimea_15_last_out(name, verify.simulate("rvo", setup, seed))
             ok = t["short"] <= t["corner"] <= t["long"]
             print(f"| {dt} s | {seed} | {t['short']:.0f} s | {t['corner']:.0f} s | {t['long']:.0f} s | "
                   f"{'yes' if ok else 'no'} |", flush=True)
@@ -70,7 +65,7 @@ def congestion_figure() -> None:
         ax.set_xlabel("x (m)")
         ax.set_ylabel("y (m)")
         label = "exact distance field (congestion = 0)" if cong == 0 else f"congestion = {cong:g}"
-        ax.set_title(f"{label}: last of 500 out at {last_through_exit('corner', r):.0f} s", fontsize=10)
+        ax.set_title(f"{label}: last of 500 out at {verify.rimea_15_last_out('corner', r):.0f} s", fontsize=10)
     fig.colorbar(im, ax=axes, label="mean density (agents / m²)", shrink=0.85)
     fig.suptitle("RiMEA 15 corner, RVO: where 500 agents walk")
     out = IMG / "rvo_congestion.png"

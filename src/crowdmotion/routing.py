@@ -5,9 +5,7 @@ RVO aims its preferred velocities along them; formations move their guiding mesh
 them, vertex by vertex, so a formation follows a corridor round its corners.
 
 The exact fields come from :func:`crowdmotion.mdp.solvers.exact_values` (scipy's
-Dijkstra on small grids, nothing to compile; the numba bucket solver on large ones); the
-congestion-aware re-solves of :mod:`crowdmotion.rvo.congestion` from scipy's Dijkstra on
-:class:`GridGraph`, the same graph with weighted edges.
+Dijkstra on small grids, nothing to compile; the numba bucket solver on large ones).
 """
 
 from __future__ import annotations
@@ -16,56 +14,11 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from scipy.sparse import csr_matrix
-from scipy.sparse.csgraph import dijkstra
-
 from crowdmotion.groups import MovingTarget, Points
 from crowdmotion.mdp.solvers import exact_values
 from crowdmotion.scene import Scene
 
 MAX_FIELD_CELLS = 16_000_000
-
-
-class GridGraph:
-    """The 8-connected graph of a grid's free cells (diagonals only where both cells beside
-    them are free: no corner cutting), edges in metres, for scipy's Dijkstra."""
-
-    def __init__(self, free: np.ndarray, cell: float):
-        shape = free.shape
-        node = np.full(shape, -1, dtype=np.int64)
-        node[free] = np.arange(free.sum())
-        self.node = node
-        self.cell_index = np.flatnonzero(free.ravel())
-        padded = np.pad(free, 1, constant_values=False)
-
-        def at(dx: int, dy: int) -> np.ndarray:  # free[i + dx, j + dy], False off the grid
-            return padded[1 + dx:1 + dx + shape[0], 1 + dy:1 + dy + shape[1]]
-
-        src, dst, length = [], [], []
-        # each undirected edge once: right, up, and the two diagonals going right
-        for dx, dy in ((1, 0), (0, 1), (1, 1), (1, -1)):
-            ok = free & at(dx, dy)
-            if dx and dy:
-                ok &= at(dx, 0) & at(0, dy)
-            i, j = np.nonzero(ok)
-            src.append(node[i, j])
-            dst.append(node[i + dx, j + dy])
-            length.append(np.full(len(i), np.hypot(dx, dy) * cell))
-        self.src, self.dst, self.length = np.concatenate(src), np.concatenate(dst), np.concatenate(length)
-
-    def distances(self, goal_cells: list, shape: tuple, cost: np.ndarray | None = None) -> np.ndarray:
-        """(F, nx, ny) least cost from every cell to each field's goal cells (inf where none
-        leads); an edge costs its length times the mean ``cost`` of its two cells (per free
-        cell, default 1)."""
-        w = self.length if cost is None else self.length * 0.5 * (cost[self.src] + cost[self.dst])
-        n = len(self.cell_index)
-        graph = csr_matrix((w, (self.src, self.dst)), shape=(n, n))
-        out = np.full((len(goal_cells),) + tuple(shape), np.inf)
-        for k, goals in enumerate(goal_cells):
-            goals = np.asarray(goals, dtype=np.int64).reshape(-1, 2)
-            d = dijkstra(graph, directed=False, indices=self.node[goals[:, 0], goals[:, 1]], min_only=True)
-            out[k].ravel()[self.cell_index] = d
-        return out
 
 
 @dataclass

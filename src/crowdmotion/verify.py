@@ -363,11 +363,15 @@ def _rimea_15(method: str) -> dict[str, Setup]:
 _RIMEA_15_EXITS = {"short": (0, 50.0), "long": (0, 81.0), "corner": (1, 30.0)}
 
 
+def rimea_15_last_out(name: str, r: Outcome) -> float:
+    """Seconds until the last person of RiMEA 15's setup ``name`` crossed its exit line
+    (the test's evacuation time); inf if somebody never did."""
+    crossed = crossing_times(r.traj, *_RIMEA_15_EXITS[name])
+    return float(np.nanmax(crossed)) if np.isfinite(crossed).all() else float("inf")
+
+
 def _judge_rimea_15(out: dict[str, Outcome]) -> tuple[str, str, bool]:
-    t = {}
-    for k, r in out.items():
-        crossed = crossing_times(r.traj, *_RIMEA_15_EXITS[k])
-        t[k] = float(np.nanmax(crossed)) if np.isfinite(crossed).all() else float("inf")
+    t = {k: rimea_15_last_out(k, r) for k, r in out.items()}
     ok = all(_arrived(r) == 1.0 for r in out.values()) and t["short"] <= t["corner"] <= t["long"]
     return ("the last person through the corner's exit between the short (50 m) and long (81 m) corridors'",
             f"short {t['short']:.0f} s, corner {t['corner']:.0f} s, long {t['long']:.0f} s", bool(ok))

@@ -78,7 +78,6 @@ def walkable_area(scene_dict: dict | None, positions: np.ndarray, active: np.nda
     if holes:
         area = shapely.make_valid(area.difference(shapely.union_all(holes)))
     parts = [g for g in shapely.get_parts(area) if isinstance(g, shapely.Polygon) and g.area > 0]
-    parts = [shapely.Polygon(g.exterior, [h for h in g.interiors]) for g in parts]
     inside = [int(shapely.intersects_xy(g, xy[:, 0], xy[:, 1]).sum()) for g in parts]
     best = int(np.argmax(inside))
     left_out = len(xy) - inside[best]
@@ -126,11 +125,10 @@ def write(traj: Trajectories, path: Path) -> None:
         warnings.warn(f"{path.name}: {note}", UserWarning, stacklevel=_first_caller_outside_package())
     geo = area.wkt
     geo_hash = zlib.crc32(geo.encode())
-    xmin, ymin, xmax, ymax = shapely.from_wkt(geo).bounds
+    xmin, ymin, xmax, ymax = area.bounds
     meta = [("version", str(VERSION)), ("fps", repr(traj.fps)), ("xmin", repr(xmin)), ("xmax", repr(xmax)),
             ("ymin", repr(ymin)), ("ymax", repr(ymax)), ("crowdmotion", metadata_json(traj)),
-            ("crowdmotion_frames", str(t))]
-    meta.append(("jitter_m", repr(JITTER_M)))
+            ("crowdmotion_frames", str(t)), ("jitter_m", repr(JITTER_M))]
     if traj.dim == 3:
         meta.append(("projection", "3D run projected onto the ground plane (x, y); z dropped"))
     with atomic_path(path) as tmp:

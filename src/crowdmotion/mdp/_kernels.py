@@ -234,6 +234,7 @@ def bucket_distances(kind, dist, parent, goals, offsets, costs, swept, swept_cou
     hist = np.zeros((parts_max, n_planes), dtype=np.int64)
     ranges = np.zeros((parts_max, 2), dtype=np.int64)
     minimum = PARALLEL_MIN if three_d else PARALLEL_MIN_2D
+    cap = parts_max if three_d else min(parts_max, MAX_PARTS_2D)  # fast_values caps 3D at MAX_PARTS
     _over_all_cells(kind, dist, parent, True, parts_max)
     for g in goals:
         dist[g] = 0.0
@@ -242,13 +243,11 @@ def bucket_distances(kind, dist, parent, goals, offsets, costs, swept, swept_cou
     k = 0
     while sizes.sum() > 0:
         b = k % 3
-        n = 0
-        for t in range(parts_max):
-            n += sizes[t, b]
+        n = sizes[:, b].sum()
         if order.shape[0] < n:
             order = np.empty(2 * n, dtype=np.int64)
             seam = np.empty(2 * n, dtype=np.int64)
-        parts = 1 if n < minimum else min(parts_max, n // (minimum // 2), MAX_PARTS if three_d else 2)
+        parts = 1 if n < minimum else min(cap, n // (minimum // 2))
         if three_d:
             _order_by_plane(buckets, sizes, b, plane, hist, order, ranges, parts)
         elif parts > 1:
@@ -258,8 +257,7 @@ def bucket_distances(kind, dist, parent, goals, offsets, costs, swept, swept_cou
             for t in range(parts_max):
                 order[m : m + sizes[t, b]] = buckets[t, b, : sizes[t, b]]
                 m += sizes[t, b]
-        for t in range(parts_max):
-            sizes[t, b] = 0
+        sizes[:, b] = 0
         lo = float(k)
         hi = lo + 1.0
         if parts > 1:
@@ -322,9 +320,7 @@ def _order_by_plane(buckets, sizes, b, plane, hist, order, ranges, parts):
     else:
         for t in range(lists):
             _plane_histogram(buckets[t, b, : sizes[t, b]], plane, hist[t])
-    n = 0
-    for t in range(lists):
-        n += sizes[t, b]
+    n = sizes[:, b].sum()
     n_planes = hist.shape[1]
     first = np.empty(n_planes + 1, dtype=np.int64)
     running = 0
@@ -356,9 +352,7 @@ def _partition_by_row(buckets, sizes, b, row, order, ranges, seam):
     than the split saves.
     """
     lists = sizes.shape[0]
-    n = 0
-    for t in range(lists):
-        n += sizes[t, b]
+    n = sizes[:, b].sum()
     sample = np.empty(63, dtype=np.int64)
     for j in range(63):
         i = j * n // 63

@@ -17,8 +17,8 @@ from __future__ import annotations
 import numpy as np
 from numba import njit, prange
 
-from crowdmotion._threads import threaded
 from crowdmotion._rng import uniform
+from crowdmotion._threads import threaded
 
 # agents keep this much more than the sum of radii (metres) so that float rounding in the
 # audit never reads a touch as an overlap

@@ -17,7 +17,8 @@ from matplotlib.collections import EllipseCollection, LineCollection  # noqa: E4
 from tqdm.auto import tqdm  # noqa: E402
 
 from crowdmotion.io.atomic import atomic_path  # noqa: E402
-from crowdmotion.render.plots import _draw_obstacles_2d, _group_colours, _save, gif_image, write_gif  # noqa: E402
+from crowdmotion.render.plots import (_draw_obstacles_2d, _group_colours, _save, blit_frame, gif_image,  # noqa: E402
+                                      write_gif)
 from crowdmotion.scene import Scene  # noqa: E402
 from crowdmotion.trajectories import Trajectories, resample  # noqa: E402
 
@@ -154,13 +155,11 @@ def frame_images(traj: Trajectories, frames, trail_s: float = 2.0, width_px: int
             bodies.set_edgecolor(np.where(act[f][:, None], [[0, 0, 0, 1.0]], [[0, 0, 0, 0.0]]))
             label.set_text(f"{title}  t = {f * traj.dt:6.1f} s")
             if blit:
-                fig.canvas.restore_region(background)
-                # matplotlib's order: by zorder, ties in the order the artists were added
-                for artist in sorted([trails, bodies] + shapes, key=lambda a: a.get_zorder()) + [label]:
-                    ax.draw_artist(artist)
+                rgb = blit_frame(fig, ax, background, [trails, bodies] + shapes, [label])
             else:
                 fig.canvas.draw()
-            yield np.ascontiguousarray(np.asarray(fig.canvas.buffer_rgba())[..., :3])
+                rgb = np.asarray(fig.canvas.buffer_rgba())[..., :3]
+            yield np.ascontiguousarray(rgb)
     finally:
         plt.close(fig)
 

@@ -77,10 +77,14 @@ def _draw_mesh(ax, vertices: np.ndarray, edges: np.ndarray, torn: np.ndarray, co
             ax.add_collection(LineCollection(vertices[edges[sel]][:, :, :2], linewidths=lw, zorder=3, **style))
 
 
-def gif_frame(fig):
-    """The figure as drawn now, as one palette image of a GIF."""
-    fig.canvas.draw()
-    return gif_image(np.asarray(fig.canvas.buffer_rgba())[..., :3])
+def blit_frame(fig, ax, background, artists: list, last: list) -> np.ndarray:
+    """Restore ``background`` (``fig.canvas.copy_from_bbox``), draw ``artists`` in
+    matplotlib's order (by zorder, ties in the order they were added), then ``last``;
+    the figure's (H, W, 3) pixels as a view into the canvas."""
+    fig.canvas.restore_region(background)
+    for artist in sorted(artists, key=lambda a: a.get_zorder()) + list(last):
+        ax.draw_artist(artist)
+    return np.asarray(fig.canvas.buffer_rgba())[..., :3]
 
 
 def gif_image(rgb: np.ndarray):
@@ -92,7 +96,7 @@ def gif_image(rgb: np.ndarray):
 
 
 def write_gif(frames: list, path, fps: float) -> None:
-    """Palette images (from :func:`gif_frame`) as a looping GIF at ``fps``."""
+    """Palette images (from :func:`gif_image`) as a looping GIF at ``fps``."""
     frames[0].save(path, format="GIF", save_all=True, append_images=frames[1:], duration=int(1000 / fps), loop=0)
 
 
@@ -324,12 +328,8 @@ def animate_formation_snapshots(scene: Scene, snapshots: list[dict], path, fps: 
             colours = np.where(g["dislocated"][:, None], np.array([[0.0, 0.0, 0.0, 1.0]]), np.array([c]))
             ax.scatter(a[:, 0], a[:, 1], s=8, c=colours, zorder=4)
         label.set_text(f"{title}  t = {snap['time']:.1f} s")
-        fig.canvas.restore_region(background)
-        # matplotlib's order: by zorder, ties in the order the artists were added
         new = [x for x in ax.get_children() if x not in before]
-        for artist in sorted(new, key=lambda x: x.get_zorder()) + [label]:
-            ax.draw_artist(artist)
-        images.append(gif_image(np.asarray(fig.canvas.buffer_rgba())[..., :3]))
+        images.append(gif_image(blit_frame(fig, ax, background, new, [label])))
         for artist in new:
             artist.remove()
     plt.close(fig)
