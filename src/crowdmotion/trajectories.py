@@ -22,6 +22,13 @@ class Trajectories:
     radius : (N,) float64           body radius of each agent, metres
     active : (T, N) bool or None    False once an agent has arrived/despawned
     metadata : dict                 method, parameters, seed, scene, library version, ...
+    facing : (T, N) float64         the way each agent faces, yaw radians about the up axis
+                                    from +x: given by the method (a car's pair angle, a
+                                    soldier's formation heading) or, when None, derived from
+                                    the motion by :func:`crowdmotion.facing.facing_from_motion`
+                                    (smooth, bounded turn rate, held while standing)
+    facing_pitch : (T, N) float64   3D: the facing's angle above the x-y plane (derived
+                                    from the motion when None); zeros in 2D
     """
 
     positions: np.ndarray
@@ -31,6 +38,8 @@ class Trajectories:
     radius: np.ndarray | None = None
     active: np.ndarray | None = None
     metadata: dict[str, Any] = field(default_factory=dict)
+    facing: np.ndarray | None = None
+    facing_pitch: np.ndarray | None = None
 
     def __post_init__(self):
         p = np.asarray(self.positions, dtype=np.float64)
@@ -54,6 +63,27 @@ class Trajectories:
             self.active = np.asarray(self.active, dtype=bool)
             if self.active.shape != (t, n):
                 raise ValueError(f"Trajectories.active must have shape ({t}, {n}), got {self.active.shape}")
+        self._set_facing(t, n)
+
+    def _set_facing(self, t: int, n: int) -> None:
+        given = {"facing": self.facing, "facing_pitch": self.facing_pitch}
+        for name, arr in given.items():
+            if arr is None:
+                continue
+            arr = np.asarray(arr, dtype=np.float64)
+            if arr.shape != (t, n):
+                raise ValueError(f"Trajectories.{name} must have shape ({t}, {n}), got {arr.shape}")
+            if not np.isfinite(arr).all():
+                raise ValueError(f"Trajectories.{name} must be finite angles in radians; it holds NaN or inf")
+            setattr(self, name, arr)
+        if self.facing is None or (self.dim == 3 and self.facing_pitch is None):
+            from crowdmotion.facing import facing_from_motion
+
+            yaw, pitch = facing_from_motion(self.positions, self.dt, self.active)
+            self.facing = yaw if self.facing is None else self.facing
+            self.facing_pitch = pitch if self.facing_pitch is None else self.facing_pitch
+        if self.facing_pitch is None or self.dim == 2:
+            self.facing_pitch = np.zeros((t, n))
 
     # ---- shape -------------------------------------------------------------------
     @property
@@ -135,6 +165,8 @@ class Trajectories:
             radius=self.radius[a],
             active=None if self.active is None else self.active[f][:, a],
             metadata=dict(self.metadata),
+            facing=self.facing[f][:, a],
+            facing_pitch=self.facing_pitch[f][:, a],
         )
 
     # ---- files -------------------------------------------------------------------
@@ -181,5 +213,12 @@ def resample(traj: Trajectories, fps: float, kind: str = "linear") -> Trajectori
     if traj.active is not None:
         active = traj.active[np.minimum(np.ceil(u - 1e-9).astype(int), traj.n_frames - 1)]
     meta = {**traj.metadata, "resampled": {"fps": fps, "kind": kind, "step_dt": traj.dt}}
+    facing = pitch = None
+    if traj.metadata.get("facing"):  # the method's own facing: turned through, the short way
+        from crowdmotion.facing import wrap
+
+        s2 = s[..., 0]
+        yaw = np.unwrap(traj.facing, axis=0)
+        facing = wrap(yaw[k] * (1 - s2) + yaw[np.minimum(k + 1, traj.n_frames - 1)] * s2)
     return Trajectories(pos, 1.0 / fps, ids=traj.ids, group=traj.group, radius=traj.radius, active=active,
-                        metadata=meta)
+                        metadata=meta, facing=facing, facing_pitch=pitch)

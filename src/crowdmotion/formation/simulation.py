@@ -9,6 +9,7 @@ from typing import Callable, Sequence
 
 import numpy as np
 
+from crowdmotion.facing import MAX_TURN_RATE, limit_turn, wrap
 from crowdmotion.formation.params import FormationParams, make_params
 from crowdmotion.formation.simulator import Simulator
 from crowdmotion.formation.templates import Template, from_spec
@@ -16,6 +17,10 @@ from crowdmotion.groups import Group, Points
 from crowdmotion.metrics import edge_length_error, kabsch_rms
 from crowdmotion.scene import Scene
 from crowdmotion.trajectories import Trajectories, resample
+
+
+FACING = ("formation: cars along their body (their pair's angle less 90 degrees), soldiers their formation's "
+          "heading, dislocated agents on the move their way of travel; turns bounded by MAX_TURN_RATE")
 
 
 def group_template(group: Group) -> Template:
@@ -94,6 +99,8 @@ def run(scene: Scene, groups: Sequence[Group], params: FormationParams | dict | 
     rng = np.random.default_rng(0) if rng is None else rng
     sim = build_simulator(scene, groups, params, rng)
     frames = [sim.positions.copy()]
+    facing = [sim.facing()]
+    headings = [[g.heading] for g in sim.groups]
     verts = [[g.vertices.copy()] for g in sim.groups]
     torn = [[g.mesh.torn.copy()] for g in sim.groups]
     field_steps = [[False] for _ in sim.groups]
@@ -103,8 +110,10 @@ def run(scene: Scene, groups: Sequence[Group], params: FormationParams | dict | 
         for _ in range(params.max_steps):
             sim.step()
             frames.append(sim.positions.copy())
+            facing.append(sim.facing())
             for k, g in enumerate(sim.groups):
                 verts[k].append(g.vertices.copy())
+                headings[k].append(g.heading)
                 torn[k].append(g.mesh.torn.copy())
                 field_steps[k].append(g.handles > 0)
                 dislocated[k].append(g.guide.dislocated.copy())
@@ -114,20 +123,24 @@ def run(scene: Scene, groups: Sequence[Group], params: FormationParams | dict | 
                 break
     except KeyboardInterrupt:  # Ctrl-C: keep the steps so far, marked partial
         partial = True
-    n = min(len(frames), *(len(x) for lists in (verts, torn, field_steps, dislocated) for x in lists))
+    n = min(len(frames), len(facing), *(len(x) for lists in (verts, torn, field_steps, dislocated) for x in lists))
     frames = np.array(frames[:n])
+    facing = limit_turn(np.array(facing[:n]), MAX_TURN_RATE * sim.dt)
     verts, torn = [v[:n] for v in verts], [t[:n] for t in torn]
     field_steps, dislocated = [f[:n] for f in field_steps], [d[:n] for d in dislocated]
     from crowdmotion import __version__
 
     names = np.concatenate([np.full(len(g.agents), g.name, dtype=object) for g in sim.groups])
-    traj = Trajectories(frames, sim.dt, group=names, radius=sim.radius.copy(),
+    traj = Trajectories(frames, sim.dt, group=names, radius=sim.radius.copy(), facing=facing,
                         metadata={"method": "formation", "params": params.model_dump(), "scene": scene.to_dict(),
                                   "version": __version__, "steps": sim.steps, "stats": dict(sim.stats),
-                                  "partial": partial})
+                                  "partial": partial, "facing": FACING})
     dislocated = [np.array(d) for d in dislocated]
     report = {g.name: _group_report(sim, k, g, np.array(field_steps[k]), dislocated[k].sum(axis=1))
               for k, g in enumerate(sim.groups)}
+    for k, g in enumerate(sim.groups):
+        if len(g.template.pairs):
+            report[g.name].update(car_measures(frames, facing, np.array(headings[k][:n]), g.agents[g.template.pairs]))
     out = traj if params.fps is None else resample(traj, params.fps, "linear")
     return FormationRun(out, sim, frames, [np.array(v) for v in verts], [np.array(t) for t in torn], dislocated,
                         report)
@@ -161,6 +174,18 @@ def _group_report(sim: Simulator, k: int, g, in_field: np.ndarray, dislocated: n
         "factorisations": int(g.solver.stats["factorisations"]),
         "factor_cache_hits": int(g.solver.stats["cache_hits"]),
     }
+
+
+def car_measures(frames: np.ndarray, facing: np.ndarray, heading: np.ndarray, pairs: np.ndarray) -> dict:
+    """Cars (003 Fig. 7): how far a car's two agents ever were from its width
+    (``pair_width_error_max``, a share of the width) and how far a car ever turned from its
+    formation's heading (``car_heading_deviation_max_deg``: the twist the police car
+    causes), over every step; ``frames`` (T, n, 2), ``facing`` (T, n), ``heading`` (T,)."""
+    width = np.linalg.norm(frames[0, pairs[:, 1]] - frames[0, pairs[:, 0]], axis=1)
+    d = np.linalg.norm(frames[:, pairs[:, 1]] - frames[:, pairs[:, 0]], axis=2)
+    turn = np.abs(wrap(facing[:, pairs[:, 0]] - heading[:, None]))
+    return {"cars": int(len(pairs)), "pair_width_error_max": float(np.abs(d / width - 1).max()),
+            "car_heading_deviation_max_deg": float(np.degrees(turn.max()))}
 
 
 def simulate(scene: Scene, groups: Sequence[Group], params: FormationParams | dict | None = None,

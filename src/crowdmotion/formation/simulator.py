@@ -12,10 +12,14 @@ One step (§4.2–4.3), for every group:
 3. the two-step as-rigid-as-possible solve gives every other vertex its desired position;
    each moves with the attraction plus a correction proportional to its error;
 4. each agent follows its vertex; a dislocated agent heads for the nearest unoccupied
-   vertex, eqs. (3)–(4), with local repulsion from other agents;
+   vertex, eqs. (3)–(4), with local repulsion from other agents; a car's two agents
+   (the ``cars`` template's pairs, §5 traffic) move as one rigid body: the pair's centre
+   goes where their vertices go, its axis turns toward theirs at a bounded rate, and
+   they stay exactly a car width apart;
 5. a safety pass keeps bodies apart: moves toward an obstacle (static or moving, the
    scene's bounds included) are shortened so as not to touch within the step, and of two
-   agents that would touch one stands (continuous time, as the audit checks).
+   agents that would touch one stands (continuous time, as the audit checks); a car whose
+   one wheel is held back is re-made rigid, and stands whole when that is not safe.
 
 In its target area a group feels no forces: its mesh relaxes to the rest shape.
 """
@@ -37,6 +41,7 @@ from crowdmotion.formation.params import FormationParams, make_params
 from crowdmotion.formation.templates import Template, from_spec
 from crowdmotion.geometry import positive_number
 from crowdmotion.groups import Disc, MovingTarget, Points, Rect, as_region
+from crowdmotion.facing import MAX_TURN_RATE, wrap
 from crowdmotion.formation._kernels import edge_length_error as edge_errors
 from crowdmotion.formation._kernels import repulsion
 from crowdmotion.obstacle_primitives import ObstacleSet
@@ -52,6 +57,9 @@ def _rotation(angle: float) -> np.ndarray:
     c, s = np.cos(angle), np.sin(angle)
     return np.array([[c, -s], [s, c]])
 REBALANCE_EVERY = 2.0  # seconds between whole-group reassignments in the target area
+PAIR_TOLERANCE = 0.01  # a car's wheels further off its width than this share are re-made rigid
+CAR_TURN_RADIUS = 4.0  # metres: a car turns at most |v| / radius rad/s (a kinematic car), ...
+CAR_TURN_MIN = 0.3  # ... and at least this many rad/s, so a standing car can still straighten up
 
 
 @dataclass
@@ -128,6 +136,8 @@ class Simulator:
         self.radius = np.zeros(0)
         self.max_speed = np.zeros(0)
         self.group_of = np.zeros(0, np.int64)
+        self.pairs = np.zeros((0, 2), np.int64)  # cars: the two agents of each (global indices)
+        self.pair_length = np.zeros(0)  # and their distance, the car width
         self.time = 0.0
         self.steps = 0
         self._grid = None
@@ -143,7 +153,8 @@ class Simulator:
         point or a Rect / Disc target area. Keywords: ``start`` (where the template's
         centre starts; default: the array's own positions, or the origin), ``heading``
         (radians; default: facing the goal), ``radius``, ``max_speed``, ``pref_speed``,
-        ``name``, ``reassign`` (default: the simulator's).
+        ``name``, ``reassign`` (default: the simulator's; a template with pairs, cars,
+        never reassigns: a car's agents keep their vertices and each other).
         """
         unknown = set(params) - set(GROUP_FIELDS)
         if unknown:
@@ -177,7 +188,7 @@ class Simulator:
         p = self.params
         n = len(start_pos)
         solver = ARAPSolver(mesh, p.handle_weight, p.anchor_weight)
-        reassign = bool(params.get("reassign", p.reassign))
+        reassign = bool(params.get("reassign", p.reassign)) and not len(tpl.pairs)
         guide = AttractionGuide(n, p.occupy_distance, reassign)
         extent = float(np.linalg.norm(start_pos - start_pos.mean(axis=0), axis=1).max()) + radius
         idx = np.arange(len(self.positions), len(self.positions) + n)
@@ -190,6 +201,10 @@ class Simulator:
         self.radius = np.concatenate([self.radius, np.full(n, radius)])
         self.max_speed = np.concatenate([self.max_speed, np.full(n, max_speed)])
         self.group_of = np.concatenate([self.group_of, np.full(n, len(self.groups) - 1)])
+        if len(tpl.pairs):
+            self.pairs = np.concatenate([self.pairs, idx[tpl.pairs]])
+            self.pair_length = np.concatenate([self.pair_length, np.linalg.norm(
+                start_pos[tpl.pairs[:, 1]] - start_pos[tpl.pairs[:, 0]], axis=1)])
         return len(self.groups) - 1
 
     def _check_start(self, pos: np.ndarray, radius: float, goal: np.ndarray, what: str) -> None:
@@ -409,6 +424,91 @@ class Simulator:
         want[over] *= (self.max_speed[over] / sp[over])[:, None]
         self.velocities = want
 
+    def _obstacle_pass(self, active: np.ndarray) -> np.ndarray:
+        """Every move made safe from the obstacles placed now (in place); returns each
+        agent's kept share of its move."""
+        prims = self._prims
+        scale = np.ones(len(self.positions))
+        obstacle_safe_moves(self.positions, self.velocities, self.radius, self.max_speed, active, self.dt,
+                            prims.circ_c, prims.circ_r, prims.circ_v, prims.seg_a, prims.seg_b, prims.seg_v, scale)
+        return scale
+
+    def _rigid_pairs(self) -> None:
+        """Cars move as rigid bodies (003 §5, Fig. 7: a car is two agents a car width
+        apart, its steering the angle of the pair). The pair's centre goes where its two
+        agents' moves would take it; its axis turns toward theirs by at most
+        |v|/CAR_TURN_RADIUS·dt (and never faster than MAX_TURN_RATE); both agents end the step exactly ``pair_length`` apart. The
+        centre's move gives way to the turn so that neither agent exceeds its max speed."""
+        if not len(self.pairs):
+            return
+        a, b = self.pairs[:, 0], self.pairs[:, 1]
+        dt = self.dt
+        oa, ob = self.positions[a], self.positions[b]
+        qa, qb = oa + dt * self.velocities[a], ob + dt * self.velocities[b]
+        axis = ob - oa
+        phi0 = np.arctan2(axis[:, 1], axis[:, 0])
+        want = np.arctan2(qb[:, 1] - qa[:, 1], qb[:, 0] - qa[:, 0])
+        speed = np.linalg.norm(0.5 * (qa + qb) - 0.5 * (oa + ob), axis=1) / dt
+        limit = np.minimum(MAX_TURN_RATE, np.maximum(speed / CAR_TURN_RADIUS, CAR_TURN_MIN)) * dt
+        phi = phi0 + np.clip(wrap(want - phi0), -limit, limit)
+        half = 0.5 * self.pair_length[:, None]
+        r = half * np.column_stack([np.cos(phi), np.sin(phi)]) - 0.5 * axis  # each wheel's turn (and width fix)
+        reach = np.minimum(self.max_speed[a], self.max_speed[b])[:, None] * dt
+        rl = np.linalg.norm(r, axis=1, keepdims=True)
+        r = np.where(rl > reach, r * reach / np.maximum(rl, 1e-300), r)
+        shift = 0.5 * (qa + qb) - 0.5 * (oa + ob)
+        sl = np.linalg.norm(shift, axis=1, keepdims=True)
+        room = np.maximum(reach - np.minimum(rl, reach), 0.0)
+        shift = np.where(sl > room, shift * room / np.maximum(sl, 1e-300), shift)
+        self.velocities[a] = (shift - r) / dt
+        self.velocities[b] = (shift + r) / dt
+
+    def _repair_pairs(self, active: np.ndarray) -> None:
+        """After the obstacle pass: a car whose wheels no longer end the step a car width
+        apart (one slid or was held back) is made rigid again about its two moves' centre;
+        if the obstacles then change either move, the car stands (and, should standing not
+        be safe from a moving obstacle, the obstacle pass has the last word)."""
+        a, b = self.pairs[:, 0], self.pairs[:, 1]
+        dt = self.dt
+        qa = self.positions[a] + dt * self.velocities[a]
+        qb = self.positions[b] + dt * self.velocities[b]
+        axis = qb - qa
+        length = np.linalg.norm(axis, axis=1)
+        bad = np.abs(length - self.pair_length) > PAIR_TOLERANCE * self.pair_length
+        if not bad.any():
+            return
+        a, b, qa, qb, axis, length = a[bad], b[bad], qa[bad], qb[bad], axis[bad], length[bad]
+        u = np.divide(axis, length[:, None], out=np.zeros_like(axis), where=length[:, None] > 0)
+        c = 0.5 * (qa + qb)
+        half = 0.5 * self.pair_length[bad][:, None]
+        self.velocities[a] = (c - half * u - self.positions[a]) / dt
+        self.velocities[b] = (c + half * u - self.positions[b]) / dt
+        before = self.velocities.copy()
+        self._obstacle_pass(active)
+        changed = np.any(self.velocities != before, axis=1)
+        stop = changed[a] | changed[b]
+        if stop.any():
+            self.velocities[a[stop]] = 0.0
+            self.velocities[b[stop]] = 0.0
+            self.stats["car_stops"] = self.stats.get("car_stops", 0) + int(stop.sum())
+            self._obstacle_pass(active)
+
+    def _stop_whole_cars(self, active: np.ndarray, priority: np.ndarray, grid) -> None:
+        """A car one of whose agents had to stand stands whole; the agents its standing
+        now blocks stop too, until no car is half stopped."""
+        if not len(self.pairs):
+            return
+        a, b = self.pairs[:, 0], self.pairs[:, 1]
+        for _ in range(len(self.positions)):
+            still = ~np.any(self.velocities != 0.0, axis=1)
+            half = still[a] != still[b]
+            if not half.any():
+                return
+            self.velocities[a[half]] = 0.0
+            self.velocities[b[half]] = 0.0
+            self.stats["safety_stops"] += resolve_conflicts(self.positions, self.velocities, self.radius, active,
+                                                            priority, *grid, self.dt)
+
     def _repulsion(self, who: np.ndarray, speed: float) -> np.ndarray:
         """Local repulsion F_r on agents ``who`` from every agent within contact +
         ``repulsion_range``: (1 − gap/range) × speed, away from each."""
@@ -436,15 +536,18 @@ class Simulator:
         for k, g in enumerate(self.groups):
             self._advance_mesh(k, g, centers, reach)
         self._agent_velocities()
+        self._rigid_pairs()
         active = np.ones(len(self.positions), dtype=bool)
-        scale = np.ones(len(self.positions))
-        obstacle_safe_moves(self.positions, self.velocities, self.radius, self.max_speed, active, self.dt, prims.circ_c, prims.circ_r,
-                            prims.circ_v, prims.seg_a, prims.seg_b, prims.seg_v, scale)
+        scale = self._obstacle_pass(active)
         self.stats["obstacle_cuts"] += int((scale < 1).sum())
+        if len(self.pairs):
+            self._repair_pairs(active)
         grid = grid_for(self.positions, active, self.radius, self.max_speed, self.dt) if self._grid is None \
             else self._grid
+        priority = self.rng.random(len(self.positions))
         self.stats["safety_stops"] += resolve_conflicts(self.positions, self.velocities, self.radius, active,
-                                                        self.rng.random(len(self.positions)), *grid, self.dt)
+                                                        priority, *grid, self.dt)
+        self._stop_whole_cars(active, priority, grid)
         self.positions = self.positions + self.velocities * self.dt
         self.stats["agent_steps"] += len(self.positions)
         self.time += self.dt
@@ -466,6 +569,25 @@ class Simulator:
     def done(self) -> bool:
         """Every group is in its target area and has recovered its formation."""
         return all(g.recovered_at is not None for g in self.groups)
+
+    def facing(self) -> np.ndarray:
+        """(n,) the way each agent faces now, yaw radians: a car along its body (the
+        angle of its pair less 90°: the first agent of a pair is on the car's right); a
+        soldier in rank his formation's heading (the rest shape's, which turns to the
+        direction of travel), a dislocated agent on the move his own way of travel."""
+        out = np.empty(len(self.positions))
+        speed = np.linalg.norm(self.velocities, axis=1)
+        for g in self.groups:
+            out[g.span] = g.heading
+            v = self.velocities[g.span]
+            away = g.guide.dislocated & (speed[g.span] > 0.25 * g.pref_speed)
+            out[g.span][away] = np.arctan2(v[away, 1], v[away, 0])
+        if len(self.pairs):
+            axis = self.positions[self.pairs[:, 1]] - self.positions[self.pairs[:, 0]]
+            car = np.arctan2(axis[:, 1], axis[:, 0]) - np.pi / 2
+            out[self.pairs[:, 0]] = car
+            out[self.pairs[:, 1]] = car
+        return wrap(out)
 
     def mesh(self, gid: int) -> MeshView:
         """Group ``gid``'s mesh now: vertices, edges, triangles and their torn flags."""

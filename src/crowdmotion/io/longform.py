@@ -1,4 +1,5 @@
-"""Long-form table (frame, time, agent, group, x, y, z, radius, active) <-> Trajectories."""
+"""Long-form table (frame, time, agent, group, x, y, z, radius, active, facing,
+facing_pitch) <-> Trajectories."""
 
 from __future__ import annotations
 
@@ -9,12 +10,14 @@ import pyarrow as pa
 
 from crowdmotion.trajectories import Trajectories
 
-COLUMNS = ("frame", "time", "agent", "group", "x", "y", "z", "radius", "active")
+COLUMNS = ("frame", "time", "agent", "group", "x", "y", "z", "radius", "active", "facing", "facing_pitch")
 
 
 def to_table(traj: Trajectories) -> pa.Table:
-    """One row per (frame, agent); 2D runs have no z column (every column is numeric or
-    text, so pandas, polars and DuckDB read the types right)."""
+    """One row per (frame, agent); 2D runs have no z or facing_pitch column (every column
+    is numeric or text, so pandas, polars and DuckDB read the types right). ``facing`` is
+    the way the agent faces, yaw in radians about the up axis from +x (``facing_pitch``:
+    above the ground plane), see :mod:`crowdmotion.facing`."""
     t, n, d = traj.positions.shape
     frame = np.repeat(np.arange(t, dtype=np.int64), n)
     pos = traj.positions.reshape(t * n, d)
@@ -30,6 +33,9 @@ def to_table(traj: Trajectories) -> pa.Table:
         columns["z"] = pos[:, 2]
     columns["radius"] = np.tile(traj.radius, t)
     columns["active"] = traj.active_mask.reshape(-1)
+    columns["facing"] = traj.facing.reshape(-1)
+    if d == 3:
+        columns["facing_pitch"] = traj.facing_pitch.reshape(-1)
     return pa.table(columns)
 
 
@@ -68,7 +74,13 @@ def from_table(table: pa.Table, metadata: dict | None = None) -> Trajectories:
         dt = float(np.median(np.diff(times)))
     else:
         dt = float((metadata or {}).get("dt", 1.0))
-    return Trajectories(pos, dt, ids=ids, group=group, radius=radius, active=active, metadata=metadata or {})
+    facing = {}
+    for name in ("facing", "facing_pitch"):  # older files carry none: derived again
+        if name in table.column_names and table[name].null_count == 0:
+            facing[name] = np.empty((t, n))
+            facing[name][row, col] = table[name].to_numpy()
+    return Trajectories(pos, dt, ids=ids, group=group, radius=radius, active=active, metadata=metadata or {},
+                        **facing)
 
 
 def metadata_json(traj: Trajectories) -> str:

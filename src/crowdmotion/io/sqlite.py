@@ -2,7 +2,7 @@
 ``load_trajectory_from_jupedsim_sqlite`` and ``load_walkable_area_from_jupedsim_sqlite``.
 
 Tables as JuPedSim writes them: ``trajectory_data(frame, id, pos_x, pos_y, ori_x, ori_y)``
-(one row per present agent and frame; the orientation is the unit heading),
+(one row per present agent and frame; the orientation is the unit facing direction),
 ``metadata(key, value)`` with ``version`` = 2, ``fps`` and the bounds ``xmin`` .. ``ymax``,
 ``geometry(hash, wkt)`` holding the walkable area (one polygon: see :func:`walkable_area`)
 and ``frame_data(frame, geometry_hash)``. Positions are written with a fixed jitter of
@@ -90,7 +90,7 @@ def walkable_area(scene_dict: dict | None, positions: np.ndarray, active: np.nda
 
 
 def _orientation(traj: Trajectories) -> np.ndarray:
-    h = traj.heading
+    h = traj.facing
     return np.stack([np.cos(h), np.sin(h)], axis=-1)
 
 
@@ -163,7 +163,7 @@ def read(path: Path) -> Trajectories:
     try:
         con = sqlite3.connect(f"file:{path}?mode=ro", uri=True)
         try:
-            rows = np.array(con.execute("SELECT frame, id, pos_x, pos_y FROM trajectory_data").fetchall(), float)
+            rows = np.array(con.execute("SELECT frame, id, pos_x, pos_y, ori_x, ori_y FROM trajectory_data").fetchall(), float)
             meta = dict(con.execute("SELECT key, value FROM metadata").fetchall())
             try:
                 agents = con.execute("SELECT id, grp, radius FROM crowdmotion_agents").fetchall()
@@ -181,15 +181,18 @@ def read(path: Path) -> Trajectories:
     # frames after the last active agent have no rows: the frame count says how many there were
     t = max(int(frames.max() - f0) + 1, int(meta.get("crowdmotion_frames", 0)) - int(f0))
     pos = np.zeros((t, len(ids), 2))
+    facing = np.zeros((t, len(ids)))
     active = np.zeros((t, len(ids)), bool)
     pos[frames - f0, col] = rows[:, 2:4]
+    facing[frames - f0, col] = np.arctan2(rows[:, 5], rows[:, 4])
     active[frames - f0, col] = True
-    for k in range(1, t):  # absent agents keep their last place (they are inactive there)
+    for k in range(1, t):  # absent agents keep their last place and facing (they are inactive there)
         gone = ~active[k]
         pos[k, gone] = pos[k - 1, gone]
+        facing[k, gone] = facing[k - 1, gone]
     extra = {int(i): (g, r) for i, g, r in agents}
     group = np.array([extra.get(int(i), ("agents", 0.0))[0] for i in ids], dtype=object)
     radius = np.array([extra.get(int(i), ("agents", 0.0))[1] for i in ids], float)
     metadata = json.loads(meta["crowdmotion"]) if "crowdmotion" in meta else {}
     return Trajectories(pos, 1.0 / float(meta["fps"]), ids=ids, group=group, radius=radius,
-                        active=None if active.all() else active, metadata=metadata)
+                        active=None if active.all() else active, metadata=metadata, facing=facing)

@@ -15,8 +15,9 @@ scene (USD interpolates between samples). World (x, y[, z]) with z up maps to US
 - ``Crowd`` — a ``UsdGeomPointInstancer`` with one prototype per group, named after it (a
   capsule of the group's body size: in 2D standing on the point, 1.7 m tall; in 3D lying
   along the body's forward axis, centred on the point), time-sampled ``positions``,
-  ``velocities``, ``orientations`` (the prototype's +X turned to the heading about the up
-  axis and, in 3D, raised by the climb angle) and ``invisibleIds`` for inactive agents;
+  ``velocities``, ``orientations`` (the prototype's +X turned to the agent's facing,
+  :attr:`Trajectories.facing`, about the up axis and, in 3D, raised by its
+  ``facing_pitch``) and ``invisibleIds`` for inactive agents;
 - ``Obstacles`` — cylinders, spheres, cubes and flat polygon meshes for the scene's static
   obstacles (moving ones at their start place, with their path as ``translate`` samples
   at t × rate; a box's translate comes before its scale in ``xformOpOrder``).
@@ -143,7 +144,7 @@ def write(traj: Trajectories, path: Path) -> None:
     pos = to_usd_frame(traj.positions).astype(np.float32)
     act = traj.active_mask
     # Vt.QuathArray.FromNumpy takes (i, j, k, real)
-    quat = orientations(traj.heading, traj.pitch)[..., [1, 2, 3, 0]].astype(np.float16)
+    quat = orientations(traj.facing, traj.facing_pitch)[..., [1, 2, 3, 0]].astype(np.float16)
     ids = np.asarray(traj.ids, np.int64)
     width = (2 * traj.radius).astype(np.float32)
     groups = list(dict.fromkeys(traj.group.tolist()))

@@ -1,7 +1,8 @@
 """A self-contained HTML player for any run: one file, no CDN, works offline.
 
-Play / pause / scrub, speed, trails, group colours, obstacles (moving ones move), a 2D
-top view and a 3D orbit view (drag to turn, wheel to zoom), frame counter. The data are
+Play / pause / scrub, speed, trails, group colours, each agent's facing (a tick from the
+body's centre, :attr:`Trajectories.facing`), obstacles (moving ones move), a 2D top view
+and a 3D orbit view (drag to turn, wheel to zoom), frame counter. The data are
 embedded as base64 float32 arrays; the page draws on a canvas with plain JavaScript.
 Opening the file with ``#selftest`` makes the page play a few frames by itself, compare
 canvas pixels and write the result (and any errors it caught) into ``<pre id=selftest>``,
@@ -30,12 +31,15 @@ def player_data(traj: Trajectories, max_frames: int = 3000) -> dict:
     """What the page needs, at most ``max_frames`` frames (evenly picked)."""
     frames = np.unique(np.linspace(0, traj.n_frames - 1, min(traj.n_frames, max_frames)).round().astype(int))
     pos = traj.positions[frames].astype(np.float32)
+    yaw, pitch = traj.facing[frames], traj.facing_pitch[frames]
+    facing = np.stack([np.cos(pitch) * np.cos(yaw), np.cos(pitch) * np.sin(yaw), np.sin(pitch)], axis=-1)
     names = list(dict.fromkeys(traj.group.tolist()))
     colours = group_colours(names)  # as in the pictures: a group called "red" is red
     return {
         "frames": int(len(frames)), "agents": int(traj.n_agents), "dim": int(traj.dim),
         "times": (frames * traj.dt).round(6).tolist(),
         "positions": _b64(pos), "active": _b64(traj.active_mask[frames].astype(np.uint8)),
+        "facing": _b64(facing.astype(np.float32)),
         "radius": np.asarray(traj.radius, float).round(4).tolist(),
         "group": [names.index(g) for g in traj.group.tolist()],
         "groups": [{"name": str(n), "colour": to_hex(colours[n])} for n in names],
@@ -73,6 +77,7 @@ pre#selftest{display:none}
 <label>speed <select id="speed"><option>0.25</option><option>0.5</option><option selected>1</option>
 <option>2</option><option>4</option><option>8</option></select></label>
 <label><input id="trails" type="checkbox" checked> trails</label>
+<label><input id="facing" type="checkbox" checked> facing</label>
 <label>view <select id="view"><option value="top">2D top</option><option value="orbit">3D orbit</option></select></label>
 <span id="legend"></span>
 </div>
@@ -87,7 +92,7 @@ console.error = function(...a){ errors.push(a.join(" ")); origError.apply(consol
 const D = __DATA__;
 function decode(b64, Type){ const s = atob(b64); const u = new Uint8Array(s.length);
   for (let i = 0; i < s.length; i++) u[i] = s.charCodeAt(i); return new Type(u.buffer); }
-const P = decode(D.positions, Float32Array), A = decode(D.active, Uint8Array);
+const P = decode(D.positions, Float32Array), A = decode(D.active, Uint8Array), F = decode(D.facing, Float32Array);
 const N = D.agents, T = D.frames, DIM = D.dim;
 const cv = document.getElementById("c"), ctx = cv.getContext("2d");
 const scrub = document.getElementById("scrub"), counter = document.getElementById("counter");
@@ -148,6 +153,11 @@ function draw(){ const view = document.getElementById("view").value; const pr = 
   order.sort((x, y) => x[1][2] - y[1][2]);
   for (const [a, q] of order) { ctx.fillStyle = D.groups[D.group[a]].colour; ctx.beginPath();
     ctx.arc(q[0], q[1], Math.max(1.5, D.radius[a] * pr.s * q[2]), 0, 2 * Math.PI); ctx.fill(); }
+  if (document.getElementById("facing").checked) { ctx.strokeStyle = "#222"; ctx.lineWidth = 1.5; ctx.beginPath();
+    for (const [a, q] of order) { const r = D.radius[a]; if (r * pr.s * q[2] < 2) continue;  // too small to show a tick
+      const p = pos(frame, a), o = (frame * N + a) * 3, e = pr.f([p[0] + 1.6 * r * F[o], p[1] + 1.6 * r * F[o + 1], p[2] + 1.6 * r * F[o + 2]]);
+      ctx.moveTo(q[0], q[1]); ctx.lineTo(e[0], e[1]); }
+    ctx.stroke(); ctx.lineWidth = 1; }
   counter.textContent = `frame ${frame + 1} / ${T}   t = ${t.toFixed(2)} s`; scrub.value = frame; }
 function tick(now){ if (!playing) return; if (last !== null) { clock += (now - last) / 1000 * parseFloat(document.getElementById("speed").value); }
   last = now; const end = D.times[T - 1]; if (clock > end) clock = 0;
@@ -156,7 +166,7 @@ function tick(now){ if (!playing) return; if (last !== null) { clock += (now - l
 function setPlaying(on){ playing = on; playBtn.textContent = on ? "Pause" : "Play"; last = null; clock = D.times[frame]; if (on) requestAnimationFrame(tick); }
 playBtn.onclick = () => setPlaying(!playing);
 scrub.oninput = () => { frame = parseInt(scrub.value); clock = D.times[frame]; draw(); };
-for (const id of ["trails", "view", "speed"]) document.getElementById(id).onchange = draw;
+for (const id of ["trails", "facing", "view", "speed"]) document.getElementById(id).onchange = draw;
 let drag = null; cv.onmousedown = e => drag = [e.clientX, e.clientY]; window.onmouseup = () => drag = null;
 cv.onmousemove = e => { if (!drag || document.getElementById("view").value !== "orbit") return;
   yaw += (e.clientX - drag[0]) * 0.01; pitch = Math.min(1.5, Math.max(0.05, pitch + (e.clientY - drag[1]) * 0.01)); drag = [e.clientX, e.clientY]; draw(); };
