@@ -28,9 +28,9 @@ SCENES = {
     "formation_army": ([(0.0, "(a) initial formation"), (16.0, "(b) spreading through rocks"),
                         (40.0, "(c) compressed in the gate"), (None, "(d) recovered")],
                        ((0.0, -15.0), (100.0, 15.0))),
-    "formation_traffic": ([(3.0, "(a) police car at the junction"), (6.5, "(b) twist"),
+    "formation_traffic": ([(6.0, "(a) police car at the junction"), (7.5, "(b) merged in: twist"),
                            (10.5, "(c) expansion round the police car"), (None, "(d) recovered")],
-                          ((40.0, -12.0), (200.0, 13.0))),
+                          ((15.0, -12.0), (200.0, 13.0))),
     "formation_exchange": ([(0.0, "(a) initial formations"), (14.0, "(b) passing each other"),
                             (None, "(c) recovered, places exchanged")], ((0.0, -12.0), (60.0, 12.0))),
 }

@@ -6,6 +6,7 @@ import numpy as np
 import pytest
 
 from crowdmotion.cli import builtin_scenarios
+from crowdmotion.facing import MAX_TURN_RATE, turn_rate
 from crowdmotion.scenario import load_scenario, run_scenario
 from tests.io.readers import assert_sqlite_opens_in_pedpy_and_jupedsim, assert_usd_obstacles_where_the_scene_has_them
 
@@ -18,6 +19,10 @@ def test_builtin_scene_is_clean_gathers_and_opens_in_the_readers(name, tmp_path)
     # issue 17: its SQLite in PedPy and JuPedSim, its USD obstacles in pxr
     assert_sqlite_opens_in_pedpy_and_jupedsim(result.trajectories, tmp_path)
     assert_usd_obstacles_where_the_scene_has_them(result.trajectories, tmp_path)
+    # issue 14: a facing for every agent and frame, turning at a bounded rate
+    traj = result.trajectories
+    assert np.isfinite(traj.facing).all() and np.isfinite(traj.facing_pitch).all()
+    assert turn_rate(traj.facing, traj.dt).max() <= MAX_TURN_RATE + 1e-6
     s = result.summary
     assert s["agent_agent_overlaps"] == 0, s["first_events"]
     assert s["agent_obstacle_penetrations"] == 0, s["first_events"]

@@ -252,9 +252,12 @@ def plot_formation_snapshots(scene: Scene, snapshots: list[dict], path, title: s
     k = len(snapshots)
     lo, hi = (scene.lower, scene.upper) if window is None else (np.asarray(window[0]), np.asarray(window[1]))
     aspect = (hi[1] - lo[1]) / (hi[0] - lo[0])
-    cols = 2 if k > 1 else 1
+    wide = aspect < 0.4  # a road: one panel under the other, as wide as the page
+    cols = 1 if wide or k == 1 else 2
     rows = (k + cols - 1) // cols
-    fig, axes = plt.subplots(rows, cols, figsize=(6.5 * cols, 6.5 * rows * aspect + 0.7), squeeze=False)
+    width = 12.0 if wide else 6.5 * cols
+    fig, axes = plt.subplots(rows, cols, figsize=(width + 1.6 * wide, rows * (width / cols * aspect + 0.8) + 0.5),
+                             squeeze=False, layout="constrained")
     colours = _snapshot_colours(snapshots)
     for ax, snap in zip(axes.ravel(), snapshots):
         _draw_obstacles_2d(ax, scene, snap["time"])
