@@ -83,6 +83,10 @@ def test_bench_reaches_every_methods_benchmark(capsys):
     assert "| agents | mesh generation |" in capsys.readouterr().out
     assert main(["bench", "rvo", "--sizes", "200", "--steps", "2"]) == 0
     assert "| circle | 200 |" in capsys.readouterr().out
+    # mdp's own options after the method's name, as for the others (they were refused)
+    assert main(["bench", "mdp", "--no-reference", "--repeats", "1", "-q"]) == 0
+    out = capsys.readouterr().out
+    assert "| 50x20x50 |" in out and "ref Dijkstra, unsorted" in out
 
 
 def test_every_argument_has_help_text():

@@ -129,3 +129,25 @@ def test_group_report_sees_crowded_agents_walk_slower():
     assert rep["speed_density_slope"] < 0
     speeds = [row["mean_speed_mps"] for row in rep["speed_by_density"]]
     assert speeds[0] == pytest.approx(1.5) and speeds[-1] == pytest.approx(0.3)
+
+
+def test_diversity_measures_runs_apart_at_the_same_frame():
+    from crowdmotion.metrics import diversity
+
+    base = np.zeros((4, 2, 2))
+    base[:, 1, 0] = np.arange(4)  # agent 1 walks east
+    other = base.copy()
+    other[2:, 0] += [3.0, 4.0]  # agent 0 is 5 m off from frame 2 on
+    a, b = Trajectories(base, 0.5), Trajectories(other, 0.5)
+    d = diversity([a, b])
+    assert d["pairs"] == 1
+    assert d["mean_distance_m"] == pytest.approx(2 * 5.0 / 8)  # two agent-frames of 5 m out of eight
+    assert d["max_distance_m"] == pytest.approx(5.0)
+    assert d["share_apart"] == pytest.approx(2 / 8)
+    assert d["first_apart_s"] == pytest.approx(1.0)
+    assert d["by_frame_m"] == pytest.approx([0, 0, 2.5, 2.5])
+    assert diversity([a, a, a])["share_apart"] == 0.0 and diversity([a, a])["first_apart_s"] is None
+    with pytest.raises(ValueError, match="at least two runs"):
+        diversity([a])
+    with pytest.raises(ValueError, match="agent counts differ"):
+        diversity([a, Trajectories(base[:, :1], 0.5)])

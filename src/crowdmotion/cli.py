@@ -139,9 +139,15 @@ def cmd_bench(args) -> int:
         return 0
     from crowdmotion.mdp.benchmark import print_tables, run_paper_tables
 
-    if args.options:
-        raise ValueError(f"bench mdp takes --no-reference, --repeats and -q, not {' '.join(args.options)}")
-    rows = run_paper_tables(reference=not args.no_reference, repeats=args.repeats, progress=not args.quiet)
+    # its options may also come after the method's name (crowdmotion bench mdp -q), as for the others
+    own = argparse.ArgumentParser(prog="crowdmotion bench mdp")
+    own.add_argument("--no-reference", action="store_true", default=args.no_reference)
+    own.add_argument("--repeats", type=int, default=args.repeats)
+    own.add_argument("-q", "--quiet", action="store_true", default=args.quiet)
+    opts = own.parse_args(args.options)
+    if opts.repeats < 1:
+        raise ValueError(f"bench mdp: --repeats must be at least 1, got {opts.repeats}")
+    rows = run_paper_tables(reference=not opts.no_reference, repeats=opts.repeats, progress=not opts.quiet)
     print_tables(rows)
     return 0
 

@@ -6,6 +6,8 @@ from dataclasses import dataclass, field
 
 import numpy as np
 import shapely
+from scipy.sparse import coo_matrix
+from scipy.sparse.csgraph import connected_components
 from scipy.spatial import cKDTree
 
 from crowdmotion.geometry import closest_approach, minimise_convex_on_segment
@@ -231,6 +233,7 @@ def time_to_goal_by_group(traj: Trajectories, arrival_time: np.ndarray) -> dict:
 
 # ---- per-group behaviour (lateral spread, turning, density, mixing) -------------------------
 DENSITY_RADIUS = 2.0  # metres: local density counts neighbours within this distance
+CLUSTER_LINK = 1.2  # metres: same-group agents this close (about half a metre apart) walk together
 MIX_RADIUS = 2.0  # metres: neighbours whose group is compared for mixing
 CONTACT_RADIUS = 5.0  # metres: an agent interacts with another group within this distance
 MAX_SAMPLED_FRAMES = 200
@@ -254,7 +257,11 @@ def group_report(traj: Trajectories) -> dict:
     (least-squares slope of speed against local density, m/s per agent/m²) with the
     density-binned speeds, ``mixing_index`` (share of neighbours within 2 m from other
     groups, over agent-frames with another group within 5 m), ``same_group_neighbors``
-    (same-group agents within 2 m at those moments), ``time_to_goal_s`` (mean time at
+    (same-group agents within 2 m at those moments), ``cluster_size`` and ``clusters``
+    (at the moments another group is within 5 m of any agent: the mean size of the
+    same-group cluster each agent is in — agents chained by links shorter than
+    ``CLUSTER_LINK`` m, so a lone agent is a cluster of 1 — and the mean number of its
+    group's clusters of two or more: A− of paper 004 §6 walks in clusters), ``time_to_goal_s`` (mean time at
     which agents left; None when nobody left) and ``path_length_ratio`` (path length over
     start-to-end distance).
     """
@@ -272,6 +279,8 @@ def group_report(traj: Trajectories) -> dict:
     names = list(dict.fromkeys(groups.tolist()))
     mixing = {g: [] for g in names}
     same = {g: [] for g in names}
+    cluster_size = {g: [] for g in names}
+    clusters = {g: [] for g in names}
     dens_speed = {g: ([], []) for g in names}
     code = np.array([names.index(g) for g in groups.tolist()], dtype=np.int64)
     for f in frames:  # one tree per sampled frame serves density, mixing and contact
@@ -298,8 +307,12 @@ def group_report(traj: Trajectories) -> dict:
         if len(far):
             cross = far[gi[far[:, 0]] != gi[far[:, 1]]]
             contact[cross.ravel()] = True
+        size, label = _same_group_clusters(tree, gi, contact.any())
         for k, g in enumerate(names):
             mine = gi == k
+            if size is not None and mine.any():
+                cluster_size[g].append(float(size[label[mine]].mean()))
+                clusters[g].append(int(np.count_nonzero(size[np.unique(label[mine])] >= 2)))
             dens_speed[g][0].extend(rho[mine].tolist())
             dens_speed[g][1].extend(sp[mine].tolist())
             m = mine & contact
@@ -353,10 +366,25 @@ def group_report(traj: Trajectories) -> dict:
             "speed_by_density": table,
             "mixing_index": float(np.mean(mixing[g])) if mixing[g] else None,
             "same_group_neighbors": float(np.mean(same[g])) if same[g] else None,
+            "cluster_size": float(np.mean(cluster_size[g])) if cluster_size[g] else None,
+            "clusters": float(np.mean(clusters[g])) if clusters[g] else None,
             "time_to_goal_s": float(np.mean(last[sel][left] * traj.dt)) if left.any() else None,
             "path_length_ratio": float(ratio.mean()) if ratio.size else None,
         }
     return report
+
+
+def _same_group_clusters(tree: cKDTree, code: np.ndarray, meeting: bool):
+    """Connected components of same-group agents linked closer than CLUSTER_LINK: (size of
+    each component, component of each agent), or (None, None) when no groups meet."""
+    if not meeting:
+        return None, None
+    pairs = tree.query_pairs(CLUSTER_LINK, output_type="ndarray")
+    pairs = pairs[code[pairs[:, 0]] == code[pairs[:, 1]]] if len(pairs) else pairs.reshape(0, 2)
+    n = len(code)
+    graph = coo_matrix((np.ones(len(pairs)), (pairs[:, 0], pairs[:, 1])), shape=(n, n))
+    _, label = connected_components(graph, directed=False)
+    return np.bincount(label), label
 
 
 def edge_length_error(points: np.ndarray, rest: np.ndarray, edges: np.ndarray) -> tuple[float, float]:
@@ -380,3 +408,47 @@ def kabsch_rms(points: np.ndarray, template: np.ndarray) -> float:
     d[-1] = np.sign(np.linalg.det(u @ vt)) or 1.0
     rot = u @ np.diag(d) @ vt
     return float(np.sqrt(np.mean(np.sum((q @ rot - p) ** 2, axis=1))))
+
+
+def diversity(runs: list[Trajectories]) -> dict:
+    """How far runs of one scenario with different seeds differ (000 §3.2: the same
+    starts and goal, three runs, positions compared at the same frame).
+
+    For every pair of runs and every frame both have, the distance between each agent's
+    two positions (agents present in both). Returns ``pairs`` (how many run pairs),
+    ``mean_distance_m`` (over pairs, frames and agents), ``max_distance_m``,
+    ``share_apart`` (the share of those agent-frames where the two positions differ by
+    more than 1 mm), ``by_frame_m`` (the mean distance at each frame, a list) and
+    ``first_apart_s`` (the first time any agent is apart in any pair; None if never).
+    """
+    if len(runs) < 2:
+        raise ValueError(f"diversity needs at least two runs, got {len(runs)}")
+    n = {r.n_agents for r in runs}
+    if len(n) > 1:
+        raise ValueError(f"diversity compares runs of one scenario: their agent counts differ ({sorted(n)})")
+    dts = {r.dt for r in runs}
+    if len(dts) > 1:
+        raise ValueError(f"diversity compares frames at the same times: the runs' time steps differ ({sorted(dts)})")
+    t = min(r.n_frames for r in runs)
+    sums = np.zeros(t)
+    counts = np.zeros(t)
+    worst, apart, total, first = 0.0, 0, 0, None
+    for i in range(len(runs)):
+        for j in range(i + 1, len(runs)):
+            a, b = runs[i], runs[j]
+            d = np.linalg.norm(a.positions[:t] - b.positions[:t], axis=-1)
+            both = a.active_mask[:t] & b.active_mask[:t]
+            d = np.where(both, d, 0.0)
+            sums += d.sum(axis=1)
+            counts += both.sum(axis=1)
+            worst = max(worst, float(d.max()))
+            far = (d > 1e-3) & both
+            apart += int(far.sum())
+            total += int(both.sum())
+            if far.any():
+                f = int(np.flatnonzero(far.any(axis=1))[0])
+                first = f if first is None else min(first, f)
+    by_frame = np.divide(sums, counts, out=np.zeros(t), where=counts > 0)
+    return {"pairs": len(runs) * (len(runs) - 1) // 2, "mean_distance_m": float(sums.sum() / max(counts.sum(), 1)),
+            "max_distance_m": worst, "share_apart": apart / max(total, 1), "by_frame_m": by_frame.tolist(),
+            "first_apart_s": None if first is None else first * runs[0].dt}

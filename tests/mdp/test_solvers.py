@@ -112,13 +112,22 @@ def test_corner_rule_changes_values_around_a_diagonal_gap():
     assert nocut[0, 0] == -np.inf
 
 
+@pytest.mark.parametrize("method", ["dijkstra", "dijkstra_unsorted"])
 @pytest.mark.parametrize("shape,goal,lo,hi", PAPER_GRIDS[:6])
-def test_reference_dijkstra_is_exact(shape, goal, lo, hi):
+def test_reference_dijkstra_is_exact(shape, goal, lo, hi, method):
     grid = paper_grid(shape, lo, hi)
     exact = mdp.solve(grid, goal, "fast")
-    ref = mdp.solve(grid, goal, "dijkstra")
+    ref = mdp.solve(grid, goal, method)
     fin = np.isfinite(exact)
     assert np.max(np.abs(ref[fin] - exact[fin])) < 1e-9
+    assert np.array_equal(np.isfinite(ref), fin)  # the same cells unreachable (the unsorted scan stops early)
+
+
+def test_unsorted_dijkstra_stops_at_a_walled_off_region():
+    grid = np.zeros((6, 6), np.uint8)
+    grid[:, 3] = 1  # columns 4-5 cannot be reached from the goal
+    v = mdp.solve(grid, (0, 0), "dijkstra_unsorted", corner_cutting=False)
+    assert np.all(v[:, 4:] == -np.inf) and np.all(np.isfinite(v[:, :3]))
 
 
 def _error(grid, goal, method):

@@ -8,8 +8,8 @@ from dataclasses import dataclass, field
 import numpy as np
 from tqdm.auto import tqdm
 
-from crowdmotion.mdp.solvers import (csgraph_values, dijkstra, fast_values, heuristic_value_iteration,
-                                     improved_value_iteration)
+from crowdmotion.mdp.solvers import (csgraph_values, dijkstra, dijkstra_unsorted, fast_values,
+                                     heuristic_value_iteration, improved_value_iteration)
 
 # (shape, goal, obstacle slice lower corner, upper corner inclusive), paper §3.1
 PAPER_GRIDS = [
@@ -87,7 +87,8 @@ def run_paper_tables(reference: bool = True, repeats: int = 3, progress: bool = 
         if reference:
             for name, fn in (("ivi", lambda: improved_value_iteration(grid, [goal])[0]),
                              ("hvi", lambda: heuristic_value_iteration(grid, [goal])[0]),
-                             ("dijkstra", lambda: dijkstra(grid, [goal]))):
+                             ("dijkstra", lambda: dijkstra(grid, [goal])),
+                             ("dijkstra_unsorted", lambda: dijkstra_unsorted(grid, [goal]))):
                 row.seconds[name], v = timed(fn, repeats)
                 row.max_error[name] = float(np.max(np.abs(v[reach] - exact[reach])))
         rows.append(row)
@@ -95,10 +96,12 @@ def run_paper_tables(reference: bool = True, repeats: int = 3, progress: bool = 
 
 
 def format_tables(rows: list[BenchRow]) -> str:
-    """Markdown table: paper seconds, ours, and fast's speed-up over each."""
-    lines = ["| grid | paper IVI / HVI / Dijkstra (s) | ref IVI | ref HVI | ref Dijkstra | scipy csgraph | fast | "
+    """Markdown table: paper seconds, ours, the paper's ranking of Dijkstra against IVI
+    beside ours (unsorted Dijkstra / IVI), and fast's speed-up over each."""
+    lines = ["| grid | paper IVI / HVI / Dijkstra (s) | ref IVI | ref HVI | ref Dijkstra, heap | "
+             "ref Dijkstra, unsorted | Dijkstra / IVI, paper vs unsorted vs heap | scipy csgraph | fast | "
              "fast vs ref IVI | fast vs scipy | max error IVI / HVI |",
-             "|---|---|---|---|---|---|---|---|---|---|"]
+             "|---|---|---|---|---|---|---|---|---|---|---|---|"]
     for r in rows:
         p = PAPER_SECONDS.get(tuple(r.shape))
         paper = " / ".join(f"{x:g}" for x in p) if p else "-"
@@ -109,9 +112,13 @@ def format_tables(rows: list[BenchRow]) -> str:
             return f"{s[k]:.4f}" if k in s else "-"
 
         vs_ivi = f"{s['ivi'] / f:,.0f}x" if "ivi" in s else "-"
+        rank = "-"
+        if p and "ivi" in s and "dijkstra_unsorted" in s:
+            rank = f"{p[2] / p[0]:.1f} / {s['dijkstra_unsorted'] / s['ivi']:.1f} / {s['dijkstra'] / s['ivi']:.1f}"
         err = (f"{r.max_error['ivi']:.3f} / {r.max_error['hvi']:.3f}" if "ivi" in r.max_error else "-")
         lines.append(f"| {'x'.join(map(str, r.shape))} | {paper} | {cell('ivi')} | {cell('hvi')} | "
-                     f"{cell('dijkstra')} | {cell('scipy')} | {f * 1e3:.3f} ms | {vs_ivi} | "
+                     f"{cell('dijkstra')} | {cell('dijkstra_unsorted')} | {rank} | {cell('scipy')} | "
+                     f"{f * 1e3:.3f} ms | {vs_ivi} | "
                      f"{s['scipy'] / f:,.0f}x | {err} |")
     return "\n".join(lines)
 
