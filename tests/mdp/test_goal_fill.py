@@ -60,3 +60,17 @@ def test_a_point_goal_shared_by_a_crowd_becomes_slots_round_the_point():
     assert goal_test(result)(final).all(), "every agent ends in a slot"
     # the slots are the cells nearest the point: all within a small disc round it
     assert np.linalg.norm(final - [18.0, 6.0], axis=1).max() < 3 * result.grid.cell_size
+
+
+def test_latecomers_go_round_to_the_free_side_of_a_full_goal_area():
+    # a goal disc entered from the west fills its west half first; before the free-goal
+    # values a latecomer random-walked round its rim (seed 1 of mdp_diversity: 130 steps)
+    scene = cm.Scene(bounds=([0, 0], [30, 20]), obstacles=[cm.Box([11, 4], [13, 12])])
+    starts = np.array([[1.5 + 1.2 * (i % 5), 6.0 + 1.2 * (i // 5)] for i in range(30)])
+    group = cm.Group("robots", 30, spawn=cm.Points(starts), goal=cm.Disc([26.5, 10.0], 3.3), radius=0.3)
+    for seed in range(6):
+        result = run(scene, [group], mdp.MDPParams(max_steps=400), np.random.default_rng(seed))
+        traj = result.trajectories
+        assert goal_test(result)(traj.positions[-1]).all(), seed
+        assert traj.n_frames - 1 <= 90, f"seed {seed}: {traj.n_frames - 1} steps to settle"
+        assert collision_audit(traj, scene).clean

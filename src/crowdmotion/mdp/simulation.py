@@ -156,9 +156,12 @@ def run(scene: Scene, groups: Sequence[Group], params: MDPParams, rng: np.random
     active_out = [np.ones((1, len(starts)), dtype=bool)]
     done = 0
     partial = False
+    # goal areas that keep their agents: latecomers are routed to the cells still free
+    fill = not params.remove_on_arrival and not moving and any(len(gc) > 1 for gc in goal_cells)
+    taken_before = None
     try:
         while done < params.max_steps:
-            chunk = min(params.replan_every if moving else 64, params.max_steps - done)
+            chunk = min(params.replan_every if moving or fill else 64, params.max_steps - done)
             if values is None or moving:
                 occ = static.occupancy.copy()
                 for ob in moving:  # current cells and those covered over the look-ahead
@@ -173,8 +176,15 @@ def run(scene: Scene, groups: Sequence[Group], params: MDPParams, rng: np.random
                 ])
                 walker.set_blocked(occ)
                 # Algorithm 3 follows v + the goal areas' fill depth (goal_fill: goals that fill)
-                walker.set_values(values + np.stack([fill_depth(occ, gc, params.corner_cutting, toward[k])
-                                                     for k, gc in enumerate(goal_cells)]))
+                depth = np.stack([fill_depth(occ, gc, params.corner_cutting, toward[k])
+                                  for k, gc in enumerate(goal_cells)])
+                walker.set_values(values + depth)
+            if fill:
+                taken = walker.cells[walker.active == 1]
+                key = taken.tobytes()
+                if key != taken_before:
+                    taken_before = key
+                    walker.set_values(free_goal_values(occ, goal_cells, taken, values, params) + depth)
             before = walker.cells.copy()
             c, a = walker.advance(chunk, rng, params.tau, params.forbid_crossing, params.remove_on_arrival)
             cells_out.append(c)
@@ -206,6 +216,32 @@ def run(scene: Scene, groups: Sequence[Group], params: MDPParams, rng: np.random
         traj = resample_checked(traj, params.fps, params.smoothing, scene,
                                 np.concatenate([np.full(g.count, g.max_speed) for g in groups]))
     return MDPRun(traj, grid, values, goal_cells, unreachable, field_of)
+
+
+def free_goal_values(occupancy: np.ndarray, goal_cells: list[np.ndarray], taken: np.ndarray, values: np.ndarray,
+                     params: MDPParams) -> np.ndarray:
+    """Each group's values toward the goal cells nobody stands on (goal_fill: goals that
+    fill). A goal area keeps its agents, so a cell taken is taken for good: without this,
+    a latecomer whose side of the area is full can only random-walk round its rim (in
+    mdp_diversity one robot circled a full goal disc for 130 steps). Taken goal cells are
+    walls for this solve and keep their value 0, so agents inside still fill deeper by
+    depth alone; groups whose goal cells are all taken, or none, keep ``values``."""
+    out = values.copy()
+    busy = np.zeros(occupancy.shape, dtype=bool)
+    busy[tuple(np.asarray(taken, dtype=np.int64).T)] = True
+    for k, gc in enumerate(goal_cells):
+        on = busy[tuple(gc.T)]
+        if not on.any() or on.all() or len(gc) < 2:
+            continue
+        occ = occupancy.copy()
+        occ[tuple(gc[on].T)] = 1
+        free = [tuple(c) for c in gc[~on] if not occupancy[tuple(c)]]
+        if not free:
+            continue
+        v = solve_field(occ, free, params)
+        v[tuple(gc[on].T)] = 0.0
+        out[k] = v
+    return out
 
 
 def _all_settled(walker: Walker, masks, values) -> bool:
