@@ -151,3 +151,21 @@ def test_diversity_measures_runs_apart_at_the_same_frame():
         diversity([a])
     with pytest.raises(ValueError, match="agent counts differ"):
         diversity([a, Trajectories(base[:, :1], 0.5)])
+
+
+def test_cluster_size_and_count_while_groups_meet():
+    from crowdmotion.metrics import group_report
+
+    # group a: three agents chained 1 m apart and one alone; group b: two agents 3 m away
+    a = [[0, 0], [1, 0], [2, 0], [0, 3]]
+    b = [[2, 3.5], [4, 3.5]]
+    pos = np.repeat(np.array([a + b], float), 3, axis=0)
+    pos[:, :, 0] += np.arange(3)[:, None] * 0.1  # all walk east together
+    traj = Trajectories(pos, 0.5, group=np.array(["a"] * 4 + ["b"] * 2, object))
+    rep = group_report(traj)
+    assert rep["a"]["cluster_size"] == pytest.approx((3 + 3 + 3 + 1) / 4)
+    assert rep["a"]["clusters"] == pytest.approx(1.0)
+    assert rep["b"]["cluster_size"] == pytest.approx(1.0) and rep["b"]["clusters"] == 0.0  # 2 m apart: not linked
+    far = pos.copy()
+    far[:, 4:, 1] += 50  # no meeting: no clusters measured
+    assert group_report(Trajectories(far, 0.5, group=traj.group))["a"]["cluster_size"] is None

@@ -171,13 +171,27 @@ def _load_run(output: str):
     return path, Trajectories.load(path)
 
 
-def cmd_report(args) -> int:
+REPORT_COLUMNS = [("agents", "agents", "{:d}"), ("lateral_spread_m", "spread m", "{:.2f}"),
+                  ("lateral_deviation_m", "deviation m", "{:.2f}"),
+                  ("heading_change_rate_rad_s", "turn rad/s", "{:.3f}"), ("mean_speed_mps", "speed m/s", "{:.2f}"),
+                  ("speed_density_slope", "speed/density", "{:.3f}"), ("mixing_index", "mixing", "{:.2f}"),
+                  ("same_group_neighbors", "same-group nb", "{:.2f}"), ("cluster_size", "cluster size", "{:.2f}"),
+                  ("clusters", "clusters", "{:.1f}"), ("time_to_goal_s", "to goal s", "{:.1f}"),
+                  ("path_length_ratio", "path ratio", "{:.3f}")]
+
+
+def _print_report_table(rows: dict, cell) -> None:
+    print(f"{'group':12s}" + "".join(f"{h:>15s}" for _, h, _ in REPORT_COLUMNS))
+    for name, row in rows.items():
+        print(f"{name:12s}" + "".join(f"{cell(row, k, fmt):>15s}" for k, _, fmt in REPORT_COLUMNS))
+
+
+def _run_report(path: Path, traj) -> dict:
+    """metrics.group_report of one run, with the arrival times its summary measured."""
     import json
 
-    from crowdmotion.io.atomic import atomic_path
     from crowdmotion.metrics import group_report
 
-    path, traj = _load_run(args.output)
     report = group_report(traj)
     summary_file = path.parent / "summary.json"
     if summary_file.is_file():  # arrival times the method measured (agents that stay at the goal too)
@@ -185,18 +199,70 @@ def cmd_report(args) -> int:
         for name, row in report.items():
             if row["time_to_goal_s"] is None:
                 row["time_to_goal_s"] = by_group.get(name)
-    cols = [("agents", "agents", "{:d}"), ("lateral_spread_m", "spread m", "{:.2f}"),
-            ("lateral_deviation_m", "deviation m", "{:.2f}"), ("heading_change_rate_rad_s", "turn rad/s", "{:.3f}"),
-            ("mean_speed_mps", "speed m/s", "{:.2f}"), ("speed_density_slope", "speed/density", "{:.3f}"),
-            ("mixing_index", "mixing", "{:.2f}"), ("same_group_neighbors", "same-group nb", "{:.2f}"),
-            ("time_to_goal_s", "to goal s", "{:.1f}"), ("path_length_ratio", "path ratio", "{:.3f}")]
-    print(f"{'group':12s}" + "".join(f"{h:>15s}" for _, h, _ in cols))
-    for name, row in report.items():
-        cells = ["-" if row[k] is None else fmt.format(row[k]) for k, _, fmt in cols]
-        print(f"{name:12s}" + "".join(f"{c:>15s}" for c in cells))
+    return report
+
+
+def cmd_report(args) -> int:
+    import json
+
+    from crowdmotion.io.atomic import atomic_path
+
+    folder = Path(args.output)
+    if (folder / "sweep.parquet").is_file():
+        return _sweep_report(folder)
+    path, traj = _load_run(args.output)
+    report = _run_report(path, traj)
+    _print_report_table(report, lambda row, k, fmt: "-" if row[k] is None else fmt.format(row[k]))
     dest = path.parent / "report.json"
     with atomic_path(dest) as tmp:
         tmp.write_text(json.dumps(report, indent=2))
+    print(f"wrote {dest}")
+    return 0
+
+
+def _sweep_report(folder: Path) -> int:
+    """A sweep's runs: every group's measures as mean ± 95 % confidence interval over the
+    runs, and the personality paper's §6 claims its groups allow (crowdmotion.rvo.claims)."""
+    import json
+
+    import pyarrow.parquet as pq
+    from tqdm.auto import tqdm
+
+    from crowdmotion.io.atomic import atomic_path
+    from crowdmotion.rvo.claims import check_claims, format_claims, mean_ci
+    from crowdmotion.trajectories import Trajectories
+
+    table = pq.read_table(folder / "sweep.parquet").to_pylist()
+    if not table:
+        raise ValueError(f"{folder / 'sweep.parquet'} lists no runs")
+    runs = []
+    for row in tqdm(table, desc="report runs", unit="run", leave=False):
+        path = Path(row["file"])
+        if not path.is_file():  # the sweep folder was moved: its runs/ sits beside sweep.parquet
+            path = folder / "runs" / path.name
+        runs.append(_run_report(path, Trajectories.load(path)))
+    groups = list(dict.fromkeys(g for r in runs for g in r))
+    stats = {g: {k: mean_ci([r[g][k] for r in runs if g in r and r[g][k] is not None])
+                 for k, _, _ in REPORT_COLUMNS} for g in groups}
+
+    def cell(row, k, fmt):
+        mean, half, n = row[k]
+        if n == 0:
+            return "-"
+        if k == "agents":
+            return f"{mean:.0f}"
+        return fmt.format(mean) + ("" if n < 2 else f" ±{half:.2g}")
+
+    print(f"{len(runs)} runs; mean ± half-width of the 95 % confidence interval (Student's t)")
+    _print_report_table(stats, cell)
+    claims = check_claims(runs)
+    if any(c["a"] != "all" for c in claims):
+        print("\nthe personality paper's §6 observations (paired over runs):\n")
+        print(format_claims(claims))
+    dest = folder / "report.json"
+    with atomic_path(dest) as tmp:
+        tmp.write_text(json.dumps({"runs": len(runs), "groups": stats, "claims": claims, "per_run": runs},
+                                  indent=2))
     print(f"wrote {dest}")
     return 0
 
@@ -384,8 +450,9 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("options", nargs=argparse.REMAINDER, help="rvo, pso, formation, startup: their own options (--help)")
     p.set_defaults(func=cmd_bench)
 
-    p = sub.add_parser("report", help="per-group behaviour report of a run's trajectories")
-    p.add_argument("output", help="a run's output folder (or a trajectories file)")
+    p = sub.add_parser("report", help="per-group behaviour report of a run, or of a sweep's runs with confidence "
+                                      "intervals and the personality paper's claims")
+    p.add_argument("output", help="a run's output folder (or a trajectories file), or a sweep's output folder")
     p.set_defaults(func=cmd_report)
 
     p = sub.add_parser("export", help="write a run's trajectories as Parquet, CSV, JuPedSim SQLite or USD")

@@ -211,7 +211,7 @@ REPORT_PANELS = (
     ("lateral_spread_m", "lateral spread (m)"),
     ("heading_change_rate_rad_s", "heading change (rad/s)"),
     ("mixing_index", "mixing with the other group"),
-    ("same_group_neighbors", "same-group neighbours within 2 m"),
+    ("cluster_size", "same-group cluster size (meeting)"),
 )
 
 
@@ -219,7 +219,8 @@ def plot_group_report(rows: dict, path, title: str = "", panels=REPORT_PANELS) -
     """Bar charts of per-group measures (``metrics.group_report`` rows, or their means).
 
     ``rows`` maps a group label to a dict of measures; a value may be a number or a
-    ``(mean, std)`` pair, drawn with an error bar.
+    ``(mean, error)`` pair (a standard deviation or a confidence half-width), drawn with
+    an error bar.
     """
     labels = list(rows)
     fig, axes = plt.subplots(1, len(panels), figsize=(3.6 * len(panels), 3.4))

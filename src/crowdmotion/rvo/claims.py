@@ -57,6 +57,8 @@ def mean_ci(values, level: float = 0.95) -> tuple[float, float, int]:
 
 
 def _verdict(mean: float, half: float, op: str) -> str:
+    if not np.isfinite(half):  # one run: the sign alone
+        half = 0.0
     lo, hi = mean - half, mean + half
     if op == "<":
         lo, hi = -hi, -lo
