@@ -81,6 +81,47 @@ def scenes() -> None:
         targets = np.unique(res.extras.swarm_run.targets.reshape(-1, sc.scene.dim), axis=0)
         plot_paths(res.trajectories, res.extras.scene, IMG / f"{path.stem}.png", title=sc.spec.description[:90],
                    goals=targets)
+        if path.stem == "pso_avoidance":
+            avoidance_detail(res, sc.scene)
+
+
+def avoidance_detail(res, scene) -> None:
+    """Fig. 7 close up: (a) the screen seen along the flight, with the point where each
+    particle passed it; (b) the paths near the screen, seen from above, of the particles
+    that passed in the busiest row of spheres, with that row."""
+    from matplotlib import patches
+
+    p = res.trajectories.positions
+    spheres = [o for o in scene.obstacles if hasattr(o, "radius")]
+    cross = []
+    for i in range(p.shape[1]):
+        k = np.flatnonzero((p[:-1, i, 0] < 0) & (p[1:, i, 0] >= 0))
+        if len(k):
+            a, b = p[k[0], i], p[k[0] + 1, i]
+            cross.append(a + (b - a) * (-a[0]) / (b[0] - a[0]))
+    cross = np.array(cross)
+    rows = np.unique([o.center[2] for o in spheres])
+    busiest = rows[np.argmax([np.sum(np.abs(cross[:, 2] - z) < 2.5) for z in rows])]
+    fig, (a, b) = plt.subplots(1, 2, figsize=(13, 6), layout="constrained")
+    for o in spheres:
+        a.add_patch(patches.Circle(o.center[1:], o.radius, color="0.6"))
+        if o.center[2] == busiest:
+            b.add_patch(patches.Circle(o.center[:2], o.radius, color="0.6"))
+    a.plot(cross[:, 1], cross[:, 2], "o", color="C0", ms=5, label="where a particle passed the screen (x = 0)")
+    a.set(xlim=(scene.lower[1], scene.upper[1]), ylim=(scene.lower[2], scene.upper[2]), aspect="equal",
+          xlabel="y (m)", ylabel="z (m)", title="(a) the screen of spheres, seen along the flight")
+    a.legend(loc="upper right", fontsize=8)
+    near = (p[..., 0] > -8) & (p[..., 0] < 8)
+    for i in np.flatnonzero(np.abs(cross[:, 2] - busiest) < 2.5):
+        m = near[:, i]
+        b.plot(p[m, i, 0], p[m, i, 1], "-", color="C0", lw=0.8)
+    b.set(xlim=(-8, 8), aspect="equal", xlabel="x (m)", ylabel="y (m)",
+          title=f"(b) paths through the row at z = {busiest:g} m, seen from above")
+    s = res.summary["rules"]
+    fig.suptitle(f"Fig. 7 close up: {s['particles_redirected']} of {p.shape[1]} particles redirected by eqs. (4)-(5) "
+                 f"({s['obstacle_redirects']} redirects), 0 penetrations")
+    fig.savefig(IMG / "pso_avoidance_detail.png", dpi=90)
+    plt.close(fig)
 
 
 if __name__ == "__main__":

@@ -146,6 +146,7 @@ def plot_paths(traj: Trajectories, scene: Scene, path, title: str = "", goals=No
         ax.set_xlim(scene.lower[0], scene.upper[0])
         ax.set_ylim(scene.lower[1], scene.upper[1])
         ax.set_zlim(scene.lower[2], scene.upper[2])
+        ax.set_box_aspect(tuple(np.asarray(scene.upper, float) - np.asarray(scene.lower, float)))  # spheres round
         ax.set_xlabel("x (m)")
         ax.set_ylabel("y (m)")
         ax.set_zlabel("z (m)")
