@@ -33,6 +33,9 @@ SCENES = {
                           ((15.0, -12.0), (200.0, 13.0))),
     "formation_exchange": ([(0.0, "(a) initial formations"), (14.0, "(b) passing each other"),
                             (None, "(c) recovered, places exchanged")], ((0.0, -12.0), (60.0, 12.0))),
+    "formation_split": ([(0.0, "(a) marching onto the planter"), (18.0, "(b) swinging round it"),
+                         (30.0, "(c) edges to the vertices held back torn (red, dashed)"), (None, "(d) relinked and recovered")],
+                        ((0.0, -10.0), (60.0, 10.0))),
 }
 
 
@@ -99,8 +102,66 @@ def scene_figures() -> None:
                   f"torn {rep['edges_torn']}, factorisations {rep['factorisations']}")
 
 
+def _strain_panel(ax, run, scene, step: int, window, title: str):
+    """One group's mesh at ``step`` with each edge coloured by its length over its rest
+    length (blue compressed, red stretched; torn edges dashed), obstacles where they are."""
+    from matplotlib.collections import LineCollection
+
+    from crowdmotion.render.plots import _draw_obstacles_2d
+
+    g = run.simulator.groups[0]
+    V = run.vertices[0][step]
+    e = g.mesh.edges
+    ratio = np.linalg.norm(V[e[:, 0]] - V[e[:, 1]], axis=1) / g.mesh.rest_length
+    torn = run.torn[0][step]
+    _draw_obstacles_2d(ax, scene, step * run.simulator.dt)
+    lines = LineCollection(V[e], array=np.log2(ratio), cmap="coolwarm", norm=plt.Normalize(-1, 1), lw=1.6,
+                           linestyles=["--" if t else "-" for t in torn])
+    ax.add_collection(lines)
+    ax.plot(*run.frames[step][g.agents].T, ".", color="k", ms=2)
+    (x0, y0), (x1, y1) = window
+    ax.set(xlim=(x0, x1), ylim=(y0, y1), aspect="equal", xlabel="x (m)", ylabel="y (m)")
+    ax.set_title(f"{title}, t = {step * run.simulator.dt:.1f} s", fontsize=10)
+    return lines
+
+
+def fig3() -> None:
+    """Paper Fig. 3 from our runs: obstacles twist, compress, expand and tear the mesh."""
+    paths = {p.stem: p for p in builtin_scenarios()}
+    runs = {n: run_scenario(load_scenario(paths[n]), progress=False)
+            for n in ("formation_traffic", "formation_army", "formation_split")}
+    fig, axes = plt.subplots(2, 2, figsize=(13, 9), layout="constrained")
+    traffic, army, split = (runs[n].extras for n in ("formation_traffic", "formation_army", "formation_split"))
+    # twist: the step where a car turned furthest from the platoon's heading
+    axis = traffic.frames[:, 1::2] - traffic.frames[:, 0::2]
+    t_twist = int(np.argmax(np.abs(((np.arctan2(axis[..., 1], axis[..., 0]) - np.pi / 2 + np.pi) % (2 * np.pi))
+                                   - np.pi).max(axis=1)))
+    c = traffic.vertices[0][t_twist].mean(axis=0)
+    _strain_panel(axes[0, 0], traffic, runs["formation_traffic"].scenario.scene, t_twist,
+                  ((c[0] - 22, -4), (c[0] + 22, 11)), "(a) twist: the police car cuts through")
+    V = army.vertices[0]
+    in_gate = (V[..., 0] >= 48) & (V[..., 0] <= 50)
+    t_gate = int(np.argmax(in_gate.sum(axis=1)))
+    _strain_panel(axes[0, 1], army, runs["formation_army"].scenario.scene, t_gate, ((36, -10), (62, 10)),
+                  "(b) compression: the gate")
+    rocks = ((V[..., 0] > 20) & (V[..., 0] < 34)).any(axis=1)
+    t_rocks = int(np.argmax(np.where(rocks, np.ptp(V[..., 1], axis=1), 0)))
+    _strain_panel(axes[1, 0], army, runs["formation_army"].scenario.scene, t_rocks, ((14, -10), (40, 10)),
+                  "(c) expansion: the rocks")
+    t_torn = int(np.argmax(split.torn[0].sum(axis=1)))
+    lines = _strain_panel(axes[1, 1], split, runs["formation_split"].scenario.scene, t_torn, ((10, -10), (40, 10)),
+                          "(d) tearing: the planter (torn edges dashed)")
+    bar = fig.colorbar(lines, ax=axes, shrink=0.6, ticks=[-1, -0.5, 0, 0.5, 1])
+    bar.ax.set_yticklabels(["0.5x", "0.71x", "rest", "1.41x", "2x"])
+    bar.set_label("edge length / rest length")
+    fig.suptitle("Paper Fig. 3 from our runs: obstacles twist, compress, expand and tear the guiding mesh")
+    fig.savefig(IMG / "formation_fig3.png", dpi=90)
+    plt.close(fig)
+
+
 if __name__ == "__main__":
     IMG.mkdir(exist_ok=True)
     templates_figure()
     arap_figure()
     scene_figures()
+    fig3()

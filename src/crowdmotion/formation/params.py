@@ -151,8 +151,8 @@ class FormationParams(_Model):
                                (or inside a goal region) is in its target area
     recovered_error : float    a group in its target area has recovered when its mean
                                relative edge-length error is below this, no agent is
-                               dislocated and every vertex is within L of its place in
-                               the rest shape on the goal
+                               dislocated, no edge is torn and every vertex is within L
+                               of its place in the rest shape on the goal
     """
 
     time_step: PosFloat = 0.1

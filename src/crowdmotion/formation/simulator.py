@@ -51,6 +51,11 @@ from crowdmotion.scene import Scene
 GROUP_FIELDS = ("radius", "max_speed", "pref_speed", "start", "heading", "name", "reassign")
 SLOW_DOWN = 2.0  # metres from the goal over which the attraction fades
 ROUTE_LOOKAHEAD_M = 1.5  # vertices aim this far down the route to the goal
+STALL_PROGRESS_M = 0.5  # a group that has not come this much nearer its goal ...
+STALL_S = 8.0  # ... for this many seconds is stalled: ...
+STALL_RELIEF_S = 10.0  # ... and bends with uniform handles for this long
+VERTEX_CLEARANCE = 0.05  # metres beyond an agent's radius that a vertex keeps from static obstacles
+ROUTE_PROBE_M = 4.0  # a vertex whose march would meet a static obstacle this soon takes its own route
 
 
 def _rotation(angle: float) -> np.ndarray:
@@ -85,6 +90,9 @@ class FormationGroup:
     recovered_at: float | None = None
     handles: int = 0
     rebalanced_step: int = -10**9
+    best_progress: float = float("inf")  # least distance to the goal so far (route field or straight)
+    stale_steps: int = 0  # steps since it last came nearer
+    uniform_until: float = float("-inf")  # stall relief: uniform handles until then
 
     def rest_shape(self) -> np.ndarray:
         """The rest shape about its centre, turned to the group's heading now."""
@@ -297,7 +305,7 @@ class Simulator:
             g.relinked += relinked
         targets = V[handles] + dt * self._steer(V[handles], np.broadcast_to(u, V.shape)[handles], fvec[handles],
                                                 fmag[handles], V[handles] - centroid, g.pref_speed, g.max_speed)
-        if p.handles == "exact":
+        if p.handles == "exact" and not self._stall_relief(k, g, centroid, in_area):
             # the paper's handles: only field vertices are constrained; the others move
             # toward their ARAP position at a speed set by the error
             desired = g.solver.deform(handles, targets, anchor, p.arap)
@@ -314,29 +322,102 @@ class Simulator:
         sl = np.linalg.norm(step, axis=1, keepdims=True)
         cap = g.max_speed * dt
         new = V + np.where(sl > cap, step * cap / np.maximum(sl, 1e-300), step)
-        g.vertices = np.clip(new, self.scene.lower + g.radius, self.scene.upper - g.radius)
+        g.vertices = self._clear_of_walls(np.clip(new, self.scene.lower + g.radius, self.scene.upper - g.radius),
+                                          g.radius + VERTEX_CLEARANCE)
+
+    def _stall_relief(self, k: int, g: FormationGroup, centroid: np.ndarray, in_area: bool) -> bool:
+        """With the paper's handle rule a mesh pressed against a wide obstacle across its
+        path can stand for good: its field vertices are held while the rest pull round
+        both sides, and no edge stretches enough to tear (a 7 x 7 block in front of a
+        3 m x 12 m planter stood for 200 s). When a group on its way has not come
+        STALL_PROGRESS_M nearer its goal for STALL_S seconds, it takes uniform handles
+        (which bend and tear) for STALL_RELIEF_S seconds. Returns whether relief is on."""
+        if in_area:
+            return False
+        far = float(self._route.at(k, centroid[None])[0]) if self._route is not None else np.inf
+        if not np.isfinite(far):
+            far = float(np.linalg.norm(g.goal_center - centroid))
+        if far < g.best_progress - STALL_PROGRESS_M:
+            g.best_progress = far
+            g.stale_steps = 0
+        else:
+            g.stale_steps += 1
+            if g.stale_steps * self.dt >= STALL_S:
+                g.uniform_until = self.time + STALL_RELIEF_S
+                g.stale_steps = 0
+                g.best_progress = far
+                self.stats["stall_reliefs"] = self.stats.get("stall_reliefs", 0) + 1
+        return self.time < g.uniform_until
+
+    def _clear_of_walls(self, V: np.ndarray, need: float) -> np.ndarray:
+        """Vertices nearer a static obstacle than ``need`` (an agent's radius and a margin)
+        pushed straight out to that distance (along the distance's gradient, by central
+        differences): a vertex an agent cannot stand on would only dislocate its agent.
+        So the mesh itself narrows to a gate's width."""
+        if not self.scene.static_obstacles:
+            return V
+        d = self.scene.static_obstacle_distance(V)
+        near = np.flatnonzero(d < need)
+        if not len(near):
+            return V
+        V = V.copy()
+        for _ in range(2):  # a corner may need a second push
+            p = V[near]
+            h = 0.02
+            grad = np.stack([self.scene.static_obstacle_distance(p + [h, 0]) - self.scene.static_obstacle_distance(p - [h, 0]),
+                             self.scene.static_obstacle_distance(p + [0, h]) - self.scene.static_obstacle_distance(p - [0, h])],
+                            axis=1)
+            gl = np.linalg.norm(grad, axis=1, keepdims=True)
+            gap = need - self.scene.static_obstacle_distance(p)
+            push = np.where(gap[:, None] > 0, grad / np.maximum(gl, 1e-12) * gap[:, None], 0.0)
+            V[near] = p + push
+        return V
 
     def _route_directions(self, k: int, V: np.ndarray, straight: np.ndarray) -> np.ndarray:
-        """(n, 2) unit directions for the mesh's vertices: straight at the goal for those
-        that see it past every obstacle (all of them in an open scene); down the
-        exact distance field to the group's goal (crowdmotion.routing), ROUTE_LOOKAHEAD_M
-        ahead, for the others, so the mesh follows corridors round their corners. Vertices
-        off the field take the others' mean direction."""
+        """(n, 2) unit directions for the mesh's vertices.
+
+        The mesh marches as one: every vertex takes the centroid's direction (straight at
+        the goal when the centroid sees it past every obstacle, else down the exact
+        distance field to the group's goal, crowdmotion.routing, ROUTE_LOOKAHEAD_M
+        ahead), as the paper's attraction gives every vertex the same velocity. A vertex
+        whose march would meet a static obstacle within ROUTE_PROBE_M takes its own
+        route instead (straight at the goal if it sees it, else down the field): so the
+        outer ranks converge on a gate only as they reach its wall, a column bends round
+        a corridor's corner, and a block opens round rocks. Vertices off the field take
+        the others' mean direction."""
         if self._route_stale:
             self._build_route()
         if self._route is None:
             return np.broadcast_to(straight, V.shape)
         g = self.groups[k]
         prims = self._prims
-        sight = np.empty(len(V), dtype=bool)
-        line_of_sight(V, np.broadcast_to(g.goal_center, V.shape), np.full(len(V), g.radius),
-                      np.ones(len(V), dtype=bool), prims.circ_c, prims.circ_r, prims.seg_a, prims.seg_b, sight)
-        if sight.all():  # nothing between: straight at the goal, as without walls
-            return np.broadcast_to(straight, V.shape)
+        n = len(V)
+        radius = np.full(n, g.radius)
+        every = np.ones(n, dtype=bool)
+        centroid = V.mean(axis=0, keepdims=True)
+        sight = np.empty(1, dtype=bool)
+        line_of_sight(centroid, g.goal_center[None], radius[:1], every[:1], prims.circ_c, prims.circ_r,
+                      prims.seg_a, prims.seg_b, sight)
+        lead = straight if sight[0] else self._descent(k, centroid, straight)[0]
+        clear = np.empty(n, dtype=bool)
+        line_of_sight(V, V + ROUTE_PROBE_M * lead, radius, every, prims.circ_c, prims.circ_r, prims.seg_a,
+                      prims.seg_b, clear)
+        out = np.empty_like(V)
+        out[clear] = lead
+        own = np.flatnonzero(~clear)
+        if len(own):
+            see = np.empty(len(own), dtype=bool)
+            line_of_sight(V[own], np.broadcast_to(g.goal_center, (len(own), 2)), radius[own], every[own],
+                          prims.circ_c, prims.circ_r, prims.seg_a, prims.seg_b, see)
+            out[own] = self._descent(k, V[own], straight)
+            out[own[see]] = straight  # vertices that see the goal head straight for it
+        return out
+
+    def _descent(self, k: int, X: np.ndarray, straight: np.ndarray) -> np.ndarray:
+        """Unit directions down group ``k``'s distance field, ROUTE_LOOKAHEAD_M ahead, from
+        points X (m, 2); points off the field take the others' mean (or ``straight``)."""
         steps = max(1, int(np.ceil(ROUTE_LOOKAHEAD_M / self._route.cell)))
-        aim = self._route.descend(k, V, steps)
-        aim[sight] = V[sight] + straight  # vertices that see the goal head straight for it
-        d = aim - V
+        d = self._route.descend(k, X, steps) - X
         n = np.linalg.norm(d, axis=1, keepdims=True)
         on = n[:, 0] > 1e-9
         out = np.divide(d, n, out=np.zeros_like(d), where=n > 0)
@@ -396,14 +477,21 @@ class Simulator:
         want = np.zeros_like(self.positions)
         for g in self.groups:
             o = self.positions[g.span]
-            if g.arrived_at is not None and g.guide.reassign and g.guide.dislocated.any() and \
-                    (self.steps - g.rebalanced_step) * dt >= REBALANCE_EVERY:
+            # whole-group reassignment (the least summed squared distance): in the target
+            # area, and on the way whenever no vertex is in a field; agents left behind the
+            # formation (after a gate, round rocks) cannot get past its back rank to the
+            # free vertices in front: everyone moves up by a place instead
+            calm = g.arrived_at is not None or g.handles == 0
+            since = (self.steps - g.rebalanced_step) * dt
+            if calm and g.guide.reassign and g.guide.dislocated.any() and since >= REBALANCE_EVERY:
                 g.guide.rebalance(o, g.vertices)
                 g.rebalanced_step = self.steps
+                since = 0.0
             # in the target area the whole-group assignment above decides; the nearest-free-
             # vertex rule would undo it (an agent sent forward is "dislocated" and takes its
             # old vertex back), and a column in a corridor would never close up
-            lost = g.guide.update(o, g.vertices, hold=g.arrived_at is not None and len(o) <= REBALANCE_MAX)
+            hold = (g.arrived_at is not None or (calm and since < REBALANCE_EVERY)) and len(o) <= REBALANCE_MAX
+            lost = g.guide.update(o, g.vertices, hold=hold)
             target = g.vertices[g.guide.assignment]
             v = (target - o) / dt  # occupied: follow the vertex
             if lost.any():  # dislocated: eqs. (3)-(4), full speed at distance L and beyond
@@ -562,7 +650,8 @@ class Simulator:
                 continue
             slot = g.rest_shape() + g.goal_center
             settled = np.abs(g.vertices - slot).max() < self.params.occupy_distance
-            if settled and mean < self.params.recovered_error and not g.guide.dislocated.any():
+            if settled and mean < self.params.recovered_error and not g.guide.dislocated.any() \
+                    and not g.mesh.torn.any():  # torn edges relink first
                 g.recovered_at = self.time
 
     @property
