@@ -58,3 +58,48 @@ def test_report_on_a_sweep_folder_gives_intervals_and_claims(tmp_path, capsys):
     assert "3 runs; mean ± half-width" in out and "A+ mixes into the other group more than A-" in out
     saved = json.loads((tmp_path / "report.json").read_text())
     assert saved["runs"] == 3 and set(saved["groups"]) == {"A+", "A-"} and len(saved["per_run"]) == 3
+
+
+# docs/rvo.md, "The paper's §6 observations, measured": the verdicts over seeds 0-19
+DOCUMENTED = {"O+ walks spread wider than O-": "holds", "E+ walks spread wider than E-": "not shown",
+              "C+ changes direction less than C-": "holds",
+              "C+ keeps closer to its straight line than C-": "contradicted",
+              "A+ mixes into the other group more than A-": "holds",
+              "A- forms more same-group clusters than A+": "holds",
+              "A- walks in larger same-group clusters than A+": "holds",
+              "N+ walks in a narrower band than N-": "contradicted",
+              "N+ walks in the narrowest band of all groups": "contradicted"}
+
+
+def _street_reports(seeds):
+    from crowdmotion.cli import builtin_scenarios
+    from crowdmotion.scenario import load_scenario, run_scenario
+
+    paths = {p.stem: p for p in builtin_scenarios()}
+    reports = [{} for _ in seeds]
+    for trait in "OCEAN":
+        sc = load_scenario(paths[f"rvo_street_{trait}"])
+        for k, seed in enumerate(seeds):
+            reports[k].update(run_scenario(sc, seed=seed, progress=False).summary["groups"])
+    return reports
+
+
+def test_each_street_scene_shows_the_claims_that_hold_with_its_default_seed():
+    from crowdmotion.cli import builtin_scenarios
+    from crowdmotion.scenario import load_scenario, run_scenario
+
+    paths = {p.stem: p for p in builtin_scenarios()}
+    merged = {}
+    for trait in "OCEAN":
+        merged.update(run_scenario(load_scenario(paths[f"rvo_street_{trait}"]), progress=False).summary["groups"])
+    rows = {r["claim"]: r["verdict"] for r in check_claims([merged])}
+    for claim, verdict in DOCUMENTED.items():
+        if verdict == "holds":
+            assert rows[claim] == "holds", claim
+    assert rows["dense areas slow agents down (speed falls with local density)"] == "holds"
+
+
+@pytest.mark.slow
+def test_the_claims_over_twenty_seeds_are_as_documented():
+    rows = {r["claim"]: r["verdict"] for r in check_claims(_street_reports(range(20)))}
+    assert {c: rows[c] for c in DOCUMENTED} == DOCUMENTED
