@@ -10,10 +10,7 @@ import numpy as np
 from numba import njit, prange
 
 from crowdmotion._prefetch import prefetch
-
-PAD = 2
-"""Blocked border width around every grid handed to a kernel (Algorithm 3 looks two
-cells out for agents that a move could pass too close to)."""
+from crowdmotion.mdp.moves import PAD  # noqa: F401  (the kernels' grids carry this border)
 
 # --------------------------------------------------------------------------------------
 # Exact shortest-path values ("fast" solver)

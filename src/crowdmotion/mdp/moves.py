@@ -7,6 +7,10 @@ from itertools import product
 
 import numpy as np
 
+PAD = 2
+"""Blocked border width around every grid handed to a kernel (Algorithm 3 looks two
+cells out for agents that a move could pass too close to)."""
+
 
 @lru_cache(maxsize=None)
 def move_offsets(dim: int) -> np.ndarray:

@@ -25,9 +25,8 @@ import numpy as np
 import scipy.sparse as sp
 from scipy.sparse.csgraph import dijkstra as csgraph_dijkstra
 
-from crowdmotion.mdp._kernels import MAX_PARTS, MAX_PARTS_2D, PAD, bucket_distances, mark_near
 from crowdmotion.mdp.grid import validate_grid
-from crowdmotion.mdp.moves import flat_move_tables, move_costs, move_offsets, successor_moves, swept_offsets
+from crowdmotion.mdp.moves import PAD, flat_move_tables, move_costs, move_offsets, successor_moves, swept_offsets
 
 NEG_INF = -math.inf
 METHODS = ("fast", "vi", "hvi", "ivi", "dijkstra", "dijkstra_unsorted")
@@ -84,6 +83,10 @@ def fast_values(grid: np.ndarray, goals: Sequence[tuple[int, ...]], corner_cutti
     The result is a view into the padded work array (a contiguous copy would cost one
     more grid-sized allocation, a large share of the time on big 3D grids).
     """
+    # imported here: the kernels (and the prefetch intrinsic they register with LLVM) cost
+    # 0.2 s to import, which runs that only need exact_values' scipy path should not pay
+    from crowdmotion.mdp._kernels import MAX_PARTS, MAX_PARTS_2D, bucket_distances, mark_near
+
     shape = grid.shape
     kind, strides = padded(grid)
     offsets, costs, _, swept, count = flat_move_tables(strides, corner_cutting)
