@@ -9,6 +9,10 @@ from typing import Iterator
 from tqdm.auto import tqdm
 
 FIRST = "first step: compiling kernels (once, then cached)"
+# tqdm's monitor thread outlives the bars; with it alive a later run in this process
+# could not compile its kernels on all cores (crowdmotion._precompile forks only a
+# process without other threads). Our bars update every step: they need no monitor.
+tqdm.monitor_interval = 0
 
 
 class StepBar:

@@ -496,6 +496,9 @@ def run_scenario(scenario, seed: int | None = None, progress: bool = True) -> Ru
     if seed < 0:
         raise ScenarioError(f"seed must be a non-negative integer, got {seed}")
     method = get_method(scenario.method)
+    from crowdmotion._precompile import start as precompile
+
+    precompile(scenario.method)  # a cold cache: the run's kernels compiled on every core first
     rng = np.random.default_rng(seed)
     traj, extras, summary = method.run(scenario.scene, scenario.groups, scenario.params, rng, progress=progress)
     traj.metadata.update({"seed": seed, "scenario": scenario.spec.name})

@@ -1,0 +1,79 @@
+"""The first run's kernels compiled on every core (crowdmotion._precompile, issue 16)."""
+
+import json
+import os
+import subprocess
+import sys
+
+import pytest
+
+from crowdmotion import _precompile as pc
+from crowdmotion.cli import builtin_scenarios
+from crowdmotion.scenario import load_scenario, run_scenario
+
+RECORD = json.loads(pc.RECORD.read_text())
+
+
+def test_shares_are_balanced_by_compile_time():
+    kernels = [{"name": n, "seconds": s} for n, s in (("a", 5.0), ("b", 3.0), ("c", 2.0), ("d", 1.0), ("e", 1.0))]
+    shares = pc.share_out(kernels, 2)
+    loads = sorted(sum(k["seconds"] for k in s) for s in shares)
+    assert loads == [6.0, 6.0]  # a+e against b+c+d
+    assert len(pc.share_out(kernels[:1], 4)) == 1  # no empty shares
+
+
+def test_signatures_parse_without_eval():
+    from numba.core import types
+
+    sig = pc.parse_signature("(Array(float64, 2, 'F', False, aligned=True), bool, uint64, Array(bool, 1, 'C', True, "
+                             "aligned=True))")
+    assert sig == (types.Array(types.float64, 2, "F"), types.boolean, types.uint64,
+                   types.Array(types.boolean, 1, "C", readonly=True))
+    with pytest.raises(ValueError, match="unsupported argument type"):
+        pc.parse_signature("(__import__, float64)")
+
+
+@pytest.mark.parametrize("method", sorted(RECORD))
+def test_the_record_matches_what_a_run_compiles(method):
+    # a kernel whose argument types changed would be precompiled for nothing: rerun
+    # python -m crowdmotion._precompile --record
+    paths = {p.stem: p for p in builtin_scenarios()}
+    for scene in pc.SCENES[method]:
+        run_scenario(load_scenario(paths[scene]), progress=False)
+    for k in RECORD[method]:
+        disp = pc._dispatcher(k["name"])
+        used = {str(tuple(s)) for s in disp.signatures}
+        for sig in k["signatures"]:
+            assert sig in used, f"{k['name']}: recorded types not used any more; rerun the record"
+            assert pc.parse_signature(sig) in [tuple(s) for s in disp.signatures]
+
+
+@pytest.mark.skipif(not hasattr(os, "fork"), reason="needs fork")
+def test_a_cold_start_fills_the_cache_so_the_run_compiles_nothing(tmp_path):
+    script = """
+import json, os
+from numba.core import event
+from crowdmotion import _precompile as pc
+done = pc.start("mdp")
+compiled = []
+class L(event.Listener):
+    def on_start(self, ev): pass
+    def on_end(self, ev):
+        d = ev.data["dispatcher"]; compiled.append(d.py_func.__module__ + ":" + d.py_func.__qualname__)
+event.register("numba:compile", L())
+from crowdmotion.cli import builtin_scenarios
+from crowdmotion.scenario import load_scenario, run_scenario
+run_scenario(load_scenario([p for p in builtin_scenarios() if p.stem == "mdp_robots_2d"][0]), progress=False)
+print(json.dumps({"done": done, "compiled": compiled, "again": pc.start("mdp")}))
+"""
+    env = {**os.environ, "NUMBA_CACHE_DIR": str(tmp_path), "CROWDMOTION_PRECOMPILE": "1"}
+    out = subprocess.run([sys.executable, "-c", script], env=env, capture_output=True, text=True, check=True)
+    result = json.loads(out.stdout.strip().splitlines()[-1])
+    cores = len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else os.cpu_count()
+    if cores < 2:
+        assert result["done"] == 0
+        return
+    names = {k["name"] for k in RECORD["mdp"]}
+    assert result["done"] >= len(names) - 1  # _prefetch's probe compiles as its module loads
+    assert not names & set(result["compiled"]), result["compiled"]  # loaded from the cache, not compiled
+    assert result["again"] == 0  # a warm cache: nothing to do
