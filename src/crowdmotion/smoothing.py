@@ -53,8 +53,10 @@ def resample_checked(traj: Trajectories, fps: float, kind: str, scene: Scene | N
 
     def mixed() -> Trajectories:
         pos = np.where(straight[seg][:, :, None], linear.positions, smooth.positions)
+        own = smooth.metadata.get("facing")  # a method's own facing is kept, not derived again
         return Trajectories(pos, smooth.dt, ids=smooth.ids, group=smooth.group, radius=smooth.radius,
-                            active=smooth.active, metadata=dict(smooth.metadata))
+                            active=smooth.active, metadata=dict(smooth.metadata),
+                            facing=smooth.facing if own else None, facing_pitch=smooth.facing_pitch if own else None)
 
     for _ in range(MAX_ROUNDS):
         out = mixed()

@@ -61,6 +61,19 @@ def from_usd_frame(points: np.ndarray, dim: int) -> np.ndarray:
     return world[..., :dim]
 
 
+def facing_from_orientations(quat: np.ndarray, dim: int) -> dict:
+    """The facing the instancer's orientations carry: (T, N, 4) quaternions as USD
+    stores them (i, j, k, real) -> ``{"facing": yaw, "facing_pitch": pitch}`` (world
+    radians; the prototype's +X turned by each quaternion, back in the z-up frame)."""
+    x, y, z, w = (quat[..., k] for k in range(4))
+    forward = np.stack([1 - 2 * (y * y + z * z), 2 * (x * y + w * z), 2 * (x * z - w * y)], axis=-1)
+    world = from_usd_frame(forward, 3)
+    out = {"facing": np.arctan2(world[..., 1], world[..., 0])}
+    if dim == 3:
+        out["facing_pitch"] = np.arctan2(world[..., 2], np.linalg.norm(world[..., :2], axis=-1))
+    return out
+
+
 STANDARD_RATES = (24.0, 25.0, 30.0, 48.0, 50.0, 60.0)
 
 
@@ -254,5 +267,9 @@ def read(path: Path) -> Trajectories:
         names = [stage.GetPrimAtPath(p).GetCustomDataByKey("crowdmotion:group") for p in
                  inst.GetPrototypesRel().GetTargets()]
         group = np.array([names[k] for k in inst.GetProtoIndicesAttr().Get()], dtype=object)
+    facing = {}
+    if inst and inst.GetOrientationsAttr().GetTimeSamples():
+        facing = facing_from_orientations(np.array([np.asarray(inst.GetOrientationsAttr().Get(c), float)
+                                                    for c in codes]), dim)
     return Trajectories(pos, dt, ids=ids, group=group, radius=radius,
-                        active=None if active.all() else active, metadata=meta)
+                        active=None if active.all() else active, metadata=meta, **facing)
