@@ -53,7 +53,7 @@ def resample_checked(traj: Trajectories, fps: float, kind: str, scene: Scene | N
 
     def mixed() -> Trajectories:
         pos = np.where(straight[seg][:, :, None], linear.positions, smooth.positions)
-        own = smooth.metadata.get("facing")  # a method's own facing is kept, not derived again
+        own = smooth.has_own_facing  # a method's own facing is kept, not derived again
         return Trajectories(pos, smooth.dt, ids=smooth.ids, group=smooth.group, radius=smooth.radius,
                             active=smooth.active, metadata=dict(smooth.metadata),
                             facing=smooth.facing if own else None, facing_pitch=smooth.facing_pitch if own else None)

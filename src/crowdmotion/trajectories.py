@@ -63,11 +63,8 @@ class Trajectories:
             self.active = np.asarray(self.active, dtype=bool)
             if self.active.shape != (t, n):
                 raise ValueError(f"Trajectories.active must have shape ({t}, {n}), got {self.active.shape}")
-        self._set_facing(t, n)
-
-    def _set_facing(self, t: int, n: int) -> None:
-        given = {"facing": self.facing, "facing_pitch": self.facing_pitch}
-        for name, arr in given.items():
+        for name in ("facing", "facing_pitch"):  # a method's own, checked here; else derived on first use
+            arr = getattr(self, "_" + name)
             if arr is None:
                 continue
             arr = np.asarray(arr, dtype=np.float64)
@@ -75,15 +72,27 @@ class Trajectories:
                 raise ValueError(f"Trajectories.{name} must have shape ({t}, {n}), got {arr.shape}")
             if not np.isfinite(arr).all():
                 raise ValueError(f"Trajectories.{name} must be finite angles in radians; it holds NaN or inf")
-            setattr(self, name, arr)
-        if self.facing is None or (self.dim == 3 and self.facing_pitch is None):
-            from crowdmotion.facing import facing_from_motion
+            setattr(self, "_" + name, arr)
+        if self.dim == 2:
+            self._facing_pitch = None  # level: zeros on first use
 
+    def _derive_facing(self) -> None:
+        """Fill whichever of facing / facing_pitch the method did not give, from the motion
+        (done once, when first read: intermediate Trajectories never pay for it)."""
+        from crowdmotion.facing import facing_from_motion
+
+        if self._facing is None or (self.dim == 3 and self._facing_pitch is None):
             yaw, pitch = facing_from_motion(self.positions, self.dt, self.active)
-            self.facing = yaw if self.facing is None else self.facing
-            self.facing_pitch = pitch if self.facing_pitch is None else self.facing_pitch
-        if self.facing_pitch is None or self.dim == 2:
-            self.facing_pitch = np.zeros((t, n))
+            self._facing = yaw if self._facing is None else self._facing
+            self._facing_pitch = pitch if self._facing_pitch is None else self._facing_pitch
+        if self._facing_pitch is None:  # 2D
+            self._facing_pitch = np.zeros(self.positions.shape[:2])
+
+    @property
+    def has_own_facing(self) -> bool:
+        """Whether the method gave its own facing (``metadata["facing"]`` says how); a
+        derived one is derived again from resampled motion rather than interpolated."""
+        return bool(self.metadata.get("facing"))
 
     # ---- shape -------------------------------------------------------------------
     @property
@@ -213,12 +222,33 @@ def resample(traj: Trajectories, fps: float, kind: str = "linear") -> Trajectori
     if traj.active is not None:
         active = traj.active[np.minimum(np.ceil(u - 1e-9).astype(int), traj.n_frames - 1)]
     meta = {**traj.metadata, "resampled": {"fps": fps, "kind": kind, "step_dt": traj.dt}}
-    facing = pitch = None
-    if traj.metadata.get("facing"):  # the method's own facing: turned through, the short way
+    facing = None
+    if traj.has_own_facing:  # turned through, the short way
         from crowdmotion.facing import wrap
 
         s2 = s[..., 0]
         yaw = np.unwrap(traj.facing, axis=0)
         facing = wrap(yaw[k] * (1 - s2) + yaw[np.minimum(k + 1, traj.n_frames - 1)] * s2)
     return Trajectories(pos, 1.0 / fps, ids=traj.ids, group=traj.group, radius=traj.radius, active=active,
-                        metadata=meta, facing=facing, facing_pitch=pitch)
+                        metadata=meta, facing=facing)
+
+
+def _lazy_facing(name: str) -> property:
+    """``Trajectories.facing`` / ``facing_pitch``: the constructor's value, or derived from
+    the motion when first read."""
+    private = "_" + name
+
+    def get(self) -> np.ndarray:
+        if getattr(self, private, None) is None:
+            self._derive_facing()
+        return getattr(self, private)
+
+    def set(self, value) -> None:
+        setattr(self, private, value)
+
+    return property(get, set, doc=f"(T, N) {name}, radians (see the class docstring)")
+
+
+# after @dataclass has made __init__ (which assigns these through the setters)
+Trajectories.facing = _lazy_facing("facing")
+Trajectories.facing_pitch = _lazy_facing("facing_pitch")
