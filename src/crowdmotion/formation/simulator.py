@@ -39,9 +39,9 @@ from crowdmotion.formation.guidance import REBALANCE_MAX, AttractionGuide, attra
 from crowdmotion.formation.mesh import FormationMesh, MeshView
 from crowdmotion.formation.params import FormationParams, make_params
 from crowdmotion.formation.templates import Template, from_spec
+from crowdmotion.facing import MAX_TURN_RATE, wrap
 from crowdmotion.geometry import positive_number
 from crowdmotion.groups import Disc, MovingTarget, Points, Rect, as_region
-from crowdmotion.facing import MAX_TURN_RATE, wrap
 from crowdmotion.formation._kernels import edge_length_error as edge_errors
 from crowdmotion.formation._kernels import repulsion
 from crowdmotion.obstacle_primitives import ObstacleSet
@@ -56,15 +56,15 @@ STALL_S = 8.0  # ... for this many seconds is stalled: ...
 STALL_RELIEF_S = 10.0  # ... and bends with uniform handles for this long
 VERTEX_CLEARANCE = 0.05  # metres beyond an agent's radius that a vertex keeps from static obstacles
 ROUTE_PROBE_M = 4.0  # a vertex whose march would meet a static obstacle this soon takes its own route
+PAIR_TOLERANCE = 0.01  # a car's wheels further off its width than this share are re-made rigid
+CAR_TURN_RADIUS = 4.0  # metres: a car turns at most |v| / radius rad/s (a kinematic car), ...
+CAR_TURN_MIN = 0.3  # ... and at least this many rad/s, so a standing car can still straighten up
 
 
 def _rotation(angle: float) -> np.ndarray:
     c, s = np.cos(angle), np.sin(angle)
     return np.array([[c, -s], [s, c]])
 REBALANCE_EVERY = 2.0  # seconds between whole-group reassignments in the target area
-PAIR_TOLERANCE = 0.01  # a car's wheels further off its width than this share are re-made rigid
-CAR_TURN_RADIUS = 4.0  # metres: a car turns at most |v| / radius rad/s (a kinematic car), ...
-CAR_TURN_MIN = 0.3  # ... and at least this many rad/s, so a standing car can still straighten up
 
 
 @dataclass
@@ -353,22 +353,30 @@ class Simulator:
         """Vertices nearer a static obstacle than ``need`` (an agent's radius and a margin)
         pushed straight out to that distance (along the distance's gradient, by central
         differences): a vertex an agent cannot stand on would only dislocate its agent.
-        So the mesh itself narrows to a gate's width."""
+        So the mesh itself narrows to a gate's width.
+
+        The potential field serves as the broad phase: a vertex that near an obstacle lies
+        in a painted cell whenever the field reaches a cell's diagonal beyond ``need``, so
+        only vertices in the field get the exact (per obstacle) distance."""
         if not self.scene.static_obstacles:
             return V
-        d = self.scene.static_obstacle_distance(V)
-        near = np.flatnonzero(d < need)
+        dist = self.scene.static_obstacle_distance
+        look = np.arange(len(V))
+        if self.params.field_range > need + self.params.field_cell * np.sqrt(2.0):
+            look = np.flatnonzero(self.field.sample(V)[1] > 0)
+        d = dist(V[look])
+        near = look[d < need]
         if not len(near):
             return V
         V = V.copy()
-        for _ in range(2):  # a corner may need a second push
+        gap = need - d[d < need]
+        h = 0.02
+        for sweep in range(2):  # a corner may need a second push
             p = V[near]
-            h = 0.02
-            grad = np.stack([self.scene.static_obstacle_distance(p + [h, 0]) - self.scene.static_obstacle_distance(p - [h, 0]),
-                             self.scene.static_obstacle_distance(p + [0, h]) - self.scene.static_obstacle_distance(p - [0, h])],
-                            axis=1)
+            if sweep:
+                gap = need - dist(p)
+            grad = np.stack([dist(p + [h, 0]) - dist(p - [h, 0]), dist(p + [0, h]) - dist(p - [0, h])], axis=1)
             gl = np.linalg.norm(grad, axis=1, keepdims=True)
-            gap = need - self.scene.static_obstacle_distance(p)
             push = np.where(gap[:, None] > 0, grad / np.maximum(gl, 1e-12) * gap[:, None], 0.0)
             V[near] = p + push
         return V
@@ -525,8 +533,9 @@ class Simulator:
         """Cars move as rigid bodies (003 §5, Fig. 7: a car is two agents a car width
         apart, its steering the angle of the pair). The pair's centre goes where its two
         agents' moves would take it; its axis turns toward theirs by at most
-        |v|/CAR_TURN_RADIUS·dt (and never faster than MAX_TURN_RATE); both agents end the step exactly ``pair_length`` apart. The
-        centre's move gives way to the turn so that neither agent exceeds its max speed."""
+        |v|/CAR_TURN_RADIUS·dt (and never faster than MAX_TURN_RATE); both agents end the
+        step exactly ``pair_length`` apart. The centre's move gives way to the turn so that
+        neither agent exceeds its max speed."""
         if not len(self.pairs):
             return
         a, b = self.pairs[:, 0], self.pairs[:, 1]
