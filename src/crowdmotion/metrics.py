@@ -261,9 +261,9 @@ def group_report(traj: Trajectories) -> dict:
     (at the moments another group is within 5 m of any agent: the mean size of the
     same-group cluster each agent is in — agents chained by links shorter than
     ``CLUSTER_LINK`` m, so a lone agent is a cluster of 1 — and the mean number of its
-    group's clusters of two or more: A− of paper 004 §6 walks in clusters), ``time_to_goal_s`` (mean time at
-    which agents left; None when nobody left) and ``path_length_ratio`` (path length over
-    start-to-end distance).
+    group's clusters of two or more: A− of paper 004 §6 walks in clusters),
+    ``time_to_goal_s`` (mean time at which agents left; None when nobody left) and
+    ``path_length_ratio`` (path length over start-to-end distance).
     """
     act = traj.active_mask
     pos = traj.positions[..., :2]

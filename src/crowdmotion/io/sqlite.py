@@ -163,7 +163,8 @@ def read(path: Path) -> Trajectories:
     try:
         con = sqlite3.connect(f"file:{path}?mode=ro", uri=True)
         try:
-            rows = np.array(con.execute("SELECT frame, id, pos_x, pos_y, ori_x, ori_y FROM trajectory_data").fetchall(), float)
+            rows = np.array(con.execute("SELECT frame, id, pos_x, pos_y, ori_x, ori_y FROM trajectory_data")
+                            .fetchall(), float)
             meta = dict(con.execute("SELECT key, value FROM metadata").fetchall())
             try:
                 agents = con.execute("SELECT id, grp, radius FROM crowdmotion_agents").fetchall()

@@ -13,8 +13,8 @@ _EXPORTS = {
     "GridMap": "grid", "load_grid": "grid", "max_radius": "grid", "min_cell_size": "grid", "rasterise": "grid",
     "MDPParams": "params", "Params": "params",
     "MDPRun": "simulation", "resample": "simulation", "run": "simulation", "simulate": "simulation",
-    "METHODS": "solvers", "dijkstra": "solvers", "dijkstra_unsorted": "solvers", "greedy_estimate": "solvers", "heuristic_value_iteration": "solvers",
-    "improved_value_iteration": "solvers", "solve": "solvers", "value_iteration": "solvers",
+    "METHODS": "solvers", "dijkstra": "solvers", "dijkstra_unsorted": "solvers", "greedy_estimate": "solvers",
+    "heuristic_value_iteration": "solvers", "improved_value_iteration": "solvers", "solve": "solvers", "value_iteration": "solvers",
     "RAW_GRID_RADIUS": "trajectory", "generate_trajectories": "trajectory",
 }
 __getattr__, __all__ = lazy_exports(__name__, _EXPORTS)
