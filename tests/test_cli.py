@@ -2,6 +2,8 @@
 
 import json
 
+import pytest
+
 from crowdmotion.cli import main
 from tests.test_scenario import GOOD
 
@@ -21,6 +23,23 @@ def test_validate_run_and_errors(tmp_path, capsys):
     assert main(["validate", str(bad)]) == 2
     assert "groups.0.count" in capsys.readouterr().err
     assert main(["run", str(tmp_path / "missing.toml")]) == 2
+
+
+def test_run_plots_option_replaces_the_scenarios_pictures(tmp_path, capsys):
+    path = tmp_path / "s.toml"
+    path.write_text(GOOD)
+    bare, player = tmp_path / "bare", tmp_path / "player"
+    assert main(["run", str(path), "-o", str(bare), "-q", "--plots", "none"]) == 0
+    assert {p.name for p in bare.iterdir() if not p.name.startswith(".")} == {"trajectories.parquet", "summary.json"}
+    assert main(["run", str(path), "-o", str(player), "-q", "--plots", "player"]) == 0
+    assert (player / "view.html").is_file() and not (player / "paths.png").exists()
+    capsys.readouterr()
+    for wrong, words in (("paht", "'paht' is not one of paths"), ("", "names no picture"), (",", "names no picture")):
+        with pytest.raises(SystemExit) as exc:
+            main(["run", str(path), "-o", str(tmp_path / "x"), "--plots", wrong])
+        assert exc.value.code == 2
+        assert words in capsys.readouterr().err
+        assert not (tmp_path / "x").exists()
 
 
 def test_demo_writes_pictures(tmp_path, capsys):

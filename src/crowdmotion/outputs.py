@@ -60,8 +60,9 @@ def prepare_output_folder(out, overwrite: bool = False) -> Path:
     return out
 
 
-def write_run(result, out) -> list[Path]:
-    """Write everything a scenario asks for into folder ``out``; returns the paths."""
+def write_run(result, out, plots=None) -> list[Path]:
+    """Write everything a scenario asks for into folder ``out``; returns the paths.
+    ``plots`` (names as in [output] plots) replaces the scenario's own list."""
     out = Path(out)
     out.mkdir(parents=True, exist_ok=True)
     spec = result.scenario.spec
@@ -70,10 +71,12 @@ def write_run(result, out) -> list[Path]:
     with atomic_path(out / "summary.json") as tmp:
         tmp.write_text(json.dumps(summary, indent=2, default=str))
     written.append(out / "summary.json")
+    plots = spec.output.plots if plots is None else list(plots)
     module = get_method(spec.method).module
-    if spec.output.plots and hasattr(module, "write_plots"):
-        written += module.write_plots(result.scenario.scene, result.extras, out, spec.output.plots, spec.name)
-    if "player" in spec.output.plots:
+    pictures = [p for p in plots if p != "player"]
+    if pictures and hasattr(module, "write_plots"):
+        written += module.write_plots(result.scenario.scene, result.extras, out, pictures, spec.name)
+    if "player" in plots:
         from crowdmotion.render.player import write_player
 
         written.append(write_player(result.trajectories, out / "view.html"))

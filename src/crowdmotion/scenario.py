@@ -253,6 +253,9 @@ class GroupSpec(_Model):
         return v
 
 
+PLOTS = ("paths", "values", "snapshots", "player")  # what [output] plots may name
+
+
 class OutputSpec(_Model):
     """What ``crowdmotion run`` writes beside summary.json.
 
@@ -262,7 +265,7 @@ class OutputSpec(_Model):
     """
 
     formats: list[Literal["parquet", "csv"]] = ["parquet"]
-    plots: list[Literal["paths", "values", "snapshots", "player"]] = ["paths", "values", "snapshots", "player"]
+    plots: list[Literal[PLOTS]] = list(PLOTS)
 
 
 class ScenarioSpec(_Model):

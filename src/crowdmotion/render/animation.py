@@ -18,7 +18,7 @@ from tqdm.auto import tqdm  # noqa: E402
 
 from crowdmotion.io.atomic import atomic_path  # noqa: E402
 from crowdmotion.render.plots import (_draw_obstacles_2d, _group_colours, _save, blit_frame, gif_image,  # noqa: E402
-                                      write_gif)
+                                      gif_palette, write_gif)
 from crowdmotion.scene import Scene  # noqa: E402
 from crowdmotion.trajectories import Trajectories, resample  # noqa: E402
 
@@ -68,12 +68,13 @@ def animate(traj: Trajectories, path, fps: float | None = None, trail_s: float =
             sink.send(None)
         else:
             gif_frames = []
+            palette = gif_palette(first, _group_colours(traj).values())
         rest = tqdm(images, desc="rendering", unit="frame", total=len(frames) - 1, disable=not progress, leave=False)
         for rgb in itertools.chain([first], rest):
             if kind == ".mp4":
                 sink.send(rgb)
             else:
-                gif_frames.append(gif_image(rgb))
+                gif_frames.append(gif_image(rgb, palette))
         if kind == ".mp4":
             sink.close()
         else:
@@ -155,7 +156,7 @@ def frame_images(traj: Trajectories, frames, trail_s: float = 2.0, width_px: int
             bodies.set_edgecolor(np.where(act[f][:, None], [[0, 0, 0, 1.0]], [[0, 0, 0, 0.0]]))
             label.set_text(f"{title}  t = {f * traj.dt:6.1f} s")
             if blit:
-                rgb = blit_frame(fig, ax, background, [trails, bodies] + shapes, [label])
+                rgb = blit_frame(fig, ax, background, [trails, bodies] + shapes, [label])[..., :3]
             else:
                 fig.canvas.draw()
                 rgb = np.asarray(fig.canvas.buffer_rgba())[..., :3]
