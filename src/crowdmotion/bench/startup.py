@@ -5,6 +5,7 @@ simulation alone, side by side in one run (issue 16).
   (``NUMBA_CACHE_DIR`` a new folder), as on a fresh install: every kernel the run uses is
   compiled, then every output (trajectories, summary, pictures, player) is written;
 - warm: the same command again with the cache the cold run filled;
+- bare: warm, with ``--plots none`` (trajectories and summary.json only);
 - simulation: ``run_scenario`` alone, in a warm process (kernels loaded), best of 2.
 
     crowdmotion bench startup [--only NAME ...]
@@ -54,18 +55,20 @@ def measure(name: str, root: Path) -> dict:
     run = [sys.executable, "-m", "crowdmotion.cli", "run", name, "-o", str(root / "out" / name), "--overwrite", "-q"]
     cold = _timed(run, env)
     warm = _timed(run, env)
+    bare = _timed(run + ["--plots", "none"], env)
     done = subprocess.run([sys.executable, "-c", SIMULATE, name], env=env, capture_output=True, text=True, check=True)
     sim = json.loads(done.stdout.strip().splitlines()[-1])
-    return {"scene": name, "cold_s": cold, "warm_s": warm, "simulation_s": sim}
+    return {"scene": name, "cold_s": cold, "warm_s": warm, "bare_s": bare, "simulation_s": sim}
 
 
 def table(rows: list[dict]) -> str:
-    out = ["| scene | cold run | warm run | simulation | cold / warm | warm / simulation |",
-           "|---|---|---|---|---|---|"]
+    out = ["| scene | cold run | warm run | warm, --plots none | simulation | cold / warm | warm / simulation |",
+           "|---|---|---|---|---|---|---|"]
     for r in rows:
         cw, ws = r["cold_s"] / r["warm_s"], r["warm_s"] / r["simulation_s"]
-        out.append(f"| {r['scene']} | {r['cold_s']:.1f} s | {r['warm_s']:.1f} s | {r['simulation_s']:.2f} s | "
-                   f"{cw:.1f}x{'' if cw <= 3 else ' (goal <= 3)'} | {ws:.1f}x{'' if ws <= 3 else ' (goal <= 3)'} |")
+        out.append(f"| {r['scene']} | {r['cold_s']:.1f} s | {r['warm_s']:.1f} s | {r['bare_s']:.1f} s | "
+                   f"{r['simulation_s']:.2f} s | {cw:.1f}x{'' if cw <= 3 else ' (goal <= 3)'} | "
+                   f"{ws:.1f}x{'' if ws <= 3 else ' (goal <= 3)'} |")
     return "\n".join(out)
 
 
@@ -84,8 +87,8 @@ def main(argv=None) -> None:
         for name in (args.only or names):
             rows.append(measure(name, Path(tmp)))
             r = rows[-1]
-            print(f"{name}: cold {r['cold_s']:.1f} s, warm {r['warm_s']:.1f} s, simulation {r['simulation_s']:.2f} s",
-                  file=sys.stderr, flush=True)
+            print(f"{name}: cold {r['cold_s']:.1f} s, warm {r['warm_s']:.1f} s, bare {r['bare_s']:.1f} s, "
+                  f"simulation {r['simulation_s']:.2f} s", file=sys.stderr, flush=True)
     print(table(rows))
 
 

@@ -359,7 +359,13 @@ def animate_formation_snapshots(scene: Scene, snapshots: list[dict], path, fps: 
     lo, hi = (scene.lower, scene.upper) if window is None else (np.asarray(window[0]), np.asarray(window[1]))
     aspect = (hi[1] - lo[1]) / (hi[0] - lo[0])
     width = 8.0 if aspect > 0.4 else 12.0  # wide scenes (a road) get a wider picture
-    fig, ax = plt.subplots(figsize=(width + 1.6, max(2.5, width * aspect) + 0.5), layout="constrained")
+    # fixed margins in inches round a data area of the scene's aspect (constrained layout
+    # with an equal-aspect axes clipped the y label and the legend)
+    left, right, bottom, top = 0.75, 1.9, 0.55, 0.35
+    height = max(2.0, width * aspect)
+    fig = plt.figure(figsize=(left + width + right, bottom + height + top), dpi=72)
+    size = fig.get_size_inches()
+    ax = fig.add_axes((left / size[0], bottom / size[1], width / size[0], height / size[1]))
     group_colour = _snapshot_colours(snapshots)
 
     # axes, labels, legend and resting obstacles are drawn once; each frame restores that
@@ -374,7 +380,6 @@ def animate_formation_snapshots(scene: Scene, snapshots: list[dict], path, fps: 
     legend_outside(ax, _mesh_handles(group_colour))
     label = ax.set_title(" ", fontsize=10)
     label.set_animated(True)
-    fig.set_dpi(72)
     fig.canvas.draw()
     background = fig.canvas.copy_from_bbox(fig.bbox)
     # each group's meshes and agents are three artists made once and refilled per frame
