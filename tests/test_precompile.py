@@ -77,3 +77,58 @@ print(json.dumps({"done": done, "compiled": compiled, "again": pc.start("mdp")})
     assert result["done"] >= len(names) - 1  # _prefetch's probe compiles as its module loads
     assert not names & set(result["compiled"]), result["compiled"]  # loaded from the cache, not compiled
     assert result["again"] == 0  # a warm cache: nothing to do
+
+
+@pytest.mark.skipif(not hasattr(os, "fork"), reason="needs fork")
+def test_compiling_begun_early_is_finished_by_the_run(tmp_path):
+    # `crowdmotion run` begins compiling before it reads the scenario; the run's start()
+    # compiles the rest and waits, so the run itself compiles nothing
+    script = """
+import json
+from numba.core import event
+from crowdmotion import _precompile as pc
+pc.begin("mdp")
+children = [pid for _, pids, _ in pc._PENDING.values() for pid in pids]
+compiled = []
+class L(event.Listener):
+    def on_start(self, ev): pass
+    def on_end(self, ev):
+        d = ev.data["dispatcher"]; compiled.append(d.py_func.__module__ + ":" + d.py_func.__qualname__)
+from crowdmotion.cli import builtin_scenarios
+from crowdmotion.scenario import load_scenario, run_scenario
+sc = load_scenario([p for p in builtin_scenarios() if p.stem == "mdp_robots_2d"][0])
+done = pc.start("mdp")  # what run_scenario calls first: this process's share, then the wait
+event.register("numba:compile", L())
+run_scenario(sc, progress=False)
+print(json.dumps({"children": children, "compiled": compiled, "pending": list(pc._PENDING), "done": done}))
+"""
+    env = {**os.environ, "NUMBA_CACHE_DIR": str(tmp_path), "CROWDMOTION_PRECOMPILE": "1"}
+    out = subprocess.run([sys.executable, "-c", script], env=env, capture_output=True, text=True, check=True)
+    result = json.loads(out.stdout.strip().splitlines()[-1])
+    cores = len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else os.cpu_count()
+    if cores < 2:
+        assert result["children"] == []
+        return
+    assert result["children"] and result["pending"] == [] and result["done"] >= 1
+    names = {k["name"] for k in RECORD["mdp"]}
+    assert not names & set(result["compiled"]), result["compiled"]
+
+
+@pytest.mark.skipif(not hasattr(os, "fork"), reason="needs fork")
+def test_children_begun_for_a_refused_scenario_stop_with_the_command(tmp_path):
+    bad = tmp_path / "bad.toml"
+    bad.write_text('method = "rvo"\nname = "bad"\n[scene]\nlower = [0, 0]\nupper = [-1, 5]\n')
+    script = f"""
+import json, sys
+from crowdmotion import _precompile as pc
+from crowdmotion.cli import main
+code = main(["run", {str(bad)!r}, "-q", "-o", {str(tmp_path / "out")!r}])
+print(json.dumps({{"code": code, "children": [p for _, pids, _ in pc._PENDING.values() for p in pids]}}))
+"""
+    env = {**os.environ, "NUMBA_CACHE_DIR": str(tmp_path / "cache"), "CROWDMOTION_PRECOMPILE": "1"}
+    out = subprocess.run([sys.executable, "-c", script], env=env, capture_output=True, text=True, check=True)
+    result = json.loads(out.stdout.strip().splitlines()[-1])
+    assert result["code"] == 2  # refused, with the scenario's error
+    for pid in result["children"]:  # stopped at exit, not left compiling
+        with pytest.raises(ProcessLookupError):
+            os.kill(pid, 0)

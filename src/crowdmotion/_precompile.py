@@ -18,6 +18,7 @@ is simply compiled again when called, as without this module.
 
 from __future__ import annotations
 
+import atexit
 import importlib
 import json
 import os
@@ -98,29 +99,36 @@ def _compile(kernels: list[dict]) -> None:
             continue
 
 
-def start(method: str) -> int:
-    """Compile ``method``'s recorded kernels missing from the cache on all cores, waiting
-    until every share is done; returns how many kernels were compiled (0 when the cache
-    already had them, on one core, or where fork is missing)."""
+_PENDING: dict[str, tuple[list[dict], list[int], int]] = {}  # begun: (this share, children, kernels)
+
+
+def _plan(method: str):
+    """The cold kernels of ``method`` shared out as (this process's share, the children's
+    shares, how many), or None where nothing is to be done or compiling cannot be spread."""
     if os.environ.get("CROWDMOTION_PRECOMPILE", "1") == "0" or not hasattr(os, "fork"):
-        return 0
+        return None
     if threading.active_count() > 1:  # a lock another thread holds would stay locked in a child
-        return 0
+        return None
     try:
         record = json.loads(RECORD.read_text())
     except (OSError, ValueError):
-        return 0
+        return None
     todo = [k for k in record.get(method, []) if _cold(k)]
     cores = _cores()
     if not todo or cores < 2:
-        return 0
+        return None
     mine, *theirs = share_out(todo, min(cores, len(todo)))
+    return mine, theirs, len(todo)
+
+
+def _fork(shares: list[list[dict]]) -> list[int]:
+    """A child per share, compiling it into the cache and leaving at once; their pids."""
     children = []
-    for share in theirs:
+    for share in shares:
         sys.stdout.flush()
         sys.stderr.flush()
         pid = os.fork()
-        if pid == 0:  # the child compiles its share into the cache and leaves at once
+        if pid == 0:
             code = 0
             try:
                 _compile(share)
@@ -128,16 +136,65 @@ def start(method: str) -> int:
                 code = 1
             os._exit(code)
         children.append(pid)
-    _compile(mine)
+    return children
+
+
+def _wait(children: list[int]) -> None:
+    """Wait for the children; one still compiling after ``CHILD_TIMEOUT_S`` is stopped
+    (the run then compiles what it lacks as usual)."""
     deadline = time.monotonic() + CHILD_TIMEOUT_S
-    for pid in children:  # a child that hangs is stopped: the run then compiles as usual
+    for pid in children:
         while os.waitpid(pid, os.WNOHANG) == (0, 0):
             if time.monotonic() > deadline:
                 os.kill(pid, signal.SIGKILL)
                 os.waitpid(pid, 0)
                 break
             time.sleep(0.02)
-    return len(todo)
+
+
+def _stop_pending() -> None:
+    """At exit: children begun for a run that never started (a scenario refused) stop."""
+    for _, children, _ in _PENDING.values():
+        for pid in children:
+            try:
+                os.kill(pid, signal.SIGKILL)
+                os.waitpid(pid, 0)
+            except (OSError, ChildProcessError):
+                pass
+    _PENDING.clear()
+
+
+def begin(method: str) -> None:
+    """Start the children compiling ``method``'s cold kernels now, before this process
+    reads and checks the scenario (about a second of imports and set-up that the
+    compiling then overlaps); :func:`start` compiles this process's share and waits."""
+    if method in _PENDING:
+        return
+    plan = _plan(method)
+    if plan is None:
+        return
+    mine, theirs, count = plan
+    if not _PENDING:
+        atexit.register(_stop_pending)
+    _PENDING[method] = (mine, _fork(theirs), count)
+
+
+def start(method: str) -> int:
+    """Compile ``method``'s recorded kernels missing from the cache on all cores, waiting
+    until every share is done; returns how many kernels were compiled (0 when the cache
+    already had them, on one core, or where fork is missing). Finishes what
+    :func:`begin` started, if it did."""
+    if method in _PENDING:
+        mine, children, count = _PENDING.pop(method)
+    else:
+        plan = _plan(method)
+        if plan is None:
+            return 0
+        mine, theirs, count = plan
+        children = _fork(theirs)
+    _compile(mine)
+    _wait(children)
+    return count
 
 
 SCENES = {"rvo": ("rvo_street_O", "rvo_doorway"), "pso": ("pso_gathering", "pso_avoidance", "pso_two_swarms_2d"),

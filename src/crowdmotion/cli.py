@@ -90,11 +90,29 @@ def _plot_list(text: str) -> list[str]:
     return names
 
 
+def _begin_compiling(path) -> None:
+    """On a cold numba cache, set the kernels of the file's method compiling on the other
+    cores before the scenario is read and checked (a glance at its ``method`` line; the
+    file is judged properly by load_scenario)."""
+    import tomllib
+
+    from crowdmotion import _precompile
+
+    try:
+        method = tomllib.loads(Path(path).read_text()).get("method")
+    except (OSError, ValueError, UnicodeDecodeError):
+        return
+    if isinstance(method, str):
+        _precompile.begin(method)
+
+
 def cmd_run(args) -> int:
+    path = scenario_path(args.scenario)
+    _begin_compiling(path)
     from crowdmotion.outputs import prepare_output_folder, write_run
     from crowdmotion.scenario import load_scenario, run_scenario
 
-    sc = load_scenario(scenario_path(args.scenario))
+    sc = load_scenario(path)
     out = prepare_output_folder(_output_folder(args, sc), args.overwrite)  # before, not after, the simulation
     result = run_scenario(sc, seed=args.seed, progress=not args.quiet)
     files = write_run(result, out, plots=args.plots)
