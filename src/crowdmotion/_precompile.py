@@ -102,9 +102,10 @@ def _compile(kernels: list[dict]) -> None:
 _PENDING: dict[str, tuple[list[dict], list[int], int]] = {}  # begun: (this share, children, kernels)
 
 
-def _plan(method: str):
+def _plan(method: str, background: bool = False):
     """The cold kernels of ``method`` shared out as (this process's share, the children's
-    shares, how many), or None where nothing is to be done or compiling cannot be spread."""
+    shares, how many), or None where nothing is to be done or compiling cannot be spread.
+    ``background``: all of it to children (on the other cores), none to this process."""
     if os.environ.get("CROWDMOTION_PRECOMPILE", "1") == "0" or not hasattr(os, "fork"):
         return None
     if threading.active_count() > 1:  # a lock another thread holds would stay locked in a child
@@ -117,6 +118,8 @@ def _plan(method: str):
     cores = _cores()
     if not todo or cores < 2:
         return None
+    if background:
+        return [], share_out(todo, min(cores - 1, len(todo))), len(todo)
     mine, *theirs = share_out(todo, min(cores, len(todo)))
     return mine, theirs, len(todo)
 
@@ -164,13 +167,15 @@ def _stop_pending() -> None:
     _PENDING.clear()
 
 
-def begin(method: str) -> None:
+def begin(method: str, background: bool = False) -> None:
     """Start the children compiling ``method``'s cold kernels now, before this process
     reads and checks the scenario (about a second of imports and set-up that the
-    compiling then overlaps); :func:`start` compiles this process's share and waits."""
+    compiling then overlaps); :func:`start` compiles this process's share and waits.
+    ``background``: the children take every kernel, for a run that comes later (the
+    demo's next method while this one's scenes run)."""
     if method in _PENDING:
         return
-    plan = _plan(method)
+    plan = _plan(method, background)
     if plan is None:
         return
     mine, theirs, count = plan

@@ -133,18 +133,21 @@ def cmd_run(args) -> int:
 
 
 def cmd_demo(args) -> int:
+    from crowdmotion import _precompile
     from crowdmotion.outputs import prepare_output_folder, write_run
     from crowdmotion.scenario import load_scenario, run_scenario
 
     root = Path(args.output)
     names = set(args.only or [])
-    for path in builtin_scenarios():
-        sc = load_scenario(path)
-        if names and sc.spec.name not in names:
-            continue
+    scenes = [load_scenario(path) for path in builtin_scenarios()]
+    scenes = [sc for sc in scenes if not names or sc.spec.name in names]
+    for i, sc in enumerate(scenes):
         print(f"running {sc.spec.name}: {sc.spec.description}", flush=True)
         out = prepare_output_folder(root / sc.spec.name, overwrite=True)  # the demo's own folders
         result = run_scenario(sc, progress=not args.quiet)
+        later = [s.method for s in scenes[i + 1:] if s.method != sc.method]
+        if later:  # the next method's kernels compile on the other cores while this one's scenes run
+            _precompile.begin(later[0], background=True)
         write_run(result, out)
         print(f"  {_headline(result.summary)}")
     print(f"demo output in {root.resolve()}/ (trajectories.parquet, summary.json, pictures and view.html per scene)")
