@@ -132,3 +132,14 @@ print(json.dumps({{"code": code, "children": [p for _, pids, _ in pc._PENDING.va
     for pid in result["children"]:  # stopped at exit, not left compiling
         with pytest.raises(ProcessLookupError):
             os.kill(pid, 0)
+
+
+def test_kernels_compiled_while_checking_stay_with_this_process():
+    # RVO's check compiles the line-of-sight test: a child compiling it too would only
+    # take a core from the rest
+    at_load = [{"name": "check", "seconds": 1.0, "at_load": True}]
+    rest = [{"name": n, "seconds": s} for n, s in (("a", 4.0), ("b", 2.0), ("c", 1.0))]
+    mine, *theirs = pc.share_out(rest, 2, first=at_load)
+    assert mine[0]["name"] == "check" and [k["name"] for k in mine] == ["check", "b", "c"]
+    assert [[k["name"] for k in s] for s in theirs] == [["a"]]
+    assert pc.share_out([], 2, first=at_load) == [at_load]

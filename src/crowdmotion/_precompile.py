@@ -68,16 +68,18 @@ def _cores() -> int:
     return len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else (os.cpu_count() or 1)
 
 
-def share_out(kernels: list[dict], parts: int) -> list[list[dict]]:
+def share_out(kernels: list[dict], parts: int, first: list[dict] = ()) -> list[list[dict]]:
     """Kernels into ``parts`` lists of about equal compile time (longest first, each to
-    the least loaded list)."""
-    bins: list[list[dict]] = [[] for _ in range(max(1, parts))]
-    load = [0.0] * len(bins)
+    the least loaded list); ``first`` are given to the first list beforehand (kernels
+    this process compiles anyway). Empty lists are dropped, but the first is kept when
+    ``first`` is given."""
+    bins: list[list[dict]] = [list(first)] + [[] for _ in range(max(1, parts) - 1)]
+    load = [sum(k["seconds"] for k in first)] + [0.0] * (len(bins) - 1)
     for k in sorted(kernels, key=lambda k: -k["seconds"]):
         i = load.index(min(load))
         bins[i].append(k)
         load[i] += k["seconds"]
-    return [b for b in bins if b]
+    return [b for i, b in enumerate(bins) if b or (i == 0 and first)]
 
 
 def _cold(kernel: dict) -> bool:
@@ -120,7 +122,13 @@ def _plan(method: str, background: bool = False):
         return None
     if background:
         return [], share_out(todo, min(cores - 1, len(todo))), len(todo)
-    mine, *theirs = share_out(todo, min(cores, len(todo)))
+    # what reading and checking a scenario calls (RVO's line-of-sight test, for one) this
+    # process compiles anyway: its share starts with those, so no child compiles them too
+    at_load = [k for k in todo if k.get("at_load")]
+    rest = [k for k in todo if not k.get("at_load")]
+    if not rest:
+        return None
+    mine, *theirs = share_out(rest, min(cores, len(rest) + bool(at_load)), first=at_load)
     return mine, theirs, len(todo)
 
 
@@ -256,7 +264,11 @@ def _record_one(method: str) -> list[dict]:
     paths = {p.stem: p for p in builtin_scenarios()}
     event.register("numba:compile", Listener())
     for scene in SCENES[method]:
-        run_scenario(load_scenario(paths[scene]), progress=False)
+        loaded = set(found)
+        sc = load_scenario(paths[scene])
+        for name in set(found) - loaded:  # compiled while the scenario was read and checked
+            found[name]["at_load"] = True
+        run_scenario(sc, progress=False)
     kernels = []
     for k in found.values():
         try:
