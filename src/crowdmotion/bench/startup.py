@@ -10,6 +10,12 @@ simulation alone, side by side in one run (issue 16).
 
     crowdmotion bench startup [--only NAME ...]
     python benchmarks/bench_startup.py [--only NAME ...]
+    crowdmotion bench startup --baseline-src OLD/src --rounds 3 --only rvo_street_O ...
+
+With ``--baseline-src`` (another checkout's ``src`` folder) each scene's cold and warm
+runs alternate between that code (on ``PYTHONPATH``) and this install, ``--rounds``
+times, and the table gives medians and ranges: a before/after that one slow minute of a
+shared machine cannot tilt.
 
 Goals: cold <= 3x warm and warm <= 3x the simulation for every built-in scene.
 """
@@ -61,6 +67,39 @@ def measure(name: str, root: Path) -> dict:
     return {"scene": name, "cold_s": cold, "warm_s": warm, "bare_s": bare, "simulation_s": sim}
 
 
+def cold_and_warm(name: str, root: Path, src: str | None) -> tuple[float, float]:
+    """One cold and one warm run of a scene, on a new cache; ``src`` on PYTHONPATH."""
+    env = dict(os.environ, NUMBA_CACHE_DIR=tempfile.mkdtemp(dir=root))
+    env.pop("PYTHONPATH", None)
+    if src:
+        env["PYTHONPATH"] = src
+    run = [sys.executable, "-m", "crowdmotion.cli", "run", name, "-o", str(root / "out" / name), "--overwrite", "-q"]
+    return _timed(run, env), _timed(run, env)
+
+
+def compare(names: list[str], baseline_src: str, rounds: int, root: Path) -> str:
+    """Interleaved cold/warm runs of the baseline and this code: medians and ranges."""
+    import statistics
+
+    got: dict[tuple[str, str], list[tuple[float, float]]] = {}
+    for _ in range(rounds):
+        for name in names:
+            for tag, src in (("before", baseline_src), ("now", None)):
+                got.setdefault((name, tag), []).append(cold_and_warm(name, root, src))
+                print(f"{name} {tag}: cold {got[name, tag][-1][0]:.1f} s, warm {got[name, tag][-1][1]:.1f} s",
+                      file=sys.stderr, flush=True)
+
+    def cell(values: list[float]) -> str:
+        return f"{statistics.median(values):.1f} ({min(values):.1f}-{max(values):.1f})"
+
+    out = ["| scene | cold: before → now | warm: before → now |", "|---|---|---|"]
+    for name in names:
+        b, n = got[name, "before"], got[name, "now"]
+        out.append(f"| {name} | {cell([x[0] for x in b])} → {cell([x[0] for x in n])} s | "
+                   f"{cell([x[1] for x in b])} → {cell([x[1] for x in n])} s |")
+    return "\n".join(out)
+
+
 def table(rows: list[dict]) -> str:
     out = ["| scene | cold run | warm run | warm, --plots none | simulation | cold / warm | warm / simulation |",
            "|---|---|---|---|---|---|---|"]
@@ -77,11 +116,22 @@ def main(argv=None) -> None:
 
     ap = argparse.ArgumentParser(prog="crowdmotion bench startup", description=__doc__.split("\n\n")[0])
     ap.add_argument("--only", nargs="*", help="built-in scene names (default: all)")
+    ap.add_argument("--baseline-src", help="another checkout's src folder: interleave its cold and warm runs with "
+                                           "this code's (medians and ranges over --rounds)")
+    ap.add_argument("--rounds", type=int, default=3, help="rounds of the interleaved comparison (default 3)")
     args = ap.parse_args(argv)
     names = [p.stem for p in builtin_scenarios()]
     unknown = sorted(set(args.only or []) - set(names))
     if unknown:
         ap.error(f"unknown built-in scene(s) {unknown}; see `crowdmotion scenarios`")
+    if args.baseline_src:
+        if not (Path(args.baseline_src) / "crowdmotion").is_dir():
+            ap.error(f"--baseline-src {args.baseline_src}: no crowdmotion package in that folder")
+        if args.rounds < 1:
+            ap.error(f"--rounds {args.rounds}: must be at least 1")
+        with tempfile.TemporaryDirectory() as tmp:
+            print(compare(args.only or names, str(Path(args.baseline_src).resolve()), args.rounds, Path(tmp)))
+        return
     rows = []
     with tempfile.TemporaryDirectory() as tmp:
         for name in (args.only or names):
