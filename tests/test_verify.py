@@ -40,6 +40,16 @@ def test_full_suite(case, method):
     assert v.passed and v.clean, f"{case}/{method}: {v.criterion}: measured {v.measured}"
 
 
+@pytest.mark.slow
+@pytest.mark.xfail(strict=True, reason="known: RVO2's Blocks locks up in the central crossing for seed 6 "
+                                       "(docs/verification.md); passes once four-way gridlocks are broken")
+def test_rvo2_blocks_gridlock_seed_6():
+    c = next(c for c in verify.CASES if c.name == "rvo2_blocks")
+    v = verify.run_case(c, "rvo", seed=6)
+    assert v.clean, v  # the jam stays collision-free
+    assert v.passed, v.measured
+
+
 def test_verify_command_prints_the_table_and_writes_pictures(tmp_path, capsys):
     assert main(["verify", "--quick", "--case", "rimea_1_corridor", "-o", str(tmp_path), "-q"]) == 0
     out = capsys.readouterr().out

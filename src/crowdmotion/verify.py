@@ -17,7 +17,7 @@ from typing import Callable
 
 import numpy as np
 
-from crowdmotion.groups import Group, Rect
+from crowdmotion.groups import Group, Points, Rect
 from crowdmotion.registry import get_method, method_params
 from crowdmotion.scene import Box, Polygon, Scene
 from crowdmotion.trajectories import Trajectories
@@ -422,6 +422,35 @@ def _crossing(method: str) -> dict[str, Setup]:
     return {"crossing": Setup(scene, [a, b], _params(method, goal_assignment="shift"))}
 
 
+# ---- the RVO2 library's own examples --------------------------------------------------------
+# RVO2's Blocks (examples/Blocks.cpp): 4 x 25 agents of radius 2 m at up to 2 m/s, each
+# going to its start mirrored through the origin past four 30 m square blocks. RVO2 itself
+# (pyrvo 0.4.3, the example's defaults and perturbation; benchmarks/rvo2_blocks.py, seeds
+# 1-3): the last agent within 1 m of its goal at 892, 1030 and 870 s.
+RVO2_BLOCKS_LAST_S = 870.0
+
+
+def _rvo2_blocks(method: str) -> dict[str, Setup]:
+    scene = Scene(bounds=([-110, -110], [110, 110]), obstacles=[
+        Box([-40, 10], [-10, 40]), Box([10, 10], [40, 40]), Box([10, -40], [40, -10]), Box([-40, -40], [-10, -10])])
+    groups = []
+    for name, sx, sy in (("north-east", 1, 1), ("north-west", -1, 1), ("south-east", 1, -1), ("south-west", -1, -1)):
+        start = np.array([[sx * (55.0 + 10 * i), sy * (55.0 + 10 * j)] for i in range(5) for j in range(5)])
+        groups.append(Group(name, 25, spawn=Points(start), goal=Points(-start), radius=2.0, max_speed=2.0,
+                            pref_speed=2.0))
+    return {"blocks": Setup(scene, groups, _params(method, neighbor_dist=15.0))}
+
+
+def _judge_rvo2_blocks(out: dict[str, Outcome]) -> tuple[str, str, bool]:
+    r = out["blocks"]
+    goal = -r.traj.positions[0]
+    near = np.linalg.norm(r.traj.positions - goal[None], axis=2) < 1.0
+    last = float(near.argmax(axis=0).max() * r.traj.dt) if near.any(axis=0).all() else None
+    measured = f"arrived {_arrived(r):.0%}" + (f", the last within 1 m of its goal at {last:.0f} s" if last else "")
+    return (f"all 100 reach their goals, the last no later than in RVO2 itself (870-1030 s)",
+            measured, bool(_arrived(r) == 1.0 and last is not None and last <= RVO2_BLOCKS_LAST_S))
+
+
 CASES: list[Case] = [
     Case("rimea_1_corridor", "RiMEA test 1",
          "one person keeps its walking speed of 1.33 m/s along a 2 m wide, 40 m corridor",
@@ -463,6 +492,9 @@ CASES: list[Case] = [
     Case("crossing", "SteerBench crossing",
          "two streams of 15 cross at right angles", ("rvo", "mdp"), _crossing,
          _judge_all_arrive("crossing", 22 / 1.3, slack=1.5)),
+    Case("rvo2_blocks", "RVO2 example Blocks",
+         "4 x 25 agents (radius 2 m) cross to the opposite corner past four square blocks", ("rvo",),
+         _rvo2_blocks, _judge_rvo2_blocks),
 ]
 
 
