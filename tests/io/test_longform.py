@@ -17,9 +17,11 @@ from crowdmotion.io.longform import _arrow, _tiled_strings
     np.linspace(-1.0, 2.0, 7),
     np.arange(20, dtype=np.float64).reshape(4, 5)[:, 1],  # strided: copied
     np.array([], dtype=np.float64),
+    np.arange(5, dtype=">f8"),  # big-endian: converted, not misread
 ])
 def test_arrow_columns_equal_pyarrow(values):
-    assert _arrow(values).equals(pa.array(values))
+    native = values.astype(values.dtype.newbyteorder("="))  # pyarrow refuses byte-swapped arrays itself
+    assert _arrow(values).equals(pa.array(native))
 
 
 def test_tiled_strings_equal_pyarrow():

@@ -47,6 +47,7 @@ def _arrow(values) -> pa.Array:
     if isinstance(values, pa.Array):
         return values
     values = np.ascontiguousarray(values)
+    values = values.astype(values.dtype.newbyteorder("="), copy=False)  # Arrow's buffers are native-endian
     if values.dtype == bool:
         return pa.Array.from_buffers(pa.bool_(), len(values),
                                      [None, pa.py_buffer(np.packbits(values, bitorder="little"))])
