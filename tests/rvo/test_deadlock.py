@@ -89,3 +89,33 @@ def test_a_crowd_sharing_one_goal_point_all_arrive_when_arrivals_stay():
     assert np.median(dist) < 2 * packed and dist.max() < 4 * packed, np.sort(dist)
     assert result.trajectories.n_frames < 1200, "the run ends once everybody has arrived"
     assert collision_audit(result.trajectories, scene).clean
+
+
+def _standing_pair(blocker_wants, blocker_goal, seconds=4.0, dt=0.1):
+    """Agent 0 at the origin wants +x (goal 10 m east) with agent 1 standing in its way,
+    both standing still for ``seconds``: is agent 0 on a gridlock detour?"""
+    from crowdmotion.rvo.deadlock import Deadlock
+
+    dl = Deadlock(keep_right=0.0, patience=2.0)
+    dl.grow(2)
+    pos = np.array([[0.0, 0.0], [0.6, 0.0]])
+    wanted = np.array([[1.3, 0.0], blocker_wants])
+    goals = np.array([[10.0, 0.0], blocker_goal])
+    still = np.zeros((2, 2))
+    one = np.ones(2)
+    for _ in range(int(round(seconds / dt))):
+        dl.update(pos, wanted, still, 1.3 * one, 0.25 * one, 5.0 * one, np.ones(2, bool), dt, goals)
+    return bool(dl.detour[0])
+
+
+def test_a_gridlock_detour_only_for_crossing_streams_bound_elsewhere():
+    # from the side and bound elsewhere: a gridlock of crossing streams
+    assert _standing_pair([0.0, 1.3], [0.6, 10.0])
+    # not before both have stood 3 s
+    assert not _standing_pair([0.0, 1.3], [0.6, 10.0], seconds=2.5)
+    # a queue: the one ahead goes the same way
+    assert not _standing_pair([1.3, 0.0], [10.0, 0.5])
+    # a crowd converging on one door: from the side, but bound to the same place
+    assert not _standing_pair([0.0, 1.3], [10.0, 1.0])
+    # head-on is the yielding rule's, not a detour
+    assert not _standing_pair([-1.3, 0.0], [-10.0, 0.0])

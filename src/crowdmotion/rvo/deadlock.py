@@ -1,11 +1,11 @@
-"""Breaking RVO stand-offs: keep right, yielding by priority, and arrival by contact at a
-shared goal point.
+"""Breaking RVO stand-offs: keep right, yielding by priority, detours round gridlocks, and
+arrival by contact at a shared goal point.
 
 Eq. (3) of the paper, penalty(v′) = w / tc(v′) + ‖v_pref − v′‖, lets an agent stand still
 for good: standing costs ‖v_pref‖ and every move towards a blocker costs at least as much,
 so two walkers meeting head-on in a doorway wait for each other forever (up to 2w metres
-apart: w · 2v / gap ≥ v). Two documented rules (docs/rvo.md, "Nobody waits for good")
-break that; neither touches the continuous-time guarantee, which the step's safety pass
+apart: w · 2v / gap ≥ v). Documented rules (docs/rvo.md, "Nobody waits for good")
+break that; none touches the continuous-time guarantee, which the step's safety pass
 (``_contact.resolve_conflicts``) and the hard obstacle constraint keep on their own:
 
 1. **Keep right** (in the kernel, ``_kernels._kept_right``): an agent meeting an oncoming
@@ -21,12 +21,20 @@ break that; neither touches the continuous-time guarantee, which the step's safe
    away from the other and turned 30° to its right; once out of the way it waits until
    the other has walked past (or 10 s have gone). A one-body-wide passage thus clears.
 
+3. **Gridlock detour**: an agent standing (below 5 % of its preferred speed) for
+   ``DETOUR_STILL_S`` seconds, held up by an agent in its way that stands as long, comes
+   from the side (their v_pref 60-120° apart) and is bound elsewhere (the straight lines
+   to their goals over 60° apart), walks 60° to the right of its way until it makes
+   progress again: crossing streams locked in a crossing circulate round it, as traffic
+   round a roundabout. Standing, not slow progress, and goals apart keep it out of queues
+   and of crowds converging on one door.
+
 Lowering w for agents held up ("impatience") was tried and dropped: in a four-way
 crossing (RVO2's Blocks) everyone pushes in and the crossing jams for good.
 
 And for goals shared by a crowd when arrivals stay (``remove_on_arrival = False``):
 
-3. **Arrival by contact**: an agent touching (within 0.1 m) an agent already arrived at the
+4. **Arrival by contact**: an agent touching (within 0.1 m) an agent already arrived at the
    same goal point, which is nearer the point than itself, has arrived too. The arrived
    agents form a packed disc round the point that grows with the queue.
 """
@@ -44,6 +52,9 @@ SLOW = 0.1             # progress along v_pref below this fraction of pref_speed
 YIELD_TURN = np.deg2rad(30.0)  # a yielding agent backs away turned this far to its right
 YIELD_MAX_S = 10.0
 CONTACT_GAP_M = 0.1
+DETOUR_STILL_S = 3.0  # standing (not creeping in a queue) this long, and the blocker too: a gridlock
+STILL = 0.05  # below this fraction of pref_speed an agent stands
+DETOUR_TURN = np.deg2rad(60.0)  # a gridlocked agent walks this far to the right of its way
 
 
 def _turn_right(v: np.ndarray, angle: float) -> np.ndarray:
@@ -66,12 +77,16 @@ class Deadlock:
         self.stuck = np.zeros(0)
         self.yield_to = np.zeros(0, dtype=np.int64)   # -1: not yielding
         self.yield_left = np.zeros(0)                  # seconds of yielding left
+        self.detour = np.zeros(0, dtype=bool)          # gridlocked: walking round to the right
+        self.still = np.zeros(0)                       # seconds standing without a break
 
     def grow(self, n: int) -> None:
         """Make room for ``n`` new agents."""
         self.stuck = np.concatenate([self.stuck, np.zeros(n)])
         self.yield_to = np.concatenate([self.yield_to, np.full(n, -1, dtype=np.int64)])
         self.yield_left = np.concatenate([self.yield_left, np.zeros(n)])
+        self.detour = np.concatenate([self.detour, np.zeros(n, dtype=bool)])
+        self.still = np.concatenate([self.still, np.zeros(n)])
 
     @staticmethod
     def priority(ids: np.ndarray) -> np.ndarray:
@@ -81,20 +96,27 @@ class Deadlock:
     def yielding_velocities(self, pos, wanted, pref_speed, radius, active) -> np.ndarray:
         """v_pref with yielding agents' replaced by a step back and to the right of the one
         they yield to."""
+        out = wanted
+        d = np.flatnonzero(self.detour & (self.yield_to < 0) & active)
+        if len(d):
+            out = wanted.copy()
+            out[d] = _turn_right(wanted[d], DETOUR_TURN)
         y = np.flatnonzero((self.yield_to >= 0) & active)
         if len(y) == 0:
-            return wanted
-        out = wanted.copy()
+            return out
+        out = out.copy()
         j = self.yield_to[y]
         away = _turn_right(_unit(pos[y] - pos[j]), YIELD_TURN)
         in_way = _blocks(pos, wanted, radius, j, y)  # still on the other's line: back off, else wait
         out[y] = np.where(in_way[:, None], away * pref_speed[y, None], 0.0)
         return out
 
-    def update(self, pos, wanted, chosen, pref_speed, radius, sight, active, dt) -> int:
-        """After a step: held-up time, end of yields, new yields; returns how many began.
+    def update(self, pos, wanted, chosen, pref_speed, radius, sight, active, dt, goals=None) -> int:
+        """After a step: held-up time, end of yields, new yields and detours; returns how
+        many yields began.
 
-        ``sight`` is each agent's neighbour distance D: how far ahead a blocker counts.
+        ``sight`` is each agent's neighbour distance D: how far ahead a blocker counts;
+        ``goals`` (N, 2) where each agent is going (detours need them).
         """
         held_up_time(wanted, chosen, pref_speed, active, self.yield_to, SLOW, dt, self.stuck)
         # yields end once the other has walked past, is gone, or after YIELD_MAX_S
@@ -105,6 +127,9 @@ class Deadlock:
             past = np.einsum("ij,ij->i", pos[y] - pos[j], _unit(wanted[j])) <= 0
             done = past | ~active[j] | ~active[y] | (self.yield_left[y] <= 0)
             self.yield_to[y[done]] = -1
+        standing = active & (np.linalg.norm(chosen, axis=1) < STILL * pref_speed)
+        self.still = np.where(standing, self.still + dt, 0.0)
+        self.detour &= self.stuck >= self.patience / 2  # walking again: back on its way
         # new yields: of two agents blocking each other for long, the lower priority steps aside
         cand = np.flatnonzero(self.stuck >= self.patience)
         if len(cand) == 0:
@@ -119,9 +144,17 @@ class Deadlock:
         j = live[k[found]]
         gap = np.linalg.norm(pos[j] - pos[i], axis=1) - radius[i] - radius[j]
         mutual = (self.stuck[j] >= self.patience / 2) | (self.yield_to[j] >= 0)
-        head_on = np.einsum("ij,ij->i", _unit(wanted[i]), _unit(wanted[j])) < -0.5
-        keep = ((i != j) & head_on & _blocks(pos, wanted, radius, i, j, sight[i])
-                & _blocks(pos, wanted, radius, j, i, sight[j]) & mutual & (self.priority(j) > self.priority(i)))
+        facing = np.einsum("ij,ij->i", _unit(wanted[i]), _unit(wanted[j]))
+        blocked = (i != j) & _blocks(pos, wanted, radius, i, j, sight[i]) & mutual
+        if goals is not None:
+            # rule 3, a gridlock: both standing (not creeping, as a queue does) for
+            # DETOUR_STILL_S, the blocker crossing our way from the side and bound elsewhere
+            # (not one converging on the same door): walk round to the right
+            bound = np.einsum("ij,ij->i", _unit(goals[i] - pos[i]), _unit(goals[j] - pos[j]))
+            long = (self.still[i] >= DETOUR_STILL_S) & (self.still[j] >= DETOUR_STILL_S)
+            self.detour[i[blocked & long & (np.abs(facing) < 0.5) & (bound < 0.5)]] = True
+        keep = (blocked & (facing < -0.5) & _blocks(pos, wanted, radius, j, i, sight[j])
+                & (self.priority(j) > self.priority(i)))
         i, j, gap = i[keep], j[keep], gap[keep]
         if len(i) == 0:
             return 0

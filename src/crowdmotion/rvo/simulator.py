@@ -333,7 +333,7 @@ class Simulator:
         self.time += self.dt
         self.steps += 1
         self.stats["yields"] += dl.update(self.positions, wanted, new, p["pref_speed"], p["radius"],
-                                          p["neighbor_dist"], self.active, self.dt)
+                                          p["neighbor_dist"], self.active, self.dt, self.goals)
         self._arrivals()
 
     def _arrivals(self) -> None:
