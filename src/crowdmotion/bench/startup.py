@@ -55,10 +55,15 @@ def _timed(cmd: list[str], env: dict) -> float:
     return time.perf_counter() - t
 
 
+def _run_command(name: str, root: Path) -> list[str]:
+    """``crowdmotion run NAME`` as the benchmark times it: quiet, into ``root``/out/NAME."""
+    return [sys.executable, "-m", "crowdmotion.cli", "run", name, "-o", str(root / "out" / name), "--overwrite", "-q"]
+
+
 def measure(name: str, root: Path) -> dict:
     """Cold, warm and simulation-only seconds for one built-in scene."""
     env = dict(os.environ, NUMBA_CACHE_DIR=str(root / "numba" / name))
-    run = [sys.executable, "-m", "crowdmotion.cli", "run", name, "-o", str(root / "out" / name), "--overwrite", "-q"]
+    run = _run_command(name, root)
     cold = _timed(run, env)
     warm = _timed(run, env)
     bare = _timed(run + ["--plots", "none"], env)
@@ -73,7 +78,7 @@ def cold_and_warm(name: str, root: Path, src: str | None) -> tuple[float, float]
     env.pop("PYTHONPATH", None)
     if src:
         env["PYTHONPATH"] = src
-    run = [sys.executable, "-m", "crowdmotion.cli", "run", name, "-o", str(root / "out" / name), "--overwrite", "-q"]
+    run = _run_command(name, root)
     return _timed(run, env), _timed(run, env)
 
 

@@ -59,12 +59,12 @@ ROUTE_PROBE_M = 4.0  # a vertex whose march would meet a static obstacle this so
 PAIR_TOLERANCE = 0.01  # a car's wheels further off its width than this share are re-made rigid
 CAR_TURN_RADIUS = 4.0  # metres: a car turns at most |v| / radius rad/s (a kinematic car), ...
 CAR_TURN_MIN = 0.3  # ... and at least this many rad/s, so a standing car can still straighten up
+REBALANCE_EVERY = 2.0  # seconds between whole-group reassignments in the target area
 
 
 def _rotation(angle: float) -> np.ndarray:
     c, s = np.cos(angle), np.sin(angle)
     return np.array([[c, -s], [s, c]])
-REBALANCE_EVERY = 2.0  # seconds between whole-group reassignments in the target area
 
 
 @dataclass

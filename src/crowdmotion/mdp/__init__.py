@@ -14,7 +14,8 @@ _EXPORTS = {
     "MDPParams": "params", "Params": "params",
     "MDPRun": "simulation", "resample": "simulation", "run": "simulation", "simulate": "simulation",
     "METHODS": "solvers", "dijkstra": "solvers", "dijkstra_unsorted": "solvers", "greedy_estimate": "solvers",
-    "heuristic_value_iteration": "solvers", "improved_value_iteration": "solvers", "solve": "solvers", "value_iteration": "solvers",
+    "heuristic_value_iteration": "solvers", "improved_value_iteration": "solvers", "solve": "solvers",
+    "value_iteration": "solvers",
     "RAW_GRID_RADIUS": "trajectory", "generate_trajectories": "trajectory",
 }
 __getattr__, __all__ = lazy_exports(__name__, _EXPORTS)

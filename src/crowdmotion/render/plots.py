@@ -11,7 +11,7 @@ import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 from matplotlib import patches  # noqa: E402
 from matplotlib.collections import EllipseCollection, LineCollection  # noqa: E402
-from matplotlib.colors import to_rgba  # noqa: E402
+from matplotlib.colors import to_rgb, to_rgba  # noqa: E402
 
 from crowdmotion.io.atomic import atomic_path  # noqa: E402
 from crowdmotion.render.colours import group_colours  # noqa: E402
@@ -67,22 +67,31 @@ def marker_handles() -> list:
             Line2D([], [], marker="o", ls="", color="0.3", ms=6, label="end (body to scale)")]
 
 
+TORN_EDGE = dict(colors="red", alpha=0.6, linestyles="--")  # how a torn mesh edge is drawn
+
+
+def _mesh_lines(colour, lw: float, alpha: float, intact=(), torn=(), animated: bool = False) -> tuple:
+    """A formation mesh's intact edges (in ``colour``) and torn edges (``TORN_EDGE``) as
+    two line collections of (m, 2, 2) segments."""
+    return (LineCollection(intact, linewidths=lw, zorder=3, colors=[colour], alpha=alpha, animated=animated),
+            LineCollection(torn, linewidths=lw, zorder=3, animated=animated, **TORN_EDGE))
+
+
 def _draw_mesh(ax, vertices: np.ndarray, edges: np.ndarray, torn: np.ndarray, colour, lw: float,
                alpha: float) -> None:
     """A formation mesh: intact edges in ``colour``, torn ones red and dashed (one line
     collection each: a Line2D per edge made the formation GIF take half a minute)."""
-    for sel, style in ((~torn, dict(colors=[colour], alpha=alpha)),
-                       (torn, dict(colors="red", alpha=0.6, linestyles="--"))):
+    segments = vertices[edges][:, :, :2]
+    for sel, lines in zip((~torn, torn), _mesh_lines(colour, lw, alpha, segments[~torn], segments[torn])):
         if sel.any():
-            ax.add_collection(LineCollection(vertices[edges[sel]][:, :, :2], linewidths=lw, zorder=3, **style))
+            ax.add_collection(lines)
 
 
 def _mesh_artists(ax, colour, lw: float, alpha: float) -> tuple:
     """Empty, animated artists for one formation in an animation: intact edges, torn
-    edges (red, dashed) and agents (points), styled as :func:`_draw_mesh` and the
-    snapshots draw them; fill them with ``set_segments`` / ``set_offsets``."""
-    intact = LineCollection([], linewidths=lw, zorder=3, colors=[colour], alpha=alpha, animated=True)
-    torn = LineCollection([], linewidths=lw, zorder=3, colors="red", alpha=0.6, linestyles="--", animated=True)
+    edges and agents (points), styled as the snapshots draw them; fill them with
+    ``set_segments`` / ``set_offsets``."""
+    intact, torn = _mesh_lines(colour, lw, alpha, animated=True)
     for lines in (intact, torn):
         ax.add_collection(lines, autolim=False)
     dots = ax.scatter(np.empty(0), np.empty(0), s=8, zorder=4, animated=True)
@@ -117,7 +126,6 @@ def gif_palette(first: np.ndarray, colours=()):
     together with ramps from white to each of ``colours`` and to red and black (what
     later frames add: agents, trails and torn edges drawn with alpha over the white
     ground). Returns a palette image for :func:`gif_image`."""
-    from matplotlib.colors import to_rgb
     from PIL import Image
 
     rgb = np.asarray(_rgb_image(first))

@@ -95,16 +95,15 @@ class Deadlock:
 
     def yielding_velocities(self, pos, wanted, pref_speed, radius, active) -> np.ndarray:
         """v_pref with yielding agents' replaced by a step back and to the right of the one
-        they yield to."""
-        out = wanted
+        they yield to, and gridlocked agents' turned right by ``DETOUR_TURN``."""
         d = np.flatnonzero(self.detour & (self.yield_to < 0) & active)
-        if len(d):
-            out = wanted.copy()
-            out[d] = _turn_right(wanted[d], DETOUR_TURN)
         y = np.flatnonzero((self.yield_to >= 0) & active)
+        if len(d) == 0 and len(y) == 0:
+            return wanted
+        out = wanted.copy()
+        out[d] = _turn_right(wanted[d], DETOUR_TURN)
         if len(y) == 0:
             return out
-        out = out.copy()
         j = self.yield_to[y]
         away = _turn_right(_unit(pos[y] - pos[j]), YIELD_TURN)
         in_way = _blocks(pos, wanted, radius, j, y)  # still on the other's line: back off, else wait
