@@ -14,12 +14,34 @@ from crowdmotion.scenario import load_scenario, run_scenario
 RECORD = json.loads(pc.RECORD.read_text())
 
 
-def test_shares_are_balanced_by_compile_time():
+def _names(lists):
+    return [[k["name"] for k in lst] for lst in lists]
+
+
+def test_lists_are_balanced_by_compile_time():
     kernels = [{"name": n, "seconds": s} for n, s in (("a", 5.0), ("b", 3.0), ("c", 2.0), ("d", 1.0), ("e", 1.0))]
-    shares = pc.share_out(kernels, 2)
-    loads = sorted(sum(k["seconds"] for k in s) for s in shares)
+    lists = pc.schedule(kernels, 2)
+    loads = sorted(sum(k["seconds"] for k in s) for s in lists)
     assert loads == [6.0, 6.0]  # a+e against b+c+d
-    assert len(pc.share_out(kernels[:1], 4)) == 1  # no empty shares
+    assert len(pc.schedule(kernels[:1], 4)) == 1  # no empty lists
+
+
+def test_helpers_compile_first_and_side_by_side():
+    # k needs h1 and h2 (2 s each); k's own compile takes 3 s; x stands alone (4 s).
+    # On two cores: h1 and h2 side by side, then k, with x filling the other core
+    kernels = [{"name": "k", "seconds": 3.0, "needs": ["h1", "h2"]}, {"name": "h1", "seconds": 2.0},
+               {"name": "h2", "seconds": 2.0}, {"name": "x", "seconds": 4.0}]
+    lists = pc.schedule(kernels, 2)
+    order = {k["name"]: (w, i) for w, lst in enumerate(lists) for i, k in enumerate(lst)}
+    assert {order["h1"][0], order["h2"][0]} == {0, 1}  # the helpers on different cores
+    (wk, ik) = order["k"]
+    assert all(order[h][0] != wk or order[h][1] < ik for h in ("h1", "h2"))  # after its helpers
+    waits = {k["name"]: k["wait"] for lst in lists for k in lst}
+    assert waits["k"] == [h for h in ("h1", "h2") if order[h][0] != wk]  # waits only for the other core
+    assert sum(k["seconds"] for k in lists[order["x"][0]]) <= 6.0  # x fills the core k does not use
+    # a cycle (no kernel of ours has one) still schedules everything
+    loop = [{"name": "a", "seconds": 1.0, "needs": ["b"]}, {"name": "b", "seconds": 1.0, "needs": ["a"]}]
+    assert sorted(n for lst in _names(pc.schedule(loop, 2)) for n in lst) == ["a", "b"]
 
 
 def test_signatures_parse_without_eval():
@@ -35,17 +57,14 @@ def test_signatures_parse_without_eval():
 
 @pytest.mark.parametrize("method", sorted(RECORD))
 def test_the_record_matches_what_a_run_compiles(method):
-    # a kernel whose argument types changed would be precompiled for nothing: rerun
-    # python -m crowdmotion._precompile --record
-    paths = {p.stem: p for p in builtin_scenarios()}
-    for scene in pc.SCENES[method]:
-        run_scenario(load_scenario(paths[scene]), progress=False)
+    # a kernel whose argument types changed, or a helper added or gone, would be
+    # precompiled for nothing: rerun python -m crowdmotion._precompile --record
+    now = {k["name"]: (sorted(k["signatures"]), bool(k.get("at_load"))) for k in pc._fresh_run("--record-one", method)}
+    recorded = {k["name"]: (sorted(k["signatures"]), bool(k.get("at_load"))) for k in RECORD[method]}
+    assert now == recorded
+    names = set(recorded)
     for k in RECORD[method]:
-        disp = pc._dispatcher(k["name"])
-        used = {str(tuple(s)) for s in disp.signatures}
-        for sig in k["signatures"]:
-            assert sig in used, f"{k['name']}: recorded types not used any more; rerun the record"
-            assert pc.parse_signature(sig) in [tuple(s) for s in disp.signatures]
+        assert set(k.get("needs", ())) <= names  # a helper it waits for is one the record compiles
 
 
 @pytest.mark.skipif(not hasattr(os, "fork"), reason="needs fork")
@@ -88,7 +107,7 @@ import json
 from numba.core import event
 from crowdmotion import _precompile as pc
 pc.begin("mdp")
-children = [pid for _, pids, _ in pc._PENDING.values() for pid in pids]
+children = [pid for v in pc._PENDING.values() for pid in v[1]]
 compiled = []
 class L(event.Listener):
     def on_start(self, ev): pass
@@ -123,7 +142,7 @@ import json, sys
 from crowdmotion import _precompile as pc
 from crowdmotion.cli import main
 code = main(["run", {str(bad)!r}, "-q", "-o", {str(tmp_path / "out")!r}])
-print(json.dumps({{"code": code, "children": [p for _, pids, _ in pc._PENDING.values() for p in pids]}}))
+print(json.dumps({{"code": code, "children": [p for v in pc._PENDING.values() for p in v[1]]}}))
 """
     env = {**os.environ, "NUMBA_CACHE_DIR": str(tmp_path / "cache"), "CROWDMOTION_PRECOMPILE": "1"}
     out = subprocess.run([sys.executable, "-c", script], env=env, capture_output=True, text=True, check=True)
@@ -139,7 +158,49 @@ def test_kernels_compiled_while_checking_stay_with_this_process():
     # take a core from the rest
     at_load = [{"name": "check", "seconds": 1.0, "at_load": True}]
     rest = [{"name": n, "seconds": s} for n, s in (("a", 4.0), ("b", 2.0), ("c", 1.0))]
-    mine, *theirs = pc.share_out(rest, 2, first=at_load)
-    assert mine[0]["name"] == "check" and [k["name"] for k in mine] == ["check", "b", "c"]
-    assert [[k["name"] for k in s] for s in theirs] == [["a"]]
-    assert pc.share_out([], 2, first=at_load) == [at_load]
+    mine, *theirs = pc.schedule(rest, 2, first=at_load)
+    assert _names([mine]) == [["check", "b", "c"]]
+    assert _names(theirs) == [["a"]]
+    assert _names(pc.schedule([], 2, first=at_load)) == [["check"]]
+    # while this process still reads the scenario, the children take more
+    mine, *theirs = pc.schedule(rest, 2, first=at_load, head_start=3.0)
+    assert _names([mine]) == [["check", "b"]] and _names(theirs) == [["a", "c"]]
+
+
+def test_what_the_check_compiles_comes_with_its_helpers():
+    kernels = [{"name": "check", "seconds": 1.0, "at_load": True, "needs": ["h"]}, {"name": "h", "seconds": 1.0},
+               {"name": "k", "seconds": 2.0, "needs": ["h"]}]
+    assert [k["name"] for k in pc._closure(kernels, {"check"})] == ["h", "check"]
+
+
+@pytest.mark.skipif(not hasattr(os, "fork"), reason="needs fork")
+def test_helpers_are_compiled_once_and_loaded_by_their_callers(tmp_path):
+    # PSO's avoid-and-commit calls seven helpers that compile on their own cores first:
+    # the kernels of this process's list load them from the cache instead of compiling
+    # them again
+    script = """
+import json
+from numba.core import event
+from crowdmotion import _precompile as pc
+plan = pc._plan("pso")
+compiled = []
+class L(event.Listener):
+    def on_start(self, ev): pass
+    def on_end(self, ev):
+        d = ev.data["dispatcher"]; compiled.append(d.py_func.__module__ + ":" + d.py_func.__qualname__)
+event.register("numba:compile", L())
+done = pc.start("pso")
+print(json.dumps({"mine": [k["name"] for k in plan[0]] if plan else [], "compiled": compiled, "done": done,
+                  "cold": [k["name"] for k in json.loads(pc.RECORD.read_text())["pso"] if pc._cold(k)]}))
+"""
+    env = {**os.environ, "NUMBA_CACHE_DIR": str(tmp_path), "CROWDMOTION_PRECOMPILE": "1"}
+    out = subprocess.run([sys.executable, "-c", script], env=env, capture_output=True, text=True, check=True)
+    result = json.loads(out.stdout.strip().splitlines()[-1])
+    cores = len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else os.cpu_count()
+    if cores < 2:
+        assert result["done"] == 0
+        return
+    assert result["done"] == len(RECORD["pso"]) and result["cold"] == []  # every kernel in the cache
+    ours = {k["name"] for k in RECORD["pso"]}
+    compiled_here = [n for n in result["compiled"] if n in ours]
+    assert sorted(compiled_here) == sorted(result["mine"])  # this process's list, no helper twice

@@ -23,8 +23,10 @@ import importlib
 import json
 import os
 import re
+import shutil
 import signal
 import sys
+import tempfile
 import threading
 import time
 from pathlib import Path
@@ -68,18 +70,56 @@ def _cores() -> int:
     return len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else (os.cpu_count() or 1)
 
 
-def share_out(kernels: list[dict], parts: int, first: list[dict] = ()) -> list[list[dict]]:
-    """Kernels into ``parts`` lists of about equal compile time (longest first, each to
-    the least loaded list); ``first`` are given to the first list beforehand (kernels
-    this process compiles anyway). Empty lists are dropped, but the first is kept when
-    ``first`` is given."""
-    bins: list[list[dict]] = [list(first)] + [[] for _ in range(max(1, parts) - 1)]
-    load = [sum(k["seconds"] for k in first)] + [0.0] * (len(bins) - 1)
-    for k in sorted(kernels, key=lambda k: -k["seconds"]):
-        i = load.index(min(load))
-        bins[i].append(k)
-        load[i] += k["seconds"]
-    return [b for i, b in enumerate(bins) if b or (i == 0 and first)]
+def _marker(name: str) -> str:
+    return re.sub(r"[^\w.-]", "_", name)
+
+
+def schedule(kernels: list[dict], workers: int, first: list[dict] = (), head_start: float = 0.0) -> list[list[dict]]:
+    """Kernels into ``workers`` lists to compile side by side, each kernel after the
+    helpers it ``needs`` (list scheduling: of the kernels whose helpers are placed, the
+    one heading the longest chain of compile time goes to the list where it can start
+    first). ``first`` go to the first list beforehand, in their order (what this process
+    compiles anyway, while ``head_start`` seconds of other work keep it from the rest).
+    Each kernel comes back as a copy with ``wait``: the helpers it needs that another
+    list compiles. Empty lists are dropped, but the first is kept when ``first`` is given.
+    """
+    first = list(first)
+    items = first + [k for k in kernels if k["name"] not in {f["name"] for f in first}]
+    by = {k["name"]: k for k in items}
+    needs = {k["name"]: [n for n in k.get("needs", ()) if n in by and n != k["name"]] for k in items}
+    users: dict[str, list[str]] = {n: [] for n in by}
+    for n, ds in needs.items():
+        for d in ds:
+            users[d].append(n)
+    chain: dict[str, float] = {}
+
+    def chain_of(name: str, seen: frozenset = frozenset()) -> float:  # compile time from here to the end
+        if name not in chain:
+            later = [chain_of(u, seen | {name}) for u in users[name] if u not in seen]
+            chain[name] = by[name]["seconds"] + max(later, default=0.0)
+        return chain[name]
+
+    lists: list[list[dict]] = [[] for _ in range(max(1, workers))]
+    free = [0.0] * len(lists)
+    finish: dict[str, float] = {}
+    where: dict[str, int] = {}
+    for k in first:
+        free[0] += k["seconds"]
+        finish[k["name"]], where[k["name"]] = free[0], 0
+        lists[0].append(k)
+    free[0] += head_start
+    pending = [k for k in items if k["name"] not in finish]
+    while pending:
+        ready = [k for k in pending if all(d in finish for d in needs[k["name"]])] or pending  # (a cycle: any)
+        k = max(ready, key=lambda k: chain_of(k["name"]))
+        after = max((finish.get(d, 0.0) for d in needs[k["name"]]), default=0.0)
+        w = min(range(len(lists)), key=lambda w: (max(free[w], after), w))
+        free[w] = max(free[w], after) + k["seconds"]
+        finish[k["name"]], where[k["name"]] = free[w], w
+        lists[w].append(k)
+        pending.remove(k)
+    out = [[{**k, "wait": [d for d in needs[k["name"]] if where[d] != w]} for k in lst] for w, lst in enumerate(lists)]
+    return [lst for i, lst in enumerate(out) if lst or (i == 0 and first)]
 
 
 def _cold(kernel: dict) -> bool:
@@ -91,22 +131,53 @@ def _cold(kernel: dict) -> bool:
         return False
 
 
-def _compile(kernels: list[dict]) -> None:
+def _await(marker: Path, deadline: float) -> None:
+    while not marker.exists() and time.monotonic() < deadline:
+        time.sleep(0.005)
+
+
+def _compile(kernels: list[dict], marks: Path | None = None, deadline: float = 0.0) -> None:
+    """Compile each kernel into the cache, after the helpers it waits for (their markers
+    in ``marks``; past ``deadline`` it goes ahead and compiles what it lacks itself), and
+    mark it done."""
     for k in kernels:
+        if marks is not None:
+            for name in k.get("wait", ()):
+                _await(marks / _marker(name), deadline)
         try:
             disp = _dispatcher(k["name"])
             for sig in k["signatures"]:
                 disp.compile(parse_signature(sig))
         except Exception:  # stale record: the run compiles it when it calls it
-            continue
+            pass
+        finally:
+            if marks is not None:
+                (marks / _marker(k["name"])).touch()
 
 
-_PENDING: dict[str, tuple[list[dict], list[int], int]] = {}  # begun: (this share, children, kernels)
+def _closure(kernels: list[dict], names: set[str]) -> list[dict]:
+    """The kernels called ``names`` and every helper they need, helpers first."""
+    by = {k["name"]: k for k in kernels}
+    out: dict[str, dict] = {}
+
+    def visit(name: str, seen: frozenset = frozenset()) -> None:
+        if name in by and name not in out and name not in seen:
+            for d in by[name].get("needs", ()):
+                visit(d, seen | {name})
+            out[name] = by[name]
+    for k in kernels:
+        if k["name"] in names:
+            visit(k["name"])
+    return list(out.values())
 
 
-def _plan(method: str, background: bool = False):
-    """The cold kernels of ``method`` shared out as (this process's share, the children's
-    shares, how many), or None where nothing is to be done or compiling cannot be spread.
+# begun: (this process's share, children, kernels, marker folder, deadline)
+_PENDING: dict[str, tuple[list[dict], list[int], int, Path, float]] = {}
+
+
+def _plan(method: str, background: bool = False, head_start: float = 0.0):
+    """The cold kernels of ``method`` scheduled as (this process's list, the children's
+    lists, how many), or None where nothing is to be done or compiling cannot be spread.
     ``background``: all of it to children (on the other cores), none to this process."""
     if os.environ.get("CROWDMOTION_PRECOMPILE", "1") == "0" or not hasattr(os, "fork"):
         return None
@@ -121,28 +192,28 @@ def _plan(method: str, background: bool = False):
     if not todo or cores < 2:
         return None
     if background:
-        return [], share_out(todo, min(cores - 1, len(todo))), len(todo)
+        return [], schedule(todo, min(cores - 1, len(todo))), len(todo)
     # what reading and checking a scenario calls (RVO's line-of-sight test, for one) this
-    # process compiles anyway: its share starts with those, so no child compiles them too
-    at_load = [k for k in todo if k.get("at_load")]
-    rest = [k for k in todo if not k.get("at_load")]
-    if not rest:
+    # process compiles anyway, with its helpers: its list starts with those, so no child
+    # compiles them too
+    first = _closure(todo, {k["name"] for k in todo if k.get("at_load")})
+    if len(first) == len(todo):
         return None
-    mine, *theirs = share_out(rest, min(cores, len(rest) + bool(at_load)), first=at_load)
+    mine, *theirs = schedule(todo, min(cores, len(todo)), first=first, head_start=head_start)
     return mine, theirs, len(todo)
 
 
-def _fork(shares: list[list[dict]]) -> list[int]:
-    """A child per share, compiling it into the cache and leaving at once; their pids."""
+def _fork(lists: list[list[dict]], marks: Path, deadline: float) -> list[int]:
+    """A child per list, compiling it into the cache and leaving at once; their pids."""
     children = []
-    for share in shares:
+    for share in lists:
         sys.stdout.flush()
         sys.stderr.flush()
         pid = os.fork()
         if pid == 0:
             code = 0
             try:
-                _compile(share)
+                _compile(share, marks, deadline)
             except BaseException:
                 code = 1
             os._exit(code)
@@ -150,10 +221,9 @@ def _fork(shares: list[list[dict]]) -> list[int]:
     return children
 
 
-def _wait(children: list[int]) -> None:
-    """Wait for the children; one still compiling after ``CHILD_TIMEOUT_S`` is stopped
-    (the run then compiles what it lacks as usual)."""
-    deadline = time.monotonic() + CHILD_TIMEOUT_S
+def _wait(children: list[int], deadline: float) -> None:
+    """Wait for the children; one still compiling after the deadline is stopped (the run
+    then compiles what it lacks as usual)."""
     for pid in children:
         while os.waitpid(pid, os.WNOHANG) == (0, 0):
             if time.monotonic() > deadline:
@@ -163,16 +233,32 @@ def _wait(children: list[int]) -> None:
             time.sleep(0.02)
 
 
+def _launch(method: str, background: bool = False, head_start: float = 0.0):
+    plan = _plan(method, background, head_start)
+    if plan is None:
+        return None
+    mine, theirs, count = plan
+    marks = Path(tempfile.mkdtemp(prefix="crowdmotion-compiling-"))
+    deadline = time.monotonic() + CHILD_TIMEOUT_S
+    return mine, _fork(theirs, marks, deadline), count, marks, deadline
+
+
 def _stop_pending() -> None:
     """At exit: children begun for a run that never started (a scenario refused) stop."""
-    for _, children, _ in _PENDING.values():
+    for _, children, _, marks, _ in _PENDING.values():
         for pid in children:
             try:
                 os.kill(pid, signal.SIGKILL)
                 os.waitpid(pid, 0)
             except (OSError, ChildProcessError):
                 pass
+        shutil.rmtree(marks, ignore_errors=True)
     _PENDING.clear()
+
+
+# what `crowdmotion run` does between begin() and start() (imports, reading and checking
+# the scenario), in seconds of this process's time that the schedule leaves to children
+LOAD_S = 1.0
 
 
 def begin(method: str, background: bool = False) -> None:
@@ -183,13 +269,12 @@ def begin(method: str, background: bool = False) -> None:
     demo's next method while this one's scenes run)."""
     if method in _PENDING:
         return
-    plan = _plan(method, background)
-    if plan is None:
+    launched = _launch(method, background, head_start=LOAD_S)
+    if launched is None:
         return
-    mine, theirs, count = plan
     if not _PENDING:
         atexit.register(_stop_pending)
-    _PENDING[method] = (mine, _fork(theirs), count)
+    _PENDING[method] = launched
 
 
 def start(method: str) -> int:
@@ -197,16 +282,15 @@ def start(method: str) -> int:
     until every share is done; returns how many kernels were compiled (0 when the cache
     already had them, on one core, or where fork is missing). Finishes what
     :func:`begin` started, if it did."""
-    if method in _PENDING:
-        mine, children, count = _PENDING.pop(method)
-    else:
-        plan = _plan(method)
-        if plan is None:
-            return 0
-        mine, theirs, count = plan
-        children = _fork(theirs)
-    _compile(mine)
-    _wait(children)
+    launched = _PENDING.pop(method, None) or _launch(method)
+    if launched is None:
+        return 0
+    mine, children, count, marks, deadline = launched
+    try:
+        _compile(mine, marks, deadline)
+        _wait(children, deadline)
+    finally:
+        shutil.rmtree(marks, ignore_errors=True)
     return count
 
 
@@ -214,25 +298,45 @@ SCENES = {"rvo": ("rvo_street_O", "rvo_doorway"), "pso": ("pso_gathering", "pso_
           "formation": ("formation_exchange", "formation_army"), "mdp": ("mdp_robots_2d", "mdp_drones_3d")}
 
 
-def record(methods=tuple(SCENES)) -> dict:
-    """For each method, run a few small built-in scenes in a fresh process on an empty
-    cache and note every kernel called from Python (not nested in another): its argument
-    types and compile time."""
+def _fresh_run(*args: str, stdin: str = "") -> object:
+    """``python -m crowdmotion._precompile ARGS`` in a fresh process on an empty cache,
+    with nothing precompiled; its last line of output, read as JSON."""
     import subprocess
-    import tempfile
 
+    cache = tempfile.mkdtemp(prefix="crowdmotion-record-")
+    try:
+        env = {**os.environ, "NUMBA_CACHE_DIR": cache, "CROWDMOTION_PRECOMPILE": "0"}
+        done = subprocess.run([sys.executable, "-m", "crowdmotion._precompile", *args], env=env, input=stdin,
+                              check=True, capture_output=True, text=True)
+    finally:
+        shutil.rmtree(cache, ignore_errors=True)
+    return json.loads(done.stdout.strip().splitlines()[-1])
+
+
+def record(methods=tuple(SCENES)) -> dict:
+    """For each method: the kernels its runs compile, with the helpers they call and
+    their argument types (a run of a few small built-in scenes in a fresh process on an
+    empty cache), and how long each takes to compile once its helpers are in the cache
+    (each compiled in turn, helpers first, in another fresh process)."""
     out = {}
     for method in methods:
-        env = {**os.environ, "NUMBA_CACHE_DIR": tempfile.mkdtemp(prefix="crowdmotion-record-"),
-               "CROWDMOTION_PRECOMPILE": "0"}
-        done = subprocess.run([sys.executable, "-m", "crowdmotion._precompile", "--record-one", method], env=env,
-                              check=True, capture_output=True, text=True)
-        out[method] = json.loads(done.stdout.strip().splitlines()[-1])
+        kernels = _fresh_run("--record-one", method)
+        for _ in range(3):  # a helper already compiled by another caller in the run: found here
+            kernels, found = _fresh_run("--time-one", stdin=json.dumps(kernels))
+            if not found:
+                break
+        out[method] = sorted(kernels, key=lambda k: -k["seconds"])
     return out
 
 
+def _name(dispatcher) -> str:
+    return f"{dispatcher.py_func.__module__}:{dispatcher.py_func.__qualname__}"
+
+
 def _record_one(method: str) -> list[dict]:
-    """The kernels runs of ``method``'s scenes compile (in this fresh process)."""
+    """The kernels runs of ``method``'s scenes compile (in this fresh process): those
+    called from Python and the helpers they call, cached on disk, with the helpers each
+    needs; ``at_load``: compiled while the scenario was read and checked."""
     from numba.core import event
 
     from crowdmotion.cli import builtin_scenarios
@@ -242,24 +346,24 @@ def _record_one(method: str) -> list[dict]:
 
     class Listener(event.Listener):
         def __init__(self):
-            self.stack = []
+            self.stack: list[str] = []
 
         def on_start(self, ev):
-            self.stack.append(time.perf_counter())
+            self.stack.append(_name(ev.data["dispatcher"]))
 
         def on_end(self, ev):
-            t0 = self.stack.pop()
-            if self.stack:
-                return  # nested: compiled as part of its caller
-            d = ev.data["dispatcher"]
-            name = f"{d.py_func.__module__}:{d.py_func.__qualname__}"
+            name = self.stack.pop()
             if not name.startswith("crowdmotion."):
                 return
-            k = found.setdefault(name, {"name": name, "signatures": [], "seconds": 0.0})
+            k = found.setdefault(name, {"name": name, "signatures": [], "needs": []})
             sig = str(tuple(ev.data["args"]))
             if sig not in k["signatures"]:
                 k["signatures"].append(sig)
-            k["seconds"] = round(k["seconds"] + time.perf_counter() - t0, 3)
+            caller = next((n for n in reversed(self.stack) if n.startswith("crowdmotion.")), None)
+            if caller is not None:
+                found.setdefault(caller, {"name": caller, "signatures": [], "needs": []})
+                if name not in found[caller]["needs"]:
+                    found[caller]["needs"].append(name)
 
     paths = {p.stem: p for p in builtin_scenarios()}
     event.register("numba:compile", Listener())
@@ -279,12 +383,53 @@ def _record_one(method: str) -> list[dict]:
         except Exception:
             continue  # a type we cannot write down, or not reachable by name
         kernels.append(k)
-    return sorted(kernels, key=lambda k: -k["seconds"])
+    names = {k["name"] for k in kernels}
+    for k in kernels:
+        k["needs"] = [n for n in k["needs"] if n in names]
+    return kernels
+
+
+def _time_one(kernels: list[dict]) -> tuple[list[dict], bool]:
+    """Compile the kernels one by one, helpers first (in this fresh process), timing
+    each; a helper compiled inside another kernel's compile was missing from its
+    ``needs``: it is added, and the second value says the timing must be taken again."""
+    from numba import njit
+    from numba.core import event
+
+    njit(lambda a: a + 1)(1)  # numba's own first-compile set-up, not any kernel's
+    order = _closure(kernels, {k["name"] for k in kernels})
+    by = {k["name"]: k for k in order}
+    compiling: list[str] = []
+    missed = False
+
+    class Listener(event.Listener):
+        def on_start(self, ev):
+            compiling.append(_name(ev.data["dispatcher"]))
+
+        def on_end(self, ev):
+            nonlocal missed
+            name = compiling.pop()
+            caller = next((n for n in reversed(compiling) if n in by), None)
+            if name in by and caller is not None and name not in by[caller]["needs"]:
+                by[caller]["needs"].append(name)
+                missed = True
+
+    event.register("numba:compile", Listener())
+    for k in order:
+        t0 = time.perf_counter()
+        disp = _dispatcher(k["name"])
+        for sig in k["signatures"]:
+            disp.compile(parse_signature(sig))
+        k["seconds"] = round(time.perf_counter() - t0, 3)
+    return order, missed
 
 
 if __name__ == "__main__":  # pragma: no cover - a developer's tool
     if len(sys.argv) == 3 and sys.argv[1] == "--record-one":
         print(json.dumps(_record_one(sys.argv[2])))
+        sys.exit(0)
+    if len(sys.argv) == 2 and sys.argv[1] == "--time-one":
+        print(json.dumps(_time_one(json.loads(sys.stdin.read()))))
         sys.exit(0)
     if "--record" not in sys.argv:
         sys.exit("usage: python -m crowdmotion._precompile --record")
