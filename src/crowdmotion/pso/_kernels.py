@@ -238,49 +238,6 @@ def segment_clear(p, k, r, sc, sr, bl, bu, tmp):
     return _segment_clear_listed(p, k, r, sc, sr, bl, bu, tmp, every, 0, every.shape[0])
 
 
-@njit(cache=True)
-def build_obstacle_grid(sc, sr, bl, bu, expand, origin, h, dims):
-    """CSR (start, items) of the obstacles whose bounding box, grown by ``expand``, meets
-    each cell: a particle within ``expand`` of an obstacle finds it in its own cell.
-    Items: j ≥ 0 for sphere j, −j−1 for box j."""
-    d = origin.shape[0]
-    ncell = 1
-    for a in range(d):
-        ncell *= dims[a]
-    m = sr.shape[0] + bl.shape[0]
-    lo_c = np.empty((m, 3), np.int64)
-    hi_c = np.zeros((m, 3), np.int64)
-    for o in range(m):
-        for a in range(d):
-            if o < sr.shape[0]:
-                lo_v, hi_v = sc[o, a] - sr[o] - expand, sc[o, a] + sr[o] + expand
-            else:
-                lo_v, hi_v = bl[o - sr.shape[0], a] - expand, bu[o - sr.shape[0], a] + expand
-            lo_c[o, a] = _cell_coord(lo_v, origin[a], h, dims[a])
-            hi_c[o, a] = _cell_coord(hi_v, origin[a], h, dims[a])
-        if d == 2:
-            lo_c[o, 2] = 0
-    start = np.zeros(ncell + 1, np.int64)
-    for o in range(m):
-        for z in range(lo_c[o, 2], hi_c[o, 2] + 1):
-            for y in range(lo_c[o, 1], hi_c[o, 1] + 1):
-                for x in range(lo_c[o, 0], hi_c[o, 0] + 1):
-                    start[x + dims[0] * (y + (dims[1] * z if d == 3 else 0)) + 1] += 1
-    for c in range(ncell):
-        start[c + 1] += start[c]
-    items = np.empty(start[ncell], np.int64)
-    cursor = start[:-1].copy()
-    for o in range(m):
-        code = o if o < sr.shape[0] else -(o - sr.shape[0]) - 1
-        for z in range(lo_c[o, 2], hi_c[o, 2] + 1):
-            for y in range(lo_c[o, 1], hi_c[o, 1] + 1):
-                for x in range(lo_c[o, 0], hi_c[o, 0] + 1):
-                    c = x + dims[0] * (y + (dims[1] * z if d == 3 else 0))
-                    items[cursor[c]] = code
-                    cursor[c] += 1
-    return start, items
-
-
 @njit(inline="always")
 def _cell_of(p, origin, h, dims):
     c = 0

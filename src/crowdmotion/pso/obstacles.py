@@ -41,6 +41,33 @@ class ObstacleArrays:
         return cls(np.array(sc, float).reshape(-1, d), np.array(sr, float),
                    np.array(bl, float).reshape(-1, d), np.array(bu, float).reshape(-1, d))
 
+    def grid(self, expand: float, origin: np.ndarray, h: float, dims: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """CSR (start, items) of the obstacles whose bounding box, grown by ``expand``,
+        meets each cell of the particles' grid (edge ``h`` from ``origin``, ``dims``
+        cells; cell x + dims[0]·(y + dims[1]·z)): a particle within ``expand`` of an
+        obstacle finds it in its own cell. Items: j ≥ 0 for sphere j, −j−1 for box j, in
+        that order within a cell. Built once per swarm, so numpy rather than a kernel
+        that every first run would compile."""
+        dims = np.asarray(dims, np.int64)
+        lo = np.concatenate([self.sc - self.sr[:, None], self.bl]) - expand
+        hi = np.concatenate([self.sc + self.sr[:, None], self.bu]) + expand
+        codes = np.concatenate([np.arange(len(self.sr)), -1 - np.arange(len(self.bl))])
+
+        def cell(v):  # each axis's cell, the outermost ones taking everything beyond
+            return np.clip(np.trunc((v - origin) / h), 0, dims - 1).astype(np.int64)
+
+        c_lo, c_hi = cell(lo), cell(hi)
+        cells, owner = [np.empty(0, np.int64)], [np.empty(0, np.int64)]
+        for code, a, b in zip(codes, c_lo, c_hi):
+            box = np.meshgrid(*(np.arange(a[k], b[k] + 1) for k in range(len(dims))), indexing="ij")
+            flat = np.ravel_multi_index(tuple(box), tuple(dims), order="F").ravel()
+            cells.append(flat)
+            owner.append(np.full(flat.size, code, np.int64))
+        cells, owner = np.concatenate(cells), np.concatenate(owner)
+        start = np.zeros(int(np.prod(dims)) + 1, np.int64)
+        np.cumsum(np.bincount(cells, minlength=len(start) - 1), out=start[1:])
+        return start, owner[np.argsort(cells, kind="stable")]
+
 
 def obstacle_field(spec: ObstacleField, dim: int, lower, upper, targets, threshold: float,
                    rng: np.random.Generator) -> list:

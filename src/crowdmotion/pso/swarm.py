@@ -113,7 +113,7 @@ class Swarm:
         self.moved = 0
         ob = self.obstacles
         expand = params.detection + float(r.max()) + s_max
-        self._obstacle_grid = K.build_obstacle_grid(ob.sc, ob.sr, ob.bl, ob.bu, expand, *self._grid)
+        self._obstacle_grid = ob.grid(expand, *self._grid)
 
     # ---- targets -----------------------------------------------------------------------
     def _check_targets(self, targets, r):
