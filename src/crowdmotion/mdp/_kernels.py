@@ -464,55 +464,6 @@ AHEAD = 8
 
 
 @njit(cache=True)
-def _min_sq_distance(a, da, b, db, dim):
-    """Least squared distance between a + t*da and b + t*db over t in [0, 1]."""
-    w2 = 0.0
-    wd = 0.0
-    dd = 0.0
-    for k in range(dim):
-        w = a[k] - b[k]
-        d = da[k] - db[k]
-        w2 += w * w
-        wd += w * d
-        dd += d * d
-    t = 0.0
-    if dd > 0.0:
-        t = -wd / dd
-        if t < 0.0:
-            t = 0.0
-        elif t > 1.0:
-            t = 1.0
-    return w2 + 2.0 * t * wd + t * t * dd
-
-
-@njit(cache=True)
-def crossing_masks(near, vectors, min_sep_sq):
-    """For Algorithm 3's crossing test: which own moves pass too close to a neighbour.
-
-    ``masks[q, d]`` has bit m set when an agent moving by ``vectors[m]`` comes closer
-    than ``sqrt(min_sep_sq)`` to one that starts at the relative cell ``near[q]`` and
-    moves by ``vectors[d]`` (d = len(vectors): stays), both in straight lines over the
-    step. One table per radius replaces the per-pair geometry in the step loop.
-    """
-    n_near, dim = near.shape
-    n_moves = vectors.shape[0]
-    masks = np.zeros((n_near, n_moves + 1), dtype=np.int64)
-    a = np.zeros(dim)
-    b = np.empty(dim)
-    db = np.empty(dim)
-    for q in range(n_near):
-        for k in range(dim):
-            b[k] = near[q, k]
-        for d in range(n_moves + 1):
-            for k in range(dim):
-                db[k] = vectors[d, k] if d < n_moves else 0.0
-            for m in range(n_moves):
-                if _min_sq_distance(a, vectors[m], b, db, dim) < min_sep_sq:
-                    masks[q, d] |= np.int64(1) << m
-    return masks
-
-
-@njit(cache=True)
 def _priority_order(keys, order, rank, counts):
     """Fill ``order`` with the agents sorted by (key, agent id); ``+inf`` keys last.
 

@@ -113,3 +113,31 @@ def successor_moves(dim: int) -> tuple[np.ndarray, np.ndarray]:
     table.setflags(write=False)
     count.setflags(write=False)
     return table, count
+
+
+def crossing_masks(near: np.ndarray, vectors: np.ndarray, min_sep_sq: float) -> np.ndarray:
+    """For Algorithm 3's crossing test: which own moves pass too close to a neighbour.
+
+    ``masks[q, d]`` (int64) has bit m set when an agent moving by ``vectors[m]`` comes
+    closer than ``sqrt(min_sep_sq)`` to one that starts at the relative cell ``near[q]``
+    and moves by ``vectors[d]`` (d = len(vectors): stays), both in straight lines over
+    the step: the least of |w + t·d|² over t in [0, 1], w = −near[q], d = vectors[m] −
+    vectors[d]. One table per radius replaces the per-pair geometry in the step loop;
+    built once per run, with numpy.
+    """
+    near = np.asarray(near, np.float64)
+    vectors = np.asarray(vectors, np.float64)
+    other = np.vstack([vectors, np.zeros((1, vectors.shape[1]))])
+    w = -near[:, None, None, :]  # (q, 1, 1, dim)
+    d = vectors[None, None, :, :] - other[None, :, None, :]  # (1, other, own, dim)
+    w2 = np.zeros((len(near), 1, 1))
+    wd = np.zeros(w.shape[:1] + d.shape[1:3])
+    dd = np.zeros(d.shape[:3])
+    for k in range(near.shape[1]):  # axis by axis, as the sums were always added up
+        w2 = w2 + w[..., k] * w[..., k]
+        wd = wd + w[..., k] * d[..., k]
+        dd = dd + d[..., k] * d[..., k]
+    with np.errstate(divide="ignore", invalid="ignore"):
+        t = np.where(dd > 0.0, np.clip(-wd / dd, 0.0, 1.0), 0.0)
+    close = w2 + 2.0 * t * wd + t * t * dd < min_sep_sq  # (q, other, own)
+    return (close.astype(np.int64) << np.arange(len(vectors), dtype=np.int64)).sum(axis=2)

@@ -6,9 +6,9 @@ from itertools import product
 
 import numpy as np
 
-from crowdmotion.mdp._kernels import PAD, crossing_masks, trajectory_steps
+from crowdmotion.mdp._kernels import PAD, trajectory_steps
 from crowdmotion.mdp.grid import SQRT2, validate_grid
-from crowdmotion.mdp.moves import flat_move_tables
+from crowdmotion.mdp.moves import crossing_masks, flat_move_tables
 from crowdmotion.mdp.solvers import padded
 
 RAW_GRID_RADIUS = 1.0 / (2.0 * SQRT2) * (1.0 - 1e-6)
