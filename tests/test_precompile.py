@@ -204,3 +204,11 @@ print(json.dumps({"mine": [k["name"] for k in plan[0]] if plan else [], "compile
     ours = {k["name"] for k in RECORD["pso"]}
     compiled_here = [n for n in result["compiled"] if n in ours]
     assert sorted(compiled_here) == sorted(result["mine"])  # this process's list, no helper twice
+
+
+def test_this_process_keeps_its_place_when_the_children_take_it_all():
+    # reading the scenario keeps this process busy: the children may take every kernel,
+    # and the first list must stay this process's, empty, not become a child's
+    kernels = [{"name": "k", "seconds": 3.0, "needs": ["h"]}, {"name": "h", "seconds": 1.0}]
+    mine, *theirs = pc.schedule(kernels, 2, head_start=10.0)
+    assert mine == [] and _names(theirs) == [["h", "k"]]

@@ -81,7 +81,8 @@ def schedule(kernels: list[dict], workers: int, first: list[dict] = (), head_sta
     first). ``first`` go to the first list beforehand, in their order (what this process
     compiles anyway, while ``head_start`` seconds of other work keep it from the rest).
     Each kernel comes back as a copy with ``wait``: the helpers it needs that another
-    list compiles. Empty lists are dropped, but the first is kept when ``first`` is given.
+    list compiles. Empty lists are dropped but the first (this process's, which may have
+    nothing to compile when the others take it all).
     """
     first = list(first)
     items = first + [k for k in kernels if k["name"] not in {f["name"] for f in first}]
@@ -119,7 +120,7 @@ def schedule(kernels: list[dict], workers: int, first: list[dict] = (), head_sta
         lists[w].append(k)
         pending.remove(k)
     out = [[{**k, "wait": [d for d in needs[k["name"]] if where[d] != w]} for k in lst] for w, lst in enumerate(lists)]
-    return [lst for i, lst in enumerate(out) if lst or (i == 0 and first)]
+    return [lst for i, lst in enumerate(out) if lst or i == 0]
 
 
 def _cold(kernel: dict) -> bool:
@@ -192,13 +193,13 @@ def _plan(method: str, background: bool = False, head_start: float = 0.0):
     if not todo or cores < 2:
         return None
     if background:
-        return [], schedule(todo, min(cores - 1, len(todo))), len(todo)
+        return [], [lst for lst in schedule(todo, min(cores - 1, len(todo))) if lst], len(todo)
     # what reading and checking a scenario calls (RVO's line-of-sight test, for one) this
     # process compiles anyway, with its helpers: its list starts with those, so no child
     # compiles them too
     first = _closure(todo, {k["name"] for k in todo if k.get("at_load")})
     if len(first) == len(todo):
-        return None
+        return None  # this process compiles it all while checking the scenario
     mine, *theirs = schedule(todo, min(cores, len(todo)), first=first, head_start=head_start)
     return mine, theirs, len(todo)
 
