@@ -321,11 +321,7 @@ def record(methods=tuple(SCENES)) -> dict:
     (each compiled in turn, helpers first, in another fresh process)."""
     out = {}
     for method in methods:
-        kernels = _fresh_run("--record-one", method)
-        for _ in range(3):  # a helper already compiled by another caller in the run: found here
-            kernels, found = _fresh_run("--time-one", stdin=json.dumps(kernels))
-            if not found:
-                break
+        kernels = _fresh_run("--time-one", stdin=json.dumps(_fresh_run("--record-one", method)))
         out[method] = sorted(kernels, key=lambda k: -k["seconds"])
     return out
 
@@ -346,25 +342,16 @@ def _record_one(method: str) -> list[dict]:
     found: dict[str, dict] = {}
 
     class Listener(event.Listener):
-        def __init__(self):
-            self.stack: list[str] = []
-
         def on_start(self, ev):
-            self.stack.append(_name(ev.data["dispatcher"]))
+            pass
 
         def on_end(self, ev):
-            name = self.stack.pop()
-            if not name.startswith("crowdmotion."):
-                return
-            k = found.setdefault(name, {"name": name, "signatures": [], "needs": []})
-            sig = str(tuple(ev.data["args"]))
-            if sig not in k["signatures"]:
-                k["signatures"].append(sig)
-            caller = next((n for n in reversed(self.stack) if n.startswith("crowdmotion.")), None)
-            if caller is not None:
-                found.setdefault(caller, {"name": caller, "signatures": [], "needs": []})
-                if name not in found[caller]["needs"]:
-                    found[caller]["needs"].append(name)
+            name = _name(ev.data["dispatcher"])
+            if name.startswith("crowdmotion."):
+                k = found.setdefault(name, {"name": name, "signatures": []})
+                sig = str(tuple(ev.data["args"]))
+                if sig not in k["signatures"]:
+                    k["signatures"].append(sig)
 
     paths = {p.stem: p for p in builtin_scenarios()}
     event.register("numba:compile", Listener())
@@ -386,43 +373,36 @@ def _record_one(method: str) -> list[dict]:
         kernels.append(k)
     names = {k["name"] for k in kernels}
     for k in kernels:
-        k["needs"] = [n for n in k["needs"] if n in names]
+        k["needs"] = sorted(_callees(_dispatcher(k["name"])) & names)
     return kernels
 
 
-def _time_one(kernels: list[dict]) -> tuple[list[dict], bool]:
-    """Compile the kernels one by one, helpers first (in this fresh process), timing
-    each; a helper compiled inside another kernel's compile was missing from its
-    ``needs``: it is added, and the second value says the timing must be taken again."""
+def _callees(dispatcher) -> set[str]:
+    """The jitted functions the compiled kernel calls (as typed, not inlined), by name."""
+    from numba.core import types
+
+    out = set()
+    for cres in dispatcher.overloads.values():
+        annotation = getattr(cres, "type_annotation", None)
+        for t in getattr(annotation, "typemap", {}).values():
+            if isinstance(t, types.Dispatcher):
+                out.add(_name(t.dispatcher))
+    return out
+
+
+def _time_one(kernels: list[dict]) -> list[dict]:
+    """Compile the kernels one by one, helpers first (in this fresh process), timing each."""
     from numba import njit
-    from numba.core import event
 
     njit(lambda a: a + 1)(1)  # numba's own first-compile set-up, not any kernel's
     order = _closure(kernels, {k["name"] for k in kernels})
-    by = {k["name"]: k for k in order}
-    compiling: list[str] = []
-    missed = False
-
-    class Listener(event.Listener):
-        def on_start(self, ev):
-            compiling.append(_name(ev.data["dispatcher"]))
-
-        def on_end(self, ev):
-            nonlocal missed
-            name = compiling.pop()
-            caller = next((n for n in reversed(compiling) if n in by), None)
-            if name in by and caller is not None and name not in by[caller]["needs"]:
-                by[caller]["needs"].append(name)
-                missed = True
-
-    event.register("numba:compile", Listener())
     for k in order:
         t0 = time.perf_counter()
         disp = _dispatcher(k["name"])
         for sig in k["signatures"]:
             disp.compile(parse_signature(sig))
         k["seconds"] = round(time.perf_counter() - t0, 3)
-    return order, missed
+    return order
 
 
 if __name__ == "__main__":  # pragma: no cover - a developer's tool
