@@ -1,19 +1,25 @@
 """A first run compiles its numba kernels on every core it has (issue 16).
 
-numba compiles a kernel the first time it is called, one after another, on one core: a
-fresh install spends 6-7 s of an RVO or PSO run there. The kernels a method's run
-compiles, with their argument types and how long each took, are recorded once in
-``_precompile.json`` (``python -m crowdmotion._precompile --record``, rerun when a
-kernel's arguments change; tests/test_precompile.py says when). When a run starts and
-numba's cache lacks some of them, :func:`start` shares them out by compile time among
-the cores: forked children compile their share into the cache while this process
-compiles its own, then waits for them, and the run loads every kernel from the cache.
+numba compiles a kernel the first time it is called, one after another, on one core,
+and with it every jitted helper the kernel calls: a fresh install spends 6-7 s of an
+RVO or PSO run there. The kernels a method's run compiles and the helpers each calls,
+with their argument types and compile times, are recorded once in ``_precompile.json``
+(``python -m crowdmotion._precompile --record``, rerun when a kernel's arguments or
+helpers change; tests/test_precompile.py says when). When a run starts and numba's
+cache lacks some of them, :func:`start` schedules them on the cores: helpers are
+compiled as stages of their own, side by side, and a kernel only once the helpers it
+needs are in the cache, from which its compile loads them (:func:`schedule`: the
+longest chain of compile time first). Forked children compile their lists into the
+cache while this process compiles its own, waiting where a helper comes from another
+process (a marker file per finished kernel); then the run loads every kernel from the
+cache.
 
 Only where ``os.fork`` exists (Linux, macOS), with more than one core, and while this
 process runs no other Python thread (a lock held by another thread would stay locked in
-a child); a child still compiling after ``CHILD_TIMEOUT_S`` is stopped.
-``CROWDMOTION_PRECOMPILE=0`` turns it off. A kernel whose recorded types no longer match
-is simply compiled again when called, as without this module.
+a child); a child still compiling after ``CHILD_TIMEOUT_S`` is stopped, and a wait for
+a helper ends then too. ``CROWDMOTION_PRECOMPILE=0`` turns it off. A kernel whose
+recorded types no longer match is simply compiled again when called, as without this
+module.
 """
 
 from __future__ import annotations
