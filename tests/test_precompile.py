@@ -8,10 +8,23 @@ import sys
 import pytest
 
 from crowdmotion import _precompile as pc
-from crowdmotion.cli import builtin_scenarios
-from crowdmotion.scenario import load_scenario, run_scenario
-
 RECORD = json.loads(pc.RECORD.read_text())
+# for the scripts below: ``compiled`` lists what numba compiles once ``L()`` is registered
+LISTENER = """from numba.core import event
+compiled = []
+class L(event.Listener):
+    def on_start(self, ev): pass
+    def on_end(self, ev):
+        d = ev.data["dispatcher"]; compiled.append(d.py_func.__module__ + ":" + d.py_func.__qualname__)
+"""
+
+
+def _in_fresh_process(script: str, cache) -> dict:
+    """Run ``script`` in a new Python with numba's cache at ``cache`` and precompiling
+    on; the JSON its last line prints."""
+    env = {**os.environ, "NUMBA_CACHE_DIR": str(cache), "CROWDMOTION_PRECOMPILE": "1"}
+    out = subprocess.run([sys.executable, "-c", script], env=env, capture_output=True, text=True, check=True)
+    return json.loads(out.stdout.strip().splitlines()[-1])
 
 
 def _names(lists):
@@ -70,25 +83,16 @@ def test_the_record_matches_what_a_run_compiles(method):
 def test_a_cold_start_fills_the_cache_so_the_run_compiles_nothing(tmp_path):
     script = """
 import json, os
-from numba.core import event
 from crowdmotion import _precompile as pc
 done = pc.start("mdp")
-compiled = []
-class L(event.Listener):
-    def on_start(self, ev): pass
-    def on_end(self, ev):
-        d = ev.data["dispatcher"]; compiled.append(d.py_func.__module__ + ":" + d.py_func.__qualname__)
-event.register("numba:compile", L())
+""" + LISTENER + """event.register("numba:compile", L())
 from crowdmotion.cli import builtin_scenarios
 from crowdmotion.scenario import load_scenario, run_scenario
 run_scenario(load_scenario([p for p in builtin_scenarios() if p.stem == "mdp_robots_2d"][0]), progress=False)
 print(json.dumps({"done": done, "compiled": compiled, "again": pc.start("mdp")}))
 """
-    env = {**os.environ, "NUMBA_CACHE_DIR": str(tmp_path), "CROWDMOTION_PRECOMPILE": "1"}
-    out = subprocess.run([sys.executable, "-c", script], env=env, capture_output=True, text=True, check=True)
-    result = json.loads(out.stdout.strip().splitlines()[-1])
-    cores = len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else os.cpu_count()
-    if cores < 2:
+    result = _in_fresh_process(script, tmp_path)
+    if pc._cores() < 2:
         assert result["done"] == 0
         return
     names = {k["name"] for k in RECORD["mdp"]}
@@ -103,16 +107,10 @@ def test_compiling_begun_early_is_finished_by_the_run(tmp_path):
     # compiles the rest and waits, so the run itself compiles nothing
     script = """
 import json
-from numba.core import event
 from crowdmotion import _precompile as pc
 pc.begin("mdp")
 children = [pid for v in pc._PENDING.values() for pid in v[1]]
-compiled = []
-class L(event.Listener):
-    def on_start(self, ev): pass
-    def on_end(self, ev):
-        d = ev.data["dispatcher"]; compiled.append(d.py_func.__module__ + ":" + d.py_func.__qualname__)
-from crowdmotion.cli import builtin_scenarios
+""" + LISTENER + """from crowdmotion.cli import builtin_scenarios
 from crowdmotion.scenario import load_scenario, run_scenario
 sc = load_scenario([p for p in builtin_scenarios() if p.stem == "mdp_robots_2d"][0])
 done = pc.start("mdp")  # what run_scenario calls first: this process's share, then the wait
@@ -120,11 +118,8 @@ event.register("numba:compile", L())
 run_scenario(sc, progress=False)
 print(json.dumps({"children": children, "compiled": compiled, "pending": list(pc._PENDING), "done": done}))
 """
-    env = {**os.environ, "NUMBA_CACHE_DIR": str(tmp_path), "CROWDMOTION_PRECOMPILE": "1"}
-    out = subprocess.run([sys.executable, "-c", script], env=env, capture_output=True, text=True, check=True)
-    result = json.loads(out.stdout.strip().splitlines()[-1])
-    cores = len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else os.cpu_count()
-    if cores < 2:
+    result = _in_fresh_process(script, tmp_path)
+    if pc._cores() < 2:
         assert result["children"] == []
         return
     assert result["children"] and result["pending"] == [] and result["done"] >= 1
@@ -143,9 +138,7 @@ from crowdmotion.cli import main
 code = main(["run", {str(bad)!r}, "-q", "-o", {str(tmp_path / "out")!r}])
 print(json.dumps({{"code": code, "children": [p for v in pc._PENDING.values() for p in v[1]]}}))
 """
-    env = {**os.environ, "NUMBA_CACHE_DIR": str(tmp_path / "cache"), "CROWDMOTION_PRECOMPILE": "1"}
-    out = subprocess.run([sys.executable, "-c", script], env=env, capture_output=True, text=True, check=True)
-    result = json.loads(out.stdout.strip().splitlines()[-1])
+    result = _in_fresh_process(script, tmp_path / "cache")
     assert result["code"] == 2  # refused, with the scenario's error
     for pid in result["children"]:  # stopped at exit, not left compiling
         with pytest.raises(ProcessLookupError):
@@ -179,24 +172,15 @@ def test_helpers_are_compiled_once_and_loaded_by_their_callers(tmp_path):
     # them again
     script = """
 import json
-from numba.core import event
 from crowdmotion import _precompile as pc
 plan = pc._plan("pso")
-compiled = []
-class L(event.Listener):
-    def on_start(self, ev): pass
-    def on_end(self, ev):
-        d = ev.data["dispatcher"]; compiled.append(d.py_func.__module__ + ":" + d.py_func.__qualname__)
-event.register("numba:compile", L())
+""" + LISTENER + """event.register("numba:compile", L())
 done = pc.start("pso")
 print(json.dumps({"mine": [k["name"] for k in plan[0]] if plan else [], "compiled": compiled, "done": done,
                   "cold": [k["name"] for k in json.loads(pc.RECORD.read_text())["pso"] if pc._cold(k)]}))
 """
-    env = {**os.environ, "NUMBA_CACHE_DIR": str(tmp_path), "CROWDMOTION_PRECOMPILE": "1"}
-    out = subprocess.run([sys.executable, "-c", script], env=env, capture_output=True, text=True, check=True)
-    result = json.loads(out.stdout.strip().splitlines()[-1])
-    cores = len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else os.cpu_count()
-    if cores < 2:
+    result = _in_fresh_process(script, tmp_path)
+    if pc._cores() < 2:
         assert result["done"] == 0
         return
     assert result["done"] == len(RECORD["pso"]) and result["cold"] == []  # every kernel in the cache

@@ -91,7 +91,8 @@ def schedule(kernels: list[dict], workers: int, first: list[dict] = (), head_sta
     nothing to compile when the others take it all).
     """
     first = list(first)
-    items = first + [k for k in kernels if k["name"] not in {f["name"] for f in first}]
+    placed = {f["name"] for f in first}
+    items = first + [k for k in kernels if k["name"] not in placed]
     by = {k["name"]: k for k in items}
     needs = {k["name"]: [n for n in k.get("needs", ()) if n in by and n != k["name"]] for k in items}
     users: dict[str, list[str]] = {n: [] for n in by}
@@ -143,23 +144,26 @@ def _await(marker: Path, deadline: float) -> None:
         time.sleep(0.005)
 
 
-def _compile(kernels: list[dict], marks: Path | None = None, deadline: float = 0.0) -> None:
+def _compile_one(kernel: dict) -> None:
+    """Compile (or load from the cache) the kernel for each of its recorded signatures."""
+    disp = _dispatcher(kernel["name"])
+    for sig in kernel["signatures"]:
+        disp.compile(parse_signature(sig))
+
+
+def _compile(kernels: list[dict], marks: Path, deadline: float) -> None:
     """Compile each kernel into the cache, after the helpers it waits for (their markers
     in ``marks``; past ``deadline`` it goes ahead and compiles what it lacks itself), and
     mark it done."""
     for k in kernels:
-        if marks is not None:
-            for name in k.get("wait", ()):
-                _await(marks / _marker(name), deadline)
+        for name in k.get("wait", ()):
+            _await(marks / _marker(name), deadline)
         try:
-            disp = _dispatcher(k["name"])
-            for sig in k["signatures"]:
-                disp.compile(parse_signature(sig))
+            _compile_one(k)
         except Exception:  # stale record: the run compiles it when it calls it
             pass
         finally:
-            if marks is not None:
-                (marks / _marker(k["name"])).touch()
+            (marks / _marker(k["name"])).touch()
 
 
 def _closure(kernels: list[dict], names: set[str]) -> list[dict]:
@@ -404,9 +408,7 @@ def _time_one(kernels: list[dict]) -> list[dict]:
     order = _closure(kernels, {k["name"] for k in kernels})
     for k in order:
         t0 = time.perf_counter()
-        disp = _dispatcher(k["name"])
-        for sig in k["signatures"]:
-            disp.compile(parse_signature(sig))
+        _compile_one(k)
         k["seconds"] = round(time.perf_counter() - t0, 3)
     return order
 
