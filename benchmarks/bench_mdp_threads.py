@@ -1,6 +1,9 @@
-"""How the MDP bucket solver scales with threads: the large-grid timings (1000x1000 and
-200x200x200, corner cutting on and off; mean and best of 5) at NUMBA_NUM_THREADS = 1, 2,
-4, 8, 16, each in a fresh process.
+"""How the MDP method scales with threads: the bucket solver's large-grid timings
+(1000x1000 and 200x200x200, corner cutting on and off; mean and best of 5) and Algorithm
+3's throughput (bench_mdp.py's 10,000 agents x 200 steps on 1000x1000, and 40,000 agents
+on the same grid; M agent-steps/s, mean and best of 5, with a digest of the paths, which
+must not change with the thread count) at NUMBA_NUM_THREADS = 1, 2, 4, 8, 16, each in a
+fresh process.
 
     python benchmarks/bench_mdp_threads.py [--threads 1 2 4 8 16] [--src src]
 
@@ -21,9 +24,11 @@ src = sys.argv[1]
 for name, path in (("crowdmotion", "crowdmotion"), ("crowdmotion.mdp", "crowdmotion/mdp")):
     m = types.ModuleType(name); m.__path__ = [f"{src}/{path}"]; sys.modules[name] = m
 scene = types.ModuleType("crowdmotion.scene"); scene.Scene = object; sys.modules["crowdmotion.scene"] = scene
+import hashlib
 import numba
 import numpy as np
 from crowdmotion.mdp.solvers import fast_values
+from crowdmotion.mdp.trajectory import generate_trajectories
 
 def paper_grid(shape, lower, upper):
     g = np.zeros(shape, dtype=np.uint8)
@@ -45,6 +50,17 @@ for cc in (True, False):
     cells.append(f"{m * 1e3:.1f} ms ({b * 1e3:.1f})")
     m, b = mean_best(lambda: fast_values(g3, [(199, 100, 100)], cc))
     cells.append(f"{m:.3f} s ({b:.3f})")
+grid = paper_grid((1000, 1000), (500, 300), (500, 699))  # bench_mdp.py's Algorithm 3 scene
+v = fast_values(grid, [(999, 500)], True)
+free = np.argwhere(grid[:400] == 0)
+paths = hashlib.sha256()
+for n in (10_000, 40_000):
+    starts = free[np.random.default_rng(0).choice(len(free), n, replace=False)]
+    run = lambda: generate_trajectories(grid, v, starts, 200, np.random.default_rng(1))
+    m, b = mean_best(run)
+    paths.update(np.ascontiguousarray(run()).tobytes())
+    cells.append(f"{n * 200 / m / 1e6:.2f} M/s ({n * 200 / b / 1e6:.2f})")
+cells.append(paths.hexdigest()[:12])
 print("| " + " | ".join(cells) + " |")
 """
 
@@ -54,8 +70,9 @@ def main() -> None:
     ap.add_argument("--threads", type=int, nargs="*", default=[1, 2, 4, 8, 16])
     ap.add_argument("--src", default=os.path.join(os.path.dirname(__file__), "..", "src"))
     args = ap.parse_args()
-    print("| threads | 1000² on, mean (best) | 200³ on | 1000² off | 200³ off |")
-    print("|---|---|---|---|---|")
+    print("| threads | 1000² on, mean (best) | 200³ on | 1000² off | 200³ off | Algorithm 3, 10k agents | "
+          "40k agents | paths digest |")
+    print("|---|---|---|---|---|---|---|---|")
     for t in args.threads:
         env = dict(os.environ, NUMBA_NUM_THREADS=str(t))
         subprocess.run([sys.executable, "-c", CHILD, os.path.abspath(args.src)], env=env, check=True)

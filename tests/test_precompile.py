@@ -61,9 +61,9 @@ def test_signatures_parse_without_eval():
     from numba.core import types
 
     sig = pc.parse_signature("(Array(float64, 2, 'F', False, aligned=True), bool, uint64, Array(bool, 1, 'C', True, "
-                             "aligned=True))")
+                             "aligned=True), none)")
     assert sig == (types.Array(types.float64, 2, "F"), types.boolean, types.uint64,
-                   types.Array(types.boolean, 1, "C", readonly=True))
+                   types.Array(types.boolean, 1, "C", readonly=True), types.none)
     with pytest.raises(ValueError, match="unsupported argument type"):
         pc.parse_signature("(__import__, float64)")
 

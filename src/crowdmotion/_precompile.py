@@ -39,7 +39,7 @@ from pathlib import Path
 
 RECORD = Path(__file__).with_name("_precompile.json")
 CHILD_TIMEOUT_S = 120.0  # a child compiling longer than this is stopped
-SCALARS = {"float64", "float32", "int64", "int32", "uint64", "uint8", "int8", "bool", "intp", "uintp"}
+SCALARS = {"float64", "float32", "int64", "int32", "uint64", "uint8", "int8", "bool", "intp", "uintp", "none"}
 _ARRAY = re.compile(r"Array\((\w+), (\d+), '([CFA])', (True|False), aligned=True\)")
 _TOKEN = re.compile(r"Array\([^)]*\)|\w+")
 
@@ -55,7 +55,7 @@ def _dispatcher(name: str):
 
 
 def parse_signature(text: str) -> tuple:
-    """numba argument types from their ``str()`` (arrays and scalars only; no eval)."""
+    """numba argument types from their ``str()`` (arrays, scalars and None only; no eval)."""
     from numba.core import types
 
     out = []

@@ -141,3 +141,71 @@ def test_3d_trajectories_keep_invariants():
         assert len({tuple(c) for c in cells[t]}) == 60
     assert collision_audit(as_world(cells)).agent_agent == 0
     assert len(swept_offsets(3)[0]) == 6  # a 3D corner move sweeps past six cells
+
+
+def _threaded_scene(case, n=700):
+    """A crowd on the kernel's edge cases: dense (one big cluster) or sparse (many)."""
+    dim = 3 if case == "3d" else 2
+    shape = (16, 16, 16) if dim == 3 else (60, 60)
+    grid = np.zeros(shape, np.uint8)
+    grid[(slice(8, 9), slice(2, 12)) if dim == 3 else (slice(30, 31), slice(10, 50))] = 1
+    goal = (15, 8, 8) if dim == 3 else (59, 30)
+    corner_cutting = case != "no_corner_cutting"
+    v = mdp.solve(grid, goal, corner_cutting=corner_cutting)
+    rng = np.random.default_rng(5)
+    free = np.argwhere(grid == 0)
+    starts = free[rng.choice(len(free), n, replace=False)]
+    kw = dict(corner_cutting=corner_cutting, despawn=case == "despawn", forbid_crossing=case != "crossing_off",
+              return_active=True)
+    return grid, v, starts, kw
+
+
+@pytest.mark.parametrize("parts,n", [(2, 700), (3, 150)])
+@pytest.mark.parametrize("case", ["2d", "3d", "despawn", "crossing_off", "no_corner_cutting"])
+def test_threads_give_the_one_thread_paths_bit_for_bit(monkeypatch, case, parts, n):
+    from crowdmotion.mdp import trajectory
+
+    grid, v, starts, kw = _threaded_scene(case, n)
+    one = mdp.generate_trajectories(grid, v, starts, 60, np.random.default_rng(2), **kw)
+    monkeypatch.setattr(trajectory, "step_threads", lambda n: parts)
+    shared = mdp.generate_trajectories(grid, v, starts, 60, np.random.default_rng(2), **kw)
+    np.testing.assert_array_equal(shared[0], one[0])
+    np.testing.assert_array_equal(shared[1], one[1])
+    if case == "despawn":
+        assert not one[1][-1].all(), "some agents despawned on the way"
+
+
+def test_clusters_are_the_agents_within_two_cells_of_each_other():
+    from scipy.sparse import coo_matrix
+    from scipy.sparse.csgraph import connected_components
+    from scipy.spatial import cKDTree
+
+    from crowdmotion.mdp import _kernels as K
+    from crowdmotion.mdp.trajectory import RAW_GRID_RADIUS, Walker
+
+    grid, v, starts, _ = _threaded_scene("2d", 150)
+    goal = np.zeros(grid.shape, bool)
+    goal[59, 30] = True
+    walker = Walker(grid, starts, [goal], np.zeros(len(starts), np.int64), True, RAW_GRID_RADIUS)
+    walker.set_values(v[None])
+    walker.advance(25, np.random.default_rng(0), 1.0, True, False)  # clusters of many sizes by now
+    n = len(starts)
+    state = np.where(walker.blocked > 0, K.BLOCKED, 0).astype(np.uint8)
+    state[walker.occ >= 0] |= K.TAKEN | K.STARTED
+    order = np.argsort(-walker.values[0, walker.cur], kind="stable")
+    near_ahead = walker.near_offsets[walker.near_offsets > 0]
+    parts = 3
+    root, first, owner = (np.empty(n, np.int64) for _ in range(3))
+    K._clusters(order, walker.cur, walker.active, walker.occ, state, near_ahead, walker.near_offsets, parts, root,
+                first, owner)
+
+    np.testing.assert_array_equal(first[order], np.arange(n))
+    np.testing.assert_array_equal(owner, first[root] * parts // n)  # the share its lowest-id agent's turn is in
+    assert set(owner.tolist()) == {0, 1, 2}
+    pairs = np.array(sorted(cKDTree(walker.cells).query_pairs(2.0 + 1e-9, p=np.inf)))
+    linked = coo_matrix((np.ones(len(pairs)), (pairs[:, 0], pairs[:, 1])), shape=(n, n))
+    n_clusters, label = connected_components(linked, directed=False)
+    assert np.bincount(label).max() > 1 and n_clusters > 10, "clusters of one and of several agents"
+    for c in range(n_clusters):
+        members = np.flatnonzero(label == c)
+        assert np.all(root[members] == members.min()), "a cluster is named by its lowest agent id"

@@ -10,6 +10,7 @@ import numpy as np
 from numba import njit, prange
 
 from crowdmotion._prefetch import prefetch
+from crowdmotion._threads import threaded
 from crowdmotion.mdp.moves import PAD  # noqa: F401  (the kernels' grids carry this border)
 
 # --------------------------------------------------------------------------------------
@@ -509,6 +510,60 @@ def _priority_order(keys, order, rank, counts):
 
 
 @njit(cache=True)
+def _find(root, i):
+    """Union-find root of ``i``, halving the path on the way."""
+    while root[i] != i:
+        root[i] = root[root[i]]
+        i = root[i]
+    return i
+
+
+@njit(cache=True)
+def _clusters(order, cur, active, occ, state, near_ahead, near_lines, parts, root, first, owner):
+    """Share this step's turns between ``parts`` threads without changing any turn.
+
+    A turn reads and writes only cells within two of the agent's start cell and the
+    moves of agents that started there, so agents whose start cells are more than two
+    apart (Chebyshev) never affect each other within a step. Fills ``root`` with each
+    agent's cluster, the agents linked by that distance (union-find over each agent's
+    Chebyshev-2 box: ``near_ahead`` is its half with positive offsets, ``near_lines``
+    the lines to prefetch), named by its lowest agent id; ``first`` with each agent's
+    place in the step's priority ``order``; and ``owner`` with the thread of each
+    agent's cluster: the one whose share of the order its lowest-id agent's turn falls
+    in (neighbouring values, so mostly neighbouring cells, and shares about equal). A
+    thread that takes its clusters' turns in priority order gives the one-thread
+    result, bit for bit.
+    """
+    n = order.shape[0]
+    for i in range(n):
+        root[i] = i
+    for i in range(n):
+        if i + AHEAD < n:
+            c = cur[i + AHEAD]
+            for q in range(near_lines.shape[0]):
+                prefetch(state, c + near_lines[q])
+                prefetch(occ, c + near_lines[q])
+        if not active[i]:
+            continue
+        u = cur[i]
+        for q in range(near_ahead.shape[0]):
+            c = u + near_ahead[q]
+            if state[c] & STARTED:
+                j = occ[c]
+                if active[j]:
+                    ri = _find(root, i)
+                    rj = _find(root, j)
+                    if ri != rj:
+                        root[max(ri, rj)] = min(ri, rj)
+    for i in range(n):  # roots only ever point lower: one pass in id order flattens them
+        root[i] = root[root[i]]
+    for oi in range(n):
+        first[order[oi]] = oi
+    for i in range(n):
+        owner[i] = first[root[i]] * parts // n
+
+
+@threaded
 def trajectory_steps(
     blocked,
     values,
@@ -531,6 +586,7 @@ def trajectory_steps(
     gone_step,
     step_base,
     out,
+    partition,
 ):
     """Run ``uniforms.shape[0]`` steps of Algorithm 3, in place.
 
@@ -559,6 +615,10 @@ def trajectory_steps(
     gone_step : int64[:]     step at which each agent despawned, -1 while active (updated)
     step_base : int          global index of this call's first step
     out : int64[:, :, :]     (steps, N, D) cell of each agent after each step (unpadded)
+    partition                None: every turn in priority order on this thread (the
+                             serial compilation); or (parts, near_ahead, root, first,
+                             owner): share each step's turns between ``parts`` threads
+                             by ``_clusters`` (root, first, owner: work arrays of n)
     """
     n_steps, n = uniforms.shape
     dim = coord.shape[1]
@@ -573,13 +633,12 @@ def trajectory_steps(
         if occ[c] >= 0:
             state[c] |= TAKEN | STARTED
     move_of = np.full(n, stay, dtype=np.int64)  # this step's move of each agent (reset to stay)
-    cand = np.empty(n_moves + 1, dtype=np.int64)  # candidate move (stay = n_moves)
-    cand_val = np.empty(n_moves + 1, dtype=np.float64)
-    weight = np.empty(n_moves + 1, dtype=np.float64)
     keys = np.empty(n, dtype=np.float64)
     order = np.empty(n, dtype=np.int64)
     rank = np.empty(n, dtype=np.int64)
     counts = np.empty(n + 2, dtype=np.int64)
+    parts = 1 if partition is None else partition[0]
+    lookahead = AHEAD * parts
     # cache lines a step reads around a cell: both ends of each row of the 3^d box (the
     # values) and of the Chebyshev-2 box (cell states, agent ids)
     ends = np.zeros(n_moves, dtype=np.bool_)
@@ -594,101 +653,115 @@ def trajectory_steps(
     for step in range(n_steps):
         move_of[:] = stay
         _priority_order(keys, order, rank, counts)  # largest value first, ties by id
-        for oi in range(n):
-            if oi + AHEAD < n:
-                ahead = order[oi + AHEAD]
-                c = cur[ahead]
-                row = values[field_of[ahead]]
-                for q in range(value_lines.shape[0]):
-                    prefetch(row, c + value_lines[q])
+        if partition is not None:  # (numba prunes the branches the argument's type rules out)
+            _, near_ahead, root, first, owner = partition
+            _clusters(order, cur, active, occ, state, near_ahead, near_lines, parts, root, first, owner)
+        for t in prange(parts):
+            cand = np.empty(n_moves + 1, dtype=np.int64)  # candidate move (stay = n_moves)
+            cand_val = np.empty(n_moves + 1, dtype=np.float64)
+            weight = np.empty(n_moves + 1, dtype=np.float64)
+            for oi in range(n):
+                if oi + lookahead < n:  # about AHEAD of this thread's own turns ahead
+                    ahead = order[oi + lookahead]
+                    mine = True
+                    if partition is not None:
+                        mine = owner[ahead] == t
+                    if mine:
+                        c = cur[ahead]
+                        row = values[field_of[ahead]]
+                        for q in range(value_lines.shape[0]):
+                            prefetch(row, c + value_lines[q])
+                        if forbid_crossing:
+                            for q in range(near_lines.shape[0]):
+                                prefetch(state, c + near_lines[q])
+                                prefetch(occ, c + near_lines[q])
+                i = order[oi]
+                if partition is not None:
+                    if owner[i] != t:
+                        continue
+                if not active[i]:
+                    continue
+                u = cur[i]
+                fi = field_of[i]
+                vu = values[fi, u]
+                # goal cells hold values >= 0 (their fill depth), or -inf while an obstacle covers
+                # them; every other cell is < 0: read the mask only then
+                in_goal = (vu >= 0.0 or vu == -np.inf) and goal[fi, u] != 0
+                if in_goal and (despawn or vu == -np.inf):
+                    if despawn:
+                        active[i] = 0
+                        state[u] &= ~TAKEN
+                        gone_step[i] = step_base + step
+                    continue
+                state[u] &= ~TAKEN
+                # moves that would pass too close to an agent whose start cell is within two
+                # cells: the only ones a one-cell move can come within two radii (< 0.71) of
+                forbidden = np.int64(0)
                 if forbid_crossing:
-                    for q in range(near_lines.shape[0]):
-                        prefetch(state, c + near_lines[q])
-                        prefetch(occ, c + near_lines[q])
-            i = order[oi]
-            if not active[i]:
-                continue
-            u = cur[i]
-            fi = field_of[i]
-            vu = values[fi, u]
-            # goal cells hold values >= 0 (their fill depth), or -inf while an obstacle covers
-            # them; every other cell is < 0: read the mask only then
-            in_goal = (vu >= 0.0 or vu == -np.inf) and goal[fi, u] != 0
-            if in_goal and (despawn or vu == -np.inf):
-                if despawn:
-                    active[i] = 0
-                    state[u] &= ~TAKEN
-                    gone_step[i] = step_base + step
-                continue
-            state[u] &= ~TAKEN
-            # moves that would pass too close to an agent whose start cell is within two
-            # cells: the only ones a one-cell move can come within two radii (< 0.71) of
-            forbidden = np.int64(0)
-            if forbid_crossing:
-                for q in range(n_near):
-                    c = u + near_offsets[q]
-                    if state[c] & STARTED:
-                        j = occ[c]
-                        if j != i and active[j]:
-                            forbidden |= crossing[q, move_of[j]]  # stay if j has not moved yet
-            n0 = 0  # neighbors0 fill cand from the front, neighbors1 from the back
-            n1 = 0
-            for m in range(n_moves):
-                v = u + offsets[m]
-                if state[v] & (BLOCKED | TAKEN) or (forbidden >> m) & 1:
+                    for q in range(n_near):
+                        c = u + near_offsets[q]
+                        if state[c] & STARTED:
+                            j = occ[c]
+                            if j != i and active[j]:
+                                forbidden |= crossing[q, move_of[j]]  # stay if j has not moved yet
+                n0 = 0  # neighbors0 fill cand from the front, neighbors1 from the back
+                n1 = 0
+                for m in range(n_moves):
+                    v = u + offsets[m]
+                    if state[v] & (BLOCKED | TAKEN) or (forbidden >> m) & 1:
+                        continue
+                    if not _sweep_free(state, u, swept, swept_count, m):
+                        continue
+                    vv = values[fi, v]
+                    if in_goal and (vv <= vu or goal[fi, v] == 0):
+                        continue  # the goal is absorbing: an agent there only moves deeper into it
+                    if vv > vu:
+                        cand[n0] = m
+                        cand_val[n0] = vv
+                        n0 += 1
+                    else:
+                        n1 += 1
+                        cand[n_moves + 1 - n1] = m
+                        cand_val[n_moves + 1 - n1] = vv
+                if in_goal and n0 == 0:  # nowhere deeper: stay
+                    state[u] |= TAKEN
                     continue
-                if not _sweep_free(state, u, swept, swept_count, m):
-                    continue
-                vv = values[fi, v]
-                if in_goal and (vv <= vu or goal[fi, v] == 0):
-                    continue  # the goal is absorbing: an agent there only moves deeper into it
-                if vv > vu:
-                    cand[n0] = m
-                    cand_val[n0] = vv
-                    n0 += 1
-                else:
+                if n0 > 0:
+                    lo, hi = 0, n0
+                else:  # neighbors1 plus staying put
                     n1 += 1
-                    cand[n_moves + 1 - n1] = m
-                    cand_val[n_moves + 1 - n1] = vv
-            if in_goal and n0 == 0:  # nowhere deeper: stay
-                state[u] |= TAKEN
-                continue
-            if n0 > 0:
-                lo, hi = 0, n0
-            else:  # neighbors1 plus staying put
-                n1 += 1
-                cand[n_moves + 1 - n1] = stay
-                cand_val[n_moves + 1 - n1] = vu
-                lo, hi = n_moves + 1 - n1, n_moves + 1
-            vmax = -np.inf
-            for c in range(lo, hi):
-                if cand_val[c] > vmax:
-                    vmax = cand_val[c]
-            pick = stay
-            picked = vu
-            if vmax > -np.inf:
-                total = 0.0
-                for c in range(lo, hi):  # eq. (4); exp(0) = 1 needs no call
-                    weight[c] = 1.0 if cand_val[c] == vmax else np.exp((cand_val[c] - vmax) / tau)
-                    total += weight[c]
-                r = uniforms[step, i] * total
-                acc = 0.0
-                pick = cand[hi - 1]
-                picked = cand_val[hi - 1]
+                    cand[n_moves + 1 - n1] = stay
+                    cand_val[n_moves + 1 - n1] = vu
+                    lo, hi = n_moves + 1 - n1, n_moves + 1
+                vmax = -np.inf
                 for c in range(lo, hi):
-                    acc += weight[c]
-                    if r < acc and cand_val[c] > -np.inf:
-                        pick = cand[c]
-                        picked = cand_val[c]
-                        break
-            if pick < stay:
-                move_of[i] = pick
-                u += offsets[pick]
-                for k in range(dim):
-                    coord[i, k] += np.int64(move_vec[pick, k])
-            cur[i] = u
-            keys[i] = -picked
-            state[u] |= TAKEN
+                    if cand_val[c] > vmax:
+                        vmax = cand_val[c]
+                pick = stay
+                picked = vu
+                if vmax > -np.inf:
+                    total = 0.0
+                    for c in range(lo, hi):  # eq. (4); exp(0) = 1 needs no call
+                        weight[c] = 1.0 if cand_val[c] == vmax else np.exp((cand_val[c] - vmax) / tau)
+                        total += weight[c]
+                    r = uniforms[step, i] * total
+                    acc = 0.0
+                    pick = cand[hi - 1]
+                    picked = cand_val[hi - 1]
+                    for c in range(lo, hi):
+                        acc += weight[c]
+                        if r < acc and cand_val[c] > -np.inf:
+                            pick = cand[c]
+                            picked = cand_val[c]
+                            break
+                if pick < stay:
+                    move_of[i] = pick
+                    u += offsets[pick]
+                    for k in range(dim):
+                        coord[i, k] += np.int64(move_vec[pick, k])
+                cur[i] = u
+                keys[i] = -picked
+                state[u] |= TAKEN
         for i in range(n):  # the start cells of the next step
             if move_of[i] != stay:
                 start = cur[i] - offsets[move_of[i]]

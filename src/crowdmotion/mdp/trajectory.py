@@ -4,12 +4,25 @@ from __future__ import annotations
 
 from itertools import product
 
+import numba
 import numpy as np
 
 from crowdmotion.mdp._kernels import PAD, trajectory_steps
 from crowdmotion.mdp.grid import SQRT2, validate_grid
 from crowdmotion.mdp.moves import crossing_masks, flat_move_tables
 from crowdmotion.mdp.solvers import padded
+
+AGENTS_PER_THREAD = 2000
+"""Fewest agents per thread for Algorithm 3 to share its steps between threads: below,
+sorting the turns into clusters costs more than the threads give back."""
+
+
+def step_threads(n_agents: int) -> int:
+    """How many threads Algorithm 3's steps use for ``n_agents``: numba's thread count
+    (``NUMBA_NUM_THREADS``, ``numba.set_num_threads``), at most one per
+    ``AGENTS_PER_THREAD`` agents."""
+    return max(1, min(numba.get_num_threads(), n_agents // AGENTS_PER_THREAD))
+
 
 RAW_GRID_RADIUS = 1.0 / (2.0 * SQRT2) * (1.0 - 1e-6)
 """Agent radius in cells assumed on a raw grid: the largest the paper's cell rule allows."""
@@ -62,11 +75,18 @@ class Walker:
         uniforms = rng.random((steps, n))
         if out is None:
             out = np.empty((steps, n, self.dim), dtype=np.int64)
-        trajectory_steps(
+        parts = step_threads(n)
+        partition = None
+        kernel = trajectory_steps.serial
+        if parts > 1:
+            near_ahead = self.near_offsets[self.near_offsets > 0]
+            partition = (parts, near_ahead, *(np.empty(n, dtype=np.int64) for _ in range(3)))
+            kernel = trajectory_steps.threaded
+        kernel(
             self.blocked, self.values, self.goal, self.field_of, self.offsets, self.vectors, self.swept,
             self.swept_count, self.near_offsets, self.crossing, self.cur, self.coord, self.active, self.occ,
             uniforms, float(tau), bool(forbid_crossing), bool(despawn), self.gone_step,
-            self.steps_done, out,
+            self.steps_done, out, partition,
         )
         self.steps_done += steps
         rows = self.steps_done - steps + np.arange(steps)[:, None]
