@@ -119,3 +119,16 @@ def test_every_argument_has_help_text():
                if not a.help and not isinstance(a, argparse._HelpAction)]
     assert not missing, missing
     assert all(c.help for c in sub._choices_actions), "every subcommand has a one-line help"
+
+
+def test_python_dash_m_runs_the_command():
+    import subprocess
+    import sys
+
+    from crowdmotion import __version__
+
+    done = subprocess.run([sys.executable, "-m", "crowdmotion", "--version"], capture_output=True, text=True)
+    assert done.returncode == 0 and __version__ in done.stdout
+    done = subprocess.run([sys.executable, "-m", "crowdmotion", "validate", "no-such-scene.toml"], capture_output=True,
+                          text=True)
+    assert done.returncode == 2 and "no-such-scene.toml" in done.stderr
