@@ -44,6 +44,7 @@ class Walker:
         self.offsets = (self.vectors.astype(np.int64) @ self.strides).astype(np.int64)
         near = np.array(list(product(range(-2, 3), repeat=self.dim)), dtype=np.int64)
         self.near_offsets = near @ self.strides
+        self.near_ahead = self.near_offsets[self.near_offsets > 0]  # its half ahead: the threads' clusters
         self.crossing = crossing_masks(near.astype(np.float64), self.vectors, (2.0 * radius_cells) ** 2)
         self.goal = np.stack([np.pad(np.asarray(m, dtype=np.uint8), PAD).ravel() for m in goal_masks])
         self.field_of = np.asarray(field_of, dtype=np.int64)
@@ -79,8 +80,7 @@ class Walker:
         partition = None
         kernel = trajectory_steps.serial
         if parts > 1:
-            near_ahead = self.near_offsets[self.near_offsets > 0]
-            partition = (parts, near_ahead, *(np.empty(n, dtype=np.int64) for _ in range(3)))
+            partition = (parts, self.near_ahead, *(np.empty(n, dtype=np.int64) for _ in range(3)))
             kernel = trajectory_steps.threaded
         kernel(
             self.blocked, self.values, self.goal, self.field_of, self.offsets, self.vectors, self.swept,
