@@ -75,6 +75,17 @@ def _size_estimate(sc) -> str:
             f"in memory")
 
 
+def _positive_int(text: str) -> int:
+    """A whole number of at least 1 (``--jobs``)."""
+    try:
+        value = int(text)
+    except ValueError:
+        value = 0
+    if value < 1:
+        raise argparse.ArgumentTypeError(f"{text!r} is not a whole number of at least 1")
+    return value
+
+
 def _plot_list(text: str) -> list[str]:
     """``--plots``: names from [output] plots, comma-separated, or 'none'."""
     from crowdmotion.scenario import PLOTS
@@ -134,23 +145,36 @@ def cmd_run(args) -> int:
 
 def cmd_demo(args) -> int:
     from crowdmotion import _precompile
-    from crowdmotion.outputs import prepare_output_folder, write_run
-    from crowdmotion.scenario import load_scenario, run_scenario
+    from crowdmotion.demo import cores, run_one, run_parallel
+    from crowdmotion.scenario import load_scenario
 
     root = Path(args.output)
-    names = set(args.only or [])
     scenes = [load_scenario(path) for path in builtin_scenarios()]
-    scenes = [sc for sc in scenes if not names or sc.spec.name in names]
-    for i, sc in enumerate(scenes):
-        print(f"running {sc.spec.name}: {sc.spec.description}", flush=True)
-        out = prepare_output_folder(root / sc.spec.name, overwrite=True)  # the demo's own folders
-        result = run_scenario(sc, progress=not args.quiet)
-        later = [s.method for s in scenes[i + 1:] if s.method != sc.method]
-        if later:  # the next method's kernels compile on the other cores while this one's scenes run
-            _precompile.begin(later[0], background=True)
-        write_run(result, out)
-        print(f"  {_headline(result.summary)}")
+    if args.only:
+        unknown = sorted(set(args.only) - {sc.spec.name for sc in scenes})
+        if unknown:
+            print(f"crowdmotion: error: --only: no built-in scene named {', '.join(map(repr, unknown))} "
+                  f"(`crowdmotion scenarios` lists them)", file=sys.stderr)
+            return 2
+        scenes = [sc for sc in scenes if sc.spec.name in args.only]
+    jobs = min(args.jobs or cores(), len(scenes))
+    if jobs > 1:
+        print(f"running {len(scenes)} built-in scenes on {jobs} processes", flush=True)
+        failed = [d for d in run_parallel(scenes, root, jobs, progress=not args.quiet) if d.error is not None]
+    else:
+        failed = []
+        for i, sc in enumerate(scenes):
+            print(f"running {sc.spec.name}: {sc.spec.description}", flush=True)
+            later = [s.method for s in scenes[i + 1:] if s.method != sc.method]
+            if later:  # the next method's kernels compile on the other cores while this one's scenes run
+                _precompile.begin(later[0], background=True)
+            done = run_one(sc.source, root / sc.spec.name, progress=not args.quiet)
+            print(f"  {done.headline} ({done.seconds:.1f} s)")
     print(f"demo output in {root.resolve()}/ (trajectories.parquet, summary.json, pictures and view.html per scene)")
+    if failed:
+        print(f"crowdmotion: error: {len(failed)} scene(s) failed: {', '.join(d.name for d in failed)}",
+              file=sys.stderr)
+        return 1
     return 0
 
 
@@ -466,6 +490,9 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("-o", "--output", default="crowdmotion-demo",
                    help="folder for the scenes' outputs, one subfolder each (default ./crowdmotion-demo)")
     p.add_argument("--only", nargs="*", help="names of built-in scenes to run")
+    p.add_argument("-j", "--jobs", type=_positive_int, metavar="N",
+                   help="scenes run side by side in N processes (default: one per core; 1 runs them one "
+                        "after another in this process, with a progress bar per scene)")
     p.add_argument("-q", "--quiet", action="store_true", help="no progress bars")
     p.set_defaults(func=cmd_demo)
 

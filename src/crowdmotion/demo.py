@@ -1,0 +1,122 @@
+"""``crowdmotion demo``: the built-in scenes, side by side on the machine's cores.
+
+Each scene is a job of its own: simulate, then write trajectories, pictures and player
+(about half of a scene's time is the pictures, which run on one core in matplotlib).
+With more than one core the scenes run in a pool of worker processes, one per core (at
+most one per scene), so one scene's pictures are drawn while another simulates. The
+scenes are handed out one method at a time in turn (formation, mdp, pso, rvo, then the
+next of each), so that on a cold numba cache the first workers compile different
+methods' kernels rather than the same ones twice, and the heaviest scenes (formation)
+start first.
+
+Each worker's numba kernels get the cores divided by the workers; the compile-on-every-
+core start-up of :mod:`crowdmotion._precompile` stays off in workers that already fill
+the cores. Results do not depend on the number of workers: every scene runs with its
+own seed in a process of its own.
+"""
+
+from __future__ import annotations
+
+import multiprocessing
+import os
+import sys
+import time
+from concurrent.futures import FIRST_COMPLETED, ProcessPoolExecutor, wait
+from dataclasses import dataclass
+from pathlib import Path
+
+
+def cores() -> int:
+    """The cores this process may run on."""
+    return len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else (os.cpu_count() or 1)
+
+
+@dataclass(frozen=True)
+class SceneDone:
+    """One scene's outcome: its headline (or the error it raised) and its wall time."""
+
+    name: str
+    headline: str
+    seconds: float
+    error: str | None = None
+
+
+def interleave(scenes: list) -> list:
+    """Loaded scenarios in the order the workers take them: the first scene of each
+    method (alphabetical methods), then the second of each, and so on."""
+    by_method: dict[str, list] = {}
+    for sc in scenes:
+        by_method.setdefault(sc.method, []).append(sc)
+    queues = [by_method[m] for m in sorted(by_method)]
+    order = []
+    for i in range(max((len(q) for q in queues), default=0)):
+        order += [q[i] for q in queues if i < len(q)]
+    return order
+
+
+def run_one(path: str, out: str, progress: bool = False) -> SceneDone:
+    """Run one scenario file and write everything it asks for into folder ``out``
+    (made ready, an earlier demo's files replaced)."""
+    from crowdmotion.cli import _headline
+    from crowdmotion.outputs import prepare_output_folder, write_run
+    from crowdmotion.scenario import load_scenario, run_scenario
+
+    t0 = time.perf_counter()
+    sc = load_scenario(path)
+    folder = prepare_output_folder(out, overwrite=True)  # the demo's own folders
+    result = run_scenario(sc, progress=progress)
+    write_run(result, folder)
+    return SceneDone(sc.spec.name, _headline(result.summary), time.perf_counter() - t0)
+
+
+def _worker_start(threads: int, precompile: bool) -> None:
+    """A pool worker's set-up: its share of the cores for numba, and whether a cold run
+    may spread its compile over every core."""
+    import numba
+
+    numba.set_num_threads(max(1, min(threads, numba.config.NUMBA_NUM_THREADS)))
+    if not precompile:
+        os.environ["CROWDMOTION_PRECOMPILE"] = "0"
+
+
+def _safe_run_one(path: str, out: str) -> SceneDone:
+    """:func:`run_one` in a worker: an error comes back as the scene's outcome rather than
+    ending the demo."""
+    t0 = time.perf_counter()
+    try:
+        return run_one(path, out)
+    except Exception as exc:  # reported by the parent, which exits non-zero
+        return SceneDone(Path(path).stem, "", time.perf_counter() - t0, f"{type(exc).__name__}: {exc}")
+
+
+def run_parallel(scenes: list, root: Path, jobs: int, progress: bool = True, file=None) -> list[SceneDone]:
+    """Run ``scenes`` (loaded scenarios from files) in ``jobs`` worker processes, each
+    into ``root / <scene name>``; prints one line per scene as it finishes (with a bar
+    over the scenes when ``progress``). Returns the outcomes in finishing order."""
+    from tqdm.auto import tqdm
+
+    file = sys.stdout if file is None else file
+    order = interleave(scenes)
+    jobs = max(1, min(jobs, len(order)))
+    threads = max(1, cores() // jobs)
+    context = multiprocessing.get_context("spawn")  # no fork of a process that may hold numba's threads
+    done: list[SceneDone] = []
+    with ProcessPoolExecutor(jobs, mp_context=context, initializer=_worker_start,
+                             initargs=(threads, jobs < cores())) as pool, \
+            tqdm(total=len(order), desc="demo", unit="scene", disable=not progress, leave=False) as bar:
+        pending = {pool.submit(_safe_run_one, str(sc.source), str(root / sc.spec.name)) for sc in order}
+        try:
+            while pending:
+                finished, pending = wait(pending, return_when=FIRST_COMPLETED)
+                for future in finished:
+                    outcome = future.result()
+                    done.append(outcome)
+                    line = (f"{outcome.name}: {outcome.headline} ({outcome.seconds:.1f} s)" if outcome.error is None
+                            else f"{outcome.name}: failed: {outcome.error}")
+                    bar.write(line, file=file)
+                    bar.update(1)
+        except BaseException:
+            for future in pending:
+                future.cancel()
+            raise
+    return done
