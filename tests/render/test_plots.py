@@ -69,3 +69,31 @@ def test_the_player_uses_the_same_group_colours_as_the_pictures():
     traj = Trajectories(np.zeros((2, 2, 2)) + [[1, 1], [2, 2]], 1.0, group=np.array(["red", "crowd"], dtype=object))
     data = player_data(traj)
     assert data["groups"] == [{"name": "red", "colour": "#ff0000"}, {"name": "crowd", "colour": "#1f77b4"}]
+
+
+def test_formation_gif_moves_obstacles_and_draws_torn_edges_where_they_are(tmp_path):
+    from PIL import Image
+
+    scene = cm.Scene([[0.0, 0.0], [10.0, 10.0]],
+                     [cm.Circle([2.0, 5.0], 0.6, path=([0.0, 10.0], [[2.0, 5.0], [8.0, 5.0]]))])
+    mesh = {"name": "blue", "vertices": np.array([[2.0, 2.0], [6.0, 2.0], [4.0, 4.0]]),
+            "edges": np.array([[0, 1], [1, 2], [2, 0]]), "torn": np.array([False, True, False]),
+            "agents": np.array([[2.0, 2.0], [6.0, 2.0], [4.0, 4.0]]), "radius": 0.3,
+            "dislocated": np.zeros(3, bool)}
+    path = plots.animate_formation_snapshots(scene, [{"time": 0.0, "groups": [mesh]}, {"time": 10.0, "groups": [mesh]}],
+                                             tmp_path / "f.gif", title="t")
+    gif = Image.open(path)
+
+    def colour(frame, x, y):  # the figure's fixed margins: 0.75 in left, 0.35 in top, 8 in of data, 72 dpi
+        gif.seek(frame)
+        rgb = np.asarray(gif.convert("RGB")).astype(int)
+        col, row = round((0.75 + 0.8 * x) * 72), round((0.35 + 0.8 * (10 - y)) * 72)
+        return rgb[row - 1:row + 2, col - 1:col + 2].reshape(-1, 3)
+
+    for frame, here, gone in ((0, 2.0, 8.0), (1, 8.0, 2.0)):
+        assert colour(frame, here, 5.4).max() < 200, "the obstacle is drawn where it is at that time"
+        assert colour(frame, gone, 5.4).min() > 240, "and not where it was or will be (above its dashed path)"
+        torn = colour(frame, 5.0, 3.0)  # the middle of the torn edge (1, 2): red, dashed
+        intact = colour(frame, 3.0, 2.0)  # the middle of the intact edge (0, 1): blue
+        assert (torn[:, 0] - torn[:, 2]).max() > 60 or (torn.min(axis=1) > 240).all()  # a dash or a gap
+        assert (intact[:, 2] - intact[:, 0]).max() > 60

@@ -27,23 +27,43 @@ def _save(fig, path: Path) -> Path:
     return path
 
 
-def _draw_obstacles_2d(ax, scene: Scene, t: float = 0.0, moving: bool | None = None) -> None:
+def _draw_obstacles_2d(ax, scene: Scene, t: float = 0.0, moving: bool | None = None,
+                       animated: bool = False) -> list:
     """The scene's obstacles at time t, seen from above (3D shapes projected on x, y):
-    all of them, or (``moving`` True / False) only the moving / resting ones."""
+    all of them, or (``moving`` True / False) only the moving / resting ones; a moving
+    one's path as a dashed line. Returns ``[(obstacle, patch)]`` for the shapes drawn
+    (``animated``: left out of a full draw, for blitting with :func:`move_obstacles`)."""
+    drawn = []
     for ob in scene.obstacles:
         if moving is not None and ob.is_moving != moving:
             continue
         shift = ob.offset(t)[:2]
-        style = dict(facecolor="0.35", edgecolor="0.1", alpha=0.5 if ob.is_moving else 0.85, zorder=2)
+        style = dict(facecolor="0.35", edgecolor="0.1", alpha=0.5 if ob.is_moving else 0.85, zorder=2,
+                     animated=animated and ob.is_moving)
         if isinstance(ob, (Circle, Sphere)):
-            ax.add_patch(patches.Circle(ob.center[:2] + shift, ob.radius, **style))
+            patch = ax.add_patch(patches.Circle(ob.center[:2] + shift, ob.radius, **style))
         elif isinstance(ob, Box):
             lo = ob.lower[:2] + shift
-            ax.add_patch(patches.Rectangle(lo, *(ob.upper[:2] - ob.lower[:2]), **style))
+            patch = ax.add_patch(patches.Rectangle(lo, *(ob.upper[:2] - ob.lower[:2]), **style))
         elif isinstance(ob, Polygon):
-            ax.add_patch(patches.Polygon(ob.vertices + shift, closed=True, **style))
+            patch = ax.add_patch(patches.Polygon(ob.vertices + shift, closed=True, **style))
+        else:
+            continue
+        drawn.append((ob, patch))
         if ob.is_moving:
             ax.plot(ob.path.positions[:, 0], ob.path.positions[:, 1], "k--", lw=1, zorder=2)
+    return drawn
+
+
+def move_obstacles(ax, drawn: list, t: float, t0: float = 0.0) -> list:
+    """Moving obstacles drawn at time ``t0`` by :func:`_draw_obstacles_2d`, shifted to
+    where they are at ``t`` (the same patches, translated). Returns the patches."""
+    from matplotlib.transforms import Affine2D
+
+    for ob, patch in drawn:
+        dx, dy = (ob.offset(t) - ob.offset(t0))[:2]
+        patch.set_transform(Affine2D().translate(dx, dy) + ax.transData)  # after the patch's own
+    return [patch for _, patch in drawn]
 
 
 def _group_colours(traj: Trajectories) -> dict:
@@ -67,33 +87,47 @@ def marker_handles() -> list:
             Line2D([], [], marker="o", ls="", color="0.3", ms=6, label="end (body to scale)")]
 
 
-TORN_EDGE = dict(colors="red", alpha=0.6, linestyles="--")  # how a torn mesh edge is drawn
+TORN_EDGE = dict(color="red", alpha=0.6, linestyle="--")  # how a torn mesh edge is drawn
 
 
-def _mesh_lines(colour, lw: float, alpha: float, intact=(), torn=(), animated: bool = False) -> tuple:
+def polyline_xy(segments: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """(m, 2, 2) segments as one polyline's x and y, the segments apart by NaN gaps: one
+    path for matplotlib to stroke (a LineCollection makes a Path per segment, which cost
+    half of a formation GIF's time)."""
+    xy = np.full((len(segments), 3, 2), np.nan)
+    xy[:, :2] = segments
+    return xy[:, :, 0].ravel(), xy[:, :, 1].ravel()
+
+
+def _mesh_lines(colour, lw: float, alpha: float, intact=None, torn=None, animated: bool = False) -> tuple:
     """A formation mesh's intact edges (in ``colour``) and torn edges (``TORN_EDGE``) as
-    two line collections of (m, 2, 2) segments."""
-    return (LineCollection(intact, linewidths=lw, zorder=3, colors=[colour], alpha=alpha, animated=animated),
-            LineCollection(torn, linewidths=lw, zorder=3, animated=animated, **TORN_EDGE))
+    two lines, each one NaN-broken polyline of the (m, 2, 2) segments."""
+    from matplotlib.lines import Line2D
+
+    empty = np.empty((0, 2, 2))
+    lines = (Line2D([], [], linewidth=lw, zorder=3, color=colour, alpha=alpha, animated=animated),
+             Line2D([], [], linewidth=lw, zorder=3, animated=animated, **TORN_EDGE))
+    for line, segments in zip(lines, (intact, torn)):
+        line.set_data(*polyline_xy(empty if segments is None else segments))
+    return lines
 
 
 def _draw_mesh(ax, vertices: np.ndarray, edges: np.ndarray, torn: np.ndarray, colour, lw: float,
                alpha: float) -> None:
-    """A formation mesh: intact edges in ``colour``, torn ones red and dashed (one line
-    collection each: a Line2D per edge made the formation GIF take half a minute)."""
+    """A formation mesh: intact edges in ``colour``, torn ones red and dashed."""
     segments = vertices[edges][:, :, :2]
-    for sel, lines in zip((~torn, torn), _mesh_lines(colour, lw, alpha, segments[~torn], segments[torn])):
+    for sel, line in zip((~torn, torn), _mesh_lines(colour, lw, alpha, segments[~torn], segments[torn])):
         if sel.any():
-            ax.add_collection(lines)
+            ax.add_line(line)
 
 
 def _mesh_artists(ax, colour, lw: float, alpha: float) -> tuple:
     """Empty, animated artists for one formation in an animation: intact edges, torn
     edges and agents (points), styled as the snapshots draw them; fill them with
-    ``set_segments`` / ``set_offsets``."""
+    ``set_data(*polyline_xy(segments))`` / ``set_offsets``."""
     intact, torn = _mesh_lines(colour, lw, alpha, animated=True)
-    for lines in (intact, torn):
-        ax.add_collection(lines, autolim=False)
+    for line in (intact, torn):
+        ax.add_line(line)
     dots = ax.scatter(np.empty(0), np.empty(0), s=8, zorder=4, animated=True)
     return intact, torn, dots
 
@@ -378,49 +412,43 @@ def animate_formation_snapshots(scene: Scene, snapshots: list[dict], path, fps: 
 
     # axes, labels, legend and resting obstacles are drawn once; each frame restores that
     # background and draws only what moves (blitting: about 4x faster than redrawing)
-    moving = any(ob.is_moving for ob in scene.obstacles)
     _draw_obstacles_2d(ax, scene, moving=False)
+    movers = _draw_obstacles_2d(ax, scene, moving=True, animated=True)  # their paths go in the background
     ax.set_xlim(lo[0], hi[0])
     ax.set_ylim(lo[1], hi[1])
     ax.set_aspect("equal")
     ax.set_xlabel("x (m)")
     ax.set_ylabel("y (m)")
     legend_outside(ax, _mesh_handles(group_colour))
-    label = ax.set_title(" ", fontsize=10)
+    ax.set_title(title, loc="left", fontsize=10)  # drawn once; only the clock is drawn per frame
+    label = ax.set_title("t = 0.0 s", loc="right", fontsize=10)
     label.set_animated(True)
     fig.canvas.draw()
     background = fig.canvas.copy_from_bbox(fig.bbox)
     # each group's meshes and agents are three artists made once and refilled per frame
-    # (making a scatter and two line collections per group and frame took half the time)
+    # (making a scatter and two line artists per group and frame took half the time)
     artists: dict = {}
     images = []
     palette = None
     for snap in snapshots:
-        shapes = []
-        if moving:
-            before = set(ax.get_children())
-            _draw_obstacles_2d(ax, scene, snap["time"], moving=True)
-            shapes = [x for x in ax.get_children() if x not in before]
-        drawn = list(shapes)
+        drawn = move_obstacles(ax, movers, snap["time"])
         for gi, g in enumerate(snap["groups"]):
             key = g.get("name", gi)
             if key not in artists:
                 artists[key] = _mesh_artists(ax, group_colour[key], lw=0.5, alpha=0.6)
             intact, torn, dots = artists[key]
             segments = g["vertices"][g["edges"]][:, :, :2]
-            intact.set_segments(segments[~g["torn"]])
-            torn.set_segments(segments[g["torn"]])
+            intact.set_data(*polyline_xy(segments[~g["torn"]]))
+            torn.set_data(*polyline_xy(segments[g["torn"]]))
             dots.set_offsets(g["agents"][:, :2])
             dots.set_facecolor(np.where(g["dislocated"][:, None], np.array([[0.0, 0.0, 0.0, 1.0]]),
                                         np.array([to_rgba(group_colour[key])])))
             drawn += [intact, torn, dots]
-        label.set_text(f"{title}  t = {snap['time']:.1f} s")
+        label.set_text(f"t = {snap['time']:.1f} s")
         pixels = blit_frame(fig, ax, background, drawn, [label])
         if palette is None:
             palette = gif_palette(pixels, group_colour.values())
         images.append(gif_image(pixels, palette))
-        for artist in shapes:
-            artist.remove()
     plt.close(fig)
     path = Path(path)
     with atomic_path(path) as tmp:
