@@ -2,6 +2,7 @@
 
 import numpy as np
 import pytest
+import scipy.sparse as sp
 
 from crowdmotion.formation import templates
 from crowdmotion.formation.arap import ARAPSolver
@@ -101,3 +102,24 @@ def test_fewer_than_two_handles_need_an_anchor():
     want = _rigid(mesh.rest, -0.4, np.array([3.0, 1.0]))
     got = ARAPSolver(mesh, anchor_weight=0.05).deform([], np.zeros((0, 2)), anchor=want)
     assert np.abs(got - want).max() < 1e-9
+
+
+@pytest.mark.parametrize("anchor_weight", [0.0, 0.01])  # 0: a bare vertex has no diagonal: built anew
+def test_a_new_handle_set_reuses_its_topologys_layout_and_gets_the_same_matrices(anchor_weight):
+    mesh = FormationMesh(templates.block(6, 7, 1.0).points)
+    v = mesh.rest.copy()
+    v[0] += [10.0, 0.0]
+    mesh.update_tearing(v, 2.0, 1.5)  # some edges torn: elements drop out of both systems
+    assert mesh.torn.any()
+    solver = ARAPSolver(mesh, anchor_weight=anchor_weight)
+    active = mesh.active_elements
+    rng = np.random.default_rng(5)
+    for k in (2, 5, 9, 9, 42):
+        handles = np.sort(rng.choice(mesh.n_vertices, k, replace=False))
+        diag = solver._diag(handles)
+        got = solver._systems(handles)
+        fresh = (sp.triu(solver._step1_matrix(active, diag), format="csc"),
+                 sp.triu(solver._step2_matrix(active, diag), format="csc"))
+        for g, f in zip(got, fresh):
+            assert g.shape == f.shape and (g != f).nnz == 0  # the same numbers, bit for bit
+    assert len(solver._layouts) == 1
