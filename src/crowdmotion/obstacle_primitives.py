@@ -52,32 +52,43 @@ class ObstacleSet:
         self.circles = [ob for ob in scene.obstacles if isinstance(ob, Circle)]
         self.outlined = [(ob, outline_segments(ob)) for ob in scene.obstacles if not isinstance(ob, Circle)]
         self.outlined.append((None, outline_segments(Box(scene.lower, scene.upper))))
-        self._static_cache = None
+        self._first_segment = np.cumsum([0] + [len(segs) for _, segs in self.outlined])[:-1]
+        self._moving_circles = [i for i, ob in enumerate(self.circles) if ob.is_moving]
+        self._moving_outlined = [i for i, (ob, _) in enumerate(self.outlined) if ob is not None and ob.is_moving]
+        self._static_cache = None  # every obstacle placed at the first call (all of them if none moves)
         self.any_moving = any(ob.is_moving for ob in scene.obstacles)
 
     def at(self, t: float, dt: float) -> ObstaclePrimitives:
         """Primitives placed at time t, each moving at its mean velocity over [t, t + dt]."""
         if not self.any_moving and self._static_cache is not None:
             return self._static_cache
-        cc, cr, cv = [], [], []
-        for ob in self.circles:
+        if self._static_cache is None:  # every obstacle placed once; later only the moving ones
+            self._static_cache = self._place(t, dt, range(len(self.circles)), range(len(self.outlined)))
+            if not self.any_moving:
+                return self._static_cache
+        return self._place(t, dt, self._moving_circles, self._moving_outlined, self._static_cache)
+
+    def _place(self, t: float, dt: float, circles, outlined, base: ObstaclePrimitives | None = None):
+        """Primitives at time t: the listed circles and outlined shapes placed anew, the
+        others as in ``base`` (every one placed when ``base`` is None)."""
+        if base is None:
+            n_seg = sum(len(segs) for _, segs in self.outlined)
+            base = ObstaclePrimitives(np.zeros((len(self.circles), 2)), np.zeros(len(self.circles)),
+                                      np.zeros((len(self.circles), 2)), np.zeros((n_seg, 2)), np.zeros((n_seg, 2)),
+                                      np.zeros((n_seg, 2)))
+        prim = ObstaclePrimitives(*(a.copy() for a in (base.circ_c, base.circ_r, base.circ_v, base.seg_a, base.seg_b,
+                                                       base.seg_v)))
+        for i in circles:
+            ob = self.circles[i]
             o0, o1 = ob.offset(t), ob.offset(t + dt)
-            cc.append(ob.center + o0)
-            cr.append(ob.radius)
-            cv.append((o1 - o0) / dt)
-        sa, sb, sv = [], [], []
-        for ob, segs in self.outlined:
+            prim.circ_c[i] = ob.center + o0
+            prim.circ_r[i] = ob.radius
+            prim.circ_v[i] = (o1 - o0) / dt
+        for i in outlined:
+            ob, segs = self.outlined[i]
             o0, o1 = (np.zeros(2), np.zeros(2)) if ob is None else (ob.offset(t), ob.offset(t + dt))
-            sa.append(segs[:, 0] + o0)
-            sb.append(segs[:, 1] + o0)
-            sv.append(np.broadcast_to((o1 - o0) / dt, (len(segs), 2)))
-        prim = ObstaclePrimitives(
-            np.array(cc, dtype=float).reshape(-1, 2), np.array(cr, dtype=float).reshape(-1),
-            np.array(cv, dtype=float).reshape(-1, 2),
-            np.concatenate(sa).astype(float) if sa else np.zeros((0, 2)),
-            np.concatenate(sb).astype(float) if sb else np.zeros((0, 2)),
-            np.concatenate(sv).astype(float) if sv else np.zeros((0, 2)),
-        )
-        if not self.any_moving:
-            self._static_cache = prim
+            at = slice(self._first_segment[i], self._first_segment[i] + len(segs))
+            prim.seg_a[at] = segs[:, 0] + o0
+            prim.seg_b[at] = segs[:, 1] + o0
+            prim.seg_v[at] = (o1 - o0) / dt
         return prim

@@ -217,6 +217,9 @@ class Polygon(Obstacle):
 ObstacleShape = Union[Circle, Sphere, Box, Polygon]
 
 
+SHAPES_AT_ONCE = 1 << 18  # point-obstacle pairs measured in one array (static_obstacle_distance)
+
+
 class Scene:
     """Axis-aligned bounds in 2D or 3D plus obstacles.
 
@@ -236,6 +239,7 @@ class Scene:
         self.lower = lo
         self.upper = hi
         self.obstacles: list[Obstacle] = list(obstacles)
+        self._shapes = None  # the static boxes and discs as arrays (static_obstacle_distance)
         for i, ob in enumerate(self.obstacles):
             if not isinstance(ob, Obstacle):
                 raise TypeError(f"Scene.obstacles[{i}] must be a Circle, Sphere, Box or Polygon, got {ob!r}")
@@ -268,16 +272,39 @@ class Scene:
     def obstacle_distance(self, points, t: float = 0.0) -> np.ndarray:
         """Signed distance from each point to the nearest obstacle at time ``t``."""
         p = as_points(points, self.dim)
-        d = np.full(p.shape[:-1], np.inf)
-        for ob in self.obstacles:
+        d = self.static_obstacle_distance(p)
+        for ob in self.moving_obstacles:
             d = np.minimum(d, ob.signed_distance(p - ob.offset(t)))
         return d
 
     def static_obstacle_distance(self, points) -> np.ndarray:
-        """Signed distance from each point to the nearest obstacle that does not move."""
+        """Signed distance from each point to the nearest obstacle that does not move
+        (boxes and discs or balls measured all at once, as arrays)."""
         p = as_points(points, self.dim)
         d = np.full(p.shape[:-1], np.inf)
-        for ob in self.static_obstacles:
+        statics = self.static_obstacles
+        key = tuple(map(id, statics))
+        if self._shapes is None or self._shapes[0] != key:
+            boxes = [ob for ob in statics if isinstance(ob, Box)]
+            rounds = [ob for ob in statics if isinstance(ob, _Round)]
+            stack = lambda rows: np.array(rows, dtype=float).reshape(-1, self.dim)  # noqa: E731
+            self._shapes = (key, stack([b.center for b in boxes]), stack([(b.upper - b.lower) / 2 for b in boxes]),
+                            stack([r.center for r in rounds]), np.array([r.radius for r in rounds], dtype=float),
+                            [ob for ob in statics if not isinstance(ob, (Box, _Round))])
+        _, box_c, box_half, round_c, round_r, others = self._shapes
+        flat, out = p.reshape(-1, self.dim), d.reshape(-1)
+        step = max(1, SHAPES_AT_ONCE // max(1, len(box_c) + len(round_c)))
+        for s in range(0, len(flat), step):  # the same sums as Box / Circle.signed_distance, a block of points at a time
+            q = flat[s:s + step, None, :]
+            if len(box_c):
+                q_box = np.abs(q - box_c) - box_half
+                inside = np.minimum(q_box.max(axis=-1), 0.0)
+                out[s:s + step] = np.minimum(out[s:s + step],
+                                             (np.linalg.norm(np.maximum(q_box, 0.0), axis=-1) + inside).min(axis=1))
+            if len(round_c):
+                out[s:s + step] = np.minimum(out[s:s + step],
+                                             (np.linalg.norm(q - round_c, axis=-1) - round_r).min(axis=1))
+        for ob in others:
             d = np.minimum(d, ob.signed_distance(p))
         return d
 
