@@ -7,8 +7,7 @@ import numpy as np
 import pytest
 
 from crowdmotion.cli import builtin_scenarios, main
-from crowdmotion.demo import interleave, run_one, run_parallel
-from crowdmotion.scenario import load_scenario
+from crowdmotion.demo import DemoScene, interleave, run_one, run_parallel
 from crowdmotion.trajectories import Trajectories
 
 
@@ -21,19 +20,20 @@ def test_interleave_takes_one_scene_of_each_method_in_turn():
 
 def test_workers_write_what_one_process_writes(tmp_path):
     wanted = {"pso_gathering", "mdp_robots_2d"}
-    scenes = [load_scenario(p) for p in builtin_scenarios() if p.stem in wanted]
+    scenes = [DemoScene.read(p) for p in builtin_scenarios() if p.stem in wanted]
+    assert {(sc.name, sc.method) for sc in scenes} == {("pso_gathering", "pso"), ("mdp_robots_2d", "mdp")}
     lines = []
     done = run_parallel(scenes, tmp_path / "side", jobs=2, progress=False,
                         file=SimpleNamespace(write=lines.append, flush=lambda: None))
     assert {d.name for d in done} == wanted and all(d.error is None for d in done)
     assert sum(name in "".join(lines) for name in wanted) == 2  # a line per scene as it finishes
     for sc in scenes:
-        alone = run_one(sc.source, tmp_path / "alone" / sc.spec.name)
+        alone = run_one(sc.path, tmp_path / "alone" / sc.name)
         assert alone.error is None and "agent overlaps 0" in alone.headline
-        a = Trajectories.load(tmp_path / "side" / sc.spec.name / "trajectories.parquet")
-        b = Trajectories.load(tmp_path / "alone" / sc.spec.name / "trajectories.parquet")
+        a = Trajectories.load(tmp_path / "side" / sc.name / "trajectories.parquet")
+        b = Trajectories.load(tmp_path / "alone" / sc.name / "trajectories.parquet")
         np.testing.assert_array_equal(a.positions, b.positions)
-        assert (tmp_path / "side" / sc.spec.name / "paths.png").stat().st_size > 10_000
+        assert (tmp_path / "side" / sc.name / "paths.png").stat().st_size > 10_000
 
 
 def test_a_scene_that_fails_is_reported_and_the_demo_exits_non_zero(tmp_path, monkeypatch, capsys):
@@ -42,7 +42,7 @@ def test_a_scene_that_fails_is_reported_and_the_demo_exits_non_zero(tmp_path, mo
     calls = []
 
     def fake(scenes, root, jobs, progress=True, file=None):
-        calls.append((sorted(sc.spec.name for sc in scenes), jobs))
+        calls.append((sorted(sc.name for sc in scenes), jobs))
         return [demo.SceneDone("rvo_doorway", "", 0.1, "RuntimeError: boom"),
                 demo.SceneDone("rvo_street_O", "80 agents", 0.1)]
 
@@ -60,3 +60,12 @@ def test_demo_refuses_unknown_scenes_and_bad_job_counts(tmp_path, capsys):
         with pytest.raises(SystemExit):
             main(["demo", "-o", str(tmp_path / "d"), "-j", wrong])
         assert "at least 1" in capsys.readouterr().err
+
+
+def test_every_builtin_scene_file_names_itself_as_the_demo_lists_it():
+    from crowdmotion.scenario import load_scenario
+
+    for path in builtin_scenarios():
+        listed, loaded = DemoScene.read(path), load_scenario(path)
+        assert (listed.name, listed.method, listed.description) == \
+            (loaded.spec.name, loaded.method, loaded.spec.description)

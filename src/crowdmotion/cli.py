@@ -145,18 +145,17 @@ def cmd_run(args) -> int:
 
 def cmd_demo(args) -> int:
     from crowdmotion import _precompile
-    from crowdmotion.demo import cores, run_one, run_parallel
-    from crowdmotion.scenario import load_scenario
+    from crowdmotion.demo import DemoScene, cores, run_one, run_parallel
 
     root = Path(args.output)
-    scenes = [load_scenario(path) for path in builtin_scenarios()]
+    scenes = [DemoScene.read(path) for path in builtin_scenarios()]
     if args.only:
-        unknown = sorted(set(args.only) - {sc.spec.name for sc in scenes})
+        unknown = sorted(set(args.only) - {sc.name for sc in scenes})
         if unknown:
             print(f"crowdmotion: error: --only: no built-in scene named {', '.join(map(repr, unknown))} "
                   f"(`crowdmotion scenarios` lists them)", file=sys.stderr)
             return 2
-        scenes = [sc for sc in scenes if sc.spec.name in args.only]
+        scenes = [sc for sc in scenes if sc.name in args.only]
     jobs = min(args.jobs or cores(), len(scenes))
     if jobs > 1:
         print(f"running {len(scenes)} built-in scenes on {jobs} processes", flush=True)
@@ -164,11 +163,11 @@ def cmd_demo(args) -> int:
     else:
         failed = []
         for i, sc in enumerate(scenes):
-            print(f"running {sc.spec.name}: {sc.spec.description}", flush=True)
+            print(f"running {sc.name}: {sc.description}", flush=True)
             later = [s.method for s in scenes[i + 1:] if s.method != sc.method]
             if later:  # the next method's kernels compile on the other cores while this one's scenes run
                 _precompile.begin(later[0], background=True)
-            done = run_one(sc.source, root / sc.spec.name, progress=not args.quiet)
+            done = run_one(sc.path, root / sc.name, progress=not args.quiet)
             print(f"  {done.headline} ({done.seconds:.1f} s)")
     print(f"demo output in {root.resolve()}/ (trajectories.parquet, summary.json, pictures and view.html per scene)")
     if failed:

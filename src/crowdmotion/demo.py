@@ -32,6 +32,25 @@ def cores() -> int:
 
 
 @dataclass(frozen=True)
+class DemoScene:
+    """A scenario file as the demo lists it: read for its name, method and description
+    only (each worker loads and checks its own scenes in full)."""
+
+    path: Path
+    name: str
+    method: str
+    description: str = ""
+
+    @classmethod
+    def read(cls, path) -> "DemoScene":
+        import tomllib
+
+        data = tomllib.loads(Path(path).read_text())
+        return cls(Path(path), str(data.get("name", Path(path).stem)), str(data.get("method", "")),
+                   str(data.get("description", "")))
+
+
+@dataclass(frozen=True)
 class SceneDone:
     """One scene's outcome: its headline (or the error it raised) and its wall time."""
 
@@ -42,7 +61,7 @@ class SceneDone:
 
 
 def interleave(scenes: list) -> list:
-    """Loaded scenarios in the order the workers take them: the first scene of each
+    """Scenes (anything with a ``method``) in the order the workers take them: the first scene of each
     method (alphabetical methods), then the second of each, and so on."""
     by_method: dict[str, list] = {}
     for sc in scenes:
@@ -89,9 +108,9 @@ def _safe_run_one(path: str, out: str) -> SceneDone:
         return SceneDone(Path(path).stem, "", time.perf_counter() - t0, f"{type(exc).__name__}: {exc}")
 
 
-def run_parallel(scenes: list, root: Path, jobs: int, progress: bool = True, file=None) -> list[SceneDone]:
-    """Run ``scenes`` (loaded scenarios from files) in ``jobs`` worker processes, each
-    into ``root / <scene name>``; prints one line per scene as it finishes (with a bar
+def run_parallel(scenes: list[DemoScene], root: Path, jobs: int, progress: bool = True,
+                 file=None) -> list[SceneDone]:
+    """Run ``scenes`` in ``jobs`` worker processes, each into ``root / <scene name>``; prints one line per scene as it finishes (with a bar
     over the scenes when ``progress``). Returns the outcomes in finishing order."""
     from tqdm.auto import tqdm
 
@@ -104,7 +123,7 @@ def run_parallel(scenes: list, root: Path, jobs: int, progress: bool = True, fil
     with ProcessPoolExecutor(jobs, mp_context=context, initializer=_worker_start,
                              initargs=(threads, jobs < cores())) as pool, \
             tqdm(total=len(order), desc="demo", unit="scene", disable=not progress, leave=False) as bar:
-        pending = {pool.submit(_safe_run_one, str(sc.source), str(root / sc.spec.name)) for sc in order}
+        pending = {pool.submit(_safe_run_one, str(sc.path), str(root / sc.name)) for sc in order}
         try:
             while pending:
                 finished, pending = wait(pending, return_when=FIRST_COMPLETED)
