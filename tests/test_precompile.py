@@ -92,7 +92,7 @@ run_scenario(load_scenario([p for p in builtin_scenarios() if p.stem == "mdp_rob
 print(json.dumps({"done": done, "compiled": compiled, "again": pc.start("mdp")}))
 """
     result = _in_fresh_process(script, tmp_path)
-    if pc._cores() < 2:
+    if pc.cores() < 2:
         assert result["done"] == 0
         return
     names = {k["name"] for k in RECORD["mdp"]}
@@ -119,7 +119,7 @@ run_scenario(sc, progress=False)
 print(json.dumps({"children": children, "compiled": compiled, "pending": list(pc._PENDING), "done": done}))
 """
     result = _in_fresh_process(script, tmp_path)
-    if pc._cores() < 2:
+    if pc.cores() < 2:
         assert result["children"] == []
         return
     assert result["children"] and result["pending"] == [] and result["done"] >= 1
@@ -180,7 +180,7 @@ print(json.dumps({"mine": [k["name"] for k in plan[0]] if plan else [], "compile
                   "cold": [k["name"] for k in json.loads(pc.RECORD.read_text())["pso"] if pc._cold(k)]}))
 """
     result = _in_fresh_process(script, tmp_path)
-    if pc._cores() < 2:
+    if pc.cores() < 2:
         assert result["done"] == 0
         return
     assert result["done"] == len(RECORD["pso"]) and result["cold"] == []  # every kernel in the cache

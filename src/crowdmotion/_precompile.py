@@ -72,7 +72,8 @@ def parse_signature(text: str) -> tuple:
     return tuple(out)
 
 
-def _cores() -> int:
+def cores() -> int:
+    """The cores this process may run on (its CPU affinity where the platform says)."""
     return len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else (os.cpu_count() or 1)
 
 
@@ -199,18 +200,18 @@ def _plan(method: str, background: bool = False, head_start: float = 0.0):
     except (OSError, ValueError):
         return None
     todo = [k for k in record.get(method, []) if _cold(k)]
-    cores = _cores()
-    if not todo or cores < 2:
+    n_cores = cores()
+    if not todo or n_cores < 2:
         return None
     if background:
-        return [], [lst for lst in schedule(todo, min(cores - 1, len(todo))) if lst], len(todo)
+        return [], [lst for lst in schedule(todo, min(n_cores - 1, len(todo))) if lst], len(todo)
     # what reading and checking a scenario calls (RVO's line-of-sight test, for one) this
     # process compiles anyway, with its helpers: its list starts with those, so no child
     # compiles them too
     first = _closure(todo, {k["name"] for k in todo if k.get("at_load")})
     if len(first) == len(todo):
         return None  # this process compiles it all while checking the scenario
-    mine, *theirs = schedule(todo, min(cores, len(todo)), first=first, head_start=head_start)
+    mine, *theirs = schedule(todo, min(n_cores, len(todo)), first=first, head_start=head_start)
     return mine, theirs, len(todo)
 
 

@@ -145,7 +145,7 @@ def cmd_run(args) -> int:
 
 def cmd_demo(args) -> int:
     from crowdmotion import _precompile
-    from crowdmotion.demo import DemoScene, cores, run_one, run_parallel
+    from crowdmotion.demo import DemoScene, default_jobs, run_one, run_parallel
 
     root = Path(args.output)
     scenes = [DemoScene.read(path) for path in builtin_scenarios()]
@@ -156,7 +156,7 @@ def cmd_demo(args) -> int:
                   f"(`crowdmotion scenarios` lists them)", file=sys.stderr)
             return 2
         scenes = [sc for sc in scenes if sc.name in args.only]
-    jobs = min(args.jobs or cores(), len(scenes))
+    jobs = min(args.jobs or default_jobs(), len(scenes))
     if jobs > 1:
         print(f"running {len(scenes)} built-in scenes on {jobs} processes", flush=True)
         failed = [d for d in run_parallel(scenes, root, jobs, progress=not args.quiet) if d.error is not None]
@@ -490,8 +490,9 @@ def build_parser() -> argparse.ArgumentParser:
                    help="folder for the scenes' outputs, one subfolder each (default ./crowdmotion-demo)")
     p.add_argument("--only", nargs="*", help="names of built-in scenes to run")
     p.add_argument("-j", "--jobs", type=_positive_int, metavar="N",
-                   help="scenes run side by side in N processes (default: one per core; 1 runs them one "
-                        "after another in this process, with a progress bar per scene)")
+                   help="scenes run side by side in N processes (default: one per core, as many as the free "
+                        "memory holds at 600 MB each; 1 runs them one after another in this process, with a "
+                        "progress bar per scene)")
     p.add_argument("-q", "--quiet", action="store_true", help="no progress bars")
     p.set_defaults(func=cmd_demo)
 

@@ -9,7 +9,8 @@ next of each), so that on a cold numba cache the first workers compile different
 methods' kernels rather than the same ones twice, and the heaviest scenes (formation)
 start first.
 
-Each worker's numba kernels get the cores divided by the workers; the compile-on-every-
+Workers are one per core by default, as many as the free memory holds at about 600 MB
+each. Each worker's numba kernels get the cores divided by the workers; the compile-on-every-
 core start-up of :mod:`crowdmotion._precompile` stays off in workers that already fill
 the cores. Results do not depend on the number of workers: every scene runs with its
 own seed in a process of its own.
@@ -25,10 +26,19 @@ from concurrent.futures import FIRST_COMPLETED, ProcessPoolExecutor, wait
 from dataclasses import dataclass
 from pathlib import Path
 
+from crowdmotion._precompile import cores
 
-def cores() -> int:
-    """The cores this process may run on."""
-    return len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else (os.cpu_count() or 1)
+
+WORKER_MEMORY = 600 << 20  # bytes a worker may take (the largest built-ins peak near 480 MB)
+
+
+def default_jobs() -> int:
+    """Workers for the demo: one per core, no more than the free memory holds."""
+    try:
+        free = os.sysconf("SC_AVPHYS_PAGES") * os.sysconf("SC_PAGE_SIZE")
+    except (AttributeError, ValueError, OSError):  # no sysconf (Windows) or no such name
+        return cores()
+    return max(1, min(cores(), free // WORKER_MEMORY))
 
 
 @dataclass(frozen=True)
