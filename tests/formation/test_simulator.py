@@ -117,3 +117,33 @@ def test_one_or_two_agents_fall_back_and_still_walk(pts):
         sim.step()
     assert sim.mesh(gid).kind == "chain"
     assert np.all(np.isfinite(sim.positions)) and sim.positions[:, 0].min() > 20
+
+
+def _turn_deg(before: np.ndarray, after: np.ndarray) -> float:
+    """The best-fit rotation (degrees) taking one point set's shape to the other's."""
+    a, b = before - before.mean(axis=0), after - after.mean(axis=0)
+    return float(np.degrees(np.arctan2(np.sum(a[:, 0] * b[:, 1] - a[:, 1] * b[:, 0]), np.sum(a * b))))
+
+
+def test_blocks_that_pushed_past_each_other_recover_square_to_the_way_they_set_out():
+    from crowdmotion.cli import scenario_path
+    from crowdmotion.scenario import load_scenario, run_scenario
+
+    result = run_scenario(load_scenario(scenario_path("formation_exchange")), progress=False)
+    pos, group = result.trajectories.positions, result.trajectories.group
+    for name in ("red", "blue"):
+        sel = group == name
+        assert result.summary["formation"][name]["recovered_s"] is not None
+        # they stood turned about 11 degrees when they arrived (the exchange twisted them)
+        assert abs(_turn_deg(pos[0, sel], pos[-1, sel])) < 1.0, f"{name} ends turned"
+
+
+def test_a_column_that_arrives_far_turned_from_its_start_heading_keeps_the_way_it_stands():
+    # the block's best fit is more than 45 degrees off its start heading: it recovers as it stands
+    scene = Scene(bounds=([-20, -20], [20, 20]))
+    sim = formation.Simulator(scene, time_step=0.1)
+    sim.add_group(formation.block(2, 6, spacing=1.0), goal=(0.0, 0.0), start=(0.0, 0.0), heading=0.0, radius=0.3)
+    g = sim.groups[0]
+    g.vertices[:] = (g.vertices - g.vertices.mean(axis=0)) @ np.array([[0.0, -1.0], [1.0, 0.0]]).T  # 90 degrees
+    sim.step()
+    assert abs(np.cos(g.heading)) < 0.05, "it keeps standing north-south, not spun back east-west"

@@ -50,6 +50,7 @@ from crowdmotion.scene import Scene
 
 GROUP_FIELDS = ("radius", "max_speed", "pref_speed", "start", "heading", "name", "reassign")
 SLOW_DOWN = 2.0  # metres from the goal over which the attraction fades
+ARRIVAL_TURN_MAX = np.pi / 4  # a mesh that arrives turned less than this from its start heading recovers square to it
 ROUTE_LOOKAHEAD_M = 1.5  # vertices aim this far down the route to the goal
 STALL_PROGRESS_M = 0.5  # a group that has not come this much nearer its goal ...
 STALL_S = 8.0  # ... for this many seconds is stalled: ...
@@ -264,12 +265,16 @@ class Simulator:
             if dist <= p.arrive_distance or inside:
                 g.arrived_at = self.time
                 in_area = True
-                # recover facing the way the mesh stands (best-fit turn of the rest shape),
-                # so a column that came round corners into a narrow area need not spin round
+                # recover facing the way it set out, unless the mesh stands turned further
+                # from that than ARRIVAL_TURN_MAX (a column that came round corners into a
+                # narrow area): then facing the way it stands (best-fit turn of the rest
+                # shape), so it need not spin round
                 a = g.mesh.rest - g.mesh.rest.mean(axis=0)
                 b = V - centroid
-                g.heading = g.heading0 + float(np.arctan2(np.sum(a[:, 0] * b[:, 1] - a[:, 1] * b[:, 0]),
-                                                          np.sum(a[:, 0] * b[:, 0] + a[:, 1] * b[:, 1])))
+                fit = g.heading0 + float(np.arctan2(np.sum(a[:, 0] * b[:, 1] - a[:, 1] * b[:, 0]),
+                                                    np.sum(a[:, 0] * b[:, 0] + a[:, 1] * b[:, 1])))
+                near = abs((fit - g.heading0 + np.pi) % (2 * np.pi) - np.pi) <= ARRIVAL_TURN_MAX
+                g.heading = g.heading0 if near else fit
         if in_area:  # the heading stays as it arrived
             u = np.zeros(2)
             handles = np.zeros(0, np.int64)
