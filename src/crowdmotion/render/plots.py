@@ -354,7 +354,10 @@ def plot_formation_snapshots(scene: Scene, snapshots: list[dict], path, title: s
     cols = 1 if wide or k == 1 else 2
     rows = (k + cols - 1) // cols
     width = 12.0 if wide else 6.5 * cols
-    fig, axes = plt.subplots(rows, cols, figsize=(width + 1.6 * wide, rows * (width / cols * aspect + 0.8) + 0.5),
+    # a panel's data area is its column less the y label and ticks (about 0.9 in); its height
+    # that times the aspect plus the title and x label (0.9 in): no bands of white between rows
+    panel = (width / cols - 0.9) * aspect + 0.9
+    fig, axes = plt.subplots(rows, cols, figsize=(width + 1.6 * wide, rows * panel + 0.5 * bool(title)),
                              squeeze=False, layout="constrained")
     colours = _snapshot_colours(snapshots)
     for ax, snap in zip(axes.ravel(), snapshots):
