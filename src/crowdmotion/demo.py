@@ -28,7 +28,6 @@ from pathlib import Path
 
 from crowdmotion._precompile import cores
 
-
 WORKER_MEMORY = 600 << 20  # bytes a worker may take (the largest built-ins peak near 480 MB)
 
 
@@ -71,8 +70,8 @@ class SceneDone:
 
 
 def interleave(scenes: list) -> list:
-    """Scenes (anything with a ``method``) in the order the workers take them: the first scene of each
-    method (alphabetical methods), then the second of each, and so on."""
+    """Scenes (anything with a ``method``) in the order the workers take them: the first
+    scene of each method (alphabetical methods), then the second of each, and so on."""
     by_method: dict[str, list] = {}
     for sc in scenes:
         by_method.setdefault(sc.method, []).append(sc)
@@ -120,8 +119,9 @@ def _safe_run_one(path: str, out: str) -> SceneDone:
 
 def run_parallel(scenes: list[DemoScene], root: Path, jobs: int, progress: bool = True,
                  file=None) -> list[SceneDone]:
-    """Run ``scenes`` in ``jobs`` worker processes, each into ``root / <scene name>``; prints one line per scene as it finishes (with a bar
-    over the scenes when ``progress``). Returns the outcomes in finishing order."""
+    """Run ``scenes`` in ``jobs`` worker processes, each into ``root / <scene name>``;
+    prints one line per scene as it finishes (with a bar over the scenes when
+    ``progress``). Returns the outcomes in finishing order."""
     from tqdm.auto import tqdm
 
     file = sys.stdout if file is None else file

@@ -294,7 +294,7 @@ class Scene:
         _, box_c, box_half, round_c, round_r, others = self._shapes
         flat, out = p.reshape(-1, self.dim), d.reshape(-1)
         step = max(1, SHAPES_AT_ONCE // max(1, len(box_c) + len(round_c)))
-        for s in range(0, len(flat), step):  # the same sums as Box / Circle.signed_distance, a block of points at a time
+        for s in range(0, len(flat), step):  # Box / Circle.signed_distance's sums, a block of points at a time
             q = flat[s:s + step, None, :]
             if len(box_c):
                 q_box = np.abs(q - box_c) - box_half
