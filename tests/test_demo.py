@@ -70,15 +70,3 @@ def test_every_builtin_scene_file_names_itself_as_the_demo_lists_it():
         assert (listed.name, listed.method, listed.description) == \
             (loaded.spec.name, loaded.method, loaded.spec.description)
 
-
-def test_default_jobs_are_the_cores_unless_memory_holds_fewer(monkeypatch):
-    import crowdmotion.demo as demo
-
-    monkeypatch.setattr(demo, "cores", lambda: 16)
-    pages = {"SC_PAGE_SIZE": 4096, "SC_AVPHYS_PAGES": 64 * (1 << 30) // 4096}
-    monkeypatch.setattr(demo.os, "sysconf", lambda name: pages[name])
-    assert demo.default_jobs() == 16
-    pages["SC_AVPHYS_PAGES"] = 2 * (1 << 30) // 4096  # 2 GiB free: three workers of 600 MB
-    assert demo.default_jobs() == 3
-    pages["SC_AVPHYS_PAGES"] = 100
-    assert demo.default_jobs() == 1

@@ -57,6 +57,14 @@ def test_verify_command_prints_the_table_and_writes_pictures(tmp_path, capsys):
     rows = json.loads((tmp_path / "verify.json").read_text())
     assert {r["method"] for r in rows} == {"rvo", "mdp", "formation"}
     assert (tmp_path / "rimea_1_corridor_rvo.png").stat().st_size > 10_000
+    # side by side in worker processes (the default on more than one core) or one after
+    # another here: the same verdicts in the same order
+    for jobs in ("1", "3"):
+        assert main(["verify", "--quick", "--case", "rimea_1_corridor", "-o", str(tmp_path / jobs), "-q",
+                     "-j", jobs]) == 0
+    same = [[{k: v for k, v in r.items() if k not in ("wall_s", "picture")} for r in
+             json.loads((tmp_path / jobs / "verify.json").read_text())] for jobs in ("1", "3")]
+    assert same[0] == same[1] and [r["method"] for r in same[0]] == ["rvo", "mdp", "formation"]
 
 
 def test_unknown_cases_are_named(capsys):

@@ -145,7 +145,8 @@ def cmd_run(args) -> int:
 
 def cmd_demo(args) -> int:
     from crowdmotion import _precompile
-    from crowdmotion.demo import DemoScene, default_jobs, run_one, run_parallel
+    from crowdmotion.demo import DemoScene, run_one, run_parallel
+    from crowdmotion.workers import default_jobs
 
     root = Path(args.output)
     scenes = [DemoScene.read(path) for path in builtin_scenarios()]
@@ -426,13 +427,23 @@ def cmd_verify(args) -> int:
 
     from crowdmotion import verify
     from crowdmotion.io.atomic import atomic_path
+    from crowdmotion.workers import default_jobs, map_in_workers
 
     pairs = verify.select(quick=args.quick, names=args.case, methods=args.method)
     out = Path(args.output)
     out.mkdir(parents=True, exist_ok=True)
-    verdicts = []
-    for case, method in tqdm(pairs, desc="verify", unit="case", disable=args.quiet, leave=False):
-        verdicts.append(verify.run_case(case, method, out=out))
+    jobs = min(args.jobs or default_jobs(), len(pairs))
+    with tqdm(total=len(pairs), desc="verify", unit="case", disable=args.quiet, leave=False) as bar:
+        if jobs > 1:  # the long cases (those not in --quick) start first, the table keeps its order
+            order = sorted(range(len(pairs)), key=lambda i: pairs[i][0].quick)
+            done = map_in_workers(verify.run_named, [(pairs[i][0].name, pairs[i][1], str(out)) for i in order], jobs,
+                                  lambda *_: bar.update(1))
+            verdicts = [v for _, v in sorted(zip(order, done), key=lambda iv: iv[0])]
+        else:
+            verdicts = []
+            for case, method in pairs:
+                verdicts.append(verify.run_case(case, method, out=out))
+                bar.update(1)
     print(verify.table(verdicts))
     with atomic_path(out / "verify.json") as tmp:
         tmp.write_text(json.dumps([v.as_dict() for v in verdicts], indent=2))
@@ -563,6 +574,9 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--case", nargs="*", help="only these cases (names as in the table)")
     p.add_argument("--method", nargs="*", choices=["rvo", "mdp", "formation"], help="only these methods")
     p.add_argument("-o", "--output", default="verify", help="folder for the pictures and verify.json (default ./verify)")
+    p.add_argument("-j", "--jobs", type=_positive_int, metavar="N",
+                   help="cases run side by side in N processes (default: one per core, as many as the free memory "
+                        "holds at 600 MB each; 1: one after another in this process)")
     p.add_argument("-q", "--quiet", action="store_true", help="no progress bar")
     p.set_defaults(func=cmd_verify)
 

@@ -9,35 +9,18 @@ next of each), so that on a cold numba cache the first workers compile different
 methods' kernels rather than the same ones twice, and the heaviest scenes (formation)
 start first.
 
-Workers are one per core by default, as many as the free memory holds at about 600 MB
-each. Each worker's numba kernels get the cores divided by the workers; the compile-on-every-
-core start-up of :mod:`crowdmotion._precompile` stays off in workers that already fill
-the cores. Results do not depend on the number of workers: every scene runs with its
-own seed in a process of its own.
+How many workers, and their threads: :mod:`crowdmotion.workers`. Results do not depend
+on the number of workers: every scene runs with its own seed in a process of its own.
 """
 
 from __future__ import annotations
 
-import multiprocessing
-import os
 import sys
 import time
-from concurrent.futures import FIRST_COMPLETED, ProcessPoolExecutor, wait
 from dataclasses import dataclass
 from pathlib import Path
 
-from crowdmotion._precompile import cores
-
-WORKER_MEMORY = 600 << 20  # bytes a worker may take (the largest built-ins peak near 480 MB)
-
-
-def default_jobs() -> int:
-    """Workers for the demo: one per core, no more than the free memory holds."""
-    try:
-        free = os.sysconf("SC_AVPHYS_PAGES") * os.sysconf("SC_PAGE_SIZE")
-    except (AttributeError, ValueError, OSError):  # no sysconf (Windows) or no such name
-        return cores()
-    return max(1, min(cores(), free // WORKER_MEMORY))
+from crowdmotion.workers import map_in_workers
 
 
 @dataclass(frozen=True)
@@ -97,19 +80,10 @@ def run_one(path: str, out: str, progress: bool = False) -> SceneDone:
     return SceneDone(sc.spec.name, _headline(result.summary), time.perf_counter() - t0)
 
 
-def _worker_start(threads: int, precompile: bool) -> None:
-    """A pool worker's set-up: its share of the cores for numba, and whether a cold run
-    may spread its compile over every core."""
-    import numba
-
-    numba.set_num_threads(max(1, min(threads, numba.config.NUMBA_NUM_THREADS)))
-    if not precompile:
-        os.environ["CROWDMOTION_PRECOMPILE"] = "0"
-
-
-def _safe_run_one(path: str, out: str) -> SceneDone:
-    """:func:`run_one` in a worker: an error comes back as the scene's outcome rather than
-    ending the demo."""
+def _safe_run_one(job: tuple[str, str]) -> SceneDone:
+    """:func:`run_one` of (scenario file, output folder) in a worker: an error comes back
+    as the scene's outcome rather than ending the demo."""
+    path, out = job
     t0 = time.perf_counter()
     try:
         return run_one(path, out)
@@ -126,26 +100,14 @@ def run_parallel(scenes: list[DemoScene], root: Path, jobs: int, progress: bool 
 
     file = sys.stdout if file is None else file
     order = interleave(scenes)
-    jobs = max(1, min(jobs, len(order)))
-    threads = max(1, cores() // jobs)
-    context = multiprocessing.get_context("spawn")  # no fork of a process that may hold numba's threads
     done: list[SceneDone] = []
-    with ProcessPoolExecutor(jobs, mp_context=context, initializer=_worker_start,
-                             initargs=(threads, jobs < cores())) as pool, \
-            tqdm(total=len(order), desc="demo", unit="scene", disable=not progress, leave=False) as bar:
-        pending = {pool.submit(_safe_run_one, str(sc.path), str(root / sc.name)) for sc in order}
-        try:
-            while pending:
-                finished, pending = wait(pending, return_when=FIRST_COMPLETED)
-                for future in finished:
-                    outcome = future.result()
-                    done.append(outcome)
-                    line = (f"{outcome.name}: {outcome.headline} ({outcome.seconds:.1f} s)" if outcome.error is None
-                            else f"{outcome.name}: failed: {outcome.error}")
-                    bar.write(line, file=file)
-                    bar.update(1)
-        except BaseException:
-            for future in pending:
-                future.cancel()
-            raise
+    with tqdm(total=len(order), desc="demo", unit="scene", disable=not progress, leave=False) as bar:
+        def report(_, outcome: SceneDone) -> None:
+            done.append(outcome)
+            line = (f"{outcome.name}: {outcome.headline} ({outcome.seconds:.1f} s)" if outcome.error is None
+                    else f"{outcome.name}: failed: {outcome.error}")
+            bar.write(line, file=file)
+            bar.update(1)
+
+        map_in_workers(_safe_run_one, [(str(sc.path), str(root / sc.name)) for sc in order], jobs, report)
     return done

@@ -517,6 +517,13 @@ def run_case(case: Case, method: str, out: Path | None = None, seed: int = 0) ->
                    overlaps, penetrations, time.perf_counter() - t0, picture)
 
 
+def run_named(job: tuple[str, str, str | None]) -> Verdict:
+    """:func:`run_case` by (case name, method, picture folder or None): for worker processes."""
+    name, method, out = job
+    case = next(c for c in CASES if c.name == name)
+    return run_case(case, method, out=None if out is None else Path(out))
+
+
 def select(quick: bool = False, names=None, methods=None) -> list[tuple[Case, str]]:
     """The (case, method) pairs to run."""
     known = {c.name for c in CASES}
