@@ -16,6 +16,22 @@ def square_after(job):  # module level: the workers import it by name
     return value * value
 
 
+def worker_setting(_):
+    import os
+
+    import numba
+
+    return os.environ.get("CROWDMOTION_PRECOMPILE"), numba.get_num_threads()
+
+
+def test_workers_share_the_cores_and_compile_in_themselves(monkeypatch):
+    monkeypatch.setattr(workers, "cores", lambda: 4)
+    import numba
+
+    most = numba.config.NUMBA_NUM_THREADS
+    assert workers.map_in_workers(worker_setting, [0, 1], 2) == [("0", min(2, most))] * 2
+
+
 def test_results_come_back_in_the_jobs_order_each_reported_as_it_ends():
     seen = []
     jobs = [(1, 0.6), (2, 0.0), (3, 0.0)]  # the first ends last

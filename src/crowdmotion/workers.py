@@ -4,8 +4,10 @@
 Workers are spawned (never forked: the parent may hold numba's threads), one per core by
 default and as many as the free memory holds at ``WORKER_MEMORY`` each. Each worker's
 numba gets the cores divided by the workers, and the compile-on-every-core start-up of
-:mod:`crowdmotion._precompile` is off in workers that already fill the cores. A job's
-result does not depend on the worker that ran it: each job seeds its own run.
+:mod:`crowdmotion._precompile` is off in workers: the workers themselves spread the
+compiling over the cores, and that start-up in each of many workers would fork a child
+per core from each (on 64 cores, hundreds of processes compiling the same kernels). A
+job's result does not depend on the worker that ran it: each job seeds its own run.
 """
 
 from __future__ import annotations
@@ -29,14 +31,13 @@ def default_jobs() -> int:
     return max(1, min(cores(), free // WORKER_MEMORY))
 
 
-def _worker_start(threads: int, precompile: bool) -> None:
-    """A worker's set-up: its share of the cores for numba, and whether a cold run may
-    spread its compile over every core."""
+def _worker_start(threads: int) -> None:
+    """A worker's set-up: its share of the cores for numba; a cold run compiles in the
+    worker itself (see the module's notes)."""
     import numba
 
     numba.set_num_threads(max(1, min(threads, numba.config.NUMBA_NUM_THREADS)))
-    if not precompile:
-        os.environ["CROWDMOTION_PRECOMPILE"] = "0"
+    os.environ["CROWDMOTION_PRECOMPILE"] = "0"
 
 
 def map_in_workers(fn: Callable, items: Sequence, jobs: int, on_done: Callable | None = None) -> list:
@@ -50,7 +51,7 @@ def map_in_workers(fn: Callable, items: Sequence, jobs: int, on_done: Callable |
         return results
     context = multiprocessing.get_context("spawn")
     with ProcessPoolExecutor(jobs, mp_context=context, initializer=_worker_start,
-                             initargs=(max(1, cores() // jobs), jobs < cores())) as pool:
+                             initargs=(max(1, cores() // jobs),)) as pool:
         index = {pool.submit(fn, item): i for i, item in enumerate(items)}
         pending = set(index)
         try:
