@@ -147,3 +147,29 @@ def test_a_column_that_arrives_far_turned_from_its_start_heading_keeps_the_way_i
     g.vertices[:] = (g.vertices - g.vertices.mean(axis=0)) @ np.array([[0.0, -1.0], [1.0, 0.0]]).T  # 90 degrees
     sim.step()
     assert abs(np.cos(g.heading)) < 0.05, "it keeps standing north-south, not spun back east-west"
+
+
+def test_quarter_turn_symmetry_of_templates():
+    from crowdmotion.formation.simulator import rotational_symmetry
+
+    quarter = np.pi / 2
+    assert rotational_symmetry(formation.block(7, 7, spacing=1.2).points) == (0.0, quarter, 2 * quarter, 3 * quarter)
+    assert rotational_symmetry(formation.block(10, 2, spacing=1.0).points) == (0.0, 2 * quarter)
+    assert rotational_symmetry(formation.wedge(5).points) == (0.0,)
+
+
+def test_a_square_block_that_arrives_turned_near_a_quarter_turn_recovers_square_facing_its_travel():
+    from crowdmotion.cli import scenario_path
+    from crowdmotion.scenario import load_scenario, run_scenario
+
+    result = run_scenario(load_scenario(scenario_path("formation_split")), progress=False)
+    pos = result.trajectories.positions
+    assert result.summary["formation"]["block"]["recovered_s"] is not None
+    # it arrived turned about 71 degrees (19 short of a quarter turn) and used to end so:
+    # now its agents stand on the start's grid, moved (agents may have swapped places)
+    from scipy.spatial import cKDTree
+
+    start, end = pos[0] - pos[0].mean(axis=0), pos[-1] - pos[-1].mean(axis=0)
+    assert cKDTree(start).query(end)[0].max() < 0.05, "the block ends square to the axes"
+    sim = result.extras.simulator
+    assert np.allclose(np.cos(sim.facing()), 1.0), "its soldiers face east, the way it marched"

@@ -63,6 +63,16 @@ CAR_TURN_MIN = 0.3  # ... and at least this many rad/s, so a standing car can st
 REBALANCE_EVERY = 2.0  # seconds between whole-group reassignments in the target area
 
 
+def rotational_symmetry(points: np.ndarray) -> tuple:
+    """The quarter turns (0, π/2, π, 3π/2 radians) about the centroid that map a point
+    set onto itself (each point onto some point, within a millionth of its extent)."""
+    p = points - points.mean(axis=0)
+    tree = cKDTree(p)
+    tol = 1e-6 * max(float(np.abs(p).max()), 1e-9)
+    return tuple(k * np.pi / 2 for k in range(4)
+                 if k == 0 or tree.query(p @ _rotation(k * np.pi / 2).T)[0].max() <= tol)
+
+
 def _rotation(angle: float) -> np.ndarray:
     c, s = np.cos(angle), np.sin(angle)
     return np.array([[c, -s], [s, c]])
@@ -87,6 +97,8 @@ class FormationGroup:
     extent: float
     heading0: float = 0.0  # the rest shape's heading as placed
     heading: float = 0.0   # where the rest shape faces now (turned to the direction of travel)
+    symmetry: tuple = (0.0,)  # turns (radians) that map the rest shape's slots onto themselves
+    facing_offset: float = 0.0  # soldiers face heading + this (set on arrival: see _arrive)
     arrived_at: float | None = None
     recovered_at: float | None = None
     handles: int = 0
@@ -202,7 +214,7 @@ class Simulator:
         extent = float(np.linalg.norm(start_pos - start_pos.mean(axis=0), axis=1).max()) + radius
         idx = np.arange(len(self.positions), len(self.positions) + n)
         grp = FormationGroup(name, tpl, mesh, solver, guide, start_pos.copy(), idx, region, gc, pref_speed, max_speed,
-                             radius, extent, float(heading), float(heading))
+                             radius, extent, float(heading), float(heading), symmetry=rotational_symmetry(mesh.rest))
         self._route_stale = True
         self.groups.append(grp)
         self.positions = np.concatenate([self.positions, start_pos])
@@ -265,16 +277,7 @@ class Simulator:
             if dist <= p.arrive_distance or inside:
                 g.arrived_at = self.time
                 in_area = True
-                # recover facing the way it set out, unless the mesh stands turned further
-                # from that than ARRIVAL_TURN_MAX (a column that came round corners into a
-                # narrow area): then facing the way it stands (best-fit turn of the rest
-                # shape), so it need not spin round
-                a = g.mesh.rest - g.mesh.rest.mean(axis=0)
-                b = V - centroid
-                fit = g.heading0 + float(np.arctan2(np.sum(a[:, 0] * b[:, 1] - a[:, 1] * b[:, 0]),
-                                                    np.sum(a[:, 0] * b[:, 0] + a[:, 1] * b[:, 1])))
-                near = abs((fit - g.heading0 + np.pi) % (2 * np.pi) - np.pi) <= ARRIVAL_TURN_MAX
-                g.heading = g.heading0 if near else fit
+                self._arrive(g, V, centroid)
         if in_area:  # the heading stays as it arrived
             u = np.zeros(2)
             handles = np.zeros(0, np.int64)
@@ -452,6 +455,25 @@ class Simulator:
         if self.groups and self.scene.static_obstacles:
             goals = [g.goal if isinstance(g.goal, (Rect, Disc)) else Points([g.goal_center]) for g in self.groups]
             self._route = distance_fields(self.scene, goals, min(g.radius for g in self.groups))
+
+    @staticmethod
+    def _arrive(g: FormationGroup, V: np.ndarray, centroid: np.ndarray) -> None:
+        """The heading a group recovers with in its target area. The mesh stands turned
+        ``fit`` from its rest shape (best fit); its slots at its start heading, or at a
+        turn of it under which the slots map onto themselves (a square block: every
+        quarter turn), lie nearest that. Within ARRIVAL_TURN_MAX of them it recovers
+        square to them; further (a column that came round corners into a narrow area) as
+        it stands, so it need not spin round. Soldiers then face whichever of the
+        equivalent headings lies nearest the way the group travelled."""
+        a = g.mesh.rest - g.mesh.rest.mean(axis=0)
+        b = V - centroid
+        fit = g.heading0 + float(np.arctan2(np.sum(a[:, 0] * b[:, 1] - a[:, 1] * b[:, 0]),
+                                            np.sum(a[:, 0] * b[:, 0] + a[:, 1] * b[:, 1])))
+        off = lambda x, y: abs((x - y + np.pi) % (2 * np.pi) - np.pi)  # noqa: E731
+        square = min((g.heading0 + s for s in g.symmetry), key=lambda h: off(h, fit))
+        travelled = g.heading
+        g.heading = square if off(square, fit) <= ARRIVAL_TURN_MAX else fit
+        g.facing_offset = min(g.symmetry, key=lambda s: off(g.heading + s, travelled))
 
     def _turn(self, g: FormationGroup, drift: np.ndarray) -> float:
         """Turn the group's rest heading toward its direction of travel, at most
@@ -681,7 +703,7 @@ class Simulator:
         out = np.empty(len(self.positions))
         speed = np.linalg.norm(self.velocities, axis=1)
         for g in self.groups:
-            out[g.span] = g.heading
+            out[g.span] = g.heading + g.facing_offset
             v = self.velocities[g.span]
             away = g.guide.dislocated & (speed[g.span] > 0.25 * g.pref_speed)
             out[g.span][away] = np.arctan2(v[away, 1], v[away, 0])
