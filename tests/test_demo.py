@@ -56,6 +56,9 @@ def test_demo_refuses_unknown_scenes_and_bad_job_counts(tmp_path, capsys):
     assert main(["demo", "-o", str(tmp_path / "d"), "--only", "rvo_doorway", "rvo_dorway"]) == 2
     assert "no built-in scene named 'rvo_dorway'" in capsys.readouterr().err
     assert not (tmp_path / "d").exists()
+    (tmp_path / "afile").write_text("")
+    assert main(["demo", "-o", str(tmp_path / "afile" / "demo"), "--only", "rvo_doorway"]) == 2
+    assert "afile is a file" in capsys.readouterr().err  # said once, before any scene runs
     for wrong in ("0", "-2", "two"):
         with pytest.raises(SystemExit):
             main(["demo", "-o", str(tmp_path / "d"), "-j", wrong])

@@ -146,6 +146,7 @@ def cmd_run(args) -> int:
 def cmd_demo(args) -> int:
     from crowdmotion import _precompile
     from crowdmotion.demo import DemoScene, run_one, run_parallel
+    from crowdmotion.outputs import check_output_folder
     from crowdmotion.workers import default_jobs
 
     root = Path(args.output)
@@ -157,6 +158,7 @@ def cmd_demo(args) -> int:
                   f"(`crowdmotion scenarios` lists them)", file=sys.stderr)
             return 2
         scenes = [sc for sc in scenes if sc.name in args.only]
+    check_output_folder(root, overwrite=True)  # a file in the way or no write access: said once, before any scene
     jobs = min(args.jobs or default_jobs(), len(scenes))
     if jobs > 1:
         print(f"running {len(scenes)} built-in scenes on {jobs} processes", flush=True)
