@@ -283,12 +283,12 @@ class Scene:
         p = as_points(points, self.dim)
         d = np.full(p.shape[:-1], np.inf)
         statics = self.static_obstacles
-        key = tuple(map(id, statics))
-        if self._shapes is None or self._shapes[0] != key:
+        cached = self._shapes  # rebuilt when the list of obstacles changes (the same objects, kept)
+        if cached is None or len(cached[0]) != len(statics) or any(a is not b for a, b in zip(cached[0], statics)):
             boxes = [ob for ob in statics if isinstance(ob, Box)]
             rounds = [ob for ob in statics if isinstance(ob, _Round)]
             stack = lambda rows: np.array(rows, dtype=float).reshape(-1, self.dim)  # noqa: E731
-            self._shapes = (key, stack([b.center for b in boxes]), stack([(b.upper - b.lower) / 2 for b in boxes]),
+            self._shapes = (statics, stack([b.center for b in boxes]), stack([(b.upper - b.lower) / 2 for b in boxes]),
                             stack([r.center for r in rounds]), np.array([r.radius for r in rounds], dtype=float),
                             [ob for ob in statics if not isinstance(ob, (Box, _Round))])
         _, box_c, box_half, round_c, round_r, others = self._shapes
