@@ -198,6 +198,6 @@ def _diagonal_slots(upper: sp.csc_matrix) -> np.ndarray | None:
     upper.sort_indices()
     last = upper.indptr[1:] - 1
     n = upper.shape[1]
-    if np.any(last < upper.indptr[:-1]) or np.any(upper.indices[np.maximum(last, 0)] != np.arange(n)):
+    if upper.nnz == 0 or np.any(last < upper.indptr[:-1]) or np.any(upper.indices[np.maximum(last, 0)] != np.arange(n)):
         return None
     return last
