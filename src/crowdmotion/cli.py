@@ -159,7 +159,7 @@ def cmd_demo(args) -> int:
             return 2
         scenes = [sc for sc in scenes if sc.name in args.only]
     check_output_folder(root, overwrite=True)  # a file in the way or no write access: said once, before any scene
-    jobs = min(args.jobs or default_jobs(), len(scenes))
+    jobs = min(args.jobs or default_jobs(len(scenes)), len(scenes))
     if jobs > 1:
         print(f"running {len(scenes)} built-in scenes on {jobs} processes", flush=True)
         failed = [d for d in run_parallel(scenes, root, jobs, progress=not args.quiet) if d.error is not None]
@@ -434,7 +434,7 @@ def cmd_verify(args) -> int:
     pairs = verify.select(quick=args.quick, names=args.case, methods=args.method)
     out = Path(args.output)
     out.mkdir(parents=True, exist_ok=True)
-    jobs = min(args.jobs or default_jobs(), len(pairs))
+    jobs = min(args.jobs or default_jobs(len(pairs)), len(pairs))
     with tqdm(total=len(pairs), desc="verify", unit="case", disable=args.quiet, leave=False) as bar:
         if jobs > 1:  # the long cases (those not in --quick) start first, the table keeps its order
             order = sorted(range(len(pairs)), key=lambda i: pairs[i][0].quick)
