@@ -55,4 +55,5 @@ def test_default_jobs_are_the_cores_unless_memory_holds_fewer(monkeypatch):
     pages["SC_AVPHYS_PAGES"] = 100
     assert workers.default_jobs() == 1
     pages["SC_AVPHYS_PAGES"] = 64 * (1 << 30) // 4096
-    assert workers.default_jobs(2) == 1 and workers.default_jobs(3) == 16  # two jobs: no workers
+    # two jobs or more per worker, else none
+    assert [workers.default_jobs(n) for n in (2, 3, 4, 21, 100)] == [1, 1, 2, 10, 16]

@@ -503,9 +503,9 @@ def build_parser() -> argparse.ArgumentParser:
                    help="folder for the scenes' outputs, one subfolder each (default ./crowdmotion-demo)")
     p.add_argument("--only", nargs="*", help="names of built-in scenes to run")
     p.add_argument("-j", "--jobs", type=_positive_int, metavar="N",
-                   help="scenes run side by side in N processes (default: one per core, as many as the free "
-                        "memory holds at 600 MB each; 1 runs them one after another in this process, with a "
-                        "progress bar per scene)")
+                   help="scenes run side by side in N processes (default: one per core, at least two scenes "
+                        "each, as many as the free memory holds at 600 MB each; 1 runs them one after another "
+                        "in this process, with a progress bar per scene)")
     p.add_argument("-q", "--quiet", action="store_true", help="no progress bars")
     p.set_defaults(func=cmd_demo)
 
@@ -577,8 +577,8 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--method", nargs="*", choices=["rvo", "mdp", "formation"], help="only these methods")
     p.add_argument("-o", "--output", default="verify", help="folder for the pictures and verify.json (default ./verify)")
     p.add_argument("-j", "--jobs", type=_positive_int, metavar="N",
-                   help="cases run side by side in N processes (default: one per core, as many as the free memory "
-                        "holds at 600 MB each; 1: one after another in this process)")
+                   help="cases run side by side in N processes (default: one per core, at least two cases each, "
+                        "as many as the free memory holds at 600 MB each; 1: one after another in this process)")
     p.add_argument("-q", "--quiet", action="store_true", help="no progress bar")
     p.set_defaults(func=cmd_verify)
 

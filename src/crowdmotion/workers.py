@@ -22,21 +22,21 @@ from crowdmotion._precompile import cores
 WORKER_MEMORY = 600 << 20  # bytes a worker may take (the largest built-ins peak near 480 MB)
 
 
-FEWEST_JOBS = 3  # fewer jobs than this run one after another: starting workers costs more
-
-
 def default_jobs(n_jobs: int | None = None) -> int:
-    """Workers by default: one per core, no more than the free memory holds; one (no
-    workers) for fewer than FEWEST_JOBS jobs (spawning a worker and importing there
-    costs about as much as a small scene: two on two workers took 3.5 s warm, 3.1 s in
-    one process)."""
-    if n_jobs is not None and n_jobs < FEWEST_JOBS:
+    """Workers by default: one per core, no more than the free memory holds, and for
+    ``n_jobs`` jobs no more than half as many (each worker gets two jobs or more); one,
+    no workers, where that leaves fewer than two. A worker compiles its first method's
+    kernels on one core, where one process would spread them over every core: with too
+    few jobs to fill the others meanwhile, workers lose (three scenes of three methods
+    on an empty cache, 2 cores: 20.9 s on two workers, 14.6 s in one process)."""
+    if n_jobs is not None and n_jobs // 2 < 2:
         return 1
     try:
         free = os.sysconf("SC_AVPHYS_PAGES") * os.sysconf("SC_PAGE_SIZE")
     except (AttributeError, ValueError, OSError):  # no sysconf (Windows) or no such name
-        return cores()
-    return max(1, min(cores(), free // WORKER_MEMORY))
+        free = cores() * WORKER_MEMORY
+    most = min(cores(), free // WORKER_MEMORY, n_jobs // 2 if n_jobs is not None else cores())
+    return max(1, most)
 
 
 def _worker_start(threads: int) -> None:

@@ -47,7 +47,8 @@ print(json.dumps(best))
 """
 
 
-def _timed(cmd: list[str], env: dict) -> float:
+def timed_run(cmd: list[str], env: dict) -> float:
+    """Wall seconds of a command run to the end; its stderr's tail if it fails."""
     t = time.perf_counter()
     done = subprocess.run(cmd, env=env, capture_output=True, text=True)
     if done.returncode != 0:
@@ -64,9 +65,9 @@ def measure(name: str, root: Path) -> dict:
     """Cold, warm and simulation-only seconds for one built-in scene."""
     env = dict(os.environ, NUMBA_CACHE_DIR=str(root / "numba" / name))
     run = _run_command(name, root)
-    cold = _timed(run, env)
-    warm = _timed(run, env)
-    bare = _timed(run + ["--plots", "none"], env)
+    cold = timed_run(run, env)
+    warm = timed_run(run, env)
+    bare = timed_run(run + ["--plots", "none"], env)
     done = subprocess.run([sys.executable, "-c", SIMULATE, name], env=env, capture_output=True, text=True, check=True)
     sim = json.loads(done.stdout.strip().splitlines()[-1])
     return {"scene": name, "cold_s": cold, "warm_s": warm, "bare_s": bare, "simulation_s": sim}
@@ -79,7 +80,7 @@ def cold_and_warm(name: str, root: Path, src: str | None) -> tuple[float, float]
     if src:
         env["PYTHONPATH"] = src
     run = _run_command(name, root)
-    return _timed(run, env), _timed(run, env)
+    return timed_run(run, env), timed_run(run, env)
 
 
 def compare(names: list[str], baseline_src: str, rounds: int, root: Path) -> str:
