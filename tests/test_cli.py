@@ -132,3 +132,13 @@ def test_python_dash_m_runs_the_command():
     done = subprocess.run([sys.executable, "-m", "crowdmotion", "validate", "no-such-scene.toml"], capture_output=True,
                           text=True)
     assert done.returncode == 2 and "no-such-scene.toml" in done.stderr
+
+
+def test_scenarios_lists_every_builtin_with_its_description(capsys):
+    from crowdmotion.cli import builtin_scenarios
+
+    assert main(["scenarios"]) == 0
+    printed = capsys.readouterr().out
+    for path in builtin_scenarios():
+        assert path.stem in printed and str(path) in printed
+    assert "army block marches through scattered rocks" in printed
