@@ -130,6 +130,13 @@ class Sphere(_Round):
     _dim = 3
 
 
+def box_signed_distance(offset: np.ndarray, half: np.ndarray) -> np.ndarray:
+    """Signed distance (negative inside) of points ``offset`` from the centre of an
+    axis-aligned box of half-sizes ``half``; both broadcast, the last axis the coordinates."""
+    q = np.abs(offset) - half
+    return np.linalg.norm(np.maximum(q, 0.0), axis=-1) + np.minimum(q.max(axis=-1), 0.0)
+
+
 class Box(Obstacle):
     """An axis-aligned box obstacle, 2D or 3D: ``Box(lower, upper, path=None)``."""
 
@@ -151,11 +158,7 @@ class Box(Obstacle):
 
     def signed_distance(self, points):
         p = as_points(points, self.dim)
-        half = (self.upper - self.lower) / 2
-        q = np.abs(p - self.center) - half
-        outside = np.linalg.norm(np.maximum(q, 0.0), axis=-1)
-        inside = np.minimum(q.max(axis=-1), 0.0)
-        return outside + inside
+        return box_signed_distance(p - self.center, (self.upper - self.lower) / 2)
 
     def intersects_boxes(self, lower, upper):
         return np.all((np.asarray(lower) <= self.upper) & (np.asarray(upper) >= self.lower), axis=-1)
@@ -294,13 +297,10 @@ class Scene:
         _, box_c, box_half, round_c, round_r, others = self._shapes
         flat, out = p.reshape(-1, self.dim), d.reshape(-1)
         step = max(1, SHAPES_AT_ONCE // max(1, len(box_c) + len(round_c)))
-        for s in range(0, len(flat), step):  # Box / Circle.signed_distance's sums, a block of points at a time
+        for s in range(0, len(flat), step):  # the shapes' own sums, a block of points at a time
             q = flat[s:s + step, None, :]
             if len(box_c):
-                q_box = np.abs(q - box_c) - box_half
-                inside = np.minimum(q_box.max(axis=-1), 0.0)
-                out[s:s + step] = np.minimum(out[s:s + step],
-                                             (np.linalg.norm(np.maximum(q_box, 0.0), axis=-1) + inside).min(axis=1))
+                out[s:s + step] = np.minimum(out[s:s + step], box_signed_distance(q - box_c, box_half).min(axis=1))
             if len(round_c):
                 out[s:s + step] = np.minimum(out[s:s + step],
                                              (np.linalg.norm(q - round_c, axis=-1) - round_r).min(axis=1))

@@ -469,7 +469,7 @@ class Simulator:
         b = V - centroid
         fit = g.heading0 + float(np.arctan2(np.sum(a[:, 0] * b[:, 1] - a[:, 1] * b[:, 0]),
                                             np.sum(a[:, 0] * b[:, 0] + a[:, 1] * b[:, 1])))
-        off = lambda x, y: abs((x - y + np.pi) % (2 * np.pi) - np.pi)  # noqa: E731
+        off = lambda x, y: abs(float(wrap(x - y)))  # noqa: E731
         square = min((g.heading0 + s for s in g.symmetry), key=lambda h: off(h, fit))
         travelled = g.heading
         g.heading = square if off(square, fit) <= ARRIVAL_TURN_MAX else fit
