@@ -120,13 +120,22 @@ def _begin_compiling(path) -> None:
 def cmd_run(args) -> int:
     path = scenario_path(args.scenario)
     _begin_compiling(path)
+    from crowdmotion import _precompile
     from crowdmotion.outputs import prepare_output_folder, write_run
+    from crowdmotion.render.background import PictureProcess
     from crowdmotion.scenario import load_scenario, run_scenario
 
     sc = load_scenario(path)
     out = prepare_output_folder(_output_folder(args, sc), args.overwrite)  # before, not after, the simulation
-    result = run_scenario(sc, seed=args.seed, progress=not args.quiet)
-    files = write_run(result, out, plots=args.plots)
+    plots = sc.spec.output.plots if args.plots is None else args.plots
+    _precompile.start(sc.method)  # a cold cache: compiled on every core before the picture process takes one
+    pictures = PictureProcess.start() if plots else None  # imports matplotlib while this process simulates
+    try:
+        result = run_scenario(sc, seed=args.seed, progress=not args.quiet)
+        files = write_run(result, out, plots=plots, pictures=pictures)
+    finally:
+        if pictures is not None:
+            pictures.close()
     print(f"{sc.spec.name}: {_headline(result.summary)}")
     for f in files:
         print(f"  wrote {f}")

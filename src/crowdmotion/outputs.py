@@ -60,24 +60,38 @@ def prepare_output_folder(out, overwrite: bool = False) -> Path:
     return out
 
 
-def write_run(result, out, plots=None) -> list[Path]:
+def write_run(result, out, plots=None, pictures=None) -> list[Path]:
     """Write everything a scenario asks for into folder ``out``; returns the paths.
-    ``plots`` (names as in [output] plots) replaces the scenario's own list."""
+    ``plots`` (names as in [output] plots) replaces the scenario's own list.
+    ``pictures``: a started :class:`~crowdmotion.render.background.PictureProcess` that
+    draws the pictures while this process writes the trajectories and summary."""
     out = Path(out)
     out.mkdir(parents=True, exist_ok=True)
     spec = result.scenario.spec
+    plots = spec.output.plots if plots is None else list(plots)
+    job = (spec.method, result.scenario.scene, result.extras, result.trajectories, out, plots, spec.name)
+    if pictures is not None and plots:
+        pictures.submit(draw_pictures, job)
     written = [result.trajectories.save(out / f"trajectories.{fmt}") for fmt in spec.output.formats]
     summary = {"scenario": spec.name, "seed": result.seed, **result.summary}
     with atomic_path(out / "summary.json") as tmp:
         tmp.write_text(json.dumps(summary, indent=2, default=str))
     written.append(out / "summary.json")
-    plots = spec.output.plots if plots is None else list(plots)
-    module = get_method(spec.method).module
+    if pictures is not None and plots:
+        return written + pictures.result()
+    return written + draw_pictures(*job)
+
+
+def draw_pictures(method: str, scene, extras, trajectories, out: Path, plots: list[str], title: str) -> list[Path]:
+    """The pictures named in ``plots`` (the method's figures, and ``player`` for
+    view.html) of one run, written into ``out``; returns their paths."""
+    written = []
+    module = get_method(method).module
     pictures = [p for p in plots if p != "player"]
     if pictures and hasattr(module, "write_plots"):
-        written += module.write_plots(result.scenario.scene, result.extras, out, pictures, spec.name)
+        written += module.write_plots(scene, extras, out, pictures, title)
     if "player" in plots:
         from crowdmotion.render.player import write_player
 
-        written.append(write_player(result.trajectories, out / "view.html"))
+        written.append(write_player(trajectories, out / "view.html"))
     return written

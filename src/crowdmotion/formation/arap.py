@@ -58,6 +58,13 @@ class ARAPSolver:
         self.cache_size = cache_size
         self.stats = {"factorisations": 0, "cache_hits": 0}
 
+    def __getstate__(self) -> dict:
+        """Pickled without the factorisation and layout caches (qdldl's solvers do not
+        pickle); the copy rebuilds them as it deforms."""
+        state = self.__dict__.copy()
+        state["_cache"], state["_layouts"] = OrderedDict(), OrderedDict()
+        return state
+
     # ---- systems ------------------------------------------------------------------------
     def _diag(self, handles: np.ndarray) -> np.ndarray:
         d = np.full(self.mesh.n_vertices, self.eps)

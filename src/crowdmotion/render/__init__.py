@@ -1,15 +1,11 @@
-"""Pictures made from Trajectories and method results (matplotlib), animations (MP4/GIF)."""
+"""Pictures made from Trajectories and method results (matplotlib), animations (MP4/GIF).
 
-from crowdmotion.render.plots import (animate_formation_snapshots, plot_formation_snapshots, plot_group_report,
-                                     plot_paths, plot_potential_field, plot_values)
+The names load on first use, so that importing a light submodule (the picture process,
+:mod:`crowdmotion.render.background`) does not import matplotlib."""
 
-__all__ = ["animate_formation_snapshots", "plot_formation_snapshots", "plot_group_report", "plot_paths",
-           "plot_potential_field", "plot_values"]
+from crowdmotion._lazy import lazy_exports
 
-
-def __getattr__(name):  # the animation module loads on first use
-    if name in ("animate", "plot_density"):
-        from crowdmotion.render import animation
-
-        return getattr(animation, name)
-    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
+__getattr__, __all__ = lazy_exports(__name__, {
+    **{name: "plots" for name in ("animate_formation_snapshots", "plot_formation_snapshots", "plot_group_report",
+                                  "plot_paths", "plot_potential_field", "plot_values")},
+    "animate": "animation", "plot_density": "animation"})

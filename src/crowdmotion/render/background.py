@@ -1,0 +1,152 @@
+"""A run's pictures drawn in another process, whose plotting imports overlap the
+simulation (issue 16).
+
+matplotlib takes about half a second to import and a run's pictures another 0.3-1 s to
+draw, all on one core, after the simulation. ``crowdmotion run`` instead forks a
+:class:`PictureProcess` before it simulates: the child imports the plotting stack on a
+free core while the parent simulates, then draws the pictures from the run it is sent
+(pickled through a pipe) while the parent writes the trajectories and summary.json.
+
+Only where ``os.fork`` exists, with more than one core, and while the parent runs no
+other Python thread (the same conditions as :mod:`crowdmotion._precompile`). The child
+ignores Ctrl-C (the parent decides what an interrupted run writes: a run stopped while
+simulating still gets its pictures), is stopped by the parent when the parent itself is
+stopped while the pictures are drawn, leaves when the parent closes the pipe, and never
+returns into the parent's code (``os._exit``). A
+drawing error is raised in the parent with the child's traceback; a child that died
+leaves the pictures to the parent, drawn as without this module.
+"""
+
+from __future__ import annotations
+
+import os
+import signal
+import sys
+import threading
+import traceback
+from collections.abc import Callable
+from multiprocessing.connection import Connection, Pipe
+from pathlib import Path
+
+from crowdmotion._precompile import cores
+
+
+def _leave(signum, frame) -> None:
+    raise SystemExit(128 + signum)  # unwinds: an atomic write in progress removes its temporary file
+
+
+def _serve(conn: Connection) -> None:
+    """The child: import the plotting stack, then draw the one job it is sent."""
+    signal.signal(signal.SIGINT, signal.SIG_IGN)
+    signal.signal(signal.SIGTERM, _leave)
+    try:
+        import crowdmotion.render.plots  # noqa: F401  (matplotlib)
+        import crowdmotion.render.player  # noqa: F401
+    except Exception:  # noqa: BLE001 - the same error is raised, with its message, when drawing
+        pass
+    try:
+        draw, args = conn.recv()
+    except (EOFError, OSError):  # the parent left (an error, or nothing to draw)
+        return
+    try:
+        reply = ("ok", draw(*args))
+    except BaseException as exc:  # noqa: BLE001 - every failure goes back to the parent
+        reply = ("error", exc, traceback.format_exc())
+    try:
+        conn.send(reply)
+    except Exception:  # noqa: BLE001 - an exception that does not pickle: its text
+        conn.send(("error", RuntimeError(f"{type(reply[1]).__name__}: {reply[1]}"), reply[2]))
+
+
+class PictureProcess:
+    """A forked child that imports matplotlib now and draws one job later.
+
+    >>> pictures = PictureProcess.start()            # None where it cannot help
+    >>> # ... simulate ...
+    >>> pictures.submit(draw_pictures, (...))         # doctest: +SKIP
+    >>> paths = pictures.result()                    # doctest: +SKIP
+    """
+
+    def __init__(self, pid: int, conn: Connection):
+        self.pid = pid
+        self._conn = conn
+        self._job: tuple | None = None
+        self._sender: threading.Thread | None = None
+        self._send_error: BaseException | None = None
+        self._done = False
+
+    @classmethod
+    def start(cls) -> PictureProcess | None:
+        """Fork the child, or None without fork, on one core, or with other threads
+        running (``CROWDMOTION_PICTURE_PROCESS=0`` also turns it off)."""
+        if os.environ.get("CROWDMOTION_PICTURE_PROCESS", "1") == "0" or not hasattr(os, "fork"):
+            return None
+        if cores() < 2 or threading.active_count() > 1:
+            return None
+        ours, theirs = Pipe()
+        sys.stdout.flush()
+        sys.stderr.flush()
+        pid = os.fork()
+        if pid == 0:  # the child: never returns
+            code = 0
+            try:
+                ours.close()
+                _serve(theirs)
+            except BaseException:  # noqa: BLE001
+                code = 1
+            finally:
+                os._exit(code)
+        theirs.close()
+        return cls(pid, ours)
+
+    def submit(self, draw: Callable[..., list[Path]], args: tuple) -> None:
+        """Send ``draw(*args)`` to the child (from a thread: a large run takes a moment
+        to pickle through the pipe while the parent writes its own files)."""
+        self._job = (draw, args)
+
+        def send() -> None:
+            try:
+                self._conn.send(self._job)
+            except BaseException as exc:  # noqa: BLE001 - result() draws here instead
+                self._send_error = exc
+
+        self._sender = threading.Thread(target=send, daemon=True)
+        self._sender.start()
+
+    def result(self) -> list[Path]:
+        """The child's paths, or its error raised here; where the child could not take
+        the job (it died, or the job does not pickle), the job is done in this process."""
+        assert self._job is not None, "submit() first"
+        self._sender.join()
+        reply = None
+        if self._send_error is None:
+            try:
+                reply = self._conn.recv()
+            except (EOFError, OSError):
+                reply = None
+        self._done = True
+        self.close()
+        if reply is None:
+            draw, args = self._job
+            return draw(*args)
+        if reply[0] == "ok":
+            return reply[1]
+        exc = reply[1]
+        exc.add_note(f"(drawn in the picture process)\n{reply[2]}")
+        raise exc
+
+    def close(self) -> None:
+        """Let the child go and reap it: it leaves on the closed pipe, or, still
+        drawing (the parent was interrupted), on SIGTERM, removing a half-written file."""
+        try:
+            self._conn.close()
+            if not self._done:
+                try:
+                    os.kill(self.pid, signal.SIGTERM)
+                except ProcessLookupError:
+                    pass
+        finally:
+            try:
+                os.waitpid(self.pid, 0)
+            except ChildProcessError:
+                pass
