@@ -19,7 +19,10 @@ from crowdmotion.render.background import PictureProcess
 PARENT = os.getpid()
 
 def where():
-    return "child" if os.getpid() != PARENT else "parent"
+    return ["child" if os.getpid() != PARENT else "parent"]
+
+def pid():
+    return [os.getpid()]
 
 def fail():
     raise ValueError("no such colour 'blurple'")
@@ -35,7 +38,7 @@ def fail_oddly():
 def die_in_child():
     if os.getpid() != PARENT:
         os.kill(os.getpid(), signal.SIGKILL)
-    return "parent"
+    return ["parent"]
 
 p = PictureProcess.start()
 assert p is not None, "no picture process"
@@ -50,16 +53,26 @@ def run_script(body: str, **env) -> subprocess.CompletedProcess:
 
 def test_the_job_runs_in_the_child():
     done = run_script("""
-        p.submit(where, ())
-        print(p.result())
+        p.submit(where, [()])
+        print(*p.result())
     """)
     assert done.returncode == 0, done.stderr
     assert done.stdout.strip() == "child"
 
 
+def test_parts_are_drawn_side_by_side_and_come_back_in_order():
+    done = run_script("""
+        p.submit(pid, [(), (), ()])
+        a, b, c = p.result()
+        print(a == p.pid, b not in (p.pid, PARENT), c != PARENT)
+    """)
+    assert done.returncode == 0, done.stderr
+    assert done.stdout.split() == ["True", "True", "True"]
+
+
 def test_a_drawing_error_is_raised_in_the_parent_with_the_childs_traceback():
     done = run_script("""
-        p.submit(fail, ())
+        p.submit(fail, [()])
         try:
             p.result()
         except ValueError as exc:
@@ -72,7 +85,7 @@ def test_a_drawing_error_is_raised_in_the_parent_with_the_childs_traceback():
 
 def test_an_error_that_does_not_pickle_comes_back_as_its_text():
     done = run_script("""
-        p.submit(fail_oddly, ())
+        p.submit(fail_oddly, [()])
         try:
             p.result()
         except RuntimeError as exc:
@@ -84,8 +97,8 @@ def test_an_error_that_does_not_pickle_comes_back_as_its_text():
 
 def test_a_child_that_died_leaves_the_job_to_the_parent():
     done = run_script("""
-        p.submit(die_in_child, ())
-        print(p.result())
+        p.submit(die_in_child, [()])
+        print(*p.result())
     """)
     assert done.returncode == 0, done.stderr
     assert done.stdout.strip() == "parent"
@@ -93,8 +106,8 @@ def test_a_child_that_died_leaves_the_job_to_the_parent():
 
 def test_a_job_that_does_not_pickle_is_done_in_the_parent():
     done = run_script("""
-        p.submit(lambda: where(), ())
-        print(p.result())
+        p.submit(lambda: where(), [()])
+        print(*p.result())
     """)
     assert done.returncode == 0, done.stderr
     assert done.stdout.strip() == "parent"
@@ -156,9 +169,9 @@ def test_a_child_stopped_while_drawing_leaves_no_half_written_file(tmp_path):
             with atomic_path(Path({str(target)!r})) as tmp:
                 tmp.write_text("half")
                 time.sleep(30)
-            return "written"
+            return ["written"]
 
-        p.submit(slow_write, ())
+        p.submit(slow_write, [(), ()])
         time.sleep(1.0)
         t0 = time.monotonic()
         p.close()  # what the run does when interrupted while the pictures are drawn

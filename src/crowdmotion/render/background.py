@@ -5,7 +5,9 @@ matplotlib takes about half a second to import and a run's pictures another 0.3-
 draw, all on one core, after the simulation. ``crowdmotion run`` instead forks a
 :class:`PictureProcess` before it simulates: the child imports the plotting stack on a
 free core while the parent simulates, then draws the pictures from the run it is sent
-(pickled through a pipe) while the parent writes the trajectories and summary.json.
+(pickled through a pipe) while the parent writes the trajectories and summary.json. The
+pictures come in parts (a formation's GIF apart from its other pictures): the child
+forks a helper per part, up to one per core, which shares the imports already made.
 
 Only where ``os.fork`` exists, with more than one core, and while the parent runs no
 other Python thread (the same conditions as :mod:`crowdmotion._precompile`). The child
@@ -35,8 +37,74 @@ def _leave(signum, frame) -> None:
     raise SystemExit(128 + signum)  # unwinds: an atomic write in progress removes its temporary file
 
 
+def _outcome(draw: Callable, args: tuple) -> tuple:
+    """``("ok", draw(*args))``, or ``("error", exception, traceback text)``."""
+    try:
+        return ("ok", draw(*args))
+    except SystemExit:  # stopped (SIGTERM): no more drawing
+        raise
+    except BaseException as exc:  # noqa: BLE001 - every failure goes back to the parent
+        return ("error", exc, traceback.format_exc())
+
+
+def _send(conn: Connection, reply: tuple) -> None:
+    try:
+        conn.send(reply)
+    except Exception:  # noqa: BLE001 - an exception that does not pickle: its text
+        conn.send(("error", RuntimeError(f"{type(reply[1]).__name__}: {reply[1]}"), reply[2]))
+
+
+def _stop(pids: list[int]) -> None:
+    for pid in pids:
+        try:
+            os.kill(pid, signal.SIGTERM)
+            os.waitpid(pid, 0)
+        except (ProcessLookupError, ChildProcessError):
+            pass
+
+
+def _draw_parts(draw: Callable, parts: list[tuple]) -> tuple:
+    """Every part drawn, side by side: a helper forked (the plotting stack already
+    imported) for each part after the first, up to one per core, and the rest drawn
+    here; the paths in part order, or the first part's error that failed."""
+    helpers: dict[int, tuple[int, Connection]] = {}  # part -> (pid, pipe)
+    if threading.active_count() == 1:
+        for k in range(1, min(len(parts), cores())):
+            theirs, ours = Pipe(duplex=False)
+            pid = os.fork()
+            if pid == 0:  # a helper: never returns
+                try:
+                    theirs.close()
+                    _send(ours, _outcome(draw, parts[k]))
+                finally:
+                    os._exit(0)
+            ours.close()
+            helpers[k] = (pid, theirs)
+    replies: list[tuple] = [None] * len(parts)
+    try:
+        for k, args in enumerate(parts):
+            if k not in helpers:
+                replies[k] = _outcome(draw, args)
+        for k in list(helpers):
+            pid, conn = helpers[k]
+            try:
+                replies[k] = conn.recv()
+            except (EOFError, OSError):  # the helper died: its part is drawn here
+                replies[k] = _outcome(draw, parts[k])
+            conn.close()
+            os.waitpid(pid, 0)
+            del helpers[k]
+    except BaseException:
+        _stop([pid for pid, _ in helpers.values()])
+        raise
+    for reply in replies:
+        if reply[0] != "ok":
+            return reply
+    return ("ok", [path for reply in replies for path in reply[1]])
+
+
 def _serve(conn: Connection) -> None:
-    """The child: import the plotting stack, then draw the one job it is sent."""
+    """The child: import the plotting stack, then draw the job it is sent."""
     signal.signal(signal.SIGINT, signal.SIG_IGN)
     signal.signal(signal.SIGTERM, _leave)
     try:
@@ -45,25 +113,18 @@ def _serve(conn: Connection) -> None:
     except Exception:  # noqa: BLE001 - the same error is raised, with its message, when drawing
         pass
     try:
-        draw, args = conn.recv()
+        draw, parts = conn.recv()
     except (EOFError, OSError):  # the parent left (an error, or nothing to draw)
         return
-    try:
-        reply = ("ok", draw(*args))
-    except BaseException as exc:  # noqa: BLE001 - every failure goes back to the parent
-        reply = ("error", exc, traceback.format_exc())
-    try:
-        conn.send(reply)
-    except Exception:  # noqa: BLE001 - an exception that does not pickle: its text
-        conn.send(("error", RuntimeError(f"{type(reply[1]).__name__}: {reply[1]}"), reply[2]))
+    _send(conn, _draw_parts(draw, parts))
 
 
 class PictureProcess:
-    """A forked child that imports matplotlib now and draws one job later.
+    """A forked child that imports matplotlib now and draws a run's pictures later.
 
     >>> pictures = PictureProcess.start()            # None where it cannot help
     >>> # ... simulate ...
-    >>> pictures.submit(draw_pictures, (...))         # doctest: +SKIP
+    >>> pictures.submit(draw_pictures, [args1, args2])   # doctest: +SKIP
     >>> paths = pictures.result()                    # doctest: +SKIP
     """
 
@@ -99,10 +160,11 @@ class PictureProcess:
         theirs.close()
         return cls(pid, ours)
 
-    def submit(self, draw: Callable[..., list[Path]], args: tuple) -> None:
-        """Send ``draw(*args)`` to the child (from a thread: a large run takes a moment
-        to pickle through the pipe while the parent writes its own files)."""
-        self._job = (draw, args)
+    def submit(self, draw: Callable[..., list[Path]], parts: list[tuple]) -> None:
+        """Send ``draw(*args)`` for each ``args`` of ``parts`` to the child, which draws
+        them side by side (from a thread: a large run takes a moment to pickle through
+        the pipe while the parent writes its own files)."""
+        self._job = (draw, list(parts))
 
         def send() -> None:
             try:
@@ -114,8 +176,9 @@ class PictureProcess:
         self._sender.start()
 
     def result(self) -> list[Path]:
-        """The child's paths, or its error raised here; where the child could not take
-        the job (it died, or the job does not pickle), the job is done in this process."""
+        """Every part's paths, in part order, or the child's error raised here; where the
+        child could not take the job (it died, or the job does not pickle), the parts are
+        drawn in this process."""
         assert self._job is not None, "submit() first"
         self._sender.join()
         reply = None
@@ -127,8 +190,8 @@ class PictureProcess:
         self._done = True
         self.close()
         if reply is None:
-            draw, args = self._job
-            return draw(*args)
+            draw, parts = self._job
+            return [path for args in parts for path in draw(*args)]
         if reply[0] == "ok":
             return reply[1]
         exc = reply[1]
