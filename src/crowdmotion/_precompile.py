@@ -245,11 +245,26 @@ def _wait(children: list[int], deadline: float) -> None:
             time.sleep(0.02)
 
 
+def _load_registries() -> None:
+    """numba's typing and lowering registries loaded here, before forking, so that every
+    child starts with them (about 0.3 s a process otherwise, spent by each child and
+    this process alike before its first compile: cold pso_gathering 7.9-10.9 -> 7.6-10.7 s,
+    three interleaved pairs)."""
+    try:
+        from numba.core.registry import cpu_target
+
+        cpu_target.typing_context.refresh()
+        cpu_target.target_context.refresh()
+    except Exception:  # numba internals moved: the children load them as before
+        pass
+
+
 def _launch(method: str, background: bool = False, head_start: float = 0.0):
     plan = _plan(method, background, head_start)
     if plan is None:
         return None
     mine, theirs, count = plan
+    _load_registries()
     marks = Path(tempfile.mkdtemp(prefix="crowdmotion-compiling-"))
     deadline = time.monotonic() + CHILD_TIMEOUT_S
     return mine, _fork(theirs, marks, deadline), count, marks, deadline
