@@ -270,15 +270,20 @@ def _launch(method: str, background: bool = False, head_start: float = 0.0):
     return mine, _fork(theirs, marks, deadline), count, marks, deadline
 
 
+def stop_children(pids: list[int], sig: int = signal.SIGKILL) -> None:
+    """Send ``sig`` to each child process and reap it (one already gone is skipped)."""
+    for pid in pids:
+        try:
+            os.kill(pid, sig)
+            os.waitpid(pid, 0)
+        except (OSError, ChildProcessError):
+            pass
+
+
 def _stop_pending() -> None:
     """At exit: children begun for a run that never started (a scenario refused) stop."""
     for _, children, _, marks, _ in _PENDING.values():
-        for pid in children:
-            try:
-                os.kill(pid, signal.SIGKILL)
-                os.waitpid(pid, 0)
-            except (OSError, ChildProcessError):
-                pass
+        stop_children(children)
         shutil.rmtree(marks, ignore_errors=True)
     _PENDING.clear()
 

@@ -30,7 +30,7 @@ from collections.abc import Callable
 from multiprocessing.connection import Connection, Pipe
 from pathlib import Path
 
-from crowdmotion._precompile import cores
+from crowdmotion._precompile import cores, stop_children
 
 
 def _leave(signum, frame) -> None:
@@ -52,15 +52,6 @@ def _send(conn: Connection, reply: tuple) -> None:
         conn.send(reply)
     except Exception:  # noqa: BLE001 - an exception that does not pickle: its text
         conn.send(("error", RuntimeError(f"{type(reply[1]).__name__}: {reply[1]}"), reply[2]))
-
-
-def _stop(pids: list[int]) -> None:
-    for pid in pids:
-        try:
-            os.kill(pid, signal.SIGTERM)
-            os.waitpid(pid, 0)
-        except (ProcessLookupError, ChildProcessError):
-            pass
 
 
 def _draw_parts(draw: Callable, parts: list[tuple]) -> tuple:
@@ -95,7 +86,7 @@ def _draw_parts(draw: Callable, parts: list[tuple]) -> tuple:
             os.waitpid(pid, 0)
             del helpers[k]
     except BaseException:
-        _stop([pid for pid, _ in helpers.values()])
+        stop_children([pid for pid, _ in helpers.values()], signal.SIGTERM)
         raise
     for reply in replies:
         if reply[0] != "ok":
@@ -201,15 +192,11 @@ class PictureProcess:
     def close(self) -> None:
         """Let the child go and reap it: it leaves on the closed pipe, or, still
         drawing (the parent was interrupted), on SIGTERM, removing a half-written file."""
+        self._conn.close()
+        if not self._done:
+            stop_children([self.pid], signal.SIGTERM)
+            return
         try:
-            self._conn.close()
-            if not self._done:
-                try:
-                    os.kill(self.pid, signal.SIGTERM)
-                except ProcessLookupError:
-                    pass
-        finally:
-            try:
-                os.waitpid(self.pid, 0)
-            except ChildProcessError:
-                pass
+            os.waitpid(self.pid, 0)
+        except ChildProcessError:
+            pass
