@@ -24,9 +24,10 @@ def build_grid(pos, active, origin_x, origin_y, h, nx, ny):
     """
     n = pos.shape[0]
     counts = np.zeros(nx * ny + 1, dtype=np.int64)
-    cell = np.full(n, -1, dtype=np.int64)
+    cell = np.empty(n, dtype=np.int64)
     for i in range(n):
         if not active[i]:
+            cell[i] = -1
             continue
         cx = min(max(int((pos[i, 0] - origin_x) / h), 0), nx - 1)
         cy = min(max(int((pos[i, 1] - origin_y) / h), 0), ny - 1)
@@ -35,7 +36,9 @@ def build_grid(pos, active, origin_x, origin_y, h, nx, ny):
         counts[c + 1] += 1
     for c in range(nx * ny):
         counts[c + 1] += counts[c]
-    fill = counts[:-1].copy()
+    fill = np.empty(nx * ny, dtype=np.int64)  # (np.full and .copy() would cost a compile each)
+    for c in range(nx * ny):
+        fill[c] = counts[c]
     items = np.empty(counts[-1], dtype=np.int64)
     for i in range(n):
         c = cell[i]
