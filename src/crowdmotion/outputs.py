@@ -73,7 +73,8 @@ def write_run(result, out, plots=None, pictures=None) -> list[Path]:
     plots = spec.output.plots if plots is None else list(plots)
     run = (spec.method, result.scenario.scene, result.extras, result.trajectories, out)
     if pictures is not None and plots:
-        pictures.submit(draw_pictures, [(*run, part, spec.name) for part in picture_parts(plots, cores())])
+        split = getattr(get_method(spec.method).module, "PICTURE_PARTS", None)
+        pictures.submit(draw_pictures, [(*run, part, spec.name) for part in picture_parts(plots, cores(), split)])
     written = [result.trajectories.save(out / f"trajectories.{fmt}") for fmt in spec.output.formats]
     summary = {"scenario": spec.name, "seed": result.seed, **result.summary}
     with atomic_path(out / "summary.json") as tmp:
@@ -84,20 +85,23 @@ def write_run(result, out, plots=None, pictures=None) -> list[Path]:
 
 
 # what each picture costs to draw, about, against a paths picture (formation_army: paths
-# 0.21 s, values 0.24 s, snapshots with the GIF 1.5 s, player 0.07 s)
-PICTURE_COST = {"snapshots": 6.0, "player": 0.5}
+# 0.21 s, values 0.24 s, snapshots figure 0.4 s, its GIF 1.1 s, player 0.07 s)
+PICTURE_COST = {"snapshots": 7.0, "snapshots-animation": 5.0, "snapshots-figure": 2.0, "player": 0.5}
 
 
-def picture_parts(plots: list[str], parts: int) -> list[list[str]]:
+def picture_parts(plots: list[str], parts: int, split: dict | None = None) -> list[list[str]]:
     """``plots`` in up to ``parts`` lists of about equal drawing time (the longest
-    first, each to the lightest list so far), in their given order within a list."""
-    lists: list[list[str]] = [[] for _ in range(max(1, min(parts, len(plots))))]
+    first, each to the lightest list so far), in their given order within a list.
+    ``split``: names that stand for pictures drawable apart (a method's
+    ``PICTURE_PARTS``), replaced by those."""
+    names = [part for n in plots for part in (split or {}).get(n, (n,))]
+    lists: list[list[str]] = [[] for _ in range(max(1, min(parts, len(names))))]
     load = [0.0] * len(lists)
-    for name in sorted(plots, key=lambda n: -PICTURE_COST.get(n, 1.0)):
+    for name in sorted(names, key=lambda n: -PICTURE_COST.get(n, 1.0)):
         k = load.index(min(load))
         lists[k].append(name)
         load[k] += PICTURE_COST.get(name, 1.0)
-    return [[n for n in plots if n in part] for part in lists if part]
+    return [[n for n in names if n in part] for part in lists if part]
 
 
 def draw_pictures(method: str, scene, extras, trajectories, out: Path, plots: list[str], title: str) -> list[Path]:

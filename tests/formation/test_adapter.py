@@ -11,3 +11,18 @@ def test_a_run_writes_paths_field_snapshots_and_animation(tmp_path):
     assert {"trajectories.parquet", "summary.json", "paths.png", "field.png", "snapshots.png",
             "formation.gif"} <= names
     assert all((tmp_path / n).stat().st_size > 1000 for n in names)
+
+
+def test_the_snapshots_figure_and_its_animation_drawn_apart_are_the_same_files(tmp_path):
+    from crowdmotion.formation.adapter import PICTURE_PARTS, write_plots
+
+    result = run_scenario(parse_scenario(FORMATION), progress=False)
+    scene, run = result.scenario.scene, result.extras
+    together, apart = tmp_path / "together", tmp_path / "apart"
+    together.mkdir()
+    apart.mkdir()
+    both = write_plots(scene, run, together, ["snapshots"], "t")
+    drawn = [p for part in PICTURE_PARTS["snapshots"] for p in write_plots(scene, run, apart, [part], "t")]
+    assert [p.name for p in both] == [p.name for p in drawn] == ["snapshots.png", "formation.gif"]
+    for p in both:
+        assert p.read_bytes() == (apart / p.name).read_bytes()

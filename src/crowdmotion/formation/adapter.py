@@ -58,11 +58,16 @@ def snapshot_steps(result: FormationRun) -> list[tuple[int, str]]:
 
 ANIMATION_FRAMES = 120
 
+# [output] plots names that stand for pictures drawn apart, side by side where cores allow
+# (crowdmotion.outputs.picture_parts): the snapshots figure and its GIF
+PICTURE_PARTS = {"snapshots": ("snapshots-figure", "snapshots-animation")}
+
 
 def write_plots(scene, result: FormationRun, out, which, title: str = "") -> list:
     """``paths``: every agent's path; ``values``: the static obstacles' potential field
-    (``field.png``); ``snapshots``: the meshes at four moments and an animated GIF of the
-    whole run (``formation.gif``, at most 120 frames)."""
+    (``field.png``); ``snapshots``: the meshes at four moments (``snapshots-figure``
+    alone) and an animated GIF of the whole run (``formation.gif``, at most 120 frames;
+    ``snapshots-animation`` alone)."""
     from crowdmotion.render import animate_formation_snapshots, plot_formation_snapshots, plot_paths, \
         plot_potential_field
 
@@ -74,10 +79,11 @@ def write_plots(scene, result: FormationRun, out, which, title: str = "") -> lis
         field = result.simulator.field
         written.append(plot_potential_field(scene, field.static_f, field.static_vec, field.cell, out / "field.png",
                                             title=f"{title}: obstacle potential field, r = {field.reach} m"))
-    if "snapshots" in which:
-        dt = result.simulator.dt
+    dt = result.simulator.dt
+    if "snapshots" in which or "snapshots-figure" in which:
         snaps = [{"time": s * dt, "label": label, "groups": result.snapshot(s)} for s, label in snapshot_steps(result)]
         written.append(plot_formation_snapshots(scene, snaps, out / "snapshots.png", title=title))
+    if "snapshots" in which or "snapshots-animation" in which:
         steps = np.unique(np.linspace(0, len(result.frames) - 1, ANIMATION_FRAMES).astype(int))
         frames = [{"time": s * dt, "groups": result.snapshot(s)} for s in steps]
         fps = len(steps) / max(1.0, min(12.0, (len(result.frames) - 1) * dt / 4))
