@@ -10,8 +10,8 @@ import textwrap
 
 import pytest
 
-pytestmark = pytest.mark.skipif(not hasattr(os, "fork") or len(os.sched_getaffinity(0)) < 2,
-                                reason="the picture process needs fork and two cores")
+pytestmark = pytest.mark.skipif(not sys.platform.startswith("linux") or len(os.sched_getaffinity(0)) < 2,
+                                reason="the picture process needs Linux and two cores")
 
 PRELUDE = """
 import os, signal, sys

@@ -9,14 +9,15 @@ free core while the parent simulates, then draws the pictures from the run it is
 pictures come in parts (a formation's GIF apart from its other pictures): the child
 forks a helper per part, up to one per core, which shares the imports already made.
 
-Only where ``os.fork`` exists, with more than one core, and while the parent runs no
-other Python thread (the same conditions as :mod:`crowdmotion._precompile`). The child
-ignores Ctrl-C (the parent decides what an interrupted run writes: a run stopped while
-simulating still gets its pictures), is stopped by the parent when the parent itself is
-stopped while the pictures are drawn, leaves when the parent closes the pipe, and never
-returns into the parent's code (``os._exit``). A
-drawing error is raised in the parent with the child's traceback; a child that died
-leaves the pictures to the parent, drawn as without this module.
+Only on Linux (macOS's system libraries, its BLAS among them, are not safe to use in a
+forked child, and the child draws with numpy), with more than one core, and while the
+parent runs no other Python thread (a lock another thread held would stay held in the
+child). The child ignores Ctrl-C (the parent decides what an interrupted run writes: a
+run stopped while simulating still gets its pictures), is stopped by the parent when the
+parent itself is stopped while the pictures are drawn, leaves when the parent closes the
+pipe, and never returns into the parent's code (``os._exit``). A drawing error is raised
+in the parent with the child's traceback; a child that died leaves the pictures to the
+parent, drawn as without this module. ``CROWDMOTION_PICTURE_PROCESS=0`` turns it off.
 """
 
 from __future__ import annotations
@@ -129,9 +130,9 @@ class PictureProcess:
 
     @classmethod
     def start(cls) -> PictureProcess | None:
-        """Fork the child, or None without fork, on one core, or with other threads
+        """Fork the child, or None off Linux, on one core, or with other threads
         running (``CROWDMOTION_PICTURE_PROCESS=0`` also turns it off)."""
-        if os.environ.get("CROWDMOTION_PICTURE_PROCESS", "1") == "0" or not hasattr(os, "fork"):
+        if os.environ.get("CROWDMOTION_PICTURE_PROCESS", "1") == "0" or not sys.platform.startswith("linux"):
             return None
         if cores() < 2 or threading.active_count() > 1:
             return None
