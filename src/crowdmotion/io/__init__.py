@@ -7,21 +7,19 @@ Trajectories alone and writes atomically.
 
 from __future__ import annotations
 
+import importlib
 from pathlib import Path
 
-from crowdmotion.io import csv as _csv
-from crowdmotion.io import parquet as _parquet
-from crowdmotion.io import sqlite as _sqlite
-from crowdmotion.io import usd as _usd
-
-FORMATS = {".parquet": _parquet, ".csv": _csv, ".sqlite": _sqlite, ".usd": _usd, ".usda": _usd, ".usdc": _usd}
+# suffix -> the module that reads and writes it, imported on first use (pyarrow alone
+# takes 0.2 s to import: `validate`, which only needs the atomic writes, does without)
+FORMATS = {".parquet": "parquet", ".csv": "csv", ".sqlite": "sqlite", ".usd": "usd", ".usda": "usd", ".usdc": "usd"}
 
 
 def _format(path: Path):
-    fmt = FORMATS.get(path.suffix.lower())
-    if fmt is None:
+    name = FORMATS.get(path.suffix.lower())
+    if name is None:
         raise ValueError(f"unknown trajectory format {path.suffix!r} for {path}; use one of {sorted(FORMATS)}")
-    return fmt
+    return importlib.import_module(f"crowdmotion.io.{name}")
 
 
 def write_trajectories(traj, path) -> Path:
