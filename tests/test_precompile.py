@@ -195,3 +195,29 @@ def test_this_process_keeps_its_place_when_the_children_take_it_all():
     kernels = [{"name": "k", "seconds": 3.0, "needs": ["h"]}, {"name": "h", "seconds": 1.0}]
     mine, *theirs = pc.schedule(kernels, 2, head_start=10.0)
     assert mine == [] and _names(theirs) == [["h", "k"]]
+
+
+def test_a_first_run_says_it_is_compiling_and_a_later_one_does_not(tmp_path):
+    env = {**os.environ, "NUMBA_CACHE_DIR": str(tmp_path / "cache")}
+    said = []
+    for _ in range(2):
+        done = subprocess.run([sys.executable, "-m", "crowdmotion", "run", "mdp_robots_2d", "--plots", "none",
+                               "-o", str(tmp_path / "out"), "--overwrite"], capture_output=True, text=True, env=env,
+                              timeout=300)
+        assert done.returncode == 0, done.stderr
+        said.append("a first mdp run here: compiling its kernels" in done.stderr)
+    assert said == [True, False]
+
+
+def test_quiet_runs_do_not_say_it(tmp_path):
+    script = """
+from crowdmotion import _precompile as pc
+from crowdmotion.cli import _begin_compiling, scenario_path
+print(pc.cold_seconds("pso") > 0)
+_begin_compiling(scenario_path("pso_gathering"), quiet=True)
+"""
+    done = subprocess.run([sys.executable, "-c", script], capture_output=True, text=True, timeout=120,
+                          env={**os.environ, "NUMBA_CACHE_DIR": str(tmp_path), "CROWDMOTION_PRECOMPILE": "0"})
+    assert done.returncode == 0, done.stderr
+    assert done.stdout.strip() == "True"
+    assert "compiling" not in done.stderr

@@ -1,4 +1,4 @@
-"""Progress bars: a total, 'compiling kernels' until the first step, a clock from there."""
+"""Progress bars: a total, 'loading its kernels' until the first step, a clock from there."""
 
 import io
 

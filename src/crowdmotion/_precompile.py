@@ -187,6 +187,16 @@ def _closure(kernels: list[dict], names: set[str]) -> list[dict]:
 _PENDING: dict[str, tuple[list[dict], list[int], int, Path, float]] = {}
 
 
+def cold_seconds(method: str) -> float:
+    """Seconds of compiling (on one core, as recorded) that ``method``'s kernels missing
+    from numba's cache take: 0 when the cache has them all."""
+    try:
+        record = json.loads(RECORD.read_text())
+    except (OSError, ValueError):
+        return 0.0
+    return sum(k["seconds"] for k in record.get(method, []) if _cold(k))
+
+
 def _plan(method: str, background: bool = False, head_start: float = 0.0):
     """The cold kernels of ``method`` scheduled as (this process's list, the children's
     lists, how many), or None where nothing is to be done or compiling cannot be spread.

@@ -101,10 +101,10 @@ def _plot_list(text: str) -> list[str]:
     return names
 
 
-def _begin_compiling(path) -> None:
-    """On a cold numba cache, set the kernels of the file's method compiling on the other
-    cores before the scenario is read and checked (a glance at its ``method`` line; the
-    file is judged properly by load_scenario)."""
+def _begin_compiling(path, quiet: bool = False) -> None:
+    """On a cold numba cache, say so (unless ``quiet``) and set the kernels of the file's
+    method compiling on the other cores before the scenario is read and checked (a glance
+    at its ``method`` line; the file is judged properly by load_scenario)."""
     import tomllib
 
     from crowdmotion import _precompile
@@ -113,13 +113,19 @@ def _begin_compiling(path) -> None:
         method = tomllib.loads(Path(path).read_text()).get("method")
     except (OSError, ValueError, UnicodeDecodeError):
         return
-    if isinstance(method, str):
-        _precompile.begin(method)
+    if not isinstance(method, str):
+        return
+    seconds = _precompile.cold_seconds(method)
+    if seconds and not quiet:
+        print(f"crowdmotion: a first {method} run here: compiling its kernels ({seconds:.0f} s of compiling, "
+              f"shared over {_precompile.cores()} cores); later runs load them from numba's cache", file=sys.stderr,
+              flush=True)
+    _precompile.begin(method)
 
 
 def cmd_run(args) -> int:
     path = scenario_path(args.scenario)
-    _begin_compiling(path)
+    _begin_compiling(path, args.quiet)
     from crowdmotion import _precompile
     from crowdmotion.outputs import prepare_output_folder, write_run
     from crowdmotion.render.background import PictureProcess

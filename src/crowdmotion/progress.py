@@ -1,5 +1,6 @@
 """Progress bars for the methods' step loops: a total, and a clock that starts after the
-first step, so the numba compile of a cold first run does not make the ETA read hours."""
+first step, so loading (or, on a first run, compiling) the kernels does not make the ETA
+read hours."""
 
 from __future__ import annotations
 
@@ -8,7 +9,7 @@ from typing import Iterator
 
 from tqdm.auto import tqdm
 
-FIRST = "first step: compiling kernels (once, then cached)"
+FIRST = "first step: loading its kernels (compiled on a first run, then cached)"
 # tqdm's monitor thread outlives the bars; with it alive a later run in this process
 # could not compile its kernels on all cores (crowdmotion._precompile forks only a
 # process without other threads). Our bars update every step: they need no monitor.
@@ -39,7 +40,7 @@ class StepBar:
 @contextmanager
 def step_bar(total: int | None, desc: str, enabled: bool = True, unit: str = "step", file=None) -> Iterator[StepBar]:
     """A bar of ``total`` steps (shown after a second; on ``file``, default stderr) that
-    says it is compiling until the first step is reported."""
+    says it is loading its kernels until the first step is reported."""
     with tqdm(total=total, desc=desc, unit=unit, disable=not enabled, delay=1.0, leave=False, file=file) as bar:
         bar.set_postfix_str(FIRST, refresh=False)
         yield StepBar(bar)
