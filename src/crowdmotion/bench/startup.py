@@ -8,7 +8,7 @@ simulation alone, side by side in one run (issue 16).
 - bare: warm, with ``--plots none`` (trajectories and summary.json only);
 - simulation: ``run_scenario`` alone, in a warm process (kernels loaded), best of 2.
 
-    crowdmotion bench startup [--only NAME ...]
+    crowdmotion bench startup [--only NAME ...] [--rounds N]   # N rounds: median times
     python benchmarks/bench_startup.py [--only NAME ...]
     crowdmotion bench startup --baseline-src OLD/src --rounds 3 --only rvo_street_O ...
 
@@ -62,8 +62,8 @@ def _run_command(name: str, root: Path) -> list[str]:
 
 
 def measure(name: str, root: Path) -> dict:
-    """Cold, warm and simulation-only seconds for one built-in scene."""
-    env = dict(os.environ, NUMBA_CACHE_DIR=str(root / "numba" / name))
+    """Cold, warm and simulation-only seconds for one built-in scene (on a new cache)."""
+    env = dict(os.environ, NUMBA_CACHE_DIR=tempfile.mkdtemp(dir=root, prefix=f"numba-{name}-"))
     run = _run_command(name, root)
     cold = timed_run(run, env)
     warm = timed_run(run, env)
@@ -106,7 +106,19 @@ def compare(names: list[str], baseline_src: str, rounds: int, root: Path) -> str
     return "\n".join(out)
 
 
+def medians(rounds: list[list[dict]]) -> list[dict]:
+    """Each scene's measures over rounds (lists of :func:`measure` rows in one order):
+    the median of each column, and ``rounds``: how many."""
+    import statistics
+
+    keys = ("cold_s", "warm_s", "bare_s", "simulation_s")
+    return [{"scene": rows[0]["scene"], "rounds": len(rows), **{k: statistics.median(r[k] for r in rows) for k in keys}}
+            for rows in zip(*rounds)]
+
+
 def table(rows: list[dict]) -> str:
+    """The markdown table of :func:`measure` rows (or their :func:`medians`); the ratios
+    are of the (median) times."""
     out = ["| scene | cold run | warm run | warm, --plots none | simulation | cold / warm | warm / simulation |",
            "|---|---|---|---|---|---|---|"]
     for r in rows:
@@ -124,28 +136,31 @@ def main(argv=None) -> None:
     ap.add_argument("--only", nargs="*", help="built-in scene names (default: all)")
     ap.add_argument("--baseline-src", help="another checkout's src folder: interleave its cold and warm runs with "
                                            "this code's (medians and ranges over --rounds)")
-    ap.add_argument("--rounds", type=int, default=3, help="rounds of the interleaved comparison (default 3)")
+    ap.add_argument("--rounds", type=int, help="rounds: of the interleaved comparison (default 3), or of the "
+                                               "table, whose times are then medians (default 1)")
     args = ap.parse_args(argv)
     names = [p.stem for p in builtin_scenarios()]
     unknown = sorted(set(args.only or []) - set(names))
     if unknown:
         ap.error(f"unknown built-in scene(s) {unknown}; see `crowdmotion scenarios`")
+    if args.rounds is not None and args.rounds < 1:
+        ap.error(f"--rounds {args.rounds}: must be at least 1")
     if args.baseline_src:
         if not (Path(args.baseline_src) / "crowdmotion").is_dir():
             ap.error(f"--baseline-src {args.baseline_src}: no crowdmotion package in that folder")
-        if args.rounds < 1:
-            ap.error(f"--rounds {args.rounds}: must be at least 1")
         with tempfile.TemporaryDirectory() as tmp:
-            print(compare(args.only or names, str(Path(args.baseline_src).resolve()), args.rounds, Path(tmp)))
+            print(compare(args.only or names, str(Path(args.baseline_src).resolve()), args.rounds or 3, Path(tmp)))
         return
-    rows = []
+    rounds = []
     with tempfile.TemporaryDirectory() as tmp:
-        for name in (args.only or names):
-            rows.append(measure(name, Path(tmp)))
-            r = rows[-1]
-            print(f"{name}: cold {r['cold_s']:.1f} s, warm {r['warm_s']:.1f} s, bare {r['bare_s']:.1f} s, "
-                  f"simulation {r['simulation_s']:.2f} s", file=sys.stderr, flush=True)
-    print(table(rows))
+        for k in range(args.rounds or 1):  # every scene once per round: a slow minute touches one round
+            rounds.append([])
+            for name in (args.only or names):
+                rounds[-1].append(measure(name, Path(tmp)))
+                r = rounds[-1][-1]
+                print(f"round {k + 1}, {name}: cold {r['cold_s']:.1f} s, warm {r['warm_s']:.1f} s, "
+                      f"bare {r['bare_s']:.1f} s, simulation {r['simulation_s']:.2f} s", file=sys.stderr, flush=True)
+    print(table(medians(rounds)))
 
 
 if __name__ == "__main__":
