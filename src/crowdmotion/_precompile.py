@@ -187,29 +187,35 @@ def _closure(kernels: list[dict], names: set[str]) -> list[dict]:
 _PENDING: dict[str, tuple[list[dict], list[int], int, Path, float]] = {}
 
 
-def cold_seconds(method: str) -> float:
-    """Seconds of compiling (on one core, as recorded) that ``method``'s kernels missing
-    from numba's cache take: 0 when the cache has them all."""
+def can_fork() -> bool:
+    """Whether a forked child may go on running Python here: ``os.fork`` exists and this
+    process runs no other Python thread (a lock another thread holds would stay locked
+    in the child)."""
+    return hasattr(os, "fork") and threading.active_count() == 1
+
+
+def _cold_kernels(method: str) -> list[dict]:
+    """``method``'s recorded kernels that numba's cache lacks (none without a record)."""
     try:
         record = json.loads(RECORD.read_text())
     except (OSError, ValueError):
-        return 0.0
-    return sum(k["seconds"] for k in record.get(method, []) if _cold(k))
+        return []
+    return [k for k in record.get(method, []) if _cold(k)]
+
+
+def cold_seconds(method: str) -> float:
+    """Seconds of compiling (on one core, as recorded) that ``method``'s kernels missing
+    from numba's cache take: 0 when the cache has them all."""
+    return sum(k["seconds"] for k in _cold_kernels(method))
 
 
 def _plan(method: str, background: bool = False, head_start: float = 0.0):
     """The cold kernels of ``method`` scheduled as (this process's list, the children's
     lists, how many), or None where nothing is to be done or compiling cannot be spread.
     ``background``: all of it to children (on the other cores), none to this process."""
-    if os.environ.get("CROWDMOTION_PRECOMPILE", "1") == "0" or not hasattr(os, "fork"):
+    if os.environ.get("CROWDMOTION_PRECOMPILE", "1") == "0" or not can_fork():
         return None
-    if threading.active_count() > 1:  # a lock another thread holds would stay locked in a child
-        return None
-    try:
-        record = json.loads(RECORD.read_text())
-    except (OSError, ValueError):
-        return None
-    todo = [k for k in record.get(method, []) if _cold(k)]
+    todo = _cold_kernels(method)
     n_cores = cores()
     if not todo or n_cores < 2:
         return None

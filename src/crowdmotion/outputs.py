@@ -72,7 +72,8 @@ def write_run(result, out, plots=None, pictures=None) -> list[Path]:
     spec = result.scenario.spec
     plots = spec.output.plots if plots is None else list(plots)
     run = (spec.method, result.scenario.scene, result.extras, result.trajectories, out)
-    if pictures is not None and plots:
+    pictures = pictures if plots else None  # nothing to draw: no job for it
+    if pictures is not None:
         split = getattr(get_method(spec.method).module, "PICTURE_PARTS", None)
         pictures.submit(draw_pictures, [(*run, part, spec.name) for part in picture_parts(plots, cores(), split)])
     written = [result.trajectories.save(out / f"trajectories.{fmt}") for fmt in spec.output.formats]
@@ -80,7 +81,7 @@ def write_run(result, out, plots=None, pictures=None) -> list[Path]:
     with atomic_path(out / "summary.json") as tmp:
         tmp.write_text(json.dumps(summary, indent=2, default=str))
     written.append(out / "summary.json")
-    drawn = pictures.result() if pictures is not None and plots else draw_pictures(*run, plots, spec.name)
+    drawn = pictures.result() if pictures is not None else draw_pictures(*run, plots, spec.name)
     return written + sorted(drawn, key=lambda p: RUN_FILES.index(p.name) if p.name in RUN_FILES else len(RUN_FILES))
 
 

@@ -31,7 +31,7 @@ from collections.abc import Callable
 from multiprocessing.connection import Connection, Pipe
 from pathlib import Path
 
-from crowdmotion._precompile import cores, stop_children
+from crowdmotion._precompile import can_fork, cores, stop_children
 
 
 def _leave(signum, frame) -> None:
@@ -60,7 +60,7 @@ def _draw_parts(draw: Callable, parts: list[tuple]) -> tuple:
     imported) for each part after the first, up to one per core, and the rest drawn
     here; the paths in part order, or the first part's error that failed."""
     helpers: dict[int, tuple[int, Connection]] = {}  # part -> (pid, pipe)
-    if threading.active_count() == 1:
+    if can_fork():
         for k in range(1, min(len(parts), cores())):
             theirs, ours = Pipe(duplex=False)
             pid = os.fork()
@@ -134,7 +134,7 @@ class PictureProcess:
         running (``CROWDMOTION_PICTURE_PROCESS=0`` also turns it off)."""
         if os.environ.get("CROWDMOTION_PICTURE_PROCESS", "1") == "0" or not sys.platform.startswith("linux"):
             return None
-        if cores() < 2 or threading.active_count() > 1:
+        if cores() < 2 or not can_fork():
             return None
         ours, theirs = Pipe()
         sys.stdout.flush()
