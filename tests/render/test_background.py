@@ -45,76 +45,66 @@ assert p is not None, "no picture process"
 """
 
 
-def run_script(body: str, **env) -> subprocess.CompletedProcess:
-    code = PRELUDE + textwrap.dedent(body)
-    return subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=60,
-                          env={**os.environ, **env})
+def output_of(body: str) -> str:
+    """What the script (after PRELUDE) prints, once it has exited 0."""
+    done = subprocess.run([sys.executable, "-c", PRELUDE + textwrap.dedent(body)], capture_output=True, text=True,
+                          timeout=60)
+    assert done.returncode == 0, done.stderr
+    return done.stdout.strip()
 
 
 def test_the_job_runs_in_the_child():
-    done = run_script("""
+    assert output_of("""
         p.submit(where, [()])
         print(*p.result())
-    """)
-    assert done.returncode == 0, done.stderr
-    assert done.stdout.strip() == "child"
+    """) == "child"
 
 
 def test_parts_are_drawn_side_by_side_and_come_back_in_order():
-    done = run_script("""
+    assert output_of("""
         p.submit(pid, [(), (), ()])
         a, b, c = p.result()
         print(a == p.pid, b not in (p.pid, PARENT), c != PARENT)
-    """)
-    assert done.returncode == 0, done.stderr
-    assert done.stdout.split() == ["True", "True", "True"]
+    """).split() == ["True", "True", "True"]
 
 
 def test_a_drawing_error_is_raised_in_the_parent_with_the_childs_traceback():
-    done = run_script("""
+    assert output_of("""
         p.submit(fail, [()])
         try:
             p.result()
         except ValueError as exc:
             print(exc, "|", "drawn in the picture process" in "".join(exc.__notes__), "|",
                   "in fail" in "".join(exc.__notes__))
-    """)
-    assert done.returncode == 0, done.stderr
-    assert done.stdout.strip() == "no such colour 'blurple' | True | True"
+    """) == "no such colour 'blurple' | True | True"
 
 
 def test_an_error_that_does_not_pickle_comes_back_as_its_text():
-    done = run_script("""
+    assert output_of("""
         p.submit(fail_oddly, [()])
         try:
             p.result()
         except RuntimeError as exc:
             print(exc)
-    """)
-    assert done.returncode == 0, done.stderr
-    assert done.stdout.strip() == "Odd: odd"
+    """) == "Odd: odd"
 
 
 def test_a_child_that_died_leaves_the_job_to_the_parent():
-    done = run_script("""
+    assert output_of("""
         p.submit(die_in_child, [()])
         print(*p.result())
-    """)
-    assert done.returncode == 0, done.stderr
-    assert done.stdout.strip() == "parent"
+    """) == "parent"
 
 
 def test_a_job_that_does_not_pickle_is_done_in_the_parent():
-    done = run_script("""
+    assert output_of("""
         p.submit(lambda: where(), [()])
         print(*p.result())
-    """)
-    assert done.returncode == 0, done.stderr
-    assert done.stdout.strip() == "parent"
+    """) == "parent"
 
 
 def test_a_child_given_nothing_leaves_when_closed():
-    done = run_script("""
+    assert output_of("""
         pid = p.pid
         p.close()
         try:
@@ -122,9 +112,7 @@ def test_a_child_given_nothing_leaves_when_closed():
             print("still there")
         except ProcessLookupError:
             print("gone")
-    """)
-    assert done.returncode == 0, done.stderr
-    assert done.stdout.strip() == "gone"
+    """) == "gone"
 
 
 def test_refused_when_turned_off_or_beside_other_threads():
@@ -160,7 +148,7 @@ def test_a_run_writes_the_same_files_with_and_without_it(tmp_path):
 
 def test_a_child_stopped_while_drawing_leaves_no_half_written_file(tmp_path):
     target = tmp_path / "paths.png"
-    done = run_script(f"""
+    assert output_of(f"""
         import time
         from pathlib import Path
         from crowdmotion.io.atomic import atomic_path
@@ -176,7 +164,5 @@ def test_a_child_stopped_while_drawing_leaves_no_half_written_file(tmp_path):
         t0 = time.monotonic()
         p.close()  # what the run does when interrupted while the pictures are drawn
         print(round(time.monotonic() - t0) < 5)
-    """)
-    assert done.returncode == 0, done.stderr
-    assert done.stdout.strip() == "True"
+    """) == "True"
     assert list(tmp_path.iterdir()) == []
