@@ -388,6 +388,74 @@ def _first_contact(i, p, k, x, newx, radius, nb, cnt):
 
 
 @njit(cache=True)
+def _agent_to_avoid(i, p, k, newx, nb, cnt, avoid_radius, cos_theta, u):
+    """The agent rule: of the neighbours nb[:cnt] (at their new positions), the nearest
+    within ``avoid_radius`` whose direction lies within θ of the step k (cos θ =
+    ``cos_theta``); writes u = its position − p. Returns False when there is none."""
+    d = p.shape[0]
+    kk = 0.0
+    for a in range(d):
+        kk += k[a] * k[a]
+    kn = np.sqrt(kk)
+    best = np.inf
+    bj = -1
+    for s in range(cnt):
+        j = nb[s]
+        if j == i:
+            continue
+        dd = 0.0
+        dot = 0.0
+        for a in range(d):
+            dd += (newx[j, a] - p[a]) ** 2
+            dot += (newx[j, a] - p[a]) * k[a]
+        dist = np.sqrt(dd)
+        if dist < avoid_radius and dist < best and kn > 0.0 and dot >= cos_theta * dist * kn:
+            best = dist
+            bj = j
+    if bj < 0:
+        return False
+    for a in range(d):
+        u[a] = newx[bj, a] - p[a]
+    return True
+
+
+@njit(cache=True)
+def _separate(i, p, k, x, newx, radius, nb, cnt, counters):
+    """The separation guard: the step k cut short before its first contact with a
+    neighbour (else set to zero); returns whether it had to be cut."""
+    t = _first_contact(i, p, k, x, newx, radius, nb, cnt)
+    if t > 1.0:
+        return False
+    counters[RULE_CONFLICTS] += 1
+    shrink = max(0.0, t * (1.0 - 1e-6) - 1e-9)
+    for a in range(k.shape[0]):
+        k[a] *= shrink
+    if shrink > 0.0 and _first_contact(i, p, k, x, newx, radius, nb, cnt) > 1.0:
+        counters[TRUNCATED] += 1
+    else:
+        counters[SEPARATION_STOPS] += 1
+        for a in range(k.shape[0]):
+            k[a] = 0.0
+    return True
+
+
+@njit(cache=True)
+def _touches_gathered(i, newx, radius, gid, stopped, nb, cnt, join_gap):
+    """Whether i, at newx[i], is within r_i + r_j + ``join_gap`` of a stopped neighbour
+    of its own swarm."""
+    for s in range(cnt):
+        j = nb[s]
+        if j == i or not stopped[j] or gid[j] != gid[i]:
+            continue
+        dd = 0.0
+        for a in range(newx.shape[1]):
+            dd += (newx[j, a] - newx[i, a]) ** 2
+        if dd <= (radius[i] + radius[j] + join_gap) ** 2:
+            return True
+    return False
+
+
+@njit(cache=True)
 def avoid_and_commit(order, x, v, newx, radius, gid, stopped, joined, avoid_obstacles, avoid_agents,
                      separation, detection, avoid_radius, cos_theta, join_gap, target, gather_radius,
                      sc, sr, bl, bu, ob_start, ob_items, lo, hi,
@@ -436,34 +504,12 @@ def avoid_and_commit(order, x, v, newx, radius, gid, stopped, joined, avoid_obst
                 k[a] = out[a]
             counters[OBSTACLE_REDIRECTS] += 1
             redirected[i] += 1
-        if avoid_agents:
-            kk = 0.0
+        if avoid_agents and _agent_to_avoid(i, p, k, newx, nb, cnt, avoid_radius, cos_theta, u):
+            if redirect(k, u, uniform(key, i, 102), uniform(key, i, 103), out):
+                counters[DEGENERATE] += 1
             for a in range(d):
-                kk += k[a] * k[a]
-            kn = np.sqrt(kk)
-            best = np.inf
-            bj = -1
-            for s in range(cnt):
-                j = nb[s]
-                if j == i:
-                    continue
-                dd = 0.0
-                dot = 0.0
-                for a in range(d):
-                    dd += (newx[j, a] - p[a]) ** 2
-                    dot += (newx[j, a] - p[a]) * k[a]
-                dist = np.sqrt(dd)
-                if dist < avoid_radius and dist < best and kn > 0.0 and dot >= cos_theta * dist * kn:
-                    best = dist
-                    bj = j
-            if bj >= 0:
-                for a in range(d):
-                    u[a] = newx[bj, a] - p[a]
-                if redirect(k, u, uniform(key, i, 102), uniform(key, i, 103), out):
-                    counters[DEGENERATE] += 1
-                for a in range(d):
-                    k[a] = out[a]
-                counters[AGENT_REDIRECTS] += 1
+                k[a] = out[a]
+            counters[AGENT_REDIRECTS] += 1
         # guards: bounds, obstacles, other particles
         for a in range(d):
             end = min(max(p[a] + k[a], lo[a] + radius[i]), hi[a] - radius[i])
@@ -472,21 +518,7 @@ def avoid_and_commit(order, x, v, newx, radius, gid, stopped, joined, avoid_obst
             counters[OBSTACLE_STOPS] += 1
             for a in range(d):
                 k[a] = 0.0
-        cut = False
-        if separation:
-            t = _first_contact(i, p, k, x, newx, radius, nb, cnt)
-            if t <= 1.0:
-                cut = True
-                counters[RULE_CONFLICTS] += 1
-                shrink = max(0.0, t * (1.0 - 1e-6) - 1e-9)
-                for a in range(d):
-                    k[a] *= shrink
-                if shrink > 0.0 and _first_contact(i, p, k, x, newx, radius, nb, cnt) > 1.0:
-                    counters[TRUNCATED] += 1
-                else:
-                    counters[SEPARATION_STOPS] += 1
-                    for a in range(d):
-                        k[a] = 0.0
+        cut = separation and _separate(i, p, k, x, newx, radius, nb, cnt, counters)
         for a in range(d):
             newx[i, a] = p[a] + k[a]
             v[i, a] = k[a]
@@ -494,15 +526,7 @@ def avoid_and_commit(order, x, v, newx, radius, gid, stopped, joined, avoid_obst
         dt2 = 0.0
         for a in range(d):
             dt2 += (newx[i, a] - target[g, a]) ** 2
-        if avoid_agents and (cut or dt2 <= gather_radius[g] ** 2):
-            for s in range(cnt):
-                j = nb[s]
-                if j == i or not stopped[j] or gid[j] != g:
-                    continue
-                dd = 0.0
-                for a in range(d):
-                    dd += (newx[j, a] - newx[i, a]) ** 2
-                if dd <= (radius[i] + radius[j] + join_gap) ** 2:
-                    joined[i] = True
-                    counters[JOINS] += 1
-                    break
+        if avoid_agents and (cut or dt2 <= gather_radius[g] ** 2) and \
+                _touches_gathered(i, newx, radius, gid, stopped, nb, cnt, join_gap):
+            joined[i] = True
+            counters[JOINS] += 1
