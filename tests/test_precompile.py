@@ -31,30 +31,74 @@ def _names(lists):
     return [[k["name"] for k in lst] for lst in lists]
 
 
-def test_lists_are_balanced_by_compile_time():
-    kernels = [{"name": n, "seconds": s} for n, s in (("a", 5.0), ("b", 3.0), ("c", 2.0), ("d", 1.0), ("e", 1.0))]
-    lists = pc.schedule(kernels, 2)
-    loads = sorted(sum(k["seconds"] for k in s) for s in lists)
-    assert loads == [6.0, 6.0]  # a+e against b+c+d
-    assert len(pc.schedule(kernels[:1], 4)) == 1  # no empty lists
-
-
-def test_helpers_compile_first_and_side_by_side():
-    # k needs h1 and h2 (2 s each); k's own compile takes 3 s; x stands alone (4 s).
-    # On two cores: h1 and h2 side by side, then k, with x filling the other core
+def test_a_free_core_takes_the_longest_chain_first():
+    # k needs h1 and h2 (2 s each) and takes 3 s itself; x stands alone (4 s): the
+    # helpers head 5 s chains, so they go before x, and k last
     kernels = [{"name": "k", "seconds": 3.0, "needs": ["h1", "h2"]}, {"name": "h1", "seconds": 2.0},
                {"name": "h2", "seconds": 2.0}, {"name": "x", "seconds": 4.0}]
-    lists = pc.schedule(kernels, 2)
-    order = {k["name"]: (w, i) for w, lst in enumerate(lists) for i, k in enumerate(lst)}
-    assert {order["h1"][0], order["h2"][0]} == {0, 1}  # the helpers on different cores
-    (wk, ik) = order["k"]
-    assert all(order[h][0] != wk or order[h][1] < ik for h in ("h1", "h2"))  # after its helpers
-    waits = {k["name"]: k["wait"] for lst in lists for k in lst}
-    assert waits["k"] == [h for h in ("h1", "h2") if order[h][0] != wk]  # waits only for the other core
-    assert sum(k["seconds"] for k in lists[order["x"][0]]) <= 6.0  # x fills the core k does not use
-    # a cycle (no kernel of ours has one) still schedules everything
-    loop = [{"name": "a", "seconds": 1.0, "needs": ["b"]}, {"name": "b", "seconds": 1.0, "needs": ["a"]}]
-    assert sorted(n for lst in _names(pc.schedule(loop, 2)) for n in lst) == ["a", "b"]
+    assert [k["name"] for k in pc.ranked(kernels)] == ["h1", "h2", "x", "k"]
+
+
+def _share(kernels, marks, workers=2, claimed=()):
+    """Run ``_work`` on ``workers`` threads over one marker folder, with a compile that
+    sleeps a tenth of each kernel's seconds; (name, worker, start, end) per compile."""
+    import threading
+    import time
+
+    log = []
+
+    def compile_as(worker):
+        def compile_one(k):
+            t0 = time.monotonic()
+            time.sleep(k["seconds"] / 10)
+            log.append((k["name"], worker, t0, time.monotonic()))
+        return compile_one
+
+    for name in claimed:
+        pc._claim(marks, name)
+    threads = [threading.Thread(target=pc._work, args=(kernels, marks, time.monotonic() + 60, compile_as(w)))
+               for w in range(workers)]
+    for t in threads:
+        t.start()
+    return threads, log
+
+
+def test_cores_share_the_kernels_each_after_its_helpers(tmp_path):
+    kernels = [{"name": "k", "seconds": 3.0, "needs": ["h1", "h2"]}, {"name": "h1", "seconds": 2.0},
+               {"name": "h2", "seconds": 2.0}, {"name": "x", "seconds": 4.0}]
+    threads, log = _share(kernels, tmp_path)
+    for t in threads:
+        t.join()
+    assert sorted(n for n, *_ in log) == ["h1", "h2", "k", "x"]  # each compiled once
+    at = {n: (w, t0, t1) for n, w, t0, t1 in log}
+    assert at["k"][1] >= max(at["h1"][2], at["h2"][2])  # after both helpers were finished
+    assert at["h1"][0] != at["h2"][0]  # the helpers side by side
+    assert {w for w, *_ in at.values()} == {0, 1}
+
+
+def test_a_cycle_of_helpers_still_compiles_everything(tmp_path):
+    loop = [{"name": "a", "seconds": 0.1, "needs": ["b"]}, {"name": "b", "seconds": 0.1, "needs": ["a"]}]
+    threads, log = _share(loop, tmp_path)
+    for t in threads:
+        t.join(timeout=10)
+    assert sorted(n for n, *_ in log) == ["a", "b"]
+
+
+def test_kernels_compiled_while_checking_stay_with_this_process(tmp_path):
+    # RVO's check compiles the line-of-sight test: this process claims it before the
+    # children start, so none compiles it too, and what calls it waits for it
+    import time
+
+    kernels = [{"name": "check", "seconds": 1.0, "at_load": True}, {"name": "k", "seconds": 1.0, "needs": ["check"]},
+               {"name": "x", "seconds": 1.0}]
+    assert pc._closure(kernels, {"check"}) == kernels[:1]
+    threads, log = _share(kernels, tmp_path, claimed=["check"])
+    time.sleep(0.3)
+    assert [n for n, *_ in log] == ["x"]  # k waits while check is being compiled here
+    (tmp_path / pc._marker("check")).touch()  # this process has finished it
+    for t in threads:
+        t.join()
+    assert sorted(n for n, *_ in log) == ["k", "x"]
 
 
 def test_signatures_parse_without_eval():
@@ -109,7 +153,7 @@ def test_compiling_begun_early_is_finished_by_the_run(tmp_path):
 import json
 from crowdmotion import _precompile as pc
 pc.begin("mdp")
-children = [pid for v in pc._PENDING.values() for pid in v[1]]
+children = [pid for v in pc._PENDING.values() for pid in v[2]]
 """ + LISTENER + """from crowdmotion.cli import builtin_scenarios
 from crowdmotion.scenario import load_scenario, run_scenario
 sc = load_scenario([p for p in builtin_scenarios() if p.stem == "mdp_robots_2d"][0])
@@ -136,27 +180,13 @@ import json, sys
 from crowdmotion import _precompile as pc
 from crowdmotion.cli import main
 code = main(["run", {str(bad)!r}, "-q", "-o", {str(tmp_path / "out")!r}])
-print(json.dumps({{"code": code, "children": [p for v in pc._PENDING.values() for p in v[1]]}}))
+print(json.dumps({{"code": code, "children": [p for v in pc._PENDING.values() for p in v[2]]}}))
 """
     result = _in_fresh_process(script, tmp_path / "cache")
     assert result["code"] == 2  # refused, with the scenario's error
     for pid in result["children"]:  # stopped at exit, not left compiling
         with pytest.raises(ProcessLookupError):
             os.kill(pid, 0)
-
-
-def test_kernels_compiled_while_checking_stay_with_this_process():
-    # RVO's check compiles the line-of-sight test: a child compiling it too would only
-    # take a core from the rest
-    at_load = [{"name": "check", "seconds": 1.0, "at_load": True}]
-    rest = [{"name": n, "seconds": s} for n, s in (("a", 4.0), ("b", 2.0), ("c", 1.0))]
-    mine, *theirs = pc.schedule(rest, 2, first=at_load)
-    assert _names([mine]) == [["check", "b", "c"]]
-    assert _names(theirs) == [["a"]]
-    assert _names(pc.schedule([], 2, first=at_load)) == [["check"]]
-    # while this process still reads the scenario, the children take more
-    mine, *theirs = pc.schedule(rest, 2, first=at_load, head_start=3.0)
-    assert _names([mine]) == [["check", "b"]] and _names(theirs) == [["a", "c"]]
 
 
 def test_what_the_check_compiles_comes_with_its_helpers():
@@ -167,34 +197,33 @@ def test_what_the_check_compiles_comes_with_its_helpers():
 
 @pytest.mark.skipif(not hasattr(os, "fork"), reason="needs fork")
 def test_helpers_are_compiled_once_and_loaded_by_their_callers(tmp_path):
-    # PSO's avoid-and-commit calls seven helpers that compile on their own cores first:
-    # the kernels of this process's list load them from the cache instead of compiling
-    # them again
-    script = """
-import json
+    # PSO's avoid-and-commit calls six helpers that compile on the cores first: whichever
+    # process compiles a caller loads them from the cache instead of compiling them again
+    log = tmp_path / "compiled.txt"
+    script = f"""
+import json, os
 from crowdmotion import _precompile as pc
-plan = pc._plan("pso")
-""" + LISTENER + """event.register("numba:compile", L())
+from numba.core import event
+class L(event.Listener):  # every process, children included, notes what it compiles
+    def on_start(self, ev): pass
+    def on_end(self, ev):
+        d = ev.data["dispatcher"]
+        with open({str(log)!r}, "a") as f:
+            f.write(f"{{os.getpid()}} {{d.py_func.__module__}}:{{d.py_func.__qualname__}}\\n")
+event.register("numba:compile", L())
 done = pc.start("pso")
-print(json.dumps({"mine": [k["name"] for k in plan[0]] if plan else [], "compiled": compiled, "done": done,
-                  "cold": [k["name"] for k in json.loads(pc.RECORD.read_text())["pso"] if pc._cold(k)]}))
+print(json.dumps({{"done": done, "cold": [k["name"] for k in json.loads(pc.RECORD.read_text())["pso"] if pc._cold(k)]}}))
 """
-    result = _in_fresh_process(script, tmp_path)
+    result = _in_fresh_process(script, tmp_path / "cache")
     if pc.cores() < 2:
         assert result["done"] == 0
         return
     assert result["done"] == len(RECORD["pso"]) and result["cold"] == []  # every kernel in the cache
     ours = {k["name"] for k in RECORD["pso"]}
-    compiled_here = [n for n in result["compiled"] if n in ours]
-    assert sorted(compiled_here) == sorted(result["mine"])  # this process's list, no helper twice
-
-
-def test_this_process_keeps_its_place_when_the_children_take_it_all():
-    # reading the scenario keeps this process busy: the children may take every kernel,
-    # and the first list must stay this process's, empty, not become a child's
-    kernels = [{"name": "k", "seconds": 3.0, "needs": ["h"]}, {"name": "h", "seconds": 1.0}]
-    mine, *theirs = pc.schedule(kernels, 2, head_start=10.0)
-    assert mine == [] and _names(theirs) == [["h", "k"]]
+    compiled = [line.split() for line in log.read_text().splitlines()]
+    names = sorted(n for _, n in compiled if n in ours)
+    assert names == sorted(ours)  # each once, in one process or another
+    assert len({pid for pid, _ in compiled}) >= 2  # shared between processes
 
 
 def test_a_first_run_says_it_is_compiling_and_a_later_one_does_not(tmp_path):

@@ -6,13 +6,12 @@ RVO or PSO run there. The kernels a method's run compiles and the helpers each c
 with their argument types and compile times, are recorded once in ``_precompile.json``
 (``python -m crowdmotion._precompile --record``, rerun when a kernel's arguments or
 helpers change; tests/test_precompile.py says when). When a run starts and numba's
-cache lacks some of them, :func:`start` schedules them on the cores: helpers are
-compiled as stages of their own, side by side, and a kernel only once the helpers it
-needs are in the cache, from which its compile loads them (:func:`schedule`: the
-longest chain of compile time first). Forked children compile their lists into the
-cache while this process compiles its own, waiting where a helper comes from another
-process (a marker file per finished kernel); then the run loads every kernel from the
-cache.
+cache lacks some of them, forked children and this process take them from one shared
+list (:func:`_work`): each core, when free, claims the next kernel whose helpers are
+already in the cache (from which its compile loads them), the one heading the longest
+chain of compile time first. Taking work when free rather than in lists planned from
+the record keeps every core busy however long a compile takes on the day; then the run
+loads every kernel from the cache.
 
 Only where ``os.fork`` exists (Linux, macOS), with more than one core, and while this
 process runs no other Python thread (a lock held by another thread would stay locked in
@@ -81,25 +80,16 @@ def _marker(name: str) -> str:
     return re.sub(r"[^\w.-]", "_", name)
 
 
-def schedule(kernels: list[dict], workers: int, first: list[dict] = (), head_start: float = 0.0) -> list[list[dict]]:
-    """Kernels into ``workers`` lists to compile side by side, each kernel after the
-    helpers it ``needs`` (list scheduling: of the kernels whose helpers are placed, the
-    one heading the longest chain of compile time goes to the list where it can start
-    first). ``first`` go to the first list beforehand, in their order (what this process
-    compiles anyway, while ``head_start`` seconds of other work keep it from the rest).
-    Each kernel comes back as a copy with ``wait``: the helpers it needs that another
-    list compiles. Empty lists are dropped but the first (this process's, which may have
-    nothing to compile when the others take it all).
-    """
-    first = list(first)
-    placed = {f["name"] for f in first}
-    items = first + [k for k in kernels if k["name"] not in placed]
-    by = {k["name"]: k for k in items}
-    needs = {k["name"]: [n for n in k.get("needs", ()) if n in by and n != k["name"]] for k in items}
+def ranked(kernels: list[dict]) -> list[dict]:
+    """The kernels in the order a free core takes them: the one heading the longest chain
+    of compile time (its own and that of the kernels that call it, through ``needs``)
+    first, so that a long kernel's helpers are in the cache before a core is free for it."""
+    by = {k["name"]: k for k in kernels}
     users: dict[str, list[str]] = {n: [] for n in by}
-    for n, ds in needs.items():
-        for d in ds:
-            users[d].append(n)
+    for k in kernels:
+        for d in k.get("needs", ()):
+            if d in by and d != k["name"]:
+                users[d].append(k["name"])
     chain: dict[str, float] = {}
 
     def chain_of(name: str, seen: frozenset = frozenset()) -> float:  # compile time from here to the end
@@ -108,27 +98,7 @@ def schedule(kernels: list[dict], workers: int, first: list[dict] = (), head_sta
             chain[name] = by[name]["seconds"] + max(later, default=0.0)
         return chain[name]
 
-    lists: list[list[dict]] = [[] for _ in range(max(1, workers))]
-    free = [0.0] * len(lists)
-    finish: dict[str, float] = {}
-    where: dict[str, int] = {}
-    for k in first:
-        free[0] += k["seconds"]
-        finish[k["name"]], where[k["name"]] = free[0], 0
-        lists[0].append(k)
-    free[0] += head_start
-    pending = [k for k in items if k["name"] not in finish]
-    while pending:
-        ready = [k for k in pending if all(d in finish for d in needs[k["name"]])] or pending  # (a cycle: any)
-        k = max(ready, key=lambda k: chain_of(k["name"]))
-        after = max((finish.get(d, 0.0) for d in needs[k["name"]]), default=0.0)
-        w = min(range(len(lists)), key=lambda w: (max(free[w], after), w))
-        free[w] = max(free[w], after) + k["seconds"]
-        finish[k["name"]], where[k["name"]] = free[w], w
-        lists[w].append(k)
-        pending.remove(k)
-    out = [[{**k, "wait": [d for d in needs[k["name"]] if where[d] != w]} for k in lst] for w, lst in enumerate(lists)]
-    return [lst for i, lst in enumerate(out) if lst or i == 0]
+    return sorted(kernels, key=lambda k: -chain_of(k["name"]))
 
 
 def _cold(kernel: dict) -> bool:
@@ -140,11 +110,6 @@ def _cold(kernel: dict) -> bool:
         return False
 
 
-def _await(marker: Path, deadline: float) -> None:
-    while not marker.exists() and time.monotonic() < deadline:
-        time.sleep(0.005)
-
-
 def _compile_one(kernel: dict) -> None:
     """Compile (or load from the cache) the kernel for each of its recorded signatures."""
     disp = _dispatcher(kernel["name"])
@@ -152,19 +117,62 @@ def _compile_one(kernel: dict) -> None:
         disp.compile(parse_signature(sig))
 
 
-def _compile(kernels: list[dict], marks: Path, deadline: float) -> None:
-    """Compile each kernel into the cache, after the helpers it waits for (their markers
-    in ``marks``; past ``deadline`` it goes ahead and compiles what it lacks itself), and
-    mark it done."""
-    for k in kernels:
-        for name in k.get("wait", ()):
-            _await(marks / _marker(name), deadline)
-        try:
-            _compile_one(k)
-        except Exception:  # stale record: the run compiles it when it calls it
-            pass
-        finally:
-            (marks / _marker(k["name"])).touch()
+# The processes compiling one method's kernels share a folder: ``NAME.claim`` (created
+# exclusively, so one process takes a kernel) and ``NAME`` once it is in the cache.
+def _claim(marks: Path, name: str) -> bool:
+    try:
+        os.close(os.open(marks / f"{_marker(name)}.claim", os.O_CREAT | os.O_EXCL | os.O_WRONLY))
+    except FileExistsError:
+        return False
+    return True
+
+
+def _claimed(marks: Path, name: str) -> bool:
+    return (marks / f"{_marker(name)}.claim").exists()
+
+
+def _finished(marks: Path, name: str) -> bool:
+    return (marks / _marker(name)).exists()
+
+
+def _finish(marks: Path, kernel: dict, compile_one=None) -> None:
+    """Compile the kernel into the cache (a stale record is left to the run, which compiles
+    it when it calls it) and mark it finished."""
+    try:
+        (compile_one or _compile_one)(kernel)
+    except Exception:
+        pass
+    finally:
+        (marks / _marker(kernel["name"])).touch()
+
+
+def _work(kernels: list[dict], marks: Path, deadline: float, compile_one=None) -> list[str]:
+    """Take kernels from the shared list until none is left unclaimed, compiling each into
+    the cache; returns the names this process compiled.
+
+    A kernel is taken once the helpers it ``needs`` from the list are finished, the
+    longest chain first (:func:`ranked`), so each core takes the next kernel when it is
+    free, however long the last one took here (a process's first compile carries numba's
+    set-up; the run reads its scenario meanwhile). When nothing is ready and nothing is
+    being compiled (a cycle), or after ``deadline``, the first kernel left is taken: its
+    compile then compiles what it lacks itself.
+    """
+    names = {k["name"] for k in kernels}
+    pending = ranked(kernels)
+    mine = []
+    while True:
+        pending = [k for k in pending if not _claimed(marks, k["name"])]
+        if not pending:
+            return mine
+        stuck = time.monotonic() > deadline or all(_finished(marks, n) for n in names if _claimed(marks, n))
+        ready = [k for k in pending if all(_finished(marks, d) for d in k.get("needs", ()) if d in names)]
+        if not ready and not stuck:
+            time.sleep(0.005)
+            continue
+        k = (ready or pending)[0]
+        if _claim(marks, k["name"]):
+            _finish(marks, k, compile_one)
+            mine.append(k["name"])
 
 
 def _closure(kernels: list[dict], names: set[str]) -> list[dict]:
@@ -183,8 +191,8 @@ def _closure(kernels: list[dict], names: set[str]) -> list[dict]:
     return list(out.values())
 
 
-# begun: (this process's share, children, kernels, marker folder, deadline)
-_PENDING: dict[str, tuple[list[dict], list[int], int, Path, float]] = {}
+# begun: (what this process claimed, the kernels, children, marker folder, deadline)
+_PENDING: dict[str, tuple[list[dict], list[dict], list[int], Path, float]] = {}
 
 
 def can_fork() -> bool:
@@ -209,39 +217,37 @@ def cold_seconds(method: str) -> float:
     return sum(k["seconds"] for k in _cold_kernels(method))
 
 
-def _plan(method: str, background: bool = False, head_start: float = 0.0):
-    """The cold kernels of ``method`` scheduled as (this process's list, the children's
-    lists, how many), or None where nothing is to be done or compiling cannot be spread.
-    ``background``: all of it to children (on the other cores), none to this process."""
+def _plan(method: str, background: bool = False):
+    """The cold kernels of ``method`` as (what this process compiles first, all of them,
+    how many children to fork), or None where nothing is to be done or compiling cannot
+    be spread. ``background``: this process compiles nothing first (the children take
+    it all, for a run that comes later)."""
     if os.environ.get("CROWDMOTION_PRECOMPILE", "1") == "0" or not can_fork():
         return None
     todo = _cold_kernels(method)
     n_cores = cores()
     if not todo or n_cores < 2:
         return None
-    if background:
-        return [], [lst for lst in schedule(todo, min(n_cores - 1, len(todo))) if lst], len(todo)
     # what reading and checking a scenario calls (RVO's line-of-sight test, for one) this
-    # process compiles anyway, with its helpers: its list starts with those, so no child
-    # compiles them too
-    first = _closure(todo, {k["name"] for k in todo if k.get("at_load")})
+    # process compiles anyway, with its helpers: it claims them, so no child compiles them too
+    first = [] if background else _closure(todo, {k["name"] for k in todo if k.get("at_load")})
     if len(first) == len(todo):
         return None  # this process compiles it all while checking the scenario
-    mine, *theirs = schedule(todo, min(n_cores, len(todo)), first=first, head_start=head_start)
-    return mine, theirs, len(todo)
+    return first, todo, min(n_cores - 1, len(todo) - len(first))
 
 
-def _fork(lists: list[list[dict]], marks: Path, deadline: float) -> list[int]:
-    """A child per list, compiling it into the cache and leaving at once; their pids."""
+def _fork(n: int, kernels: list[dict], marks: Path, deadline: float) -> list[int]:
+    """``n`` children taking kernels from the shared list (:func:`_work`) and leaving
+    once none is left; their pids."""
     children = []
-    for share in lists:
+    for _ in range(n):
         sys.stdout.flush()
         sys.stderr.flush()
         pid = os.fork()
         if pid == 0:
             code = 0
             try:
-                _compile(share, marks, deadline)
+                _work(kernels, marks, deadline)
             except BaseException:
                 code = 1
             os._exit(code)
@@ -275,15 +281,17 @@ def _load_registries() -> None:
         pass
 
 
-def _launch(method: str, background: bool = False, head_start: float = 0.0):
-    plan = _plan(method, background, head_start)
+def _launch(method: str, background: bool = False):
+    plan = _plan(method, background)
     if plan is None:
         return None
-    mine, theirs, count = plan
+    first, todo, n_children = plan
     _load_registries()
     marks = Path(tempfile.mkdtemp(prefix="crowdmotion-compiling-"))
+    for k in first:
+        _claim(marks, k["name"])
     deadline = time.monotonic() + CHILD_TIMEOUT_S
-    return mine, _fork(theirs, marks, deadline), count, marks, deadline
+    return first, todo, _fork(n_children, todo, marks, deadline), marks, deadline
 
 
 def stop_children(pids: list[int], sig: int = signal.SIGKILL) -> None:
@@ -298,26 +306,20 @@ def stop_children(pids: list[int], sig: int = signal.SIGKILL) -> None:
 
 def _stop_pending() -> None:
     """At exit: children begun for a run that never started (a scenario refused) stop."""
-    for _, children, _, marks, _ in _PENDING.values():
+    for _, _, children, marks, _ in _PENDING.values():
         stop_children(children)
         shutil.rmtree(marks, ignore_errors=True)
     _PENDING.clear()
 
 
-# what `crowdmotion run` does between begin() and start() (imports, reading and checking
-# the scenario), in seconds of this process's time that the schedule leaves to children
-LOAD_S = 1.0
-
-
 def begin(method: str, background: bool = False) -> None:
     """Start the children compiling ``method``'s cold kernels now, before this process
     reads and checks the scenario (about a second of imports and set-up that the
-    compiling then overlaps); :func:`start` compiles this process's share and waits.
-    ``background``: the children take every kernel, for a run that comes later (the
-    demo's next method while this one's scenes run)."""
+    compiling then overlaps); :func:`start` joins them and waits. ``background``: for a
+    run that comes later (the demo's next method while this one's scenes run)."""
     if method in _PENDING:
         return
-    launched = _launch(method, background, head_start=LOAD_S)
+    launched = _launch(method, background)
     if launched is None:
         return
     if not _PENDING:
@@ -327,19 +329,22 @@ def begin(method: str, background: bool = False) -> None:
 
 def start(method: str) -> int:
     """Compile ``method``'s recorded kernels missing from the cache on all cores, waiting
-    until every share is done; returns how many kernels were compiled (0 when the cache
+    until every one is done; returns how many kernels were compiled (0 when the cache
     already had them, on one core, or where fork is missing). Finishes what
-    :func:`begin` started, if it did."""
+    :func:`begin` started, if it did: this process compiles what it claimed, then takes
+    kernels from the shared list beside the children."""
     launched = _PENDING.pop(method, None) or _launch(method)
     if launched is None:
         return 0
-    mine, children, count, marks, deadline = launched
+    first, todo, children, marks, deadline = launched
     try:
-        _compile(mine, marks, deadline)
+        for k in first:
+            _finish(marks, k)
+        _work(todo, marks, deadline)
         _wait(children, deadline)
     finally:
         shutil.rmtree(marks, ignore_errors=True)
-    return count
+    return len(todo)
 
 
 SCENES = {"rvo": ("rvo_street_O", "rvo_doorway"), "pso": ("pso_gathering", "pso_avoidance", "pso_two_swarms_2d"),
