@@ -23,7 +23,9 @@ def build_grid(pos, active, origin_x, origin_y, h, nx, ny):
     Returns ``cell_start`` (nx·ny + 1) and ``items`` (agent indices, cell by cell).
     """
     n = pos.shape[0]
-    counts = np.zeros(nx * ny + 1, dtype=np.int64)
+    counts = np.empty(nx * ny + 1, dtype=np.int64)  # (np.zeros, np.full and .copy() would cost a compile each)
+    for c in range(nx * ny + 1):
+        counts[c] = 0
     cell = np.empty(n, dtype=np.int64)
     for i in range(n):
         if not active[i]:
@@ -36,7 +38,7 @@ def build_grid(pos, active, origin_x, origin_y, h, nx, ny):
         counts[c + 1] += 1
     for c in range(nx * ny):
         counts[c + 1] += counts[c]
-    fill = np.empty(nx * ny, dtype=np.int64)  # (np.full and .copy() would cost a compile each)
+    fill = np.empty(nx * ny, dtype=np.int64)
     for c in range(nx * ny):
         fill[c] = counts[c]
     items = np.empty(counts[-1], dtype=np.int64)
@@ -167,9 +169,10 @@ def resolve_conflicts(pos, vel, radius, active, priority, cell_start, items, ori
     ``vel`` is modified in place (zero for stopped agents).
     """
     n = pos.shape[0]
-    flagged = np.zeros(n, dtype=np.bool_)
+    flagged = np.empty(n, dtype=np.bool_)  # (np.zeros and np.flatnonzero would cost a compile each)
     stopped = np.empty(n, dtype=np.bool_)
     for i in prange(n):  # agents that chose to stand are standing: they cannot yield
+        flagged[i] = False
         stopped[i] = active[i] and vel[i, 0] == 0.0 and vel[i, 1] == 0.0
     cap = 9 * max_cell(cell_start)
     chunks = 64  # each chunk of agents has its own neighbour list
@@ -179,7 +182,10 @@ def resolve_conflicts(pos, vel, radius, active, priority, cell_start, items, ori
             if active[i] and not stopped[i]:
                 flagged[i] = _conflict(i, pos, vel, radius, stopped, priority, cell_start, items, origin_x,
                                        origin_y, h, nx, ny, dt, buf)
-    work = list(np.flatnonzero(flagged))
+    work = []
+    for i in range(n):
+        if flagged[i]:
+            work.append(i)
     around = np.empty(cap, np.int64)
     nbuf = np.empty(cap, np.int64)
     count = 0
@@ -243,7 +249,9 @@ def obstacle_safe_moves(pos, vel, radius, vmax, active, dt, circ_c, circ_r, circ
             continue
         px, py, r = pos[i, 0], pos[i, 1], radius[i]
         wx, wy = vel[i, 0], vel[i, 1]
-        normal = np.zeros(2)
+        normal = np.empty(2)
+        normal[0] = 0.0
+        normal[1] = 0.0
         if not _first_block(px, py, wx, wy, r, dt, circ_c, circ_r, circ_v, seg_a, seg_b, seg_v, normal):
             continue
         want = np.sqrt(wx * wx + wy * wy)

@@ -83,7 +83,9 @@ def edge_length_error(points, edges, rest_length):
     worst = 0.0
     for k in range(m):
         i, j = edges[k, 0], edges[k, 1]
-        d = np.sqrt((points[i, 0] - points[j, 0]) ** 2 + (points[i, 1] - points[j, 1]) ** 2)
+        dx = points[i, 0] - points[j, 0]
+        dy = points[i, 1] - points[j, 1]
+        d = np.sqrt(dx * dx + dy * dy)
         e = abs(d / rest_length[k] - 1.0)
         tot += e
         worst = max(worst, e)

@@ -76,7 +76,8 @@ def update_bests(x, pb, pbd, gb, gbd, gid, target, moving, threshold, stopped, a
         g = gid[i]
         s = 0.0
         for a in range(d):
-            s += (x[i, a] - target[g, a]) ** 2
+            e = x[i, a] - target[g, a]
+            s += e * e
         dist = np.sqrt(s)
         if dist < pbd[i]:
             pbd[i] = dist
@@ -99,7 +100,8 @@ def target_distances(x, gid, target, out):
     for i in prange(n):
         s = 0.0
         for a in range(d):
-            s += (x[i, a] - target[gid[i], a]) ** 2
+            e = x[i, a] - target[gid[i], a]
+            s += e * e
         out[i] = np.sqrt(s)
 
 
@@ -129,7 +131,8 @@ def redirect(k, u, r1, r2, out):
     for a in range(d):
         out[a] = k[a] * uu - u[a] * ku
         mm += out[a] * out[a]
-    degenerate = mm <= (1e-9 * knorm * uu) ** 2
+    tol = 1e-9 * knorm * uu
+    degenerate = mm <= tol * tol
     if degenerate:
         if d == 2:
             s = 1.0 if r1 < 0.5 else -1.0
@@ -144,7 +147,7 @@ def redirect(k, u, r1, r2, out):
             out[0] = gx * uu - u[0] * gu
             out[1] = gy * uu - u[1] * gu
             out[2] = gz * uu - u[2] * gu
-            if out[0] ** 2 + out[1] ** 2 + out[2] ** 2 <= 1e-18 * uu * uu:  # g ∥ u: any other axis
+            if out[0] * out[0] + out[1] * out[1] + out[2] * out[2] <= 1e-18 * uu * uu:  # g ∥ u: any other axis
                 ax = 0 if abs(u[0]) <= abs(u[1]) and abs(u[0]) <= abs(u[2]) else (1 if abs(u[1]) <= abs(u[2]) else 2)
                 for a in range(3):
                     out[a] = (uu if a == ax else 0.0) - u[a] * u[ax]
@@ -166,10 +169,12 @@ def _box_dist(p, bl, bu, j):
     for a in range(p.shape[0]):
         lo, hi = bl[j, a], bu[j, a]
         if p[a] < lo:
-            s += (lo - p[a]) ** 2
+            e = lo - p[a]
+            s += e * e
             inside = False
         elif p[a] > hi:
-            s += (p[a] - hi) ** 2
+            e = p[a] - hi
+            s += e * e
             inside = False
         else:
             deepest = max(deepest, max(lo - p[a], p[a] - hi))
@@ -214,7 +219,8 @@ def _segment_point_distance(p, k, c, j):
     t = 0.0 if kk == 0.0 else min(1.0, max(0.0, wk / kk))
     s = 0.0
     for a in range(d):
-        s += (p[a] + t * k[a] - c[j, a]) ** 2
+        e = p[a] + t * k[a] - c[j, a]
+        s += e * e
     return np.sqrt(s)
 
 
@@ -262,7 +268,8 @@ def _obstacle_to_avoid(p, k, r, detection, sc, sr, bl, bu, q, u, ob_items, s0, s
             dq = 0.0
             ku = 0.0
             for a in range(d):
-                dq += (q[a] - sc[j, a]) ** 2
+                e = q[a] - sc[j, a]
+                dq += e * e
                 ku += k[a] * (sc[j, a] - p[a])
             clear = np.sqrt(dq) - sr[j] - r
             if clear < detection and ku > 0.0 and clear < best:
@@ -300,14 +307,18 @@ def build_grid(x, origin, h, dims):
     for a in range(d):
         ncell *= dims[a]
     cell_of = np.empty(n, np.int64)
-    start = np.zeros(ncell + 1, np.int64)
+    start = np.empty(ncell + 1, np.int64)  # (np.zeros and .copy() would cost a compile each)
+    for c in range(ncell + 1):
+        start[c] = 0
     for i in range(n):
         c = _cell_of(x[i], origin, h, dims)
         cell_of[i] = c
         start[c + 1] += 1
     for c in range(ncell):
         start[c + 1] += start[c]
-    cursor = start[:-1].copy()
+    cursor = np.empty(ncell, np.int64)
+    for c in range(ncell):
+        cursor[c] = start[c]
     items = np.empty(n, np.int64)
     for i in range(n):
         items[cursor[cell_of[i]]] = i
@@ -342,7 +353,8 @@ def _near(p, x, origin, h, dims, start, items, reach, buf):
                     j = items[s]
                     dd = 0.0
                     for a in range(d):
-                        dd += (x[j, a] - p[a]) ** 2
+                        e = x[j, a] - p[a]
+                        dd += e * e
                     if dd <= r2:
                         buf[cnt] = j
                         cnt += 1
@@ -406,7 +418,8 @@ def _agent_to_avoid(i, p, k, newx, nb, cnt, avoid_radius, cos_theta, u):
         dd = 0.0
         dot = 0.0
         for a in range(d):
-            dd += (newx[j, a] - p[a]) ** 2
+            e = newx[j, a] - p[a]
+            dd += e * e
             dot += (newx[j, a] - p[a]) * k[a]
         dist = np.sqrt(dd)
         if dist < avoid_radius and dist < best and kn > 0.0 and dot >= cos_theta * dist * kn:
@@ -449,8 +462,10 @@ def _touches_gathered(i, newx, radius, gid, stopped, nb, cnt, join_gap):
             continue
         dd = 0.0
         for a in range(newx.shape[1]):
-            dd += (newx[j, a] - newx[i, a]) ** 2
-        if dd <= (radius[i] + radius[j] + join_gap) ** 2:
+            e = newx[j, a] - newx[i, a]
+            dd += e * e
+        reach = radius[i] + radius[j] + join_gap
+        if dd <= reach * reach:
             return True
     return False
 
@@ -525,8 +540,9 @@ def avoid_and_commit(order, x, v, newx, radius, gid, stopped, joined, avoid_obst
         g = gid[i]
         dt2 = 0.0
         for a in range(d):
-            dt2 += (newx[i, a] - target[g, a]) ** 2
-        if avoid_agents and (cut or dt2 <= gather_radius[g] ** 2) and \
+            e = newx[i, a] - target[g, a]
+            dt2 += e * e
+        if avoid_agents and (cut or dt2 <= gather_radius[g] * gather_radius[g]) and \
                 _touches_gathered(i, newx, radius, gid, stopped, nb, cnt, join_gap):
             joined[i] = True
             counters[JOINS] += 1

@@ -195,7 +195,7 @@ def _choose_one(i, pos, vel, vpref, aim_dist, radius, vmax, max_nb, nb_dist, sam
     # obstacles worth testing: within perception D or what the step could reach
     nc = 0
     for o in range(n_circ):
-        vo = np.sqrt(circ_v[o, 0] ** 2 + circ_v[o, 1] ** 2)
+        vo = np.sqrt(circ_v[o, 0] * circ_v[o, 0] + circ_v[o, 1] * circ_v[o, 1])
         reach = max(nb_dist[i], 2.0 * (vm + vo) * dt) + ri + circ_r[o]
         dx, dy = px - circ_c[o, 0], py - circ_c[o, 1]
         if dx * dx + dy * dy <= reach * reach:
@@ -203,7 +203,7 @@ def _choose_one(i, pos, vel, vpref, aim_dist, radius, vmax, max_nb, nb_dist, sam
             nc += 1
     ns = 0
     for o in range(n_seg):
-        vo = np.sqrt(seg_v[o, 0] ** 2 + seg_v[o, 1] ** 2)
+        vo = np.sqrt(seg_v[o, 0] * seg_v[o, 0] + seg_v[o, 1] * seg_v[o, 1])
         reach = max(nb_dist[i], 2.0 * (vm + vo) * dt) + ri
         if _point_segment_distance(px, py, seg_a[o, 0], seg_a[o, 1], seg_b[o, 0], seg_b[o, 1]) <= reach:
             near_s[ns] = o
