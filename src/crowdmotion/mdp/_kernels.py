@@ -632,7 +632,9 @@ def trajectory_steps(
         state[c] = BLOCKED if blocked[c] else 0
         if occ[c] >= 0:
             state[c] |= TAKEN | STARTED
-    move_of = np.full(n, stay, dtype=np.int64)  # this step's move of each agent (reset to stay)
+    # (np.full, np.zeros, masks, np.concatenate and slice filling would each cost a
+    # compile of its own: plain loops instead)
+    move_of = np.empty(n, dtype=np.int64)  # this step's move of each agent (reset to stay)
     keys = np.empty(n, dtype=np.float64)
     order = np.empty(n, dtype=np.int64)
     rank = np.empty(n, dtype=np.int64)
@@ -641,17 +643,30 @@ def trajectory_steps(
     lookahead = AHEAD * parts
     # cache lines a step reads around a cell: both ends of each row of the 3^d box (the
     # values) and of the Chebyshev-2 box (cell states, agent ids)
-    ends = np.zeros(n_moves, dtype=np.bool_)
+    n_lines = 0
     for m in range(n_moves):
-        ends[m] = move_vec[m, dim - 1] != 0.0
-    value_lines = offsets[ends]
-    near_lines = np.concatenate((near_offsets[::5], near_offsets[4::5]))
+        n_lines += move_vec[m, dim - 1] != 0.0
+    value_lines = np.empty(n_lines, dtype=np.int64)
+    n_lines = 0
+    for m in range(n_moves):
+        if move_vec[m, dim - 1] != 0.0:
+            value_lines[n_lines] = offsets[m]
+            n_lines += 1
+    near_lines = np.empty((n_near + 4) // 5 + n_near // 5, dtype=np.int64)  # near_offsets[::5], [4::5]
+    n_lines = 0
+    for q in range(0, n_near, 5):
+        near_lines[n_lines] = near_offsets[q]
+        n_lines += 1
+    for q in range(4, n_near, 5):
+        near_lines[n_lines] = near_offsets[q]
+        n_lines += 1
     for i in range(n):  # minus each agent's value; then kept up to date as agents move
         if i + AHEAD < n:
             prefetch(values[field_of[i + AHEAD]], cur[i + AHEAD])
         keys[i] = -values[field_of[i], cur[i]]
     for step in range(n_steps):
-        move_of[:] = stay
+        for i in range(n):
+            move_of[i] = stay
         _priority_order(keys, order, rank, counts)  # largest value first, ties by id
         if partition is not None:  # (numba prunes the branches the argument's type rules out)
             _, near_ahead, root, first, owner = partition
