@@ -133,7 +133,8 @@ done = pc.start("mdp")
 from crowdmotion.cli import builtin_scenarios
 from crowdmotion.scenario import load_scenario, run_scenario
 run_scenario(load_scenario([p for p in builtin_scenarios() if p.stem == "mdp_robots_2d"][0]), progress=False)
-print(json.dumps({"done": done, "compiled": compiled, "again": pc.start("mdp")}))
+print(json.dumps({"done": done, "compiled": compiled, "again": pc.start("mdp"),
+                  "in_cache": [pc._in_cache(k) for k in json.loads(pc.RECORD.read_text())["mdp"]]}))
 """
     result = _in_fresh_process(script, tmp_path)
     if pc.cores() < 2:
@@ -143,6 +144,7 @@ print(json.dumps({"done": done, "compiled": compiled, "again": pc.start("mdp")})
     assert result["done"] >= len(names) - 1  # _prefetch's probe compiles as its module loads
     assert not names & set(result["compiled"]), result["compiled"]  # loaded from the cache, not compiled
     assert result["again"] == 0  # a warm cache: nothing to do
+    assert all(result["in_cache"])  # every recorded signature of every kernel
 
 
 @pytest.mark.skipif(not hasattr(os, "fork"), reason="needs fork")
@@ -187,6 +189,24 @@ print(json.dumps({{"code": code, "children": [p for v in pc._PENDING.values() fo
     for pid in result["children"]:  # stopped at exit, not left compiling
         with pytest.raises(ProcessLookupError):
             os.kill(pid, 0)
+
+
+def test_what_the_check_compiled_is_used_once_it_is_in_the_cache(tmp_path, monkeypatch):
+    # this process marks its claimed kernels only after the scenario is checked; a child
+    # needing one of them goes ahead as soon as numba's cache holds all its signatures
+    kernels = [{"name": "check", "seconds": 1.0, "at_load": True, "signatures": []},
+               {"name": "k", "seconds": 1.0, "needs": ["check"]}]
+    in_cache = {"check": False}
+    monkeypatch.setattr(pc, "_in_cache", lambda k: in_cache.get(k["name"], False))
+    threads, log = _share(kernels, tmp_path, workers=1, claimed=["check"])
+    import time
+
+    time.sleep(0.2)
+    assert log == []  # not yet in the cache: k waits
+    in_cache["check"] = True
+    for t in threads:
+        t.join(timeout=10)
+    assert [n for n, *_ in log] == ["k"] and not (tmp_path / pc._marker("check")).exists()
 
 
 def test_what_the_check_compiles_comes_with_its_helpers():
