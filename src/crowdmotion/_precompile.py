@@ -155,9 +155,9 @@ def _finish(marks: Path, kernel: dict, compile_one=None) -> None:
         (marks / _marker(kernel["name"])).touch()
 
 
-def _work(kernels: list[dict], marks: Path, deadline: float, compile_one=None) -> list[str]:
+def _work(kernels: list[dict], marks: Path, deadline: float, compile_one=None) -> None:
     """Take kernels from the shared list until none is left unclaimed, compiling each into
-    the cache; returns the names this process compiled.
+    the cache.
 
     A kernel is taken once the helpers it ``needs`` from the list are finished, the
     longest chain first (:func:`ranked`), so each core takes the next kernel when it is
@@ -173,11 +173,10 @@ def _work(kernels: list[dict], marks: Path, deadline: float, compile_one=None) -
         return _finished(marks, name) or (by[name].get("at_load", False) and _in_cache(by[name]))
 
     pending = ranked(kernels)
-    mine = []
     while True:
         pending = [k for k in pending if not _claimed(marks, k["name"])]
         if not pending:
-            return mine
+            return
         stuck = time.monotonic() > deadline or all(finished(n) for n in by if _claimed(marks, n))
         ready = [k for k in pending if all(finished(d) for d in k.get("needs", ()) if d in by)]
         if not ready and not stuck:
@@ -186,7 +185,6 @@ def _work(kernels: list[dict], marks: Path, deadline: float, compile_one=None) -
         k = (ready or pending)[0]
         if _claim(marks, k["name"]):
             _finish(marks, k, compile_one)
-            mine.append(k["name"])
 
 
 def _closure(kernels: list[dict], names: set[str]) -> list[dict]:

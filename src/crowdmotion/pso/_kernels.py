@@ -420,7 +420,7 @@ def _agent_to_avoid(i, p, k, newx, nb, cnt, avoid_radius, cos_theta, u):
         for a in range(d):
             e = newx[j, a] - p[a]
             dd += e * e
-            dot += (newx[j, a] - p[a]) * k[a]
+            dot += e * k[a]
         dist = np.sqrt(dd)
         if dist < avoid_radius and dist < best and kn > 0.0 and dot >= cos_theta * dist * kn:
             best = dist
