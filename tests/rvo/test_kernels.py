@@ -41,7 +41,7 @@ def _choose(pos, vel, vpref, samples=20, safety=5.0, segs=None):
     K.choose_velocities(pos, vel, vpref, np.full(n, 100.0), np.full(n, 0.5), np.full(n, 1.5), np.full(n, 10),
                         np.full(n, 10.0), np.full(n, samples), np.full(n, safety), active, start, items,
                         lo[0], lo[1], h, nx, ny, np.zeros((0, 2)), np.zeros(0), np.zeros((0, 2)), seg_a, seg_b,
-                        np.zeros_like(seg_a), 0.25, np.uint64(7), out, np.zeros(n, dtype=bool))
+                        np.zeros_like(seg_a), 0.25, np.uint64(7), out, np.zeros(n, dtype=bool), 0.0, 5.0, np.zeros(n))
     return out
 
 

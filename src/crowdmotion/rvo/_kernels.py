@@ -11,8 +11,8 @@ import numpy as np
 from numba import njit, prange
 
 from crowdmotion._threads import threaded
-from crowdmotion._contact import (INF, _clear, _point_segment_distance, _ray_capsule, _ray_disc,  # noqa: F401
-                                  build_grid, line_of_sight, resolve_conflicts)
+from crowdmotion._contact import (INF, _clear, _conflict, _point_segment_distance, _ray_capsule,  # noqa: F401
+                                  _ray_disc, build_grid, line_of_sight, max_cell, resolve_conflicts)
 from crowdmotion._rng import uniform as _uniform
 
 GOLDEN_COS = float(np.cos(np.pi * (3.0 - np.sqrt(5.0))))
@@ -20,6 +20,8 @@ GOLDEN_SIN = float(np.sin(np.pi * (3.0 - np.sqrt(5.0))))
 # a candidate whose obstacle time to collision is below dt·(1 + SLACK) would reach the
 # obstacle within the step: it is inadmissible (hard constraint)
 SLACK = 1e-6
+# a neighbour we follow that stands is expected to set off at this share of ``follow``
+FOLLOW_START = 0.0
 
 
 @njit(cache=True)
@@ -104,7 +106,7 @@ def _obstacle_time(px, py, cx_, cy_, r, circ_c, circ_r, circ_v, near_c, n_near_c
 def choose_velocities(pos, vel, vpref, aim_dist, radius, vmax, max_nb, nb_dist, samples, safety, active,
                       cell_start, items, origin_x, origin_y, h, nx, ny,
                       circ_c, circ_r, circ_v, seg_a, seg_b, seg_v, dt, key,
-                      out_vel, out_forced, keep_right=0.0, look_s=5.0):
+                      out_vel, out_forced, keep_right, look_s, follow):
     """Sampling RVO for every active agent at once (simultaneous, order-independent).
 
     For agent i the candidates are v_pref, the current velocity, standing still and
@@ -141,13 +143,14 @@ def choose_velocities(pos, vel, vpref, aim_dist, radius, vmax, max_nb, nb_dist, 
         # scratch space once per block of agents, not once per agent
         idx = np.empty(mcap, dtype=np.int64)
         d2 = np.empty(mcap, dtype=np.float64)
-        rel = np.empty((mcap, 5), dtype=np.float64)
+        rel = np.empty((mcap, 6), dtype=np.float64)
         near_c = np.empty(n_circ, dtype=np.int64)
         near_s = np.empty(n_seg, dtype=np.int64)
         for i in range(blk * block, min(n, (blk + 1) * block)):
             _choose_one(i, pos, vel, vpref, aim_dist, radius, vmax, max_nb, nb_dist, samples, safety, active,
                         cell_start, items, origin_x, origin_y, h, nx, ny, circ_c, circ_r, circ_v, seg_a, seg_b,
-                        seg_v, dt, key, out_vel, out_forced, idx, d2, rel, near_c, near_s, keep_right, look_s)
+                        seg_v, dt, key, out_vel, out_forced, idx, d2, rel, near_c, near_s, keep_right, look_s,
+                        follow)
 
 
 @njit(inline="always")
@@ -180,7 +183,8 @@ def _kept_right(i, k, idx, pos, vpref, radius, wx, wy, keep_right, look_s):
 @njit(cache=True)
 def _choose_one(i, pos, vel, vpref, aim_dist, radius, vmax, max_nb, nb_dist, samples, safety, active,
                 cell_start, items, origin_x, origin_y, h, nx, ny, circ_c, circ_r, circ_v, seg_a, seg_b,
-                seg_v, dt, key, out_vel, out_forced, idx, d2, rel, near_c, near_s, keep_right, look_s):
+                seg_v, dt, key, out_vel, out_forced, idx, d2, rel, near_c, near_s, keep_right, look_s,
+                        follow):
     """One agent's choice for :func:`choose_velocities`, with caller-owned scratch arrays."""
     n_circ = circ_c.shape[0]
     n_seg = seg_a.shape[0]
@@ -215,7 +219,11 @@ def _choose_one(i, pos, vel, vpref, aim_dist, radius, vmax, max_nb, nb_dist, sam
     vix, viy = vel[i, 0], vel[i, 1]
     wx, wy = _kept_right(i, k, idx, pos, vpref, radius, vpref[i, 0], vpref[i, 1], keep_right, look_s)
     w_i = safety[i]
-    # per-neighbour constants of the reciprocal ray p_i + (2v' - v_i - v_j) t
+    # per-neighbour constants of the ray p_i + (a v' + c) t: reciprocal, a = 2 and
+    # c = -v_i - v_j; or, for a neighbour we follow (ahead of us, bound our way), a = 1 and
+    # c = -(its velocity anticipated ``follow[i]`` of the way to its v_pref): it will not
+    # make room for us, and we expect it to walk on
+    un = np.sqrt(wx * wx + wy * wy)
     for q in range(k):
         j = idx[q]
         rel[q, 0] = px - pos[j, 0]
@@ -224,6 +232,19 @@ def _choose_one(i, pos, vel, vpref, aim_dist, radius, vmax, max_nb, nb_dist, sam
         rel[q, 2] = rel[q, 0] * rel[q, 0] + rel[q, 1] * rel[q, 1] - rr_ * rr_
         rel[q, 3] = -vix - vel[j, 0]
         rel[q, 4] = -viy - vel[j, 1]
+        rel[q, 5] = 2.0
+        if follow[i] > 0.0 and un > 0.0:
+            pjx, pjy = vpref[j, 0], vpref[j, 1]
+            pn = np.sqrt(pjx * pjx + pjy * pjy)
+            side = abs(rel[q, 0] * wy - rel[q, 1] * wx) / un  # |lateral offset| from our line
+            ahead = -(rel[q, 0] * wx + rel[q, 1] * wy) / un   # how far ahead of us along it
+            if pn > 0.0 and pjx * wx + pjy * wy > 0.9 * pn * un and ahead >= rr_ and side < rr_:
+                # anticipate only as far as it is under way already: one standing in a
+                # jam is expected to stand
+                free = min(max((vel[j, 0] * pjx + vel[j, 1] * pjy) / (pn * pn), FOLLOW_START), 1.0)
+                rel[q, 3] = -(vel[j, 0] + follow[i] * free * (pjx - vel[j, 0]))
+                rel[q, 4] = -(vel[j, 1] + follow[i] * free * (pjy - vel[j, 1]))
+                rel[q, 5] = 1.0
     # random samples: a sunflower pattern of N_sample points filling the disc of radius
     # v_max, turned by a random angle and shifted by a random radial offset each step, so
     # every sample is uniform on the disc and together they cover it evenly
@@ -263,8 +284,8 @@ def _choose_one(i, pos, vel, vpref, aim_dist, radius, vmax, max_nb, nb_dist, sam
             tc = INF
         limit = -1.0 if best_pen == INF else w_i / max(best_pen - dev, 1e-300)
         for q in range(k):
-            vrx = 2.0 * cx_ + rel[q, 3]
-            vry = 2.0 * cy_ + rel[q, 4]
+            vrx = rel[q, 5] * cx_ + rel[q, 3]
+            vry = rel[q, 5] * cy_ + rel[q, 4]
             b = rel[q, 0] * vrx + rel[q, 1] * vry
             c0 = rel[q, 2]
             if c0 < 0.0:
@@ -356,3 +377,191 @@ def held_up_time(wanted, chosen, pref_speed, active, yield_to, slow, dt, stuck):
         else:
             stuck[i] = max(stuck[i] - dt, 0.0)
 
+
+
+# ---- density ahead (rvo.density) ----------------------------------------------------------------
+@threaded
+def density_ahead(pos, heading, sense, cell_start, items, origin_x, origin_y, h, nx, ny, ahead, sigma, out):
+    """Gaussian-weighted count of the agents in the grid round the point ``ahead`` metres in
+    front of each agent with ``sense`` along ``heading`` (its own position if the heading is
+    zero): Σ_j exp(−|p_j − c_i|² / 2σ²) over the others within 3σ of c_i. Divided by the
+    kernel's area (:mod:`crowdmotion.rvo.density`) it is the density there, persons/m²."""
+    n = pos.shape[0]
+    reach = 3.0 * sigma
+    r2 = reach * reach
+    inv = 1.0 / (2.0 * sigma * sigma)
+    for i in prange(n):
+        out[i] = 0.0
+        if not sense[i]:
+            continue
+        wx, wy = heading[i, 0], heading[i, 1]
+        wn = np.sqrt(wx * wx + wy * wy)
+        cx, cy = pos[i, 0], pos[i, 1]
+        if wn > 0.0:
+            cx += ahead * wx / wn
+            cy += ahead * wy / wn
+        gx0 = int(np.floor((cx - reach - origin_x) / h))
+        gx1 = int(np.floor((cx + reach - origin_x) / h))
+        gy0 = int(np.floor((cy - reach - origin_y) / h))
+        gy1 = int(np.floor((cy + reach - origin_y) / h))
+        if gx1 < 0 or gy1 < 0 or gx0 >= nx or gy0 >= ny:
+            continue
+        s = 0.0
+        for gx in range(max(gx0, 0), min(gx1, nx - 1) + 1):
+            for gy in range(max(gy0, 0), min(gy1, ny - 1) + 1):
+                c = gx * ny + gy
+                for q in range(cell_start[c], cell_start[c + 1]):
+                    j = items[q]
+                    if j == i:
+                        continue
+                    dx = pos[j, 0] - cx
+                    dy = pos[j, 1] - cy
+                    d2 = dx * dx + dy * dy
+                    if d2 < r2:
+                        s += np.exp(-d2 * inv)
+        out[i] = s
+
+
+# ---- escape from moving obstacles after the safety pass ----------------------------------------
+@njit(cache=True)
+def escape_moving_obstacles(pos, vel, vpref, radius, vmax, threatened, cell_start, items, origin_x, origin_y, h,
+                            nx, ny, circ_c, circ_r, circ_v, seg_a, seg_b, seg_v, dt, n_dirs):
+    """Agents whose final move (after the safety pass) would let a moving obstacle reach them
+    within the step take instead the velocity nearest their v_pref, among ``n_dirs``
+    headings at a third, two thirds and all of v_max, that keeps out of every obstacle for
+    the step and touches no other agent's final move (nobody is assumed to make room);
+    none such: they keep their move. Agents are settled one after another, so the
+    step stays free of contacts. ``threatened`` marks the agents worth checking; returns
+    how many changed their move."""
+    n = pos.shape[0]
+    n_circ = circ_c.shape[0]
+    n_seg = seg_a.shape[0]
+    near_c = np.empty(n_circ, dtype=np.int64)
+    near_s = np.empty(n_seg, dtype=np.int64)
+    for o in range(n_circ):
+        near_c[o] = o
+    for o in range(n_seg):
+        near_s[o] = o
+    firm = np.empty(n, dtype=np.bool_)
+    for i in range(n):
+        firm[i] = True
+    buf = np.empty(9 * max_cell(cell_start) + 1, dtype=np.int64)
+    changed = 0
+    for i in range(n):
+        if not threatened[i]:
+            continue
+        px, py = pos[i, 0], pos[i, 1]
+        ri = radius[i]
+        vx0, vy0 = vel[i, 0], vel[i, 1]
+        _, t_moving = _obstacle_time(px, py, vx0, vy0, ri, circ_c, circ_r, circ_v, near_c, n_circ,
+                                     seg_a, seg_b, seg_v, near_s, n_seg)
+        if t_moving >= dt * (1.0 + SLACK):
+            continue
+        best = INF
+        bx, by = vx0, vy0
+        for level in range(1, 4):
+            sp = vmax[i] * level / 3.0
+            for d in range(n_dirs):
+                ang = 2.0 * np.pi * d / n_dirs
+                cx_, cy_ = sp * np.cos(ang), sp * np.sin(ang)
+                dx, dy = vpref[i, 0] - cx_, vpref[i, 1] - cy_
+                dev = np.sqrt(dx * dx + dy * dy)
+                if dev >= best:
+                    continue
+                t_s, t_m = _obstacle_time(px, py, cx_, cy_, ri, circ_c, circ_r, circ_v, near_c, n_circ,
+                                          seg_a, seg_b, seg_v, near_s, n_seg)
+                if t_s < dt * (1.0 + SLACK) or t_m < dt * (1.0 + SLACK):
+                    continue
+                vel[i, 0], vel[i, 1] = cx_, cy_
+                if not _conflict(i, pos, vel, radius, firm, radius, cell_start, items, origin_x, origin_y, h, nx,
+                                 ny, dt, buf):
+                    best, bx, by = dev, cx_, cy_
+        vel[i, 0], vel[i, 1] = bx, by
+        if best < INF:
+            changed += 1
+    return changed
+
+
+# ---- lane choice in counterflow (rvo.lanes) ------------------------------------------------------
+@threaded
+def lane_choice(pos, vel, vpref, radius, weight, active, cell_start, items, origin_x, origin_y, h, nx, ny,
+                circ_c, circ_r, seg_a, seg_b, look, spread, offsets, aim, side_cost, right_bonus, min_pressure,
+                crowd_weight, out):
+    """v_pref turned towards the lateral offset with the least oncoming traffic ahead.
+
+    For agent i walking along û (its v_pref), the oncoming agents j (v_pref against û,
+    cos < −0.5) that lie 0–``look`` metres ahead weigh exp(−ahead / (look / 2)), spread
+    over the lateral offset as a Gaussian of width ``spread`` round their own. Among the
+    ``offsets`` (metres, + = right) whose aim point p + aim·û + offset·n̂ (n̂ the right
+    normal) the body can walk to in a straight line, the agent takes the one minimising
+    pressure + side_cost·|offset| − right_bonus·offset and heads for its aim point at the
+    same speed. The pressure is scaled by the agent's own ``weight``. An agent going our way (not oncoming) weighs ``crowd_weight`` times the
+    share of our preferred speed by which it is slower (current velocity along û): a
+    crowd ahead that stands weighs fully, one walking at our pace not at all. Below
+    ``min_pressure`` at offset 0 (nobody in the way) v_pref is kept."""
+    n = pos.shape[0]
+    n_off = offsets.shape[0]
+    inv2 = 1.0 / (2.0 * spread * spread)
+    reach = np.sqrt(look * look + 4.0 * spread * spread) + 0.5
+    for i in prange(n):
+        out[i, 0] = vpref[i, 0]
+        out[i, 1] = vpref[i, 1]
+        if not active[i]:
+            continue
+        wx, wy = vpref[i, 0], vpref[i, 1]
+        sp = np.sqrt(wx * wx + wy * wy)
+        if sp == 0.0:
+            continue
+        ux, uy = wx / sp, wy / sp
+        rx, ry = uy, -ux  # right normal
+        px, py = pos[i, 0], pos[i, 1]
+        cx, cy = px + 0.5 * look * ux, py + 0.5 * look * uy
+        gx0 = max(int(np.floor((cx - reach - origin_x) / h)), 0)
+        gx1 = min(int(np.floor((cx + reach - origin_x) / h)), nx - 1)
+        gy0 = max(int(np.floor((cy - reach - origin_y) / h)), 0)
+        gy1 = min(int(np.floor((cy + reach - origin_y) / h)), ny - 1)
+        pres = np.empty(n_off)
+        for k in range(n_off):
+            pres[k] = 0.0
+        for gx in range(gx0, gx1 + 1):
+            for gy in range(gy0, gy1 + 1):
+                c = gx * ny + gy
+                for q in range(cell_start[c], cell_start[c + 1]):
+                    j = items[q]
+                    if j == i:
+                        continue
+                    ojx, ojy = vpref[j, 0], vpref[j, 1]
+                    oncoming = ojx * ux + ojy * uy < -0.5 * np.sqrt(ojx * ojx + ojy * ojy)
+                    dx, dy = pos[j, 0] - px, pos[j, 1] - py
+                    ahead = dx * ux + dy * uy
+                    if ahead <= 0.0 or ahead > look:
+                        continue
+                    lat = dx * rx + dy * ry
+                    wgt = np.exp(-2.0 * ahead / look)
+                    if not oncoming:  # one going our way is in the way as far as it is slower
+                        lag = 1.0 - (vel[j, 0] * ux + vel[j, 1] * uy) / sp
+                        wgt *= crowd_weight * min(max(lag, 0.0), 1.0)
+                    if wgt == 0.0:
+                        continue
+                    for k in range(n_off):
+                        e = lat - offsets[k]
+                        pres[k] += wgt * np.exp(-e * e * inv2)
+        for k in range(n_off):
+            pres[k] *= weight[i]
+        p0 = pres[0]  # offsets[0] is 0: straight on
+        best_cost = INF
+        best_off = 0.0
+        for k in range(n_off):
+            y = offsets[k]
+            cost = pres[k] + side_cost * abs(y) - right_bonus * y
+            if cost < best_cost:
+                qx, qy = px + aim * ux + y * rx, py + aim * uy + y * ry
+                if y == 0.0 or _clear(px, py, qx, qy, radius[i], circ_c, circ_r, seg_a, seg_b):
+                    best_cost = cost
+                    best_off = y
+        if p0 < min_pressure or best_off == 0.0:
+            continue
+        dx, dy = aim * ux + best_off * rx, aim * uy + best_off * ry
+        dn = np.sqrt(dx * dx + dy * dy)
+        out[i, 0] = sp * dx / dn
+        out[i, 1] = sp * dy / dn

@@ -36,6 +36,13 @@ class RVOParams(BaseModel):
                              (agents/m²), so crowds use a corridor's width (0 = exact
                              distances only); rvo.congestion, a documented addition
     replan_s : float         seconds between re-solves of the congestion-aware field
+    density_slowing : bool   cap v_pref at Weidmann's speed for the density sensed ahead,
+                             so crowds slow with density (rvo.density, a documented addition)
+    follow : float           anticipated following in [0, 1]: a neighbour ahead bound our way
+                             is expected to walk on towards its v_pref (0 = eq. (3)'s
+                             reciprocal rule for every neighbour)
+    lane_choice : bool       turn v_pref towards the side with the least oncoming traffic
+                             ahead, so opposing streams form lanes (rvo.lanes)
     """
 
     model_config = ConfigDict(extra="forbid", frozen=True)
@@ -57,6 +64,9 @@ class RVOParams(BaseModel):
     patience: PosFloat = 2.0
     congestion: Annotated[float, Field(ge=0, allow_inf_nan=False)] = 1.0
     replan_s: PosFloat = 2.0
+    density_slowing: bool = True
+    follow: Annotated[float, Field(ge=0, le=1, allow_inf_nan=False)] = 0.5
+    lane_choice: bool = True
 
 
 Params = RVOParams

@@ -11,6 +11,8 @@ from crowdmotion.groups import MovingTarget
 from crowdmotion.rvo import _kernels as K
 from crowdmotion.rvo.congestion import CongestionRouter
 from crowdmotion.rvo.deadlock import KEEP_RIGHT_LOOK_S, Deadlock, contact_arrivals
+from crowdmotion.rvo.density import DensitySlowing
+from crowdmotion.rvo.lanes import lane_velocities
 from crowdmotion.routing import DistanceFields, distance_fields
 from crowdmotion.rvo.guidance import preferred_velocities
 from crowdmotion._contact import grid_for
@@ -20,6 +22,8 @@ from crowdmotion.scene import Scene
 
 # used when neither a value nor a personality is given: the neutral set of Table 4's
 # O pair (mid-way between O+ and O−), rounded
+FOLLOW_FULL_DENSITY = 2.0  # persons/m² sensed ahead from which following is anticipated in full
+ESCAPE_HEADINGS = 32  # headings an agent in a moving obstacle's way tries after the safety pass
 DEFAULTS = {"max_neighbors": 10, "neighbor_dist": 10.0, "samples": 50, "safety": 5.0}
 
 
@@ -85,13 +89,28 @@ class Simulator:
         exact distance field only.
     replan_s : float
         Seconds between two re-solves of the congestion-aware field.
+    density_slowing : bool
+        Cap each agent's preferred speed at what Weidmann's fundamental diagram allows at
+        the density it senses ahead (:mod:`crowdmotion.rvo.density`), so crowds slow with
+        density as real ones do; False = eq. (3) alone.
+    follow : float
+        Anticipated following in a crowd, in [0, 1]: a neighbour straight ahead bound the
+        same way (v_pref within 25° of ours) is expected to walk on, its velocity taken
+        ``follow`` (scaled by the density sensed ahead, full from 2 persons/m²) of the
+        way from its current one to its v_pref, and to make no room for us (the plain
+        velocity obstacle instead of the reciprocal one); 0 = eq. (3)'s reciprocal rule
+        for everyone. See :func:`crowdmotion.rvo._kernels.choose_velocities`.
+    lane_choice : bool
+        Turn v_pref towards the side with the least oncoming traffic ahead, so opposing
+        streams form lanes (:mod:`crowdmotion.rvo.lanes`); False = v_pref as guidance gives it.
     """
 
     def __init__(self, scene: Scene, time_step: float = 0.25, guidance: str = "auto",
                  remove_on_arrival: bool = True, arrival_radius: float = 0.5,
                  field_cell: float | None = None, dominant: str = "abs",
                  rng: np.random.Generator | None = None, keep_right_deg: float = 15.0,
-                 patience: float = 2.0, congestion: float = 1.0, replan_s: float = 2.0):
+                 patience: float = 2.0, congestion: float = 1.0, replan_s: float = 2.0,
+                 density_slowing: bool = True, follow: float = 0.5, lane_choice: bool = True):
         if not isinstance(scene, Scene):
             raise TypeError(f"scene must be a crowdmotion.Scene, got {scene!r}")
         if not (np.isfinite(time_step) and time_step > 0):
@@ -142,8 +161,18 @@ class Simulator:
         self._router: CongestionRouter | None = None
         self._fields_stale = True
         self.deadlock = Deadlock(np.deg2rad(keep_right_deg), float(patience))
+        for name, flag in (("density_slowing", density_slowing), ("lane_choice", lane_choice)):
+            if not isinstance(flag, (bool, np.bool_)):
+                raise ValueError(f"{name} must be True or False, got {flag!r}")
+        if not (isinstance(follow, (int, float)) and np.isfinite(follow) and 0 <= follow <= 1):
+            raise ValueError(f"follow must be a number in [0, 1], got {follow!r}")
+        self.follow = float(follow)
+        self.lane_choice = bool(lane_choice)
+        # the density sensed ahead slows walkers, and scales following and lane choice
+        self.density_slowing = DensitySlowing(scene, bool(density_slowing),
+                                              sense=bool(density_slowing) or self.follow > 0 or self.lane_choice)
         self.stats = {"safety_stops": 0, "forced_choices": 0, "agent_steps": 0, "yields": 0,
-                      "contact_arrivals": 0}
+                      "contact_arrivals": 0, "escapes": 0}
 
     # ---- agents ------------------------------------------------------------------------
     @property
@@ -228,6 +257,7 @@ class Simulator:
         self._goal_regions.append(goal_region if goal_region is not None else _points_region(goal))
         self.group = np.concatenate([self.group, np.full(n, len(self._goal_regions) - 1)])
         self.deadlock.grow(n)
+        self.density_slowing.grow(n)
         if target is not None:
             self._targets.append((target, ids))
         self._fields_stale = True
@@ -313,19 +343,31 @@ class Simulator:
         wanted, aim = self._guidance(prims)
         p = self.params
         dl = self.deadlock
-        vpref = dl.yielding_velocities(self.positions, wanted, p["pref_speed"], p["radius"], self.active)
         grid = self._grid()
+        slow = self.density_slowing.factors(self.positions, wanted, p["radius"], self.active, grid, self.dt)
+        vpref = dl.yielding_velocities(self.positions, wanted, p["pref_speed"], p["radius"], self.active)
+        if self.lane_choice:
+            vpref = lane_velocities(self.positions, self.velocities, vpref, p["radius"], p["safety"], self.density,
+                                    self.active, grid, prims)
+        vpref = vpref * slow[:, None]
         new = np.zeros((n, 2))
         forced = np.zeros(n, dtype=bool)
         key = step_key(self.rng)
         K.choose_velocities(self.positions, self.velocities, vpref, aim, p["radius"], p["max_speed"],
                             p["max_neighbors"], p["neighbor_dist"], p["samples"], p["safety"],
                             self.active, *grid, prims.circ_c, prims.circ_r, prims.circ_v, prims.seg_a, prims.seg_b,
-                            prims.seg_v, self.dt, key, new, forced, dl.keep_right, KEEP_RIGHT_LOOK_S)
+                            prims.seg_v, self.dt, key, new, forced, dl.keep_right, KEEP_RIGHT_LOOK_S,
+                            self.follow * np.minimum(self.density / FOLLOW_FULL_DENSITY, 1.0))
         # safety: of two agents that would touch during the step, the one with the lower
         # (random, per step) priority stands still instead, until none would
+        # agents a moving obstacle bears down on go first: standing still is no refuge for them
+        threatened = self._threatened(prims)
         self.stats["safety_stops"] += K.resolve_conflicts(self.positions, new, p["radius"], self.active,
-                                                          self.rng.random(n), *grid, self.dt)
+                                                          self.rng.random(n) + threatened, *grid, self.dt)
+        if threatened.any():  # and one the pass stopped in a moving obstacle's way steps aside
+            self.stats["escapes"] += K.escape_moving_obstacles(
+                self.positions, new, vpref, p["radius"], p["max_speed"], threatened > 0, *grid, prims.circ_c,
+                prims.circ_r, prims.circ_v, prims.seg_a, prims.seg_b, prims.seg_v, self.dt, ESCAPE_HEADINGS)
         self.stats["forced_choices"] += int(forced[self.active].sum())
         self.stats["agent_steps"] += int(self.active.sum())
         self.positions = self.positions + new * self.dt
@@ -335,6 +377,24 @@ class Simulator:
         self.stats["yields"] += dl.update(self.positions, wanted, new, p["pref_speed"], p["radius"],
                                           p["neighbor_dist"], self.active, self.dt, self.goals)
         self._arrivals()
+
+    def _threatened(self, prims) -> np.ndarray:
+        """(N,) 1.0 for agents within two steps' reach of a moving obstacle, else 0."""
+        out = np.zeros(self.n_agents)
+        if not self.obstacles.any_moving:
+            return out
+        r = self.params["radius"] + 2.0 * self.params["max_speed"] * self.dt
+        for c, rad, v in zip(prims.circ_c, prims.circ_r, prims.circ_v):
+            if v.any():
+                near = np.linalg.norm(self.positions - c, axis=1) < r + rad + 2.0 * np.linalg.norm(v) * self.dt
+                out[near] = 1.0
+        for a, b, v in zip(prims.seg_a, prims.seg_b, prims.seg_v):
+            if v.any():
+                ab = b - a
+                t = np.clip((self.positions - a) @ ab / max(float(ab @ ab), 1e-300), 0.0, 1.0)
+                d = np.linalg.norm(self.positions - (a + t[:, None] * ab), axis=1)
+                out[d < r + 2.0 * np.linalg.norm(v) * self.dt] = 1.0
+        return out
 
     def _arrivals(self) -> None:
         d = np.linalg.norm(self.goals - self.positions, axis=1)
@@ -356,6 +416,12 @@ class Simulator:
         if self._fields is None:
             return np.zeros(self.n_agents, dtype=bool)
         return self.active & ~self._fields.reachable(self.group, self.positions, window=2)
+
+    @property
+    def density(self) -> np.ndarray:
+        """(N,) the density (agents/m²) each agent sensed ahead of it at the last step
+        (0 with ``density_slowing`` off)."""
+        return self.density_slowing.density
 
     @property
     def arrived(self) -> np.ndarray:

@@ -1,0 +1,123 @@
+"""Density-aware speed: a named term of the RVO velocity choice that slows walkers in a
+crowd as real pedestrians slow (the fundamental diagram).
+
+Eq. (3) slows an agent only for a relative velocity: walkers moving together at 2
+persons/m² keep their free speed, where Weidmann's (1993) fundamental diagram and the
+FZJ corridor experiments give about 0.6 m/s. Following Best, Narang, Curtis & Manocha's
+DenseSense (2014), each agent senses the density ρ of the space it is about to walk
+into and caps the speed of its preferred velocity at what the fundamental diagram allows
+there, scaled to its own free speed:
+
+    |v_pref| ≤ v_pref,i · W(ρ) / W(0),   W(ρ) = 1.34 · (1 − exp(−1.913 · (1/ρ − 1/5.4)))
+
+(Weidmann's curve, m/s; W(0) = 1.34). The sensed density is a Gaussian kernel estimate
+(σ = ``SIGMA_M``) of the other agents round the point ``AHEAD_M`` metres in front of the
+agent along its v_pref, divided by the share of the kernel that falls on walkable floor
+(so a crowd in a 1.8 m corridor is not taken as half as dense as it is because the walls
+hold nobody), and relaxed over ``RELAX_S`` seconds, as people adjust their pace over a
+step or two rather than at once. Eq. (3) then chooses among the candidates as before,
+with the capped v_pref; the OCEAN parameters, the hard obstacle constraint and the
+safety pass are untouched. Agents wider than a person (radius above
+``PERSON_MAX_RADIUS_M``: robots, vehicles) are counted by the people round them but are
+not slowed by it: the curve is a measurement of people. ``density_slowing = false``
+switches the term off.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from scipy.ndimage import gaussian_filter
+
+from crowdmotion.rvo import _kernels as K
+from crowdmotion.scene import Scene
+
+WEIDMANN_FREE = 1.34   # m/s, free walking speed of Weidmann's curve
+WEIDMANN_GAMMA = 1.913  # 1/m²
+WEIDMANN_JAM = 5.4     # persons/m² at which the curve reaches 0
+AHEAD_M = 2.0          # the density is sensed round this point in front of the agent (~1.5 s of walking)
+SIGMA_M = 0.7          # kernel width, metres
+RELAX_S = 0.5          # the sensed density follows the crowd over this many seconds
+MIN_FACTOR = 0.05      # never quite a standstill: a jam clears as its front moves
+PERSON_MAX_RADIUS_M = 0.4  # wider agents (robots, vehicles) are no persons: eq. (3) alone
+FLOOR_SHARE_MIN = 0.25  # the floor share is taken as at least this (a point deep in a wall)
+FLOOR_CELL_M = 0.2     # raster of the walkable floor
+FLOOR_MAX_CELLS = 1_000_000
+
+
+def weidmann_speed(density) -> np.ndarray:
+    """Weidmann's (1993) walking speed at ``density`` persons/m², m/s (1.34 at 0, 0 at 5.4)."""
+    rho = np.maximum(np.asarray(density, dtype=float), 0.05)  # below 0.05 /m² the curve is 1.34 m/s
+    v = WEIDMANN_FREE * (1.0 - np.exp(-WEIDMANN_GAMMA * (1.0 / rho - 1.0 / WEIDMANN_JAM)))
+    return np.clip(v, 0.0, WEIDMANN_FREE)
+
+
+class FloorShare:
+    """Share of a Gaussian kernel of width ``SIGMA_M`` round each point that falls on
+    walkable floor (inside the bounds, outside static obstacles): 1 in the open, about
+    0.5 against a long wall, less in a corner."""
+
+    def __init__(self, scene: Scene):
+        lo, hi = scene.lower, scene.upper
+        area = float(np.prod(hi - lo))
+        self.cell = max(FLOOR_CELL_M, float(np.sqrt(area / FLOOR_MAX_CELLS)))
+        shape = np.maximum(np.ceil((hi - lo) / self.cell).astype(np.int64), 1)
+        self.origin = lo
+        xs = lo[0] + (np.arange(shape[0]) + 0.5) * self.cell
+        ys = lo[1] + (np.arange(shape[1]) + 0.5) * self.cell
+        free = np.ones(tuple(shape), dtype=float)
+        if scene.static_obstacles:
+            centres = np.stack(np.meshgrid(xs, ys, indexing="ij"), axis=-1).reshape(-1, 2)
+            free = (scene.static_obstacle_distance(centres) > 0).astype(float).reshape(tuple(shape))
+        self.share = gaussian_filter(free, SIGMA_M / self.cell, mode="constant", cval=0.0, truncate=3.0)
+
+    def at(self, points: np.ndarray) -> np.ndarray:
+        """(N,) the floor share at each point (nearest raster cell; 0 outside the bounds)."""
+        idx = np.floor((points - self.origin) / self.cell).astype(np.int64)
+        shape = np.array(self.share.shape)
+        inside = np.all((idx >= 0) & (idx < shape), axis=1)
+        out = np.zeros(len(points))
+        out[inside] = self.share[idx[inside, 0], idx[inside, 1]]
+        return out
+
+
+class DensitySlowing:
+    """Per-agent sensed density and the speed factor it allows (see the module docstring)."""
+
+    def __init__(self, scene: Scene, enabled: bool = True, sense: bool | None = None):
+        """``enabled``: slow agents; ``sense``: keep the sensed density up to date (default:
+        when enabled; following in a crowd reads it too)."""
+        self.enabled = bool(enabled)
+        self.sensing = self.enabled if sense is None else bool(sense)
+        self.floor = FloorShare(scene) if self.sensing else None
+        self.density = np.zeros(0)
+        self._fresh = np.zeros(0, dtype=bool)
+
+    def grow(self, n: int) -> None:
+        """Make room for ``n`` new agents (their density is sensed afresh on their first step)."""
+        self.density = np.concatenate([self.density, np.zeros(n)])
+        self._fresh = np.concatenate([self._fresh, np.ones(n, dtype=bool)])
+
+    def sense(self, pos, heading, radius, active, grid, dt: float) -> np.ndarray:
+        """Update the sensed density (agents/m² ahead of each agent along ``heading``) and
+        return it."""
+        raw = np.zeros(len(pos))
+        sense = active & (radius <= PERSON_MAX_RADIUS_M)
+        K.density_ahead(pos, heading, sense, *grid, AHEAD_M, SIGMA_M, raw)
+        unit = np.linalg.norm(heading, axis=1, keepdims=True)
+        centre = pos + AHEAD_M * np.divide(heading, unit, out=np.zeros_like(heading), where=unit > 0)
+        kernel_area = 2.0 * np.pi * SIGMA_M * SIGMA_M * (1.0 - np.exp(-4.5))  # its mass within 3σ
+        raw /= kernel_area * np.maximum(self.floor.at(centre), FLOOR_SHARE_MIN)
+        a = min(1.0, dt / RELAX_S)
+        self.density = np.where(self._fresh, raw, self.density + a * (raw - self.density))
+        self._fresh &= ~sense
+        return self.density
+
+    def factors(self, pos, heading, radius, active, grid, dt: float) -> np.ndarray:
+        """(N,) the factor on each agent's preferred speed: W(ρ) / W(0), at least MIN_FACTOR
+        (1 for everyone when the term is off)."""
+        if not self.sensing:
+            return np.ones(len(pos))
+        rho = self.sense(pos, heading, radius, active, grid, dt)
+        if not self.enabled:
+            return np.ones(len(pos))
+        return np.maximum(weidmann_speed(rho) / WEIDMANN_FREE, MIN_FACTOR)
