@@ -1,6 +1,7 @@
 """The crowdmotion command, as a user runs it."""
 
 import json
+from pathlib import Path
 
 import pytest
 
@@ -142,3 +143,47 @@ def test_scenarios_lists_every_builtin_with_its_description(capsys):
     for path in builtin_scenarios():
         assert path.stem in printed and str(path) in printed
     assert "army block marches through scattered rocks" in printed
+
+
+def _named(tmp_path, name: str):
+    """A scenario file whose ``name = <name>`` is written as a TOML basic string."""
+    path = tmp_path / "named.toml"
+    path.write_text(GOOD.replace('name = "t"', f"name = {json.dumps(name)}"))
+    return path
+
+
+def test_a_scenario_named_dot_dot_x_is_refused_at_validate_naming_the_field(tmp_path, capsys, monkeypatch):
+    work = tmp_path / "work"
+    work.mkdir()
+    monkeypatch.chdir(work)
+    path = _named(tmp_path, "../../x")
+    for command in ("validate", "run"):
+        assert main([command, str(path), "-q"] if command == "run" else [command, str(path)]) == 2
+        err = capsys.readouterr().err
+        assert str(path) in err and "name:" in err and "'../../x'" in err and "path separator" in err, err
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["named.toml", "work"] and not any(work.iterdir())
+
+
+@pytest.mark.parametrize("name", ["/tmp/elsewhere", "..", ".", "", "a\\b", "x" * 101])
+def test_an_absolute_name_is_refused(tmp_path, capsys, name):
+    assert main(["validate", str(_named(tmp_path, name))]) == 2
+    err = capsys.readouterr().err
+    assert "name:" in err and repr(name)[:60] in err, err
+
+
+@pytest.mark.parametrize("name", ["red\x1b[31mtext", "nul\x00byte", "tab\there"])
+def test_a_name_with_a_terminal_escape_is_refused_and_the_message_shows_it_escaped(tmp_path, capsys, name):
+    assert main(["validate", str(_named(tmp_path, name))]) == 2
+    captured = capsys.readouterr()
+    assert repr(name) in captured.err and "control" in captured.err, captured.err
+    assert not any(c in captured.err + captured.out for c in "\x1b\x00\t"), "no raw control character printed"
+
+
+def test_the_default_output_folder_of_a_valid_name_lies_inside_out(tmp_path, capsys, monkeypatch):
+    monkeypatch.chdir(tmp_path)
+    path = _named(tmp_path, "street run é")
+    assert main(["validate", str(path)]) == 0
+    assert f"output folder {Path('out') / 'street run é'}" in capsys.readouterr().out
+    assert main(["run", str(path), "-q", "--plots", "none"]) == 0
+    written = tmp_path / "out" / "street run é" / "summary.json"
+    assert written.is_file() and written.resolve().parent.parent == (tmp_path / "out").resolve()

@@ -65,6 +65,20 @@ def test_demo_refuses_unknown_scenes_and_bad_job_counts(tmp_path, capsys):
         assert "at least 1" in capsys.readouterr().err
 
 
+@pytest.mark.parametrize("jobs", ["1", "2"])
+def test_a_scene_whose_name_leads_out_of_the_demo_folder_is_refused_before_it_runs(tmp_path, monkeypatch, capsys,
+                                                                                 jobs):
+    import crowdmotion.cli as cli
+
+    scenes = [tmp_path / "escape.toml", tmp_path / "twin.toml"]  # the demo lists them by name, unchecked
+    for path in scenes:
+        path.write_text('name = "../../escaped"\nmethod = "mdp"\n')
+    monkeypatch.setattr(cli, "builtin_scenarios", lambda: scenes)
+    assert main(["demo", "-o", str(tmp_path / "d" / "demo"), "-q", "-j", jobs]) == 2
+    assert "'../../escaped'" in capsys.readouterr().err
+    assert not (tmp_path / "escaped").exists() and not (tmp_path / "d" / "demo").exists()
+
+
 def test_every_builtin_scene_file_names_itself_as_the_demo_lists_it():
     from crowdmotion.scenario import load_scenario
 

@@ -55,7 +55,10 @@ def scenario_path(name: str) -> Path:
 
 
 def _output_folder(args, sc) -> Path:
-    return Path(args.output or Path("out") / sc.spec.name)
+    """``-o``, or by default out/<scenario name> (refused if the name leads out of out/)."""
+    from crowdmotion.outputs import folder_inside
+
+    return Path(args.output) if args.output else folder_inside("out", sc.spec.name)
 
 
 def _size_estimate(sc) -> str:
@@ -161,7 +164,7 @@ def cmd_run(args) -> int:
 def cmd_demo(args) -> int:
     from crowdmotion import _precompile
     from crowdmotion.demo import DemoScene, run_one, run_parallel
-    from crowdmotion.outputs import check_output_folder
+    from crowdmotion.outputs import check_output_folder, folder_inside
     from crowdmotion.workers import default_jobs
 
     root = Path(args.output)
@@ -185,7 +188,7 @@ def cmd_demo(args) -> int:
             later = [s.method for s in scenes[i + 1:] if s.method != sc.method]
             if later:  # the next method's kernels compile on the other cores while this one's scenes run
                 _precompile.begin(later[0], background=True)
-            done = run_one(sc.path, root / sc.name, progress=not args.quiet)
+            done = run_one(sc.path, folder_inside(root, sc.name), progress=not args.quiet)
             print(f"  {done.headline} ({done.seconds:.1f} s)")
     print(f"demo output in {root.resolve()}/ (trajectories.parquet, summary.json, pictures and view.html per scene)")
     if failed:
@@ -426,11 +429,12 @@ def _setting(text: str) -> tuple[str, list]:
 
 
 def cmd_sweep(args) -> int:
+    from crowdmotion.outputs import folder_inside
     from crowdmotion.sweep import sweep
 
     settings = dict(_setting(s) for s in args.set or [])
     source = scenario_path(args.scenario)
-    out = Path(args.output or Path("sweeps") / source.stem)
+    out = Path(args.output) if args.output else folder_inside("sweeps", source.stem)
     table = sweep(source, _seeds(args.seeds), settings, out, scheduler=args.scheduler, workers=args.workers,
                   progress=not args.quiet)
     print(f"{table.num_rows} runs; table {out / 'sweep.parquet'}, trajectories in {out / 'runs'}/")

@@ -98,6 +98,8 @@ def run_parallel(scenes: list[DemoScene], root: Path, jobs: int, progress: bool 
     ``progress``). Returns the outcomes in finishing order."""
     from tqdm.auto import tqdm
 
+    from crowdmotion.outputs import folder_inside
+
     file = sys.stdout if file is None else file
     order = interleave(scenes)
     done: list[SceneDone] = []
@@ -109,5 +111,6 @@ def run_parallel(scenes: list[DemoScene], root: Path, jobs: int, progress: bool 
             bar.write(line, file=file)
             bar.update(1)
 
-        map_in_workers(_safe_run_one, [(str(sc.path), str(root / sc.name)) for sc in order], jobs, report)
+        map_in_workers(_safe_run_one, [(str(sc.path), str(folder_inside(root, sc.name))) for sc in order], jobs,
+                       report)
     return done

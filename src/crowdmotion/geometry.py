@@ -2,9 +2,10 @@
 
 from __future__ import annotations
 
-from typing import Callable
+from typing import Callable, Mapping, Sequence
 
 import numpy as np
+from numpy.typing import ArrayLike
 
 
 def finite_array(value, name: str, dtype=float) -> np.ndarray:
@@ -16,6 +17,30 @@ def finite_array(value, name: str, dtype=float) -> np.ndarray:
     if not np.all(np.isfinite(arr)):
         raise ValueError(f"{name} must be finite numbers, got {value!r}")
     return arr
+
+
+def require_finite_agents(arrays: Mapping[str, ArrayLike], active: ArrayLike | None = None,
+                          ids: Sequence | None = None) -> None:
+    """A ValueError naming the array, the first agent (and frame) and the value, if any
+    agent's entry in ``arrays`` is NaN or inf: ``positions of agent 0 is not finite: nan``.
+
+    Each array is (N, D), one row per agent, or (T, N, D), per frame and agent (the
+    frame is named too). ``active``: (N,) or (T, N), only those entries are checked
+    (default all). ``ids``: the agents' names in the message (default their index).
+    Kernels compiled with numba must never see such a value: they may crash the process.
+    """
+    for name, values in arrays.items():
+        v = np.asarray(values, dtype=float)
+        ok = np.isfinite(v).all(axis=-1)
+        if active is not None:
+            ok |= ~np.asarray(active, dtype=bool)
+        if ok.all():
+            continue
+        where = tuple(int(k) for k in np.argwhere(~ok)[0])
+        agent = where[-1] if ids is None else ids[where[-1]]
+        frame = f" at frame {where[0]}" if len(where) == 2 else ""
+        row = v[where]
+        raise ValueError(f"{name} of agent {agent}{frame} is not finite: {row[~np.isfinite(row)][0]}")
 
 
 def positive_number(value, name: str) -> float:

@@ -24,6 +24,22 @@ class OutputFolderError(ValueError):
     """An output folder a run cannot use: not writable, or holding an earlier run."""
 
 
+def folder_inside(root, name: str) -> Path:
+    """``root / name``, the folder a name gives (a scenario's out/<name>, a demo scene's
+    subfolder), refused unless, resolved, it lies strictly inside ``root``: a name such
+    as ``..``, ``../x`` or ``/tmp/x`` must never send a run's files elsewhere."""
+    root = Path(root)
+    folder = root / name
+    try:
+        inside = root.resolve() in folder.resolve().parents
+    except (OSError, ValueError, RuntimeError):  # a NUL in the name, a symlink loop
+        inside = False
+    if not inside:
+        raise OutputFolderError(f"the name {name!r} would put the output folder outside {root}/ "
+                                f"(at {str(folder)!r}); give a plain folder name, or a folder with -o")
+    return folder
+
+
 def check_output_folder(out, overwrite: bool = False) -> list[Path]:
     """Refuse a folder ``run`` could not write, or one holding an earlier run's files
     (unless ``overwrite``); creates nothing. Returns the earlier run's files found."""

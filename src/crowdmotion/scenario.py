@@ -254,6 +254,24 @@ class GroupSpec(_Model):
 
 
 PLOTS = ("paths", "values", "snapshots", "player")  # what [output] plots may name
+NAME_MAX = 100  # characters in a scenario's name
+
+
+def check_name(name: str) -> str:
+    """A scenario's name, which names its default output folder out/<name>: refused
+    (ValueError) unless it is one plain folder name of printable characters."""
+    if name in ("", ".", ".."):
+        raise ValueError(f"a scenario name must name a folder, not {name!r}")
+    if len(name) > NAME_MAX:
+        raise ValueError(f"a scenario name must be at most {NAME_MAX} characters, got {len(name)}")
+    sep = next((c for c in name if c in "/\\"), None)
+    if sep is not None:
+        raise ValueError(f"a scenario name must not contain the path separator {sep!r}")
+    odd = next((c for c in name if not c.isprintable()), None)
+    if odd is not None:
+        raise ValueError(f"a scenario name must not contain control or other unprintable characters, "
+                         f"found {odd!r}")
+    return name
 
 
 class OutputSpec(_Model):
@@ -271,7 +289,9 @@ class OutputSpec(_Model):
 class ScenarioSpec(_Model):
     """One scenario file: a scene, groups, a method and its parameters, a seed, outputs.
 
-    name : str          the scenario's name (default output folder out/<name>)
+    name : str          the scenario's name (default output folder out/<name>): a plain
+                        folder name, 1-100 printable characters, no slash or backslash,
+                        not . or ..
     description : str   one line shown by ``crowdmotion scenarios`` and the demo
     method : str        "mdp", "rvo", "pso" or "formation"
     seed : int          random seed: the same seed gives the same trajectories
@@ -295,6 +315,11 @@ class ScenarioSpec(_Model):
     pso: PSOParams = PSOParams()
     formation: FormationParams = FormationParams()
     output: OutputSpec = OutputSpec()
+
+    @field_validator("name")
+    @classmethod
+    def _name(cls, v: str) -> str:
+        return check_name(v)
 
     @field_validator("groups")
     @classmethod

@@ -187,7 +187,8 @@ class Trajectories:
 
     @classmethod
     def load(cls, path: str | Path) -> "Trajectories":
-        """Read a file written by :meth:`save`."""
+        """Read a file written by :meth:`save`; a ValueError naming the file if it has no
+        frames, an active agent at a NaN/inf position or a bad radius."""
         from crowdmotion.io import read_trajectories
 
         return read_trajectories(path)

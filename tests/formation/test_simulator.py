@@ -89,6 +89,14 @@ def test_bad_input_gets_a_clear_error():
                                          attributes={"formation": {"kind": "block", "rows": 3, "cols": 3}})])
 
 
+def test_a_nan_position_raises_value_error_on_step_naming_the_agent():
+    sim, _ = _sim()
+    sim.positions[3] = np.nan  # in this process: a numba kernel given it would crash Python
+    with pytest.raises(ValueError, match=r"^positions of agent 3 is not finite: nan$"):
+        sim.step()
+    assert sim.steps == 0
+
+
 def test_a_template_may_be_given_as_its_dict_form():
     sim = formation.Simulator(Scene(((0, -10), (40, 10))))
     sim.add_group({"kind": "wedge", "rows": 3, "spacing": 1.2}, goal=(30, 0), start=(5, 0))

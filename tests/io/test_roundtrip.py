@@ -71,3 +71,37 @@ def test_tables_are_typed_for_any_reader_and_say_rate_units_and_axes(tmp_path):
     assert "z" not in table.column_names
     assert all(str(t) in ("int64", "double", "string", "bool") for t in table.schema.types)
     assert Trajectories.load(tmp_path / "t.parquet").dim == 2
+
+
+@pytest.mark.parametrize("suffix", ["parquet", "csv"])
+def test_a_trajectories_file_with_nan_positions_of_an_active_agent_is_refused_on_load_naming_the_file(
+        tmp_path, suffix):
+    tr = sample()
+    tr.positions[2, 1] = np.nan
+    path = tr.save(tmp_path / f"t.{suffix}")
+    with pytest.raises(ValueError, match=rf"^{path}: positions of agent 1 at frame 2 is not finite: nan$"):
+        Trajectories.load(path)
+    tr = sample()
+    tr.positions[5, 1] = np.nan  # agent 1 has left by frame 4: where it stands then is no one's business
+    assert np.isnan(Trajectories.load(tr.save(tmp_path / f"gone.{suffix}")).positions[5, 1]).all()
+
+
+def test_a_trajectories_file_without_frames_or_with_a_bad_radius_is_refused_naming_the_file(tmp_path):
+    import pyarrow.parquet as pq
+
+    from crowdmotion.io.longform import to_table
+
+    empty = tmp_path / "empty.parquet"
+    pq.write_table(to_table(sample()).slice(0, 0), empty)
+    with pytest.raises(ValueError, match=rf"^{empty}: the trajectory file has no frames"):
+        Trajectories.load(empty)
+    for radius, words in (([0.2, -0.3, 0.2, 0.3], "radius of agent 1 is -0.3"),
+                          ([0.2, 0.3, 0.0, 0.3], "radius of agent 2 is 0.0"),
+                          ([0.2, 0.3, 0.2, np.nan], "radius of agent 3 is nan")):
+        tr = sample()
+        tr.radius = np.array(radius)
+        path = tr.save(tmp_path / "r.csv")
+        with pytest.raises(ValueError, match=rf"^{path}: {words}"):
+            Trajectories.load(path)
+    no_radii = Trajectories(sample().positions, 0.25)  # every radius 0: the file gives none
+    assert (Trajectories.load(no_radii.save(tmp_path / "points.parquet")).radius == 0).all()

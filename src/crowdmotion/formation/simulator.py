@@ -40,7 +40,7 @@ from crowdmotion.formation.mesh import FormationMesh, MeshView
 from crowdmotion.formation.params import FormationParams, make_params
 from crowdmotion.formation.templates import Template, from_spec
 from crowdmotion.facing import MAX_TURN_RATE, wrap
-from crowdmotion.geometry import positive_number
+from crowdmotion.geometry import positive_number, require_finite_agents
 from crowdmotion.groups import Disc, MovingTarget, Points, Rect, as_region
 from crowdmotion.formation._kernels import edge_length_error as edge_errors
 from crowdmotion.formation._kernels import repulsion
@@ -648,7 +648,9 @@ class Simulator:
         return out
 
     def step(self) -> None:
-        """Advance every group and agent by one time step."""
+        """Advance every group and agent by one time step; a ValueError, before anything
+        moves, if an agent's position or velocity is NaN or inf (the kernels would crash)."""
+        require_finite_agents({"positions": self.positions, "velocities": self.velocities})
         if not self.groups:
             self.time += self.dt
             self.steps += 1

@@ -6,7 +6,7 @@ import numpy as np
 from scipy.spatial import cKDTree
 
 from crowdmotion._rng import step_key
-from crowdmotion.geometry import finite_array
+from crowdmotion.geometry import finite_array, require_finite_agents
 from crowdmotion.groups import MovingTarget
 from crowdmotion.rvo import _kernels as K
 from crowdmotion.rvo.congestion import CongestionRouter
@@ -333,7 +333,11 @@ class Simulator:
         return grid_for(self.positions, self.active, self.params["radius"], self.params["max_speed"], self.dt)
 
     def step(self) -> None:
-        """Advance every agent by one time step (all choose at once, then all move)."""
+        """Advance every agent by one time step (all choose at once, then all move).
+        A ValueError, before anything moves, if an active agent's position, velocity or
+        goal is NaN or inf (the kernels would crash on it)."""
+        require_finite_agents({"positions": self.positions, "velocities": self.velocities, "goals": self.goals},
+                              self.active)
         n = self.n_agents
         if n == 0 or not self.active.any():
             self.time += self.dt
