@@ -33,6 +33,7 @@ class Setup:
     scene: Scene
     groups: list[Group]
     params: dict = field(default_factory=dict)
+    seed: int | None = None  # its own seed (added to the run's); None: the run's
 
 
 @dataclass
@@ -90,6 +91,7 @@ def simulate(method: str, setup: Setup, seed: int = 0) -> Outcome:
     if check is not None:
         check(setup.scene, setup.groups, params)
     t0 = time.perf_counter()
+    seed = seed if setup.seed is None else seed + setup.seed
     traj, _, summary = m.run(setup.scene, setup.groups, params, np.random.default_rng(seed), progress=False)
     return Outcome(setup, traj, summary, time.perf_counter() - t0)
 
@@ -517,21 +519,32 @@ def run_case(case: Case, method: str, out: Path | None = None, seed: int = 0) ->
                    overlaps, penetrations, time.perf_counter() - t0, picture)
 
 
+def all_cases(empirical: bool = False) -> list[Case]:
+    """The public test cases, or with ``empirical`` the comparisons with measured crowds
+    (:mod:`crowdmotion.empirical`)."""
+    if empirical:
+        from crowdmotion.empirical import CASES as MEASURED
+
+        return MEASURED
+    return CASES
+
+
 def run_named(job: tuple[str, str, str | None]) -> Verdict:
     """:func:`run_case` by (case name, method, picture folder or None): for worker processes."""
     name, method, out = job
-    case = next(c for c in CASES if c.name == name)
+    case = next(c for c in all_cases() + all_cases(empirical=True) if c.name == name)
     return run_case(case, method, out=None if out is None else Path(out))
 
 
-def select(quick: bool = False, names=None, methods=None) -> list[tuple[Case, str]]:
+def select(quick: bool = False, names=None, methods=None, empirical: bool = False) -> list[tuple[Case, str]]:
     """The (case, method) pairs to run."""
-    known = {c.name for c in CASES}
+    cases = all_cases(empirical)
+    known = {c.name for c in cases}
     unknown = sorted(set(names or []) - known)
     if unknown:
         raise ValueError(f"unknown verify case(s) {unknown}; cases: {sorted(known)}")
     pairs = []
-    for c in CASES:
+    for c in cases:
         if (quick and not c.quick) or (names and c.name not in names):
             continue
         pairs += [(c, m) for m in c.methods if not methods or m in methods]

@@ -3,14 +3,18 @@ crowd as real pedestrians slow (the fundamental diagram).
 
 Eq. (3) slows an agent only for a relative velocity: walkers moving together at 2
 persons/m² keep their free speed, where Weidmann's (1993) fundamental diagram and the
-FZJ corridor experiments give about 0.6 m/s. Following Best, Narang, Curtis & Manocha's
-DenseSense (2014), each agent senses the density ρ of the space it is about to walk
-into and caps the speed of its preferred velocity at what the fundamental diagram allows
-there, scaled to its own free speed:
+FZJ corridor experiments give about 0.55-0.6 m/s. Following Best, Narang, Curtis &
+Manocha's DenseSense (2014), each agent senses the density ρ of the space it is about to
+walk into and caps the speed of its preferred velocity at the share of its own free
+speed that the fundamental diagram allows there:
 
-    |v_pref| ≤ v_pref,i · W(ρ) / W(0),   W(ρ) = 1.34 · (1 − exp(−1.913 · (1/ρ − 1/5.4)))
+    |v_pref| ≤ v_pref,i · f(ρ),   f(ρ) = 1 − exp(−γ · (1/ρ − 1/5.4))
 
-(Weidmann's curve, m/s; W(0) = 1.34). The sensed density is a Gaussian kernel estimate
+Weidmann's form (Kladek's formula; γ = 1.913 /m² in Weidmann's curve
+v = 1.34 · f(ρ) m/s), with γ = ``GAMMA`` = 1.63 /m², the least-squares fit of that form
+to the FZJ/Hermes 1.8 m closed-corridor runs (Zhang et al. 2011; fitted free speed
+1.13 m/s): the two sources disagree by up to 0.27 m/s near 1.5 persons/m², and the fit
+lies between them. The sensed density is a Gaussian kernel estimate
 (σ = ``SIGMA_M``) of the other agents round the point ``AHEAD_M`` metres in front of the
 agent along its v_pref, divided by the share of the kernel that falls on walkable floor
 (so a crowd in a 1.8 m corridor is not taken as half as dense as it is because the walls
@@ -34,6 +38,7 @@ from crowdmotion.scene import Scene
 WEIDMANN_FREE = 1.34   # m/s, free walking speed of Weidmann's curve
 WEIDMANN_GAMMA = 1.913  # 1/m²
 WEIDMANN_JAM = 5.4     # persons/m² at which the curve reaches 0
+GAMMA = 1.63           # 1/m²: Weidmann's form fitted to the FZJ closed-corridor runs
 AHEAD_M = 2.0          # the density is sensed round this point in front of the agent (~1.5 s of walking)
 SIGMA_M = 0.7          # kernel width, metres
 RELAX_S = 0.5          # the sensed density follows the crowd over this many seconds
@@ -44,11 +49,17 @@ FLOOR_CELL_M = 0.2     # raster of the walkable floor
 FLOOR_MAX_CELLS = 1_000_000
 
 
+def speed_share(density, gamma: float = GAMMA) -> np.ndarray:
+    """f(ρ) = 1 − exp(−γ (1/ρ − 1/5.4)): the share of the free walking speed left at
+    ``density`` persons/m² (1 in the open, 0 from 5.4 /m² on)."""
+    rho = np.maximum(np.asarray(density, dtype=float), 0.05)  # below 0.05 /m² the share is 1
+    return np.clip(1.0 - np.exp(-gamma * (1.0 / rho - 1.0 / WEIDMANN_JAM)), 0.0, 1.0)
+
+
 def weidmann_speed(density) -> np.ndarray:
-    """Weidmann's (1993) walking speed at ``density`` persons/m², m/s (1.34 at 0, 0 at 5.4)."""
-    rho = np.maximum(np.asarray(density, dtype=float), 0.05)  # below 0.05 /m² the curve is 1.34 m/s
-    v = WEIDMANN_FREE * (1.0 - np.exp(-WEIDMANN_GAMMA * (1.0 / rho - 1.0 / WEIDMANN_JAM)))
-    return np.clip(v, 0.0, WEIDMANN_FREE)
+    """Weidmann's (1993) walking speed at ``density`` persons/m², m/s: 1.34 · f(ρ) with
+    γ = 1.913 (1.06, 0.61, 0.33, 0.16 m/s at 1, 2, 3, 4 /m²)."""
+    return WEIDMANN_FREE * speed_share(density, WEIDMANN_GAMMA)
 
 
 class FloorShare:
@@ -103,21 +114,22 @@ class DensitySlowing:
         raw = np.zeros(len(pos))
         sense = active & (radius <= PERSON_MAX_RADIUS_M)
         K.density_ahead(pos, heading, sense, *grid, AHEAD_M, SIGMA_M, raw)
-        unit = np.linalg.norm(heading, axis=1, keepdims=True)
-        centre = pos + AHEAD_M * np.divide(heading, unit, out=np.zeros_like(heading), where=unit > 0)
+        s = np.flatnonzero(sense)
+        unit = np.linalg.norm(heading[s], axis=1, keepdims=True)
+        centre = pos[s] + AHEAD_M * np.divide(heading[s], unit, out=np.zeros_like(heading[s]), where=unit > 0)
         kernel_area = 2.0 * np.pi * SIGMA_M * SIGMA_M * (1.0 - np.exp(-4.5))  # its mass within 3σ
-        raw /= kernel_area * np.maximum(self.floor.at(centre), FLOOR_SHARE_MIN)
+        raw[s] /= kernel_area * np.maximum(self.floor.at(centre), FLOOR_SHARE_MIN)
         a = min(1.0, dt / RELAX_S)
         self.density = np.where(self._fresh, raw, self.density + a * (raw - self.density))
         self._fresh &= ~sense
         return self.density
 
     def factors(self, pos, heading, radius, active, grid, dt: float) -> np.ndarray:
-        """(N,) the factor on each agent's preferred speed: W(ρ) / W(0), at least MIN_FACTOR
+        """(N,) the factor on each agent's preferred speed: f(ρ), at least MIN_FACTOR
         (1 for everyone when the term is off)."""
         if not self.sensing:
             return np.ones(len(pos))
         rho = self.sense(pos, heading, radius, active, grid, dt)
         if not self.enabled:
             return np.ones(len(pos))
-        return np.maximum(weidmann_speed(rho) / WEIDMANN_FREE, MIN_FACTOR)
+        return np.maximum(speed_share(rho), MIN_FACTOR)

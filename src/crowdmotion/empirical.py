@@ -1,0 +1,265 @@
+"""Real crowds as the yardstick: the published measurements a crowd researcher judges a
+model against, the experiments' set-ups rebuilt as scenes, and the measures the
+experimenters used (``crowdmotion verify --empirical``).
+
+Each case is a :class:`crowdmotion.verify.Case`: it builds its runs (several seeds
+each), runs them through the same registry as ``crowdmotion run``, and judges them with
+its own tolerance against the data below (sources in docs/verification.md and
+shared data file ``empirical-references.md``):
+
+- **Speed against density**: the FZJ/Hermes 2009 open-corridor protocol (holding area,
+  entrance b_in, a 1.8 m × 8 m corridor, exit b_out), classical density and mean speed
+  in a 2 m measurement area over the run's stationary part, against Weidmann's (1993)
+  curve and the FZJ closed-corridor runs (Zhang et al. 2011).
+- **Bottleneck flow against width**: JuPedSim's encoding of the Kretz 2006, Seyfried
+  2009 and FZJ/Wuppertal 2006 experiments (10 × 8 m room, 2 m long bottleneck, 200
+  persons of radius 0.2 m, v0 1.34 m/s), the flow over the stationary part of the N–t
+  curve (10 %–90 %).
+- **Counterflow**: the FZJ BOT-360 runs (3.6 m × 8 m corridor, both streams entering at
+  its ends through entrances of width b and leaving sideways at the far end; JuPedSim's
+  7test_BO geometry), mean speed in the measurement area against the run at the nearest
+  density, and the lane order against shuffled directions.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from crowdmotion.groups import Group, Rect
+from crowdmotion.rvo.density import weidmann_speed
+from crowdmotion.scene import Box, Scene
+from crowdmotion.trajectories import Trajectories
+from crowdmotion.verify import Case, Outcome, Setup, crossing_times
+
+SEEDS = (0, 1, 2)
+RADIUS = 0.2
+
+#: FZJ/Hermes 2009 closed corridor 1.8 m ("UG"), mean (ρ /m², v m/s) of each run (Zhang et al. 2011)
+UG_RUNS = ((0.30, 1.14), (0.58, 1.01), (1.18, 0.78), (1.52, 0.53), (1.85, 0.54), (2.42, 0.36), (3.30, 0.22),
+           (3.98, 0.11))
+#: bottleneck width (m) -> measured flows (persons/s): Kretz et al. 2006, Seyfried et al. 2009, FZJ/Wuppertal 2006
+BOTTLENECK_FLOWS = {
+    0.8: (1.388, 1.417, 1.456, 1.288), 0.9: (1.534, 1.583, 1.632, 1.674, 1.593),
+    1.0: (1.710, 1.808, 1.876, 2.023, 1.900, 1.832), 1.1: (2.123, 1.988), 1.2: (2.033, 2.111, 2.287, 2.364, 2.312),
+    1.4: (2.706,), 1.6: (2.842,), 1.8: (3.551,), 2.0: (3.549,), 2.2: (4.063,), 2.5: (5.116,)}
+#: FZJ BOT-360 runs, mean (ρ /m², v m/s) per run (Zhang et al. 2012)
+BOT_360_RUNS = ((0.45, 1.52), (0.67, 1.31), (0.99, 1.18), (1.61, 0.85), (2.25, 0.56), (2.56, 0.53))
+#: BOT-360 entrance widths (m) and persons per side (OpenTraj's HERMES README)
+BOT_360_SETUPS = ((0.5, 50), (0.75, 50), (0.9, 100), (1.2, 100), (1.6, 150), (2.0, 150), (2.5, 150))
+
+
+def _walkers(name: str, count: int, spawn: Rect, goal: Rect, **kw) -> Group:
+    """Adults walking at Weidmann's free speeds (1.34 ± 0.26 m/s, drawn uniformly from 1.1–1.58)."""
+    return Group(name, count, spawn=spawn, goal=goal, radius=RADIUS, max_speed=1.8, pref_speed=1.34,
+                 attributes={"pref_speed_range": [1.1, 1.58]}, **kw)
+
+
+def _params(method: str, **extra) -> dict:
+    return {"max_steps": 4000, "spawn_gap": 0.02, **extra} if method == "rvo" else {"max_steps": 4000}
+
+
+# ---- measures ----------------------------------------------------------------------------------
+def stationary(times: np.ndarray, low: float = 0.1, high: float = 0.9) -> tuple[float, float, float]:
+    """(start, end, flow) of the stationary part of an N–t curve: between the ``low`` and
+    ``high`` shares of the crossings (persons/s over that span; NaN with too few)."""
+    t = np.sort(times[np.isfinite(times)])
+    if len(t) < 10:
+        return float("nan"), float("nan"), float("nan")
+    i0, i1 = int(low * len(t)), int(high * len(t))
+    return float(t[i0]), float(t[i1]), float((i1 - i0) / (t[i1] - t[i0])) if t[i1] > t[i0] else float("nan")
+
+
+def area_density_speed(traj: Trajectories, lower, upper, start: float, end: float) -> tuple[float, float]:
+    """Classical density (persons/m²) and mean speed (m/s, central differences) in the
+    rectangle ``lower``–``upper``, averaged over the frames between ``start`` and ``end`` s."""
+    p, act, dt = traj.positions, traj.active_mask, traj.dt
+    lo, hi = np.asarray(lower, float), np.asarray(upper, float)
+    inside = act & np.all((p >= lo) & (p <= hi), axis=2)
+    frames = np.arange(1, traj.n_frames - 1)
+    frames = frames[(frames * dt >= start) & (frames * dt <= end)]
+    if len(frames) == 0:
+        return float("nan"), float("nan")
+    speed = np.linalg.norm(p[frames + 1] - p[frames - 1], axis=2) / (2 * dt)
+    ok = inside[frames] & inside[frames - 1] & inside[frames + 1]
+    area = float(np.prod(hi - lo))
+    return float(inside[frames].sum(axis=1).mean() / area), float(speed[ok].mean()) if ok.any() else float("nan")
+
+
+def lane_order(points: np.ndarray, direction: np.ndarray, ahead: float = 2.0, side: float = 0.3) -> float:
+    """Mean over the agents of ((same − opposite) / (same + opposite))², counting the
+    neighbours within ``ahead`` metres along the corridor (x) and ``side`` metres across
+    it; 1 in perfect lanes, near 0 when the two directions are mixed (agents without
+    neighbours left out; NaN if none has any)."""
+    d = points[None] - points[:, None]
+    near = (np.abs(d[..., 0]) <= ahead) & (np.abs(d[..., 1]) <= side)
+    np.fill_diagonal(near, False)
+    same_dir = direction[None] == direction[:, None]
+    same, opposite = (near & same_dir).sum(axis=1), (near & ~same_dir).sum(axis=1)
+    total = same + opposite
+    ok = total > 0
+    return float(np.mean(((same - opposite)[ok] / total[ok]) ** 2)) if ok.any() else float("nan")
+
+
+def _within(measured: float, reference: float, absolute: float, relative: float) -> bool:
+    return bool(np.isfinite(measured) and abs(measured - reference) <= max(absolute, relative * abs(reference)))
+
+
+def _everyone_left(outcomes: dict[str, Outcome]) -> bool:
+    return all(float(o.summary.get("arrival_rate", 0.0)) == 1.0 for o in outcomes.values())
+
+
+def _seeded(builder, seeds=SEEDS):
+    """A case builder running every set-up of ``builder`` once per seed (keys 'name/seed')."""
+    def build(method: str) -> dict[str, Setup]:
+        return {f"{name}/{s}": Setup(st.scene, st.groups, st.params, seed=s)
+                for name, st in builder(method).items() for s in seeds}
+    return build
+
+
+# ---- speed against density: the FZJ open corridor ----------------------------------------------
+#: (b_in, b_out, persons): entrance and exit widths of the UO-180 runs' range
+UO_RUNS = ((1.0, 1.8, 150), (1.8, 1.8, 200), (1.8, 1.0, 200), (1.8, 0.7, 200))
+UO_AREA = ((13.0, 3.1), (15.0, 4.9))  # 2 m of the corridor's middle
+
+
+def open_corridor(b_in: float, b_out: float) -> Scene:
+    """A 12 × 8 m holding area (x −4–8), an entrance of ``b_in``, a 1.8 m × 8 m corridor
+    (x 10–18), an exit of ``b_out`` and 12 m of open ground."""
+    cy = 4.0
+    return Scene(bounds=([-4, 0], [30, 8]), obstacles=[
+        Box([8, 0], [10, cy - b_in / 2]), Box([8, cy + b_in / 2], [10, 8]),
+        Box([10, 0], [18, cy - 0.9]), Box([10, cy + 0.9], [18, 8]),
+        Box([18, 0], [18.2, cy - b_out / 2]), Box([18, cy + b_out / 2], [18.2, 8])])
+
+
+def _uo(method: str) -> dict[str, Setup]:
+    return {f"UO b_in {bi:g} b_out {bo:g}": Setup(
+        open_corridor(bi, bo), [_walkers("walkers", n, Rect([-3.7, 0.3], [7.7, 7.7]), Rect([27, 0.5], [29.5, 7.5]))],
+        _params(method)) for bi, bo, n in UO_RUNS}
+
+
+def uo_points(outcomes: dict[str, Outcome]) -> list[tuple[str, float, float]]:
+    """(run, density, speed) of each open-corridor run, the means over its seeds."""
+    per_run: dict[str, list[tuple[float, float]]] = {}
+    for name, o in outcomes.items():
+        start, end, _ = stationary(crossing_times(o.traj, 0, 18.2))
+        per_run.setdefault(name.split("/")[0], []).append(area_density_speed(o.traj, *UO_AREA, start, end))
+    return [(run, *np.mean(points, axis=0)) for run, points in per_run.items()]
+
+
+def _judge_uo(outcomes: dict[str, Outcome]) -> tuple[str, str, bool]:
+    ok, parts = _everyone_left(outcomes), []
+    for name, rho, v in uo_points(outcomes):
+        w = float(weidmann_speed(rho))
+        ug = min(UG_RUNS, key=lambda r: abs(r[0] - rho))
+        good = _within(v, w, 0.15, 0.3) and _within(v, ug[1], 0.15, 0.3)
+        ok &= good
+        parts.append(f"{name}: {rho:.2f}/m² {v:.2f} m/s (Weidmann {w:.2f}, FZJ {ug[1]:.2f}){'' if good else ' ✗'}")
+    return ("in each run (mean of its seeds), the speed at its density within ±0.15 m/s or ±30 % of Weidmann's curve and of the nearest "
+            "FZJ corridor run; everyone leaves", "; ".join(parts), bool(ok))
+
+
+# ---- bottleneck flow against width -------------------------------------------------------------
+BOTTLENECK_WIDTHS = (0.8, 1.0, 1.2, 1.6, 2.0, 2.5)
+
+
+def bottleneck(width: float) -> Scene:
+    """A 10 × 8 m room (x 0–10), a ``width`` wide, 2 m long bottleneck (x 10–12), 8 m outside."""
+    return Scene(bounds=([0, 0], [20, 8]), obstacles=[Box([10, 0], [12, 4 - width / 2]),
+                                                      Box([10, 4 + width / 2], [12, 8])])
+
+
+def _bottleneck(method: str) -> dict[str, Setup]:
+    return {f"b {b:g}": Setup(bottleneck(b), [Group("room", 200, spawn=Rect([0.3, 0.3], [9.7, 7.7]),
+                                                    goal=Rect([17, 0.5], [19.5, 7.5]), radius=RADIUS,
+                                                    max_speed=1.6, pref_speed=1.34)], _params(method))
+            for b in BOTTLENECK_WIDTHS}
+
+
+def bottleneck_flows(outcomes: dict[str, Outcome]) -> dict[float, float]:
+    """Width -> mean stationary flow (persons/s) at the bottleneck's exit over the seeds."""
+    flows: dict[float, list[float]] = {}
+    for name, o in outcomes.items():
+        width = float(name.split("/")[0].split()[1])
+        flows.setdefault(width, []).append(stationary(crossing_times(o.traj, 0, 12.0))[2])
+    return {b: float(np.mean(f)) for b, f in sorted(flows.items())}
+
+
+def _judge_bottleneck(outcomes: dict[str, Outcome]) -> tuple[str, str, bool]:
+    flows = bottleneck_flows(outcomes)
+    ok, parts = _everyone_left(outcomes), []
+    for b, j in flows.items():
+        ref = float(np.mean(BOTTLENECK_FLOWS[b]))
+        good = _within(j, ref, 0.0, 0.25)
+        ok &= good
+        parts.append(f"{b:g} m: {j:.2f}/s (data {ref:.2f}){'' if good else ' ✗'}")
+    growing = all(a < b for a, b in zip(list(flows.values()), list(flows.values())[1:]))
+    return ("flow at each width within ±25 % of the experiments' mean, growing with width; everyone leaves",
+            "; ".join(parts), bool(ok and growing))
+
+
+# ---- counterflow: the FZJ BOT-360 corridor -------------------------------------------------------
+BOT_AREA = ((12.0, 0.0), (14.0, 3.6))  # 2 m of the corridor's middle
+
+
+def bot_corridor(width: float) -> Scene:
+    """JuPedSim's 7test_BO layout turned to run along x: a 3.6 m × 8 m corridor (x 9–17),
+    at each end a 3.8 m gap open to both sides, then a holding area (8 × 8 m) behind a
+    wall with an entrance of ``width`` in line with the corridor."""
+    w, cy = 3.6, 1.8
+    return Scene(bounds=([-3, -4], [29, 7.6]), obstacles=[
+        Box([9, -4], [17, 0]), Box([9, w], [17, 7.6]),
+        Box([-3, -4], [5.2, -2.2]), Box([-3, 5.8], [5.2, 7.6]), Box([20.8, -4], [29, -2.2]), Box([20.8, 5.8], [29, 7.6]),
+        Box([5, -2.2], [5.2, cy - width / 2]), Box([5, cy + width / 2], [5.2, 5.8]),
+        Box([20.8, -2.2], [21, cy - width / 2]), Box([20.8, cy + width / 2], [21, 5.8])])
+
+
+def _bot(method: str) -> dict[str, Setup]:
+    out = {}
+    for b, n in BOT_360_SETUPS[2::2]:  # 0.9, 1.6, 2.5 m: low, middle and high density
+        groups = []
+        for name, spawn, gx in (("east", Rect([-2.7, -1.9], [4.7, 5.5]), (17.4, 20.4)),
+                                ("west", Rect([21.3, -1.9], [28.7, 5.5]), (5.6, 8.6))):
+            # half of each stream leaves by each side of the far gap
+            groups.append(_walkers(f"{name} south", n // 2, spawn, Rect([gx[0], -3.7], [gx[1], -2.5])))
+            groups.append(_walkers(f"{name} north", n - n // 2, spawn, Rect([gx[0], 6.1], [gx[1], 7.3])))
+        out[f"BOT b {b:g}"] = Setup(bot_corridor(b), groups, _params(method, max_steps=2400))
+    return out
+
+
+def _judge_bot(outcomes: dict[str, Outcome]) -> tuple[str, str, bool]:
+    ok, parts = _everyone_left(outcomes), []
+    rng = np.random.default_rng(0)
+    for name, o in outcomes.items():
+        tr = o.traj
+        east = np.char.startswith(tr.group.astype(str), "east")
+        inside = tr.active_mask & np.all((tr.positions >= BOT_AREA[0]) & (tr.positions <= BOT_AREA[1]), axis=2)
+        busy = inside.sum(axis=1) >= 0.5 * inside.sum(axis=1).max()
+        start, end = np.flatnonzero(busy)[[0, -1]] * tr.dt if busy.any() else (0.0, 0.0)
+        rho, v = area_density_speed(tr, *BOT_AREA, start, end)
+        corridor = tr.active_mask & (tr.positions[..., 0] >= 10) & (tr.positions[..., 0] <= 16)
+        lanes, shuffled = [], []
+        for f in np.flatnonzero(busy)[::4]:
+            idx = np.flatnonzero(corridor[f])
+            if len(idx) >= 6:
+                lanes.append(lane_order(tr.positions[f, idx], east[idx]))
+                shuffled.append(lane_order(tr.positions[f, idx], rng.permutation(east[idx])))
+        order, base = float(np.nanmean(lanes)) if lanes else float("nan"), float(np.nanmean(shuffled)) if shuffled else float("nan")
+        ref = min(BOT_360_RUNS, key=lambda r: abs(r[0] - rho))
+        good = _within(v, ref[1], 0.2, 0.0) and order >= 2 * base and o.summary.get("arrival_rate") == 1.0
+        ok &= good
+        parts.append(f"{name}: {rho:.2f}/m² {v:.2f} m/s (FZJ {ref[1]:.2f}), lanes {order:.2f} vs {base:.2f} shuffled, "
+                     f"{o.summary.get('arrival_rate', 0):.0%} out{'' if good else ' ✗'}")
+    return ("everyone leaves; speed within ±0.2 m/s of the run at the nearest density; lane order at least twice "
+            "its value with the directions shuffled", "; ".join(parts), bool(ok))
+
+
+CASES: list[Case] = [
+    Case("fd_open_corridor", "FZJ/Hermes UO-180; Weidmann 1993; Zhang et al. 2011",
+         "speed against density in a 1.8 m corridor behind exits of 1.8-0.7 m", ("rvo",), _seeded(_uo), _judge_uo),
+    Case("bottleneck_flow", "Kretz et al. 2006; Seyfried et al. 2009; FZJ/Wuppertal 2006",
+         "200 persons leave a 10 x 8 m room through a 2 m long bottleneck of 0.8-2.5 m", ("rvo",),
+         _seeded(_bottleneck), _judge_bottleneck),
+    Case("counterflow_lanes", "FZJ/Hermes BOT-360 (Zhang et al. 2012)",
+         "two streams of 100-150 meet in a 3.6 m corridor", ("rvo",), _seeded(_bot), _judge_bot),
+]

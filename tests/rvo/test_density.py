@@ -1,0 +1,65 @@
+"""Density-aware speed (rvo.density): Weidmann's curve, the FZJ fit, the walkable floor,
+and crowds that slow as real ones do."""
+
+import numpy as np
+import pytest
+from scipy.optimize import least_squares
+from scipy.special import erf, ndtr
+
+import crowdmotion as cm
+from crowdmotion import rvo
+from crowdmotion.empirical import UG_RUNS, UO_AREA, area_density_speed, open_corridor, stationary
+from crowdmotion.groups import Group, Rect
+from crowdmotion.rvo.density import GAMMA, SIGMA_M, FloorShare, speed_share, weidmann_speed
+from crowdmotion.verify import crossing_times
+
+
+def test_weidmanns_curve_gives_the_published_speeds():
+    # empirical-references.md: 1.06, 0.61, 0.33, 0.16 m/s at 1, 2, 3, 4 persons/m²
+    assert np.allclose(weidmann_speed([1, 2, 3, 4]), [1.06, 0.61, 0.33, 0.16], atol=0.006)
+    assert weidmann_speed(0.0) == pytest.approx(1.34) and weidmann_speed(6.0) == 0.0
+
+
+def test_gamma_is_the_least_squares_fit_to_the_fzj_corridor_runs():
+    rho, v = np.array(UG_RUNS).T
+    fit = least_squares(lambda p: p[1] * speed_share(rho, p[0]) - v, [1.9, 1.3])
+    assert GAMMA == pytest.approx(fit.x[0], abs=0.01)
+
+
+def test_floor_share_is_one_in_the_open_a_half_at_a_wall_and_erf_in_a_corridor():
+    scene = cm.Scene(bounds=([0, 0], [40, 40]), obstacles=[cm.Box([0, 0], [40, 10]), cm.Box([0, 11.8], [40, 40])])
+    share = FloorShare(scene)
+    open_floor = FloorShare(cm.Scene(bounds=([0, 0], [40, 40])))
+    assert open_floor.at(np.array([[20.0, 20.0]]))[0] == pytest.approx(1.0, abs=1e-6)
+    # 0.1 m from the bounds' edge (a raster cell's centre): the normal distribution's Φ(0.1 / σ)
+    assert open_floor.at(np.array([[20.0, 0.1]]))[0] == pytest.approx(ndtr(0.1 / SIGMA_M), abs=0.01)
+    # the middle of a 1.8 m corridor: the kernel's share within ±0.9 m of its centre line
+    assert share.at(np.array([[20.0, 10.9]]))[0] == pytest.approx(erf(0.9 / (SIGMA_M * np.sqrt(2))), abs=0.03)
+
+
+def _corridor_speed(**params):
+    scene = open_corridor(1.8, 1.8)
+    g = Group("walkers", 200, spawn=Rect([-3.7, 0.3], [7.7, 7.7]), goal=Rect([27, 0.5], [29.5, 7.5]), radius=0.2,
+              max_speed=1.8, pref_speed=1.34, attributes={"pref_speed_range": [1.1, 1.58]})
+    traj = rvo.simulate(scene, [g], rvo.RVOParams(spawn_gap=0.02, **params), np.random.default_rng(0))
+    start, end, _ = stationary(crossing_times(traj, 0, 18.2))
+    return area_density_speed(traj, *UO_AREA, start, end)
+
+
+def test_a_crowd_walking_together_in_a_corridor_slows_to_weidmanns_speed():
+    rho, v = _corridor_speed()
+    assert 1.0 < rho < 2.0
+    assert abs(v - weidmann_speed(rho)) <= 0.15
+    # eq. (3) alone lets them keep nearly their free speed at the same density
+    rho_off, v_off = _corridor_speed(density_slowing=False, follow=0.0, lane_choice=False)
+    assert v_off - weidmann_speed(rho_off) > 0.15
+
+
+def test_robots_among_people_are_not_slowed_by_the_crowd():
+    scene = cm.Scene(bounds=([0, 0], [20, 6]))
+    sim = rvo.Simulator(scene)
+    people = np.c_[np.linspace(4, 7, 8), np.tile([2.0, 3.0, 4.0, 2.5], 2)]
+    sim.add_agents(people, [19, 3], radius=0.2)
+    robot = sim.add_agents([[2.0, 3.0]], [[19.0, 3.0]], radius=0.5)
+    sim.step()
+    assert sim.density[robot[0]] == 0.0 and (sim.density[:8] >= 0).all() and sim.density[:8].max() > 0.5
