@@ -48,3 +48,13 @@ def test_a_one_metre_bottleneck_passes_a_dense_crowd_at_the_measured_flow():
     flow = empirical.bottleneck_flows({"b 1/0": out})[1.0]
     assert flow == pytest.approx(np.mean(empirical.BOTTLENECK_FLOWS[1.0]), rel=0.25)
     assert out.summary["arrival_rate"] == 1.0 and out.summary["agent_agent_overlaps"] == 0
+
+
+def test_verify_empirical_runs_a_named_case_and_writes_its_table(tmp_path, capsys, monkeypatch):
+    from crowdmotion.cli import main
+
+    monkeypatch.setattr(empirical, "BOTTLENECK_WIDTHS", (1.0,))
+    code = main(["verify", "--empirical", "--case", "bottleneck_flow", "-o", str(tmp_path), "-q", "-j", "1"])
+    out = capsys.readouterr().out
+    assert "| bottleneck_flow | rvo |" in out and "1 m: " in out and (tmp_path / "verify.json").exists()
+    assert code == 0

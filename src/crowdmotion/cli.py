@@ -450,7 +450,7 @@ def cmd_verify(args) -> int:
     from crowdmotion.io.atomic import atomic_path
     from crowdmotion.workers import default_jobs, map_in_workers
 
-    pairs = verify.select(quick=args.quick, names=args.case, methods=args.method)
+    pairs = verify.select(quick=args.quick, names=args.case, methods=args.method, empirical=args.empirical)
     out = Path(args.output)
     out.mkdir(parents=True, exist_ok=True)
     jobs = min(args.jobs or default_jobs(len(pairs)), len(pairs))
@@ -592,6 +592,9 @@ def build_parser() -> argparse.ArgumentParser:
 
     p = sub.add_parser("verify", help="the field's public test cases (RiMEA, SteerBench) with their pass criteria")
     p.add_argument("--quick", action="store_true", help="only the quick subset (seconds)")
+    p.add_argument("--empirical", action="store_true",
+                   help="compare with measured crowds instead: speed against density, bottleneck flow against "
+                        "width, counterflow lanes (FZJ, Weidmann, Kretz, Seyfried; 3 seeds each, minutes)")
     p.add_argument("--case", nargs="*", help="only these cases (names as in the table)")
     p.add_argument("--method", nargs="*", choices=["rvo", "mdp", "formation"], help="only these methods")
     p.add_argument("-o", "--output", default="verify", help="folder for the pictures and verify.json (default ./verify)")
