@@ -169,3 +169,33 @@ def test_cluster_size_and_count_while_groups_meet():
     far = pos.copy()
     far[:, 4:, 1] += 50  # no meeting: no clusters measured
     assert group_report(Trajectories(far, 0.5, group=traj.group))["a"]["cluster_size"] is None
+
+
+def test_root_motion_of_a_steady_circle_walk_is_its_closed_form():
+    from crowdmotion.metrics import root_motion
+
+    # 1 m/s round a circle of 2 m, sampled at 24 fps: a = v²/r = 0.5 m/s², turning v/r = 0.5 rad/s,
+    # and the mean of the 25 frames round each (±0.5 s) lies r (1 - D) inside the path, D the
+    # Dirichlet kernel sin(25 θ / 2) / (25 sin(θ / 2)) of the turn per frame θ = 0.5 / 24 rad
+    t = np.arange(240) / 24.0
+    p = np.stack([np.c_[2 * np.cos(0.5 * t), 2 * np.sin(0.5 * t)]], axis=1)
+    m = root_motion(Trajectories(p, 1 / 24.0, radius=np.array([0.2])))
+    assert m["acceleration_mps2"]["p95"] == pytest.approx(0.5, rel=0.01)
+    assert m["turn_rate_rad_s"]["p95"] == pytest.approx(0.5, rel=0.01)
+    th = 0.5 / 24
+    assert m["deviation_from_1s_average_m"]["p95"] == pytest.approx(2 * (1 - np.sin(12.5 * th) / (25 * np.sin(th / 2))),
+                                                                    rel=0.01)
+
+
+def test_root_motion_judges_the_frames_a_dcc_plays_and_ignores_standing():
+    from crowdmotion.metrics import root_motion
+
+    # a straight walk at 0.25 s steps: nothing to see at 24 fps; a right-angle turn shows
+    t = np.arange(40) * 0.25
+    straight = np.c_[1.2 * t, np.zeros_like(t)]
+    turned = np.where(t[:, None] < 5, straight, np.c_[np.full_like(t, 6.0), 1.2 * (t - 5)])
+    standing = np.zeros((40, 2))
+    m = root_motion(Trajectories(np.stack([straight], axis=1), 0.25, radius=np.array([0.2])))
+    assert m["acceleration_mps2"]["max"] < 1e-9 and m["turn_rate_rad_s"]["max"] == 0.0
+    m = root_motion(Trajectories(np.stack([turned, standing], axis=1), 0.25, radius=np.full(2, 0.2)))
+    assert m["turn_rate_rad_s"]["max"] == pytest.approx((np.pi / 2) * 24, rel=0.01)  # the corner, in one frame

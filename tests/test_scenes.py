@@ -11,9 +11,10 @@ from crowdmotion.scenario import load_scenario, run_scenario
 from tests.io.readers import assert_sqlite_opens_in_pedpy_and_jupedsim, assert_usd_obstacles_where_the_scene_has_them
 
 SCENES = {p.stem: p for p in builtin_scenarios()}
+LARGE = {"rvo_stand_evacuation"}  # 2000 people for 390 s: its exports alone take a minute
 
 
-@pytest.mark.parametrize("name", sorted(SCENES))
+@pytest.mark.parametrize("name", [pytest.param(n, marks=pytest.mark.slow) if n in LARGE else n for n in sorted(SCENES)])
 def test_builtin_scene_is_clean_gathers_and_opens_in_the_readers(name, tmp_path):
     result = run_scenario(load_scenario(SCENES[name]), progress=False)
     # issue 17: its SQLite in PedPy and JuPedSim, its USD obstacles in pxr

@@ -213,12 +213,61 @@ def summary(traj: Trajectories, scene: Scene | None = None, goal_reached=None, t
         "max_speed_mps": float(speed.max()) if speed.size else 0.0,
         **audit.as_dict(),
     }
+    if traj.n_frames > 2 and traj.n_agents:
+        out["root_motion"] = root_motion(traj)
     if goal_reached is not None:
         arrived, t = arrival(traj, goal_reached)
         out["arrival_rate"] = float(arrived.mean()) if traj.n_agents else 0.0
         out["mean_time_to_goal_s"] = float(np.nanmean(t)) if arrived.any() else None
         out["time_to_goal_by_group_s"] = time_to_goal_by_group(traj, t)
     return out
+
+
+ROOT_FPS = 24.0          # frames per second a DCC plays (export --fps 24, the USD)
+ROOT_MOVING_MPS = 0.3    # walkers slower than this stand: their heading is not judged
+ROOT_WINDOW_S = 1.0      # the moving average the path's wobble is measured from
+ROOT_MAX_AGENTS = 400    # agents sampled (evenly by index) to keep the measure quick
+
+
+def root_motion(traj: Trajectories, fps: float = ROOT_FPS) -> dict:
+    """How smooth the root motion is that a character bound to these paths would play:
+    the run resampled to ``fps`` by straight moves (as ``export --fps`` and the USD play
+    it), then, by central differences over the frames where an agent is active and moving
+    faster than 0.3 m/s, the 95th percentile (and maximum) of its acceleration (m/s²), of
+    its turn rate (rad/s, the heading change of its velocity) and of its distance from
+    its own 1 s moving average (m: the wobble a walk cycle would show). At most 400 agents,
+    evenly spread over the ids, are measured."""
+    from crowdmotion.trajectories import resample
+
+    pick = np.unique(np.linspace(0, traj.n_agents - 1, min(traj.n_agents, ROOT_MAX_AGENTS)).astype(int))
+    sub = Trajectories(traj.positions[:, pick], traj.dt, radius=traj.radius[pick],
+                       active=None if traj.active is None else traj.active[:, pick])
+    tr = resample(sub, fps) if abs(traj.dt * fps - 1.0) > 1e-9 else sub
+    p, act, h = tr.positions, tr.active_mask, tr.dt
+    if len(p) < 3:
+        return {}
+    v = (p[2:] - p[:-2]) / (2 * h)
+    acc = np.linalg.norm(p[2:] - 2 * p[1:-1] + p[:-2], axis=-1) / (h * h)
+    moving = act[2:] & act[1:-1] & act[:-2] & (np.linalg.norm(v, axis=-1) > ROOT_MOVING_MPS)
+    v_in, v_out = p[1:-1] - p[:-2], p[2:] - p[1:-1]  # the turn between the frame's two moves
+    norm = np.linalg.norm(v_in, axis=-1) * np.linalg.norm(v_out, axis=-1)
+    cos = np.clip(np.einsum("...k,...k->...", v_in, v_out) / np.where(norm > 0, norm, 1.0), -1.0, 1.0)
+    turn = np.arccos(cos) / h
+    half = max(1, int(round(ROOT_WINDOW_S * fps / 2)))
+    width = 2 * half + 1
+    csum = np.cumsum(np.concatenate([np.zeros((1,) + p.shape[1:]), p]), axis=0)
+    mean = (csum[width:] - csum[:-width]) / width  # centred on frames half .. T-half-1
+    alive = np.cumsum(np.concatenate([np.zeros((1, p.shape[1])), act]), axis=0)
+    whole = (alive[width:] - alive[:-width]) == width
+    centre = slice(half, len(p) - half)
+    wobble = np.linalg.norm(p[centre] - mean, axis=-1)
+    wob_ok = whole & moving[half - 1:len(p) - half - 1] if len(p) > width else np.zeros((0, p.shape[1]), bool)
+
+    def stats(x: np.ndarray) -> dict:
+        return {"p95": float(np.percentile(x, 95)), "max": float(x.max())} if x.size else {"p95": None, "max": None}
+
+    return {"fps": fps, "acceleration_mps2": stats(acc[moving]), "turn_rate_rad_s": stats(turn[moving]),
+            "deviation_from_1s_average_m": stats(wobble[wob_ok]), "agents_measured": int(len(pick))}
 
 
 def time_to_goal_by_group(traj: Trajectories, arrival_time: np.ndarray) -> dict:
