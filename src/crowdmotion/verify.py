@@ -340,24 +340,19 @@ def _rimea_15(method: str) -> dict[str, Setup]:
     60 m east, turns left (its outer corner cut by a 10 m chamfer) and leaves by a 20 m wide
     exit 30 m up the side leg. Each exit line opens into a 4 m deep exit area, the goal.
     Bodies of radius 0.15 m as in JuPedSim's test (500 of 0.2 m do not fit the 6 m start).
-
-    RVO steps 0.1 s here (JuPedSim's test steps 0.05 s): a crowd merging round a corner
-    at 2-4 persons/m² needs it. At the default 0.25 s a step moves a walker 0.33 m, more
-    than the gaps in such a crowd, the sampled choice turns cautious where the streams
-    merge, and the corner takes longer than the long corridor (docs/verification.md)."""
+    Every method at its default step."""
     spawn = Rect([0.2, 0.2], [5.8, 19.8])
-    fine = {"time_step": 0.1, "max_steps": 10_000} if method == "rvo" else {}
     out = {}
     scene = Scene(bounds=([0, 0], [60, 34]),
                   obstacles=[Box([0, 20], [40, 34]), Polygon([[50, 0], [60, 0], [60, 10]])])
     g = Group("corner", 500, spawn=spawn, goal=Rect([40.5, 30.5], [59.5, 33.5]), radius=0.15, max_speed=1.5,
               pref_speed=SPEED)
-    out["corner"] = Setup(scene, [g], {**_params(method, spawn_gap=0.02), **fine})
+    out["corner"] = Setup(scene, [g], _params(method, spawn_gap=0.02))
     for name, length in (("short", 50.0), ("long", 81.0)):
         scene = Scene(bounds=([0, 0], [length + 4, 20]))
         g = Group(name, 500, spawn=spawn, goal=Rect([length + 0.5, 0.5], [length + 3.5, 19.5]),
                   radius=0.15, max_speed=1.5, pref_speed=SPEED)
-        out[name] = Setup(scene, [g], {**_params(method, spawn_gap=0.02), **fine})
+        out[name] = Setup(scene, [g], _params(method, spawn_gap=0.02))
     return out
 
 
@@ -465,7 +460,7 @@ CASES: list[Case] = [
     Case("rimea_6_corner", "RiMEA test 6",
          "20 persons round a left corner of a 2 m corridor without passing through its walls",
          ("rvo", "mdp", "formation"), _rimea_6, _judge_rimea_6, quick=True),
-    Case("corridor_two_corners", "issue 13",
+    Case("corridor_two_corners", "a U-shaped corridor, two 90° corners",
          "a 10 x 2 column (or 20 walkers) follows a 4 m corridor round two 90° corners, back the way it came",
          ("formation", "rvo", "mdp"), _corridor_two_corners, _judge_corridor, quick=True),
     Case("rimea_7_speeds", "RiMEA test 7",

@@ -1,0 +1,104 @@
+"""The figures of docs/verification.md's comparison with measured crowds.
+
+    python docs/make_empirical_figures.py
+
+Runs crowdmotion's empirical cases (``crowdmotion verify --empirical``: 3 seeds each,
+a few minutes on two cores), prints their table and draws:
+
+- docs/img/empirical_speed_density.png: speed against density, Weidmann's curve, the FZJ
+  corridor runs, the BOT-360 counterflow runs and crowdmotion's runs of both set-ups;
+- docs/img/empirical_bottleneck.png: flow against bottleneck width, the three data series,
+  their mean ± 25 % and crowdmotion's flow per seed.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import matplotlib
+
+matplotlib.use("Agg")
+import matplotlib.pyplot as plt  # noqa: E402
+import numpy as np  # noqa: E402
+
+from crowdmotion import empirical, verify  # noqa: E402
+from crowdmotion.rvo.density import GAMMA, WEIDMANN_FREE, speed_share, weidmann_speed  # noqa: E402
+
+IMG = Path(__file__).parent / "img"
+
+
+def run(case_name: str) -> tuple[dict, verify.Verdict]:
+    case = next(c for c in empirical.CASES if c.name == case_name)
+    outcomes = {name: verify.simulate("rvo", setup) for name, setup in case.build("rvo").items()}
+    criterion, measured, passed = case.judge(outcomes)
+    o, p = verify._all_clean(outcomes)
+    return outcomes, verify.Verdict(case.name, "rvo", criterion, measured, passed and o == 0 and p == 0, o, p, 0.0)
+
+
+def bot_points(outcomes: dict) -> list[tuple[float, float]]:
+    pts = []
+    for o in outcomes.values():
+        tr = o.traj
+        inside = tr.active_mask & np.all((tr.positions >= empirical.BOT_AREA[0]) &
+                                         (tr.positions <= empirical.BOT_AREA[1]), axis=2)
+        busy = np.flatnonzero(inside.sum(axis=1) >= 0.5 * inside.sum(axis=1).max())
+        pts.append(empirical.area_density_speed(tr, *empirical.BOT_AREA, busy[0] * tr.dt, busy[-1] * tr.dt))
+    return pts
+
+
+def main() -> None:
+    corridor, v1 = run("fd_open_corridor")
+    bottle, v2 = run("bottleneck_flow")
+    counter, v3 = run("counterflow_lanes")
+    print(verify.table([v1, v2, v3]))
+
+    rho = np.linspace(0.1, 5.3, 300)
+    fig, ax = plt.subplots(figsize=(7, 4.5))
+    ax.plot(rho, weidmann_speed(rho), "k-", label="Weidmann 1993")
+    ax.plot(rho, WEIDMANN_FREE * speed_share(rho, GAMMA), "k:", label=f"cap used (Weidmann's form, γ = {GAMMA} fitted to FZJ)")
+    ug = np.array(empirical.UG_RUNS)
+    ax.plot(ug[:, 0], ug[:, 1], "s", color="tab:gray", label="FZJ closed corridor 1.8 m (Zhang 2011)")
+    bot = np.array(empirical.BOT_360_RUNS)
+    ax.plot(bot[:, 0], bot[:, 1], "^", color="tab:purple", mfc="none", label="FZJ BOT-360 counterflow (Zhang 2012)")
+    per_seed = []
+    for name, o in corridor.items():
+        start, end, _ = empirical.stationary(verify.crossing_times(o.traj, 0, 18.2))
+        per_seed.append(empirical.area_density_speed(o.traj, *empirical.UO_AREA, start, end))
+    per_seed = np.array(per_seed)
+    ax.plot(per_seed[:, 0], per_seed[:, 1], "o", color="tab:blue", label="crowdmotion rvo, open corridor (per seed)")
+    cf = np.array(bot_points(counter))
+    ax.plot(cf[:, 0], cf[:, 1], "v", color="tab:red", label="crowdmotion rvo, BOT-360 counterflow (per seed)")
+    ax.set_xlabel("density (persons/m²)")
+    ax.set_ylabel("speed (m/s)")
+    ax.set_xlim(0, 5.5)
+    ax.set_ylim(0, 1.6)
+    ax.legend(fontsize=7)
+    ax.set_title("Speed against density: measured crowds and crowdmotion (default parameters)", fontsize=9)
+    fig.tight_layout()
+    fig.savefig(IMG / "empirical_speed_density.png", dpi=110)
+
+    fig, ax = plt.subplots(figsize=(7, 4.5))
+    labels = {0: "Kretz et al. 2006", 1: "Seyfried et al. 2009", 2: "FZJ/Wuppertal 2006"}
+    for b, flows in empirical.BOTTLENECK_FLOWS.items():
+        ax.plot(np.full(len(flows), b), flows, "s", color="tab:gray", ms=4)
+    means = {b: np.mean(f) for b, f in empirical.BOTTLENECK_FLOWS.items()}
+    bs = np.array(sorted(means))
+    ax.fill_between(bs, [0.75 * means[b] for b in bs], [1.25 * means[b] for b in bs], color="tab:gray", alpha=0.15,
+                    label="data mean ± 25 %")
+    ax.plot([], [], "s", color="tab:gray", ms=4, label="measured (" + ", ".join(labels.values()) + ")")
+    for name, o in bottle.items():
+        b = float(name.split("/")[0].split()[1])
+        j = empirical.stationary(verify.crossing_times(o.traj, 0, 12.0))[2]
+        ax.plot(b, j, "o", color="tab:blue", ms=5)
+    ax.plot([], [], "o", color="tab:blue", label="crowdmotion rvo (per seed)")
+    ax.set_xlabel("bottleneck width (m)")
+    ax.set_ylabel("flow (persons/s)")
+    ax.legend(fontsize=7)
+    ax.set_title("Bottleneck flow against width: 200 persons, 10 x 8 m room, 2 m long bottleneck", fontsize=9)
+    fig.tight_layout()
+    fig.savefig(IMG / "empirical_bottleneck.png", dpi=110)
+    print(f"wrote {IMG / 'empirical_speed_density.png'} and {IMG / 'empirical_bottleneck.png'}")
+
+
+if __name__ == "__main__":
+    main()
