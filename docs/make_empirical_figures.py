@@ -36,14 +36,8 @@ def run(case_name: str) -> tuple[dict, verify.Verdict]:
 
 
 def bot_points(outcomes: dict) -> list[tuple[float, float]]:
-    pts = []
-    for o in outcomes.values():
-        tr = o.traj
-        inside = tr.active_mask & np.all((tr.positions >= empirical.BOT_AREA[0]) &
-                                         (tr.positions <= empirical.BOT_AREA[1]), axis=2)
-        busy = np.flatnonzero(inside.sum(axis=1) >= 0.5 * inside.sum(axis=1).max())
-        pts.append(empirical.area_density_speed(tr, *empirical.BOT_AREA, busy[0] * tr.dt, busy[-1] * tr.dt))
-    return pts
+    rng = np.random.default_rng(0)
+    return [empirical.bot_measures(o.traj, rng)[:2] for o in outcomes.values()]
 
 
 def main() -> None:
@@ -55,7 +49,8 @@ def main() -> None:
     rho = np.linspace(0.1, 5.3, 300)
     fig, ax = plt.subplots(figsize=(7, 4.5))
     ax.plot(rho, weidmann_speed(rho), "k-", label="Weidmann 1993")
-    ax.plot(rho, WEIDMANN_FREE * speed_share(rho, GAMMA), "k:", label=f"cap used (Weidmann's form, γ = {GAMMA} fitted to FZJ)")
+    ax.plot(rho, WEIDMANN_FREE * speed_share(rho, GAMMA), "k:",
+            label=f"cap used (Weidmann's form, γ = {GAMMA} fitted to FZJ)")
     ug = np.array(empirical.UG_RUNS)
     ax.plot(ug[:, 0], ug[:, 1], "s", color="tab:gray", label="FZJ closed corridor 1.8 m (Zhang 2011)")
     bot = np.array(empirical.BOT_360_RUNS)

@@ -400,7 +400,7 @@ def _record_one(method: str) -> list[dict]:
     needs; ``at_load``: compiled while the scenario was read and checked."""
     from numba.core import event
 
-    from crowdmotion.cli import builtin_scenarios
+    from crowdmotion.builtin import builtin_scenarios
     from crowdmotion.scenario import load_scenario, run_scenario
 
     found: dict[str, dict] = {}

@@ -6,21 +6,15 @@ import argparse
 import math
 import sys
 import warnings
-from importlib import resources
 from pathlib import Path
 
 from crowdmotion import __version__
+from crowdmotion.builtin import builtin_scenarios  # noqa: F401  (also the CLI's public name for them)
 
 
 def _one_line_warning(message, category, filename, lineno, file=None, line=None) -> None:
     """Warnings as one clean line on stderr, without the library's file and line."""
     print(f"crowdmotion: warning: {message}", file=sys.stderr)
-
-
-def builtin_scenarios() -> list[Path]:
-    """The scenario files shipped with the package (the papers' scenes)."""
-    folder = resources.files("crowdmotion") / "scenarios"
-    return sorted(Path(str(p)) for p in folder.iterdir() if p.name.endswith(".toml"))
 
 
 def _headline(summary: dict) -> str:

@@ -155,8 +155,8 @@ def _judge_uo(outcomes: dict[str, Outcome]) -> tuple[str, str, bool]:
         good = _within(v, w, 0.15, 0.3) and _within(v, ug[1], 0.15, 0.3)
         ok &= good
         parts.append(f"{name}: {rho:.2f}/m² {v:.2f} m/s (Weidmann {w:.2f}, FZJ {ug[1]:.2f}){'' if good else ' ✗'}")
-    return ("in each run (mean of its seeds), the speed at its density within ±0.15 m/s or ±30 % of Weidmann's curve and of the nearest "
-            "FZJ corridor run; everyone leaves", "; ".join(parts), bool(ok))
+    return ("in each run (mean of its seeds), the speed at its density within ±0.15 m/s or ±30 % of Weidmann's "
+            "curve and of the nearest FZJ corridor run; everyone leaves", "; ".join(parts), bool(ok))
 
 
 # ---- bottleneck flow against width -------------------------------------------------------------
@@ -209,7 +209,8 @@ def bot_corridor(width: float) -> Scene:
     w, cy = 3.6, 1.8
     return Scene(bounds=([-3, -4], [29, 7.6]), obstacles=[
         Box([9, -4], [17, 0]), Box([9, w], [17, 7.6]),
-        Box([-3, -4], [5.2, -2.2]), Box([-3, 5.8], [5.2, 7.6]), Box([20.8, -4], [29, -2.2]), Box([20.8, 5.8], [29, 7.6]),
+        Box([-3, -4], [5.2, -2.2]), Box([-3, 5.8], [5.2, 7.6]),
+        Box([20.8, -4], [29, -2.2]), Box([20.8, 5.8], [29, 7.6]),
         Box([5, -2.2], [5.2, cy - width / 2]), Box([5, cy + width / 2], [5.2, 5.8]),
         Box([20.8, -2.2], [21, cy - width / 2]), Box([20.8, cy + width / 2], [21, 5.8])])
 
@@ -227,24 +228,31 @@ def _bot(method: str) -> dict[str, Setup]:
     return out
 
 
+def bot_measures(traj: Trajectories, rng: np.random.Generator) -> tuple[float, float, float, float]:
+    """(density, speed, lane order, lane order with the directions shuffled) of a BOT-360
+    run: density and speed in BOT_AREA over the frames holding at least half its most
+    crowded frame's count, the lane orders in the corridor (x 10-16) every fourth of them."""
+    east = np.char.startswith(traj.group.astype(str), "east")
+    inside = traj.active_mask & np.all((traj.positions >= BOT_AREA[0]) & (traj.positions <= BOT_AREA[1]), axis=2)
+    busy = inside.sum(axis=1) >= 0.5 * inside.sum(axis=1).max()
+    start, end = np.flatnonzero(busy)[[0, -1]] * traj.dt if busy.any() else (0.0, 0.0)
+    rho, v = area_density_speed(traj, *BOT_AREA, start, end)
+    corridor = traj.active_mask & (traj.positions[..., 0] >= 10) & (traj.positions[..., 0] <= 16)
+    lanes, shuffled = [], []
+    for f in np.flatnonzero(busy)[::4]:
+        idx = np.flatnonzero(corridor[f])
+        if len(idx) >= 6:
+            lanes.append(lane_order(traj.positions[f, idx], east[idx]))
+            shuffled.append(lane_order(traj.positions[f, idx], rng.permutation(east[idx])))
+    mean = lambda x: float(np.nanmean(x)) if x else float("nan")  # noqa: E731
+    return rho, v, mean(lanes), mean(shuffled)
+
+
 def _judge_bot(outcomes: dict[str, Outcome]) -> tuple[str, str, bool]:
     ok, parts = _everyone_left(outcomes), []
     rng = np.random.default_rng(0)
     for name, o in outcomes.items():
-        tr = o.traj
-        east = np.char.startswith(tr.group.astype(str), "east")
-        inside = tr.active_mask & np.all((tr.positions >= BOT_AREA[0]) & (tr.positions <= BOT_AREA[1]), axis=2)
-        busy = inside.sum(axis=1) >= 0.5 * inside.sum(axis=1).max()
-        start, end = np.flatnonzero(busy)[[0, -1]] * tr.dt if busy.any() else (0.0, 0.0)
-        rho, v = area_density_speed(tr, *BOT_AREA, start, end)
-        corridor = tr.active_mask & (tr.positions[..., 0] >= 10) & (tr.positions[..., 0] <= 16)
-        lanes, shuffled = [], []
-        for f in np.flatnonzero(busy)[::4]:
-            idx = np.flatnonzero(corridor[f])
-            if len(idx) >= 6:
-                lanes.append(lane_order(tr.positions[f, idx], east[idx]))
-                shuffled.append(lane_order(tr.positions[f, idx], rng.permutation(east[idx])))
-        order, base = float(np.nanmean(lanes)) if lanes else float("nan"), float(np.nanmean(shuffled)) if shuffled else float("nan")
+        rho, v, order, base = bot_measures(o.traj, rng)
         ref = min(BOT_360_RUNS, key=lambda r: abs(r[0] - rho))
         good = _within(v, ref[1], 0.2, 0.0) and order >= 2 * base and o.summary.get("arrival_rate") == 1.0
         ok &= good

@@ -130,7 +130,7 @@ def table(rows: list[dict]) -> str:
 
 
 def main(argv=None) -> None:
-    from crowdmotion.cli import builtin_scenarios
+    from crowdmotion.builtin import builtin_scenarios
 
     ap = argparse.ArgumentParser(prog="crowdmotion bench startup", description=__doc__.split("\n\n")[0])
     ap.add_argument("--only", nargs="*", help="built-in scene names (default: all)")

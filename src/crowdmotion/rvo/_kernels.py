@@ -20,8 +20,6 @@ GOLDEN_SIN = float(np.sin(np.pi * (3.0 - np.sqrt(5.0))))
 # a candidate whose obstacle time to collision is below dt·(1 + SLACK) would reach the
 # obstacle within the step: it is inadmissible (hard constraint)
 SLACK = 1e-6
-# a neighbour we follow that stands is expected to set off at this share of ``follow``
-FOLLOW_START = 0.0
 
 
 @njit(cache=True)
@@ -183,8 +181,7 @@ def _kept_right(i, k, idx, pos, vpref, radius, wx, wy, keep_right, look_s):
 @njit(cache=True)
 def _choose_one(i, pos, vel, vpref, aim_dist, radius, vmax, max_nb, nb_dist, samples, safety, active,
                 cell_start, items, origin_x, origin_y, h, nx, ny, circ_c, circ_r, circ_v, seg_a, seg_b,
-                seg_v, dt, key, out_vel, out_forced, idx, d2, rel, near_c, near_s, keep_right, look_s,
-                        follow):
+                seg_v, dt, key, out_vel, out_forced, idx, d2, rel, near_c, near_s, keep_right, look_s, follow):
     """One agent's choice for :func:`choose_velocities`, with caller-owned scratch arrays."""
     n_circ = circ_c.shape[0]
     n_seg = seg_a.shape[0]
@@ -241,7 +238,7 @@ def _choose_one(i, pos, vel, vpref, aim_dist, radius, vmax, max_nb, nb_dist, sam
             if pn > 0.0 and pjx * wx + pjy * wy > 0.9 * pn * un and ahead >= rr_ and side < rr_:
                 # anticipate only as far as it is under way already: one standing in a
                 # jam is expected to stand
-                free = min(max((vel[j, 0] * pjx + vel[j, 1] * pjy) / (pn * pn), FOLLOW_START), 1.0)
+                free = min(max((vel[j, 0] * pjx + vel[j, 1] * pjy) / (pn * pn), 0.0), 1.0)
                 rel[q, 3] = -(vel[j, 0] + follow[i] * free * (pjx - vel[j, 0]))
                 rel[q, 4] = -(vel[j, 1] + follow[i] * free * (pjy - vel[j, 1]))
                 rel[q, 5] = 1.0
@@ -378,48 +375,45 @@ def held_up_time(wanted, chosen, pref_speed, active, yield_to, slow, dt, stuck):
             stuck[i] = max(stuck[i] - dt, 0.0)
 
 
-
 # ---- density ahead (rvo.density) ----------------------------------------------------------------
+@njit(inline="always")
+def _cell_box(cx, cy, reach, origin_x, origin_y, h, nx, ny):
+    """(gx0, gx1, gy0, gy1): the grid cells, clamped to the grid, that hold every point
+    within ``reach`` of (cx, cy); an empty range when the square lies off the grid."""
+    gx0 = max(int(np.floor((cx - reach - origin_x) / h)), 0)
+    gx1 = min(int(np.floor((cx + reach - origin_x) / h)), nx - 1)
+    gy0 = max(int(np.floor((cy - reach - origin_y) / h)), 0)
+    gy1 = min(int(np.floor((cy + reach - origin_y) / h)), ny - 1)
+    return gx0, gx1, gy0, gy1
+
+
 @threaded
-def density_ahead(pos, heading, sense, cell_start, items, origin_x, origin_y, h, nx, ny, ahead, sigma, out):
-    """Gaussian-weighted count of the agents in the grid round the point ``ahead`` metres in
-    front of each agent with ``sense`` along ``heading`` (its own position if the heading is
-    zero): Σ_j exp(−|p_j − c_i|² / 2σ²) over the others within 3σ of c_i. Divided by the
-    kernel's area (:mod:`crowdmotion.rvo.density`) it is the density there, persons/m²."""
-    n = pos.shape[0]
+def density_ahead(centre, own, pos, cell_start, items, origin_x, origin_y, h, nx, ny, sigma, out):
+    """Gaussian-weighted count of the agents in the grid round each point ``centre[k]``:
+    Σ_j exp(−|p_j − c_k|² / 2σ²) over the agents within 3σ of it but agent ``own[k]``, the
+    one sensing. Divided by the kernel's area (:mod:`crowdmotion.rvo.density`)
+    it is the density there, persons/m²."""
+    n = centre.shape[0]
     reach = 3.0 * sigma
     r2 = reach * reach
     inv = 1.0 / (2.0 * sigma * sigma)
-    for i in prange(n):
-        out[i] = 0.0
-        if not sense[i]:
-            continue
-        wx, wy = heading[i, 0], heading[i, 1]
-        wn = np.sqrt(wx * wx + wy * wy)
-        cx, cy = pos[i, 0], pos[i, 1]
-        if wn > 0.0:
-            cx += ahead * wx / wn
-            cy += ahead * wy / wn
-        gx0 = int(np.floor((cx - reach - origin_x) / h))
-        gx1 = int(np.floor((cx + reach - origin_x) / h))
-        gy0 = int(np.floor((cy - reach - origin_y) / h))
-        gy1 = int(np.floor((cy + reach - origin_y) / h))
-        if gx1 < 0 or gy1 < 0 or gx0 >= nx or gy0 >= ny:
-            continue
+    for k in prange(n):
+        cx, cy = centre[k, 0], centre[k, 1]
+        gx0, gx1, gy0, gy1 = _cell_box(cx, cy, reach, origin_x, origin_y, h, nx, ny)
         s = 0.0
-        for gx in range(max(gx0, 0), min(gx1, nx - 1) + 1):
-            for gy in range(max(gy0, 0), min(gy1, ny - 1) + 1):
+        for gx in range(gx0, gx1 + 1):
+            for gy in range(gy0, gy1 + 1):
                 c = gx * ny + gy
                 for q in range(cell_start[c], cell_start[c + 1]):
                     j = items[q]
-                    if j == i:
+                    if j == own[k]:
                         continue
                     dx = pos[j, 0] - cx
                     dy = pos[j, 1] - cy
                     d2 = dx * dx + dy * dy
                     if d2 < r2:
                         s += np.exp(-d2 * inv)
-        out[i] = s
+        out[k] = s
 
 
 # ---- escape from moving obstacles after the safety pass ----------------------------------------
@@ -495,10 +489,11 @@ def lane_choice(pos, vel, vpref, radius, weight, active, cell_start, items, orig
     ``offsets`` (metres, + = right) whose aim point p + aim·û + offset·n̂ (n̂ the right
     normal) the body can walk to in a straight line, the agent takes the one minimising
     pressure + side_cost·|offset| − right_bonus·offset and heads for its aim point at the
-    same speed. The pressure is scaled by the agent's own ``weight``. An agent going our way (not oncoming) weighs ``crowd_weight`` times the
-    share of our preferred speed by which it is slower (current velocity along û): a
-    crowd ahead that stands weighs fully, one walking at our pace not at all. Below
-    ``min_pressure`` at offset 0 (nobody in the way) v_pref is kept."""
+    same speed. The pressure is scaled by the agent's own ``weight``. An agent going our
+    way (not oncoming) weighs ``crowd_weight`` times the share of our preferred speed by
+    which it is slower (current velocity along û): a crowd ahead that stands weighs fully,
+    one walking at our pace not at all. Below ``min_pressure`` at offset 0 (nobody in the
+    way) v_pref is kept."""
     n = pos.shape[0]
     n_off = offsets.shape[0]
     inv2 = 1.0 / (2.0 * spread * spread)
@@ -516,10 +511,7 @@ def lane_choice(pos, vel, vpref, radius, weight, active, cell_start, items, orig
         rx, ry = uy, -ux  # right normal
         px, py = pos[i, 0], pos[i, 1]
         cx, cy = px + 0.5 * look * ux, py + 0.5 * look * uy
-        gx0 = max(int(np.floor((cx - reach - origin_x) / h)), 0)
-        gx1 = min(int(np.floor((cx + reach - origin_x) / h)), nx - 1)
-        gy0 = max(int(np.floor((cy - reach - origin_y) / h)), 0)
-        gy1 = min(int(np.floor((cy + reach - origin_y) / h)), ny - 1)
+        gx0, gx1, gy0, gy1 = _cell_box(cx, cy, reach, origin_x, origin_y, h, nx, ny)
         pres = np.empty(n_off)
         for k in range(n_off):
             pres[k] = 0.0

@@ -112,16 +112,19 @@ class DensitySlowing:
         """Update the sensed density (agents/m² ahead of each agent along ``heading``) and
         return it."""
         raw = np.zeros(len(pos))
-        sense = active & (radius <= PERSON_MAX_RADIUS_M)
-        K.density_ahead(pos, heading, sense, *grid, AHEAD_M, SIGMA_M, raw)
-        s = np.flatnonzero(sense)
+        s = np.flatnonzero(active & (radius <= PERSON_MAX_RADIUS_M))
         unit = np.linalg.norm(heading[s], axis=1, keepdims=True)
-        centre = pos[s] + AHEAD_M * np.divide(heading[s], unit, out=np.zeros_like(heading[s]), where=unit > 0)
+        ahead = np.divide(AHEAD_M * heading[s], unit, out=np.zeros_like(heading[s]), where=unit > 0)
+        centre = pos[s] + ahead  # the point sensed round, AHEAD_M in front (the agent itself if standing)
+        counts = np.empty(len(s))
+        K.density_ahead(centre, s, pos, *grid, SIGMA_M, counts)
         kernel_area = 2.0 * np.pi * SIGMA_M * SIGMA_M * (1.0 - np.exp(-4.5))  # its mass within 3σ
-        raw[s] /= kernel_area * np.maximum(self.floor.at(centre), FLOOR_SHARE_MIN)
+        raw[s] = counts / (kernel_area * np.maximum(self.floor.at(centre), FLOOR_SHARE_MIN))
+        sensed = np.zeros(len(pos), dtype=bool)
+        sensed[s] = True
         a = min(1.0, dt / RELAX_S)
         self.density = np.where(self._fresh, raw, self.density + a * (raw - self.density))
-        self._fresh &= ~sense
+        self._fresh &= ~sensed
         return self.density
 
     def factors(self, pos, heading, radius, active, grid, dt: float) -> np.ndarray:

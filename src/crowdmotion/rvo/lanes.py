@@ -9,9 +9,9 @@ walkers read the oncoming stream metres ahead and step towards the gaps in it, a
 settle behind someone going their way (Moussaïd, Helbing & Theraulaz 2011 choose the
 heading with the clearest way ahead; lane formation follows). Here each agent weighs the
 agents within ``LOOK_M`` metres ahead (nearer ones more; one going our way counts as
-far as it is slower than we would walk, up to ``CROWD_WEIGHT`` of an oncoming one), spread over the lateral offset, and among the
-lateral offsets ``OFFSETS_M`` it can walk to in a straight line takes the one with the
-least of
+far as it is slower than we would walk, up to ``CROWD_WEIGHT`` of an oncoming one),
+spread over the lateral offset, and among the lateral offsets ``OFFSETS_M`` it can walk
+to in a straight line takes the one with the least of
 
     pressure(offset) + SIDE_COST · |offset| − RIGHT_BONUS · offset
 
@@ -32,7 +32,8 @@ from crowdmotion.rvo.density import PERSON_MAX_RADIUS_M
 
 LOOK_M = 6.0          # oncoming agents up to this far ahead count
 SPREAD_M = 0.35       # lateral width of an oncoming body's weight
-OFFSETS_M = np.concatenate([[0.0], np.ravel(np.c_[np.arange(1, 9) * 0.3, -np.arange(1, 9) * 0.3])])  # 0, ±0.3, ... ±2.4
+_STEPS = np.arange(1, 9) * 0.3
+OFFSETS_M = np.concatenate([[0.0], np.ravel(np.c_[_STEPS, -_STEPS])])  # straight on first, then ±0.3 … ±2.4
 AIM_M = 2.0           # the chosen offset is aimed at this far ahead (≤ 50° off the way)
 SIDE_COST = 0.3       # per metre of offset: stepping aside has a price
 RIGHT_BONUS = 0.1     # per metre to the right
@@ -46,6 +47,7 @@ def lane_velocities(pos, vel, vpref, radius, safety, density, active, grid, prim
     """(N, 2) ``vpref`` turned towards each agent's chosen lane (see the module docstring)."""
     out = np.empty_like(vpref)
     weight = safety / SAFETY_REFERENCE * np.minimum(density / FULL_DENSITY, 1.0)
-    K.lane_choice(pos, vel, vpref, radius, weight, active & (radius <= PERSON_MAX_RADIUS_M), *grid, prims.circ_c, prims.circ_r, prims.seg_a, prims.seg_b,
+    walkers = active & (radius <= PERSON_MAX_RADIUS_M)
+    K.lane_choice(pos, vel, vpref, radius, weight, walkers, *grid, prims.circ_c, prims.circ_r, prims.seg_a, prims.seg_b,
                   LOOK_M, SPREAD_M, OFFSETS_M, AIM_M, SIDE_COST, RIGHT_BONUS, MIN_PRESSURE, CROWD_WEIGHT, out)
     return out

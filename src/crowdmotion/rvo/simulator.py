@@ -20,10 +20,10 @@ from crowdmotion.obstacle_primitives import ObstacleSet
 from crowdmotion.rvo.personality import PARAM_KEYS, params_for_vectors, sample_personalities
 from crowdmotion.scene import Scene
 
-# used when neither a value nor a personality is given: the neutral set of Table 4's
-# O pair (mid-way between O+ and O−), rounded
 FOLLOW_FULL_DENSITY = 2.0  # persons/m² sensed ahead from which following is anticipated in full
 ESCAPE_HEADINGS = 32  # headings an agent in a moving obstacle's way tries after the safety pass
+# used when neither a value nor a personality is given: the neutral set of Table 4's
+# O pair (mid-way between O+ and O−), rounded
 DEFAULTS = {"max_neighbors": 10, "neighbor_dist": 10.0, "samples": 50, "safety": 5.0}
 
 
