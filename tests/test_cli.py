@@ -243,3 +243,23 @@ def stop(proc, sig) -> tuple[int, str]:
     proc.send_signal(sig)
     _, err = proc.communicate(timeout=120)
     return proc.returncode, err.decode(errors="replace")
+
+
+def test_sigterm_during_a_run_keeps_its_frames(tmp_path):
+    import signal
+
+    from crowdmotion import Trajectories
+
+    out = tmp_path / "out"
+    proc, _ = start_long_run(tmp_path, out)
+    code, err = stop(proc, signal.SIGTERM)
+    assert code == 143, err
+    assert "SIGTERM" in err and "partial = true" in err and "Traceback" not in err, err
+    traj = Trajectories.load(out / "trajectories.parquet")
+    assert traj.n_frames > 10 and traj.metadata["partial"] is True
+    summary = json.loads((out / "summary.json").read_text())
+    assert summary["partial"] is True and summary["frames"] == traj.n_frames
+    manifest = json.loads((out / "manifest.json").read_text())
+    assert manifest["complete"] is True and manifest["partial"] is True
+    assert sorted(manifest["files"]) == ["summary.json", "trajectories.parquet"]
+    assert sorted(p.name for p in out.iterdir()) == ["manifest.json", "summary.json", "trajectories.parquet"]

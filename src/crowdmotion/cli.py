@@ -124,10 +124,12 @@ def cmd_run(args) -> int:
     path = scenario_path(args.scenario)
     _begin_compiling(path, args.quiet)
     from crowdmotion import _precompile
-    from crowdmotion.outputs import claim_output_folder, write_run
+    from crowdmotion.interrupts import Interrupts
+    from crowdmotion.outputs import MANIFEST, claim_output_folder, write_run
     from crowdmotion.render.background import PictureProcess
     from crowdmotion.scenario import load_scenario, run_scenario
 
+    stop = getattr(args, "interrupts", None) or Interrupts()
     sc = load_scenario(path)
     # held from before, not after, the simulation until the files are written: a second run is refused
     with claim_output_folder(_output_folder(args, sc), args.overwrite) as out:
@@ -135,8 +137,17 @@ def cmd_run(args) -> int:
         _precompile.start(sc.method)  # a cold cache: compiled on every core before the picture process takes one
         pictures = PictureProcess.start() if plots else None  # imports matplotlib while this process simulates
         try:
-            result = run_scenario(sc, seed=args.seed, progress=not args.quiet)
-            files = write_run(result, out, plots=plots, pictures=pictures)
+            with stop.simulating():
+                result = run_scenario(sc, seed=args.seed, progress=not args.quiet)
+            if result.summary["partial"] and stop.signum is not None:
+                print(f"crowdmotion: {stop.name}: stopped after {result.summary['frames']} frames; writing them "
+                      f"({stop.again()})", file=sys.stderr, flush=True)
+            with stop.writing():
+                files = write_run(result, out, plots=plots, pictures=pictures)
+        except KeyboardInterrupt:
+            print(f"crowdmotion: {stop.name or 'interrupted'}: stopped; no file of this run is left in {out}",
+                  file=sys.stderr)
+            return stop.exit_code or 130
         finally:
             if pictures is not None:
                 pictures.close()
@@ -144,10 +155,14 @@ def cmd_run(args) -> int:
     for f in files:
         print(f"  wrote {f}")
     s = result.summary
-    if s["partial"]:
-        print(f"crowdmotion: interrupted: kept the {s['frames']} frames simulated so far (summary.json says "
-              f"partial = true)", file=sys.stderr)
-        return 130
+    if s["partial"] or stop.signum is not None:
+        if s["partial"]:
+            print(f"crowdmotion: {stop.name or 'interrupted'}: kept the {s['frames']} frames simulated so far "
+                  f"(summary.json and {MANIFEST} say partial = true)", file=sys.stderr)
+        else:
+            print(f"crowdmotion: {stop.name}: the run had finished; its files were written whole first",
+                  file=sys.stderr)
+        return stop.exit_code or 130
     if (s["agent_agent_overlaps"] or s["agent_obstacle_penetrations"]) and not args.allow_collisions:
         print(f"crowdmotion: error: the run ends with {s['agent_agent_overlaps']} agent overlaps and "
               f"{s['agent_obstacle_penetrations']} obstacle penetrations (first: {s.get('first_events', [])[:1]}); "
@@ -495,28 +510,51 @@ def cmd_list(args) -> int:
 
 
 def main(argv=None) -> int:
+    from crowdmotion.interrupts import Interrupts
+
     args = build_parser().parse_args(argv)
     warnings.showwarning = _one_line_warning
-    try:
-        return args.func(args)
-    except (ValueError, FileNotFoundError, MemoryError, OSError) as exc:
-        print(f"crowdmotion: error: {exc}", file=sys.stderr)
-        return 2
-    except KeyboardInterrupt:
-        print("crowdmotion: interrupted", file=sys.stderr)
-        return 130
+    with Interrupts() as stop:  # SIGTERM as Ctrl-C, for this command only
+        args.interrupts = stop
+        try:
+            return args.func(args)
+        except (ValueError, FileNotFoundError, MemoryError, OSError) as exc:
+            print(f"crowdmotion: error: {exc}", file=sys.stderr)
+            return 2
+        except KeyboardInterrupt:
+            print(f"crowdmotion: interrupted{f' ({stop.name})' if stop.name else ''}", file=sys.stderr)
+            return stop.exit_code or 130
+
+
+EXIT_STATUS = """\
+exit status:
+  0    done
+  1    demo: a scene failed; verify: a case failed its criterion
+  2    refused or failed, with a message naming what: a bad argument, scenario or
+       trajectory file; an output folder in use by another run, holding an earlier run
+       (without --overwrite) or files no run listed; a file that could not be read or
+       written (a full disk: none of the run's files are kept)
+  3    run: the run ends with agent overlaps or obstacle penetrations (its files are
+       written; --allow-collisions exits 0)
+  130  stopped by Ctrl-C; run: the frames simulated so far are written, marked
+       partial = true (while the files are written, a first Ctrl-C lets the writing
+       finish, a second stops it and keeps none of the run's files)
+  143  stopped by SIGTERM (timeout, kill, a batch scheduler), as by Ctrl-C
+"""
 
 
 def build_parser() -> argparse.ArgumentParser:
     """The command line: one subcommand per job, every argument with its help."""
-    parser = argparse.ArgumentParser(prog="crowdmotion", description="Collision-free crowd and group motion.")
+    parser = argparse.ArgumentParser(prog="crowdmotion", description="Collision-free crowd and group motion.",
+                                     epilog=EXIT_STATUS, formatter_class=argparse.RawDescriptionHelpFormatter)
     parser.add_argument("--version", action="version", version=f"crowdmotion {__version__}")
     sub = parser.add_subparsers(dest="command", required=True)
 
     p = sub.add_parser("run", help="run a scenario file and write its outputs",
                        description="Run a scenario and write its trajectories, summary.json and pictures into "
                                    "an output folder, which the run holds alone while it lasts; manifest.json "
-                                   "lists the files it wrote (--overwrite removes those and nothing else).")
+                                   "lists the files it wrote (--overwrite removes those and nothing else).",
+                       epilog=EXIT_STATUS, formatter_class=argparse.RawDescriptionHelpFormatter)
     p.add_argument("scenario", help="a scenario TOML file, or the name of a built-in scene (see `scenarios`)")
     p.add_argument("-o", "--output", help="output folder (default ./out/<scenario name>)")
     p.add_argument("--overwrite", action="store_true",
