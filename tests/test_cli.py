@@ -263,3 +263,15 @@ def test_sigterm_during_a_run_keeps_its_frames(tmp_path):
     assert manifest["complete"] is True and manifest["partial"] is True
     assert sorted(manifest["files"]) == ["summary.json", "trajectories.parquet"]
     assert sorted(p.name for p in out.iterdir()) == ["manifest.json", "summary.json", "trajectories.parquet"]
+
+
+def test_the_exit_codes_are_documented_in_help_and_readme(capsys):
+    readme = (Path(__file__).parent.parent / "README.md").read_text()
+    for argv in (["--help"], ["run", "--help"]):
+        with pytest.raises(SystemExit):
+            main(argv)
+        text = capsys.readouterr().out
+        for code in ("0 ", "1 ", "2 ", "3 ", "130 ", "143 "):
+            assert f"\n  {code}" in text, (argv, code)
+            assert f"| {code.strip()} |" in readme, code
+        assert "SIGTERM" in text and "partial = true" in text
