@@ -236,9 +236,6 @@ class RunFolder(os.PathLike):
     def __fspath__(self) -> str:
         return os.fspath(self.path)
 
-    def __truediv__(self, name: str) -> Path:
-        return self.path / name
-
     def __repr__(self) -> str:
         return f"RunFolder({str(self.path)!r})"
 
