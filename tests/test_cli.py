@@ -31,7 +31,7 @@ def test_run_plots_option_replaces_the_scenarios_pictures(tmp_path, capsys):
     path.write_text(GOOD)
     bare, player = tmp_path / "bare", tmp_path / "player"
     assert main(["run", str(path), "-o", str(bare), "-q", "--plots", "none"]) == 0
-    assert {p.name for p in bare.iterdir() if not p.name.startswith(".")} == {"trajectories.parquet", "summary.json"}
+    assert {p.name for p in bare.iterdir()} == {"trajectories.parquet", "summary.json", "manifest.json"}
     assert main(["run", str(path), "-o", str(player), "-q", "--plots", "player"]) == 0
     assert (player / "view.html").is_file() and not (player / "paths.png").exists()
     capsys.readouterr()
@@ -187,3 +187,91 @@ def test_the_default_output_folder_of_a_valid_name_lies_inside_out(tmp_path, cap
     assert main(["run", str(path), "-q", "--plots", "none"]) == 0
     written = tmp_path / "out" / "street run é" / "summary.json"
     assert written.is_file() and written.resolve().parent.parent == (tmp_path / "out").resolve()
+
+
+# 40 walkers at 2 cm/s down a 200 m street: minutes of steps, for a run the test stops
+LONG = """
+name = "long"
+method = "rvo"
+[scene]
+bounds = [[0, 0], [200, 20]]
+[[groups]]
+name = "a"
+count = 40
+pref_speed = 0.02
+max_speed = 0.05
+spawn = { shape = "rect", lower = [1, 1], upper = [15, 19] }
+goal = { shape = "rect", lower = [190, 1], upper = [199, 19] }
+[rvo]
+max_steps = 1000000
+[output]
+plots = []
+"""
+
+
+def start_long_run(tmp_path, out):
+    """``crowdmotion run`` of LONG into ``out`` as a process of its own, returned with its
+    stderr so far once its progress bar shows frames simulated."""
+    import os
+    import re
+    import select
+    import subprocess
+    import sys
+    import time
+
+    path = tmp_path / "long.toml"
+    path.write_text(LONG)
+    proc = subprocess.Popen([sys.executable, "-m", "crowdmotion", "run", str(path), "-o", str(out)],
+                            stdout=subprocess.PIPE, stderr=subprocess.PIPE)
+    err, fd = b"", proc.stderr.fileno()
+    deadline = time.monotonic() + 180  # a cold numba cache compiles the kernels first
+    while time.monotonic() < deadline:
+        if select.select([fd], [], [], 1.0)[0]:
+            chunk = os.read(fd, 1 << 16)
+            if not chunk:
+                break
+            err += chunk
+            if re.search(rb"\| *[1-9]\d*/1000000 \[", err):
+                return proc, err.decode(errors="replace")
+    proc.kill()
+    proc.wait()
+    raise AssertionError(f"the run showed no frames: {err.decode(errors='replace')[-2000:]}")
+
+
+def stop(proc, sig) -> tuple[int, str]:
+    """Send ``sig`` to a run and wait for it: (exit status, the rest of its stderr)."""
+    proc.send_signal(sig)
+    _, err = proc.communicate(timeout=120)
+    return proc.returncode, err.decode(errors="replace")
+
+
+def test_sigterm_during_a_run_keeps_its_frames(tmp_path):
+    import signal
+
+    from crowdmotion import Trajectories
+
+    out = tmp_path / "out"
+    proc, _ = start_long_run(tmp_path, out)
+    code, err = stop(proc, signal.SIGTERM)
+    assert code == 143, err
+    assert "SIGTERM" in err and "partial = true" in err and "Traceback" not in err, err
+    traj = Trajectories.load(out / "trajectories.parquet")
+    assert traj.n_frames > 10 and traj.metadata["partial"] is True
+    summary = json.loads((out / "summary.json").read_text())
+    assert summary["partial"] is True and summary["frames"] == traj.n_frames
+    manifest = json.loads((out / "manifest.json").read_text())
+    assert manifest["complete"] is True and manifest["partial"] is True
+    assert sorted(manifest["files"]) == ["summary.json", "trajectories.parquet"]
+    assert sorted(p.name for p in out.iterdir()) == ["manifest.json", "summary.json", "trajectories.parquet"]
+
+
+def test_the_exit_codes_are_documented_in_help_and_readme(capsys):
+    readme = (Path(__file__).parent.parent / "README.md").read_text()
+    for argv in (["--help"], ["run", "--help"]):
+        with pytest.raises(SystemExit):
+            main(argv)
+        text = capsys.readouterr().out
+        for code in ("0 ", "1 ", "2 ", "3 ", "130 ", "143 "):
+            assert f"\n  {code}" in text, (argv, code)
+            assert f"| {code.strip()} |" in readme, code
+        assert "SIGTERM" in text and "partial = true" in text

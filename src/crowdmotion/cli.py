@@ -124,29 +124,45 @@ def cmd_run(args) -> int:
     path = scenario_path(args.scenario)
     _begin_compiling(path, args.quiet)
     from crowdmotion import _precompile
-    from crowdmotion.outputs import prepare_output_folder, write_run
+    from crowdmotion.interrupts import Interrupts
+    from crowdmotion.outputs import MANIFEST, claim_output_folder, write_run
     from crowdmotion.render.background import PictureProcess
     from crowdmotion.scenario import load_scenario, run_scenario
 
+    stop = getattr(args, "interrupts", None) or Interrupts()
     sc = load_scenario(path)
-    out = prepare_output_folder(_output_folder(args, sc), args.overwrite)  # before, not after, the simulation
-    plots = sc.spec.output.plots if args.plots is None else args.plots
-    _precompile.start(sc.method)  # a cold cache: compiled on every core before the picture process takes one
-    pictures = PictureProcess.start() if plots else None  # imports matplotlib while this process simulates
-    try:
-        result = run_scenario(sc, seed=args.seed, progress=not args.quiet)
-        files = write_run(result, out, plots=plots, pictures=pictures)
-    finally:
-        if pictures is not None:
-            pictures.close()
+    # held from before, not after, the simulation until the files are written: a second run is refused
+    with claim_output_folder(_output_folder(args, sc), args.overwrite) as out:
+        plots = sc.spec.output.plots if args.plots is None else args.plots
+        _precompile.start(sc.method)  # a cold cache: compiled on every core before the picture process takes one
+        pictures = PictureProcess.start() if plots else None  # imports matplotlib while this process simulates
+        try:
+            with stop.simulating():
+                result = run_scenario(sc, seed=args.seed, progress=not args.quiet)
+            if result.summary["partial"] and stop.signum is not None:
+                print(f"crowdmotion: {stop.name}: stopped after {result.summary['frames']} frames; writing them "
+                      f"({stop.again()})", file=sys.stderr, flush=True)
+            with stop.writing():
+                files = write_run(result, out, plots=plots, pictures=pictures)
+        except KeyboardInterrupt:
+            print(f"crowdmotion: {stop.name or 'interrupted'}: stopped; no file of this run is left in {out}",
+                  file=sys.stderr)
+            return stop.exit_code or 130
+        finally:
+            if pictures is not None:
+                pictures.close()
     print(f"{sc.spec.name}: {_headline(result.summary)}")
     for f in files:
         print(f"  wrote {f}")
     s = result.summary
-    if s["partial"]:
-        print(f"crowdmotion: interrupted: kept the {s['frames']} frames simulated so far (summary.json says "
-              f"partial = true)", file=sys.stderr)
-        return 130
+    if s["partial"] or stop.signum is not None:
+        if s["partial"]:
+            print(f"crowdmotion: {stop.name or 'interrupted'}: kept the {s['frames']} frames simulated so far "
+                  f"(summary.json and {MANIFEST} say partial = true)", file=sys.stderr)
+        else:
+            print(f"crowdmotion: {stop.name}: the run had finished; its files were written whole first",
+                  file=sys.stderr)
+        return stop.exit_code or 130
     if (s["agent_agent_overlaps"] or s["agent_obstacle_penetrations"]) and not args.allow_collisions:
         print(f"crowdmotion: error: the run ends with {s['agent_agent_overlaps']} agent overlaps and "
               f"{s['agent_obstacle_penetrations']} obstacle penetrations (first: {s.get('first_events', [])[:1]}); "
@@ -158,7 +174,7 @@ def cmd_run(args) -> int:
 def cmd_demo(args) -> int:
     from crowdmotion import _precompile
     from crowdmotion.demo import DemoScene, run_one, run_parallel
-    from crowdmotion.outputs import check_output_folder, folder_inside
+    from crowdmotion.outputs import check_writable, folder_inside
     from crowdmotion.workers import default_jobs
 
     root = Path(args.output)
@@ -170,7 +186,7 @@ def cmd_demo(args) -> int:
                   f"(`crowdmotion scenarios` lists them)", file=sys.stderr)
             return 2
         scenes = [sc for sc in scenes if sc.name in args.only]
-    check_output_folder(root, overwrite=True)  # a file in the way or no write access: said once, before any scene
+    check_writable(root)  # a file in the way or no write access: said once, before any scene
     jobs = min(args.jobs or default_jobs(len(scenes)), len(scenes))
     if jobs > 1:
         print(f"running {len(scenes)} built-in scenes on {jobs} processes", flush=True)
@@ -280,6 +296,7 @@ def cmd_report(args) -> int:
     import json
 
     from crowdmotion.io.atomic import atomic_path
+    from crowdmotion.outputs import adding_to_run
 
     folder = Path(args.output)
     if (folder / "sweep.parquet").is_file():
@@ -288,8 +305,10 @@ def cmd_report(args) -> int:
     report = _run_report(path, traj)
     _print_report_table(report, lambda row, k, fmt: "-" if row[k] is None else fmt.format(row[k]))
     dest = path.parent / "report.json"
-    with atomic_path(dest) as tmp:
-        tmp.write_text(json.dumps(report, indent=2))
+    with adding_to_run(dest.parent) as add:  # listed with the run's files: run --overwrite removes it too
+        with atomic_path(dest) as tmp:
+            tmp.write_text(json.dumps(report, indent=2))
+        add(dest)
     print(f"wrote {dest}")
     return 0
 
@@ -346,13 +365,19 @@ EXPORT_FORMATS = {"parquet": ".parquet", "csv": ".csv", "sqlite": ".sqlite", "ju
 
 
 def cmd_export(args) -> int:
+    from crowdmotion.io.csv import sidecar
+    from crowdmotion.outputs import adding_to_run
 
     src, traj = _load_run(args.output)
     folder = src.parent
     dest = Path(args.dest) if args.dest else folder / f"trajectories{EXPORT_FORMATS[args.to]}"
     if args.fps is not None:
         traj = _at_fps(traj, args.fps)
-    traj.save(dest)
+    with adding_to_run(dest.parent) as add:  # into a run's folder: listed with its files
+        traj.save(dest)
+        add(dest)
+        if dest.suffix.lower() == ".csv":
+            add(sidecar(dest))
     print(f"wrote {dest} ({traj.n_agents} agents, {traj.n_frames} frames at {traj.fps:g} fps)")
     return 0
 
@@ -369,28 +394,35 @@ def _at_fps(traj, fps: float):
 
 
 def cmd_render(args) -> int:
+    from crowdmotion.outputs import adding_to_run
     from crowdmotion.render import plot_paths
     from crowdmotion.render.animation import animate, plot_density, scene_of
 
     src, traj = _load_run(args.output)
     folder = src.parent
-    written = [animate(traj, folder / f"animation.{args.to}", fps=args.fps, trail_s=args.trail,
-                       max_frames=args.max_frames, progress=not args.quiet),
-               plot_density(traj, folder / "density.png", cell=args.cell)]
-    scene = scene_of(traj)
-    if scene is not None:
-        written.append(plot_paths(traj, scene, folder / "paths.png"))
+    with adding_to_run(folder) as add:  # a run's folder: listed with its files
+        written = [animate(traj, folder / f"animation.{args.to}", fps=args.fps, trail_s=args.trail,
+                           max_frames=args.max_frames, progress=not args.quiet)]
+        add(written[-1])
+        written.append(plot_density(traj, folder / "density.png", cell=args.cell))
+        add(written[-1])
+        scene = scene_of(traj)
+        if scene is not None:
+            written.append(plot_paths(traj, scene, folder / "paths.png"))
+            add(written[-1])
     for f in written:
         print(f"wrote {f}")
     return 0
 
 
 def cmd_view(args) -> int:
+    from crowdmotion.outputs import adding_to_run
     from crowdmotion.render.player import write_player
 
     src, traj = _load_run(args.output)
     dest = Path(args.dest) if args.dest else src.parent / "view.html"
-    write_player(traj, dest, max_frames=args.max_frames)
+    with adding_to_run(dest.parent) as add:  # into a run's folder: listed with its files
+        add(write_player(traj, dest, max_frames=args.max_frames))
     print(f"wrote {dest}: open it in a browser (one self-contained file, works offline)")
     return 0
 
@@ -478,29 +510,57 @@ def cmd_list(args) -> int:
 
 
 def main(argv=None) -> int:
+    from crowdmotion.interrupts import Interrupts
+
     args = build_parser().parse_args(argv)
     warnings.showwarning = _one_line_warning
-    try:
-        return args.func(args)
-    except (ValueError, FileNotFoundError, MemoryError, OSError) as exc:
-        print(f"crowdmotion: error: {exc}", file=sys.stderr)
-        return 2
-    except KeyboardInterrupt:
-        print("crowdmotion: interrupted", file=sys.stderr)
-        return 130
+    with Interrupts() as stop:  # SIGTERM as Ctrl-C, for this command only
+        args.interrupts = stop
+        try:
+            return args.func(args)
+        except (ValueError, FileNotFoundError, MemoryError, OSError) as exc:
+            print(f"crowdmotion: error: {exc}", file=sys.stderr)
+            return 2
+        except KeyboardInterrupt:
+            print(f"crowdmotion: interrupted{f' ({stop.name})' if stop.name else ''}", file=sys.stderr)
+            return stop.exit_code or 130
+
+
+EXIT_STATUS = """\
+exit status:
+  0    done
+  1    demo: a scene failed; verify: a case failed its criterion
+  2    refused or failed, with a message naming what: a bad argument, scenario or
+       trajectory file; an output folder in use by another run, holding an earlier run
+       (without --overwrite) or files no run listed; a file that could not be read or
+       written (a full disk: none of the run's files are kept)
+  3    run: the run ends with agent overlaps or obstacle penetrations (its files are
+       written; --allow-collisions exits 0)
+  130  stopped by Ctrl-C; run: the frames simulated so far are written, marked
+       partial = true (while the files are written, a first Ctrl-C lets the writing
+       finish, a second stops it and keeps none of the run's files)
+  143  stopped by SIGTERM (timeout, kill, a batch scheduler), as by Ctrl-C
+"""
 
 
 def build_parser() -> argparse.ArgumentParser:
     """The command line: one subcommand per job, every argument with its help."""
-    parser = argparse.ArgumentParser(prog="crowdmotion", description="Collision-free crowd and group motion.")
+    parser = argparse.ArgumentParser(prog="crowdmotion", description="Collision-free crowd and group motion.",
+                                     epilog=EXIT_STATUS, formatter_class=argparse.RawDescriptionHelpFormatter)
     parser.add_argument("--version", action="version", version=f"crowdmotion {__version__}")
     sub = parser.add_subparsers(dest="command", required=True)
 
-    p = sub.add_parser("run", help="run a scenario file and write its outputs")
+    p = sub.add_parser("run", help="run a scenario file and write its outputs",
+                       description="Run a scenario and write its trajectories, summary.json and pictures into "
+                                   "an output folder, which the run holds alone while it lasts; manifest.json "
+                                   "lists the files it wrote (--overwrite removes those and nothing else).",
+                       epilog=EXIT_STATUS, formatter_class=argparse.RawDescriptionHelpFormatter)
     p.add_argument("scenario", help="a scenario TOML file, or the name of a built-in scene (see `scenarios`)")
     p.add_argument("-o", "--output", help="output folder (default ./out/<scenario name>)")
     p.add_argument("--overwrite", action="store_true",
-                   help="replace an earlier run's files in the output folder (default: refuse)")
+                   help="replace an earlier run in the output folder: remove the files its manifest.json lists, "
+                        "and nothing else (default: refuse; a folder holding files no run listed is refused "
+                        "either way)")
     p.add_argument("--allow-collisions", action="store_true",
                    help="exit 0 even if the audit finds overlaps or penetrations (default: exit 3)")
     p.add_argument("--seed", type=int, help="override the scenario's seed")

@@ -67,16 +67,16 @@ def interleave(scenes: list) -> list:
 
 def run_one(path: str, out: str, progress: bool = False) -> SceneDone:
     """Run one scenario file and write everything it asks for into folder ``out``
-    (made ready, an earlier demo's files replaced)."""
+    (held while the scene runs, an earlier demo's files replaced)."""
     from crowdmotion.cli import _headline
-    from crowdmotion.outputs import prepare_output_folder, write_run
+    from crowdmotion.outputs import claim_output_folder, write_run
     from crowdmotion.scenario import load_scenario, run_scenario
 
     t0 = time.perf_counter()
     sc = load_scenario(path)
-    folder = prepare_output_folder(out, overwrite=True)  # the demo's own folders
-    result = run_scenario(sc, progress=progress)
-    write_run(result, folder)
+    with claim_output_folder(out, overwrite=True) as folder:  # the demo's own folders
+        result = run_scenario(sc, progress=progress)
+        write_run(result, folder)
     return SceneDone(sc.spec.name, _headline(result.summary), time.perf_counter() - t0)
 
 

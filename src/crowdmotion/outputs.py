@@ -1,27 +1,40 @@
 """Write a run's files: trajectories in the requested formats, summary.json, figures and
-the HTML player."""
+the HTML player, into an output folder the run holds alone (a lock) and that lists the
+files it wrote (manifest.json), so that ``--overwrite`` removes those and nothing else."""
 
 from __future__ import annotations
 
 import json
 import os
-import tempfile
+from contextlib import contextmanager
 from pathlib import Path
+from typing import Callable, Iterator
 
+try:
+    import fcntl
+except ImportError:  # pragma: no cover - Windows: no folder lock
+    fcntl = None
+
+from crowdmotion import __version__
 from crowdmotion._precompile import cores
-from crowdmotion.io.atomic import atomic_path
+from crowdmotion.io.atomic import TEMP_NAME, WriteError, atomic_path, remove_stale_temps
 from crowdmotion.registry import get_method
-
 
 # what ``crowdmotion run`` and the commands that read a run folder write into it
 RUN_FILES = ("trajectories.parquet", "trajectories.csv", "trajectories.csv.meta.json", "trajectories.sqlite",
              "trajectories.usdc", "trajectories.usda", "summary.json", "report.json", "paths.png", "values.png",
              "snapshots.png", "field.png", "density.png", "formation.gif", "animation.mp4", "animation.gif",
              "view.html")
+MANIFEST = "manifest.json"  # the files a run wrote, and whether it finished writing them
+LOCK = ".crowdmotion.lock"  # held (flock) by the run writing into the folder
+# the picture files each name in [output] plots may give, whatever the method
+PICTURE_FILES = {"paths": ("paths.png",), "values": ("values.png", "field.png"),
+                 "snapshots": ("snapshots.png", "formation.gif"), "player": ("view.html",)}
 
 
 class OutputFolderError(ValueError):
-    """An output folder a run cannot use: not writable, or holding an earlier run."""
+    """An output folder a run cannot use: not writable, in use by another run, holding an
+    earlier run, or holding files no run listed."""
 
 
 def folder_inside(root, name: str) -> Path:
@@ -40,17 +53,102 @@ def folder_inside(root, name: str) -> Path:
     return folder
 
 
-def check_output_folder(out, overwrite: bool = False) -> list[Path]:
-    """Refuse a folder ``run`` could not write, or one holding an earlier run's files
-    (unless ``overwrite``); creates nothing. Returns the earlier run's files found."""
+def _plain_name(name) -> bool:
+    """A file name a manifest may list: one name inside its folder, nothing above or below."""
+    return (isinstance(name, str) and name not in ("", ".", "..", MANIFEST) and "/" not in name
+            and "\\" not in name and "\x00" not in name)
+
+
+def read_manifest(folder) -> dict | None:
+    """The manifest of the run in ``folder`` (``files``: the names it wrote; ``complete``:
+    whether it finished writing them; ``partial``: stopped early), or None where the folder
+    has none. A manifest that cannot be read is refused, naming it."""
+    path = Path(folder) / MANIFEST
+    if not os.path.lexists(path):
+        return None
+    try:
+        data = json.loads(path.read_text(encoding="utf-8"))
+        if not isinstance(data, dict) or not isinstance(data.get("files"), list):
+            raise ValueError("it lists no files")
+        if not all(_plain_name(n) for n in data["files"]):
+            raise ValueError("it lists a name outside its folder")
+    except (OSError, UnicodeDecodeError, ValueError) as exc:
+        reason = exc.strerror if isinstance(exc, OSError) and exc.strerror else str(exc)
+        raise OutputFolderError(f"{path} is not a crowdmotion run manifest ({reason}): remove the folder's files "
+                                f"yourself, or choose another folder with -o") from None
+    return data
+
+
+def _own(name: str) -> bool:
+    """Whether a name in an output folder is crowdmotion's own bookkeeping rather than a
+    file of a run: the lock, and temporary files of writes (or probes) that never finished."""
+    return name == LOCK or bool(TEMP_NAME.match(name)) or name.startswith(".crowdmotion-probe-")
+
+
+def _names(paths: list[Path], most: int = 4) -> str:
+    return ", ".join(p.name for p in paths[:most]) + (", ..." if len(paths) > most else "")
+
+
+def _earlier_run(out: Path, overwrite: bool) -> list[Path]:
+    """The files ``--overwrite`` removes from folder ``out`` (those its manifest lists, the
+    manifest last), or a refusal: an earlier run without ``overwrite``, files without a
+    manifest in any case."""
+    manifest = read_manifest(out)
+    if manifest is None:
+        strangers = sorted(out / e.name for e in os.scandir(out) if not _own(e.name))
+        if strangers:
+            raise OutputFolderError(f"output folder {out} holds files no crowdmotion run listed ({_names(strangers)}; "
+                                    f"no {MANIFEST}): --overwrite removes only the files an earlier run's "
+                                    f"{MANIFEST} lists; empty the folder yourself, or choose another folder with -o")
+        return []
+    listed = [out / n for n in dict.fromkeys(manifest["files"]) if os.path.lexists(out / n)] + [out / MANIFEST]
+    if not overwrite:
+        what = "an earlier run" if manifest.get("complete") else "an earlier run that did not finish writing"
+        raise OutputFolderError(f"output folder {out} holds {what} ({_names(listed)}): pass --overwrite to replace "
+                                f"it (only the files its {MANIFEST} lists are removed), or choose another folder "
+                                f"with -o")
+    return listed
+
+
+def _holder(out: Path) -> str:
+    """' (process N)' for the run holding folder ``out``, as its lock file says, or ''."""
+    try:
+        pid = int((out / LOCK).read_text().strip())
+    except (OSError, ValueError):
+        return ""
+    return f" (process {pid})"
+
+
+def _busy_error(out: Path) -> OutputFolderError:
+    return OutputFolderError(f"output folder {out} is in use by another crowdmotion run{_holder(out)}: wait for it "
+                             f"to finish, or choose another folder with -o")
+
+
+def _busy(out: Path) -> bool:
+    """Whether another process holds the lock of folder ``out`` (probed, not taken)."""
+    if fcntl is None:
+        return False
+    try:
+        fd = os.open(out / LOCK, os.O_RDONLY | os.O_CLOEXEC)
+    except OSError:
+        return False
+    try:
+        fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
+        fcntl.flock(fd, fcntl.LOCK_UN)
+        return False
+    except BlockingIOError:
+        return True
+    except OSError:  # a file system without locks
+        return False
+    finally:
+        os.close(fd)
+
+
+def check_writable(out) -> None:
+    """Refuse a folder ``out`` that is a file, or that could not be made or written; creates nothing."""
     out = Path(out)
     if out.exists() and not out.is_dir():
         raise OutputFolderError(f"output folder {out} is a file, not a folder")
-    old = [out / n for n in RUN_FILES if (out / n).exists()]
-    if old and not overwrite:
-        names = ", ".join(p.name for p in old[:4]) + (", ..." if len(old) > 4 else "")
-        raise OutputFolderError(f"output folder {out} holds an earlier run ({names}): pass --overwrite to replace "
-                                f"it, or choose another folder with -o")
     probe = out
     while not probe.exists():
         probe = probe.parent
@@ -58,23 +156,201 @@ def check_output_folder(out, overwrite: bool = False) -> list[Path]:
         raise OutputFolderError(f"cannot make output folder {out}: {probe} is a file")
     if not os.access(probe, os.W_OK | os.X_OK):
         raise OutputFolderError(f"cannot write to output folder {out}: {probe} is not writable")
-    return old
 
 
-def prepare_output_folder(out, overwrite: bool = False) -> Path:
-    """Make ``out`` ready for one run before simulating: checked, created, probed with a
-    real write, and cleared of an earlier run's files when ``overwrite``."""
+def check_output_folder(out, overwrite: bool = False) -> list[Path]:
+    """Refuse a folder ``run`` could not write, one another run is writing into, one holding
+    an earlier run's files (unless ``overwrite``) and one holding files no run's manifest
+    lists; creates nothing. Returns the files ``overwrite`` would remove."""
     out = Path(out)
-    old = check_output_folder(out, overwrite)
+    check_writable(out)
+    if not out.is_dir():
+        return []
+    if _busy(out):
+        raise _busy_error(out)
+    return _earlier_run(out, overwrite)
+
+
+def _lock(out: Path) -> int | None:
+    """Take the lock of folder ``out`` (its lock file, made if missing, holding this
+    process's id); the open file, or None where the file system has no locks. A lock
+    another process holds is refused; one whose file its last holder removed meanwhile is
+    taken afresh."""
+    if fcntl is None:
+        return None
+    path = out / LOCK
+    for _ in range(100):
+        try:
+            fd = os.open(path, os.O_RDWR | os.O_CREAT | os.O_CLOEXEC, 0o666)
+        except FileNotFoundError:  # the folder went with the run that held it: made again
+            out.mkdir(parents=True, exist_ok=True)
+            continue
+        except OSError as exc:
+            raise OutputFolderError(f"cannot write to output folder {out}: {exc.strerror or exc}") from None
+        try:
+            fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
+        except BlockingIOError:
+            os.close(fd)
+            raise _busy_error(out) from None
+        except OSError:  # a file system without locks: the run goes on unlocked
+            os.close(fd)
+            return None
+        try:
+            same = os.path.samestat(os.fstat(fd), os.stat(path))
+        except FileNotFoundError:
+            same = False
+        if same:
+            os.ftruncate(fd, 0)
+            os.write(fd, f"{os.getpid()}\n".encode())
+            return fd
+        os.close(fd)  # the holder removed this file as it let go: take the new one
+    raise _busy_error(out)
+
+
+def _unlock(out: Path, fd: int | None) -> None:
+    """Let go of the lock taken by :func:`_lock` (for every process that shares it, such
+    as a forked child still alive), removing its file first."""
+    if fd is None:
+        return
+    try:
+        os.unlink(out / LOCK)
+    except OSError:
+        pass
+    try:
+        fcntl.flock(fd, fcntl.LOCK_UN)
+    finally:
+        os.close(fd)
+
+
+class RunFolder(os.PathLike):
+    """An output folder held by one run from before it simulates until its files are
+    written: locked against other runs, cleared of the earlier run's files. Use it as a
+    path; :meth:`release` (or the end of its ``with`` block) lets it go, removing the
+    folder again if it made it and nothing was written."""
+
+    def __init__(self, path: Path, fd: int | None, created: bool):
+        self.path = path
+        self._fd = fd
+        self._created = created
+
+    def __fspath__(self) -> str:
+        return os.fspath(self.path)
+
+    def __repr__(self) -> str:
+        return f"RunFolder({str(self.path)!r})"
+
+    def __str__(self) -> str:
+        return str(self.path)
+
+    def __enter__(self) -> RunFolder:
+        return self
+
+    def __exit__(self, *exc) -> None:
+        self.release()
+
+    def release(self) -> None:
+        fd, self._fd = self._fd, None
+        if fd is None and not self._created:
+            return
+        _unlock(self.path, fd)
+        if self._created:
+            self._created = False
+            try:
+                self.path.rmdir()  # only if empty: a run stopped before writing leaves nothing
+            except OSError:
+                pass
+
+
+def claim_output_folder(out, overwrite: bool = False) -> RunFolder:
+    """Make ``out`` ready for one run before simulating, and hold it: checked (as
+    :func:`check_output_folder`), created, locked (a second run into it is refused while
+    this one lasts), checked again under the lock, cleared of temporary files that writes
+    killed outright left and, with ``overwrite``, of the files the earlier run's manifest
+    lists (nothing else). Returns the held :class:`RunFolder`."""
+    out = Path(out)
+    check_output_folder(out, overwrite)  # refused before anything is made
+    created = not out.exists()
     try:
         out.mkdir(parents=True, exist_ok=True)
-        with tempfile.NamedTemporaryFile(dir=out, prefix=".crowdmotion-probe-"):
-            pass
     except OSError as exc:
-        raise OutputFolderError(f"cannot write to output folder {out}: {exc.strerror or exc}") from None
-    for f in old:
-        f.unlink()
-    return out
+        raise OutputFolderError(f"cannot make output folder {out}: {exc.strerror or exc}") from None
+    folder = RunFolder(out, None, created)
+    try:
+        folder._fd = _lock(out)
+        old = _earlier_run(out, overwrite)  # again, now that no other run can write here
+        remove_stale_temps(out)
+        for probe in out.glob(".crowdmotion-probe-*"):  # an earlier version's write probe, left by a killed run
+            probe.unlink(missing_ok=True)
+        for f in old:  # the manifest last: a removal cut short is finished by the next --overwrite
+            try:
+                f.unlink()
+            except FileNotFoundError:
+                pass
+            except OSError as exc:
+                raise OutputFolderError(f"cannot remove {f} of the earlier run: {exc.strerror or exc}") from None
+    except BaseException:
+        folder.release()
+        raise
+    return folder
+
+
+def _write_manifest(out: Path, files: list[str], complete: bool, partial: bool) -> None:
+    with atomic_path(out / MANIFEST) as tmp:
+        tmp.write_text(json.dumps({"crowdmotion": __version__, "complete": complete, "partial": partial,
+                                   "files": list(dict.fromkeys(files))}, indent=2) + "\n")
+
+
+@contextmanager
+def adding_to_run(folder) -> Iterator[Callable[[Path], None]]:
+    """For a command that writes into a run's folder afterwards (report.json, an export, a
+    video): while ``folder`` holds a run (its manifest), hold its lock (refused while a run
+    writes there) and list each file given to the yielded ``add(path)`` in the manifest,
+    so that ``run --overwrite`` removes it with the rest. Elsewhere ``add`` does nothing."""
+    folder = Path(folder)
+    manifest = read_manifest(folder) if folder.is_dir() else None
+    if manifest is None:
+        yield lambda path: None
+        return
+    fd = _lock(folder)  # refused while a run writes there
+    added: list[str] = []
+
+    def add(path) -> None:
+        path = Path(path)
+        if path.parent.resolve() == folder.resolve() and _plain_name(path.name):
+            added.append(path.name)
+
+    try:
+        manifest = read_manifest(folder)  # as it is now that the folder is held
+        yield add
+    finally:  # what was written is listed even if a later file failed
+        try:
+            if added and manifest is not None:
+                _write_manifest(folder, manifest["files"] + added, bool(manifest.get("complete")),
+                                bool(manifest.get("partial")))
+        finally:
+            _unlock(folder, fd)
+
+
+def run_files(formats, plots) -> list[str]:
+    """The names a run writing trajectories in ``formats`` and the pictures ``plots`` may
+    leave in its folder (more pictures than a method draws: what it might)."""
+    names = []
+    for fmt in formats:
+        names.append(f"trajectories.{fmt}")
+        if fmt == "csv":
+            names.append("trajectories.csv.meta.json")
+    names.append("summary.json")
+    names += [f for p in plots for f in PICTURE_FILES.get(p, ())]
+    return names
+
+
+def _remove(out: Path, names: list[str]) -> None:
+    """Remove what there is of ``names`` in ``out`` (the manifest last), as far as possible."""
+    for name in sorted(dict.fromkeys(names), key=lambda n: n == MANIFEST):
+        try:
+            (out / name).unlink()
+        except OSError:
+            pass
 
 
 def write_run(result, out, plots=None, pictures=None) -> list[Path]:
@@ -82,22 +358,43 @@ def write_run(result, out, plots=None, pictures=None) -> list[Path]:
     ``plots`` (names as in [output] plots) replaces the scenario's own list.
     ``pictures``: a started :class:`~crowdmotion.render.background.PictureProcess` that
     draws the pictures, in parts side by side, while this process writes the
-    trajectories and summary.json."""
+    trajectories and summary.json.
+
+    The folder's manifest.json lists the files before the first is written and says when
+    all are: a run is left whole, or (an error, a full disk, a second Ctrl-C) with none
+    of its files; a process killed outright leaves a manifest that says it did not
+    finish, which ``--overwrite`` clears. A run stopped early is whole too, its frames so
+    far marked ``partial`` in summary.json, the trajectories and the manifest."""
     out = Path(out)
     out.mkdir(parents=True, exist_ok=True)
     spec = result.scenario.spec
     plots = spec.output.plots if plots is None else list(plots)
+    partial = bool(result.summary.get("partial", False))
+    planned = run_files(spec.output.formats, plots)
     run = (spec.method, result.scenario.scene, result.extras, result.trajectories, out)
     pictures = pictures if plots else None  # nothing to draw: no job for it
-    if pictures is not None:
-        split = getattr(get_method(spec.method).module, "PICTURE_PARTS", None)
-        pictures.submit(draw_pictures, [(*run, part, spec.name) for part in picture_parts(plots, cores(), split)])
-    written = [result.trajectories.save(out / f"trajectories.{fmt}") for fmt in spec.output.formats]
-    summary = {"scenario": spec.name, "seed": result.seed, **result.summary}
-    with atomic_path(out / "summary.json") as tmp:
-        tmp.write_text(json.dumps(summary, indent=2, default=str))
-    written.append(out / "summary.json")
-    drawn = pictures.result() if pictures is not None else draw_pictures(*run, plots, spec.name)
+    drawn: list[Path] = []
+    _write_manifest(out, planned, complete=False, partial=partial)  # first: what a killed run leaves is listed
+    try:
+        if pictures is not None:
+            split = getattr(get_method(spec.method).module, "PICTURE_PARTS", None)
+            pictures.submit(draw_pictures, [(*run, part, spec.name) for part in picture_parts(plots, cores(), split)])
+        written = [result.trajectories.save(out / f"trajectories.{fmt}") for fmt in spec.output.formats]
+        summary = {"scenario": spec.name, "seed": result.seed, **result.summary}
+        with atomic_path(out / "summary.json") as tmp:
+            tmp.write_text(json.dumps(summary, indent=2, default=str))
+        written.append(out / "summary.json")
+        drawn = pictures.result() if pictures is not None else draw_pictures(*run, plots, spec.name)
+        names = [p.name for p in written + drawn] + [n for n in planned if n.endswith(".meta.json")]
+        _write_manifest(out, [n for n in dict.fromkeys(names) if os.path.lexists(out / n)], complete=True,
+                        partial=partial)
+    except BaseException as exc:
+        if pictures is not None:
+            pictures.close()  # stopped (its write in progress removed) before the files go
+        _remove(out, planned + [p.name for p in drawn] + [MANIFEST])
+        if isinstance(exc, OSError):
+            raise WriteError(exc.errno, f"{exc}; none of the run's files were kept in {out}") from exc
+        raise
     return written + sorted(drawn, key=lambda p: RUN_FILES.index(p.name) if p.name in RUN_FILES else len(RUN_FILES))
 
 

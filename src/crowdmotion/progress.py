@@ -37,10 +37,26 @@ class StepBar:
         self.done(self.bar.n + k)
 
 
+# step loops (a method's run inside its step bar) under way and finished in this process
+_LOOPS = {"open": 0, "finished": 0}
+
+
+def step_loops() -> tuple[int, int]:
+    """(step loops under way, step loops finished) in this process: the command tells from
+    them whether a Ctrl-C stops a loop (which keeps its frames so far) or comes after one."""
+    return _LOOPS["open"], _LOOPS["finished"]
+
+
 @contextmanager
 def step_bar(total: int | None, desc: str, enabled: bool = True, unit: str = "step", file=None) -> Iterator[StepBar]:
     """A bar of ``total`` steps (shown after a second; on ``file``, default stderr) that
-    says it is loading its kernels until the first step is reported."""
-    with tqdm(total=total, desc=desc, unit=unit, disable=not enabled, delay=1.0, leave=False, file=file) as bar:
-        bar.set_postfix_str(FIRST, refresh=False)
-        yield StepBar(bar)
+    says it is loading its kernels until the first step is reported. The method's step
+    loop runs inside it (counted by :func:`step_loops`)."""
+    _LOOPS["open"] += 1
+    try:
+        with tqdm(total=total, desc=desc, unit=unit, disable=not enabled, delay=1.0, leave=False, file=file) as bar:
+            bar.set_postfix_str(FIRST, refresh=False)
+            yield StepBar(bar)
+    finally:
+        _LOOPS["open"] -= 1
+        _LOOPS["finished"] += 1

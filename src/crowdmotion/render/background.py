@@ -127,6 +127,7 @@ class PictureProcess:
         self._sender: threading.Thread | None = None
         self._send_error: BaseException | None = None
         self._done = False
+        self._closed = False
 
     @classmethod
     def start(cls) -> PictureProcess | None:
@@ -192,7 +193,11 @@ class PictureProcess:
 
     def close(self) -> None:
         """Let the child go and reap it: it leaves on the closed pipe, or, still
-        drawing (the parent was interrupted), on SIGTERM, removing a half-written file."""
+        drawing (the parent was interrupted), on SIGTERM, removing a half-written file.
+        Once only: a later call does nothing (the child's id may be another process's by then)."""
+        if self._closed:
+            return
+        self._closed = True
         self._conn.close()
         if not self._done:
             stop_children([self.pid], signal.SIGTERM)
