@@ -84,9 +84,30 @@ def test_export_to_every_format_and_bad_requests(tmp_path, capsys):
                       ("csv", "trajectories.csv")]:
         assert main(["export", str(out), "--to", fmt]) == 0, fmt
         back = Trajectories.load(out / name)
+        if fmt.startswith("usd"):  # a DCC plays 24 fps: the B-spline of the run's frames
+            assert back.fps == 24.0 and original.fps < 24.0
+            at_frames = np.round(original.times * 24).astype(int)
+            off = np.linalg.norm(back.positions[at_frames] - original.positions, axis=-1)
+            # the spline passes a sixth of the second difference from a run's frame; the
+            # nearest 24 fps frame is up to 1/48 s away from it
+            P = original.positions
+            bend = np.linalg.norm(P[:-2] - 2 * P[1:-1] + P[2:], axis=-1) / 6
+            fastest = np.linalg.norm(np.diff(P, axis=0), axis=-1).max() / original.dt
+            assert (off[1:-1] <= bend + fastest / 48).all() and off.max() > 0
+            np.testing.assert_allclose(back.positions[0], original.positions[0], atol=1e-5)  # starts where it starts
+            continue
         np.testing.assert_allclose(back.positions, original.positions, atol=1e-5)
         assert back.dt == original.dt or abs(back.dt - original.dt) < 1e-12
     assert "wrote" in capsys.readouterr().out
+    # asked for: the run's own frames in USD too, or straight moves at 24 fps
+    assert main(["export", str(out), "--to", "usda", "--fps", str(original.fps), "-o", str(tmp_path / "own.usda")]) == 0
+    np.testing.assert_allclose(Trajectories.load(tmp_path / "own.usda").positions, original.positions, atol=1e-5)
+    assert main(["export", str(out), "--to", "csv", "--fps", "24", "--interpolation", "linear",
+                 "-o", str(tmp_path / "lin.csv")]) == 0
+    lin = Trajectories.load(tmp_path / "lin.csv")
+    want = np.stack([[np.interp(lin.times, original.times, original.positions[:, i, k]) for k in range(2)]
+                     for i in range(original.n_agents)]).transpose(2, 0, 1)  # on the straight moves
+    np.testing.assert_allclose(lin.positions, want, atol=1e-5)
     assert main(["export", str(tmp_path / "nowhere"), "--to", "usd"]) == 2
     assert "no run folder" in capsys.readouterr().err
     (tmp_path / "broken.parquet").write_bytes(b"garbage")

@@ -360,6 +360,8 @@ def _sweep_report(folder: Path) -> int:
     return 0
 
 
+USD_FORMATS = ("usd", "usda", "usdc")
+USD_FPS = 24.0
 EXPORT_FORMATS = {"parquet": ".parquet", "csv": ".csv", "sqlite": ".sqlite", "jupedsim": ".sqlite",
                   "usd": ".usdc", "usda": ".usda", "usdc": ".usdc"}
 
@@ -371,8 +373,11 @@ def cmd_export(args) -> int:
     src, traj = _load_run(args.output)
     folder = src.parent
     dest = Path(args.dest) if args.dest else folder / f"trajectories{EXPORT_FORMATS[args.to]}"
-    if args.fps is not None:
-        traj = _at_fps(traj, args.fps)
+    fps = args.fps
+    if fps is None and args.to in USD_FORMATS and traj.fps < USD_FPS:  # a DCC plays 24 frames a second
+        fps = USD_FPS
+    if fps is not None and abs(fps * traj.dt - 1.0) > 1e-9:  # the run's own rate keeps its frames
+        traj = _at_fps(traj, fps, args.interpolation)
     with adding_to_run(dest.parent) as add:  # into a run's folder: listed with its files
         traj.save(dest)
         add(dest)
@@ -382,15 +387,19 @@ def cmd_export(args) -> int:
     return 0
 
 
-def _at_fps(traj, fps: float):
-    """The run resampled to ``fps`` by straight moves between its frames, re-audited
-    against the run's scene (a warning says if the new frames make bodies overlap)."""
+def _at_fps(traj, fps: float, interpolation: str = "b-spline"):
+    """The run resampled to ``fps`` (along the B-spline of its frames, by default),
+    re-audited against the run's scene: steps where the spline would bring bodies
+    together or past their max speed keep straight moves (a warning says how many)."""
+    import numpy as np
+
     from crowdmotion.render.animation import scene_of
     from crowdmotion.smoothing import resample_checked
 
     if not (fps > 0 and math.isfinite(fps)):
         raise ValueError(f"--fps must be a positive number of frames per second, got {fps!r}")
-    return resample_checked(traj, float(fps), "linear", scene_of(traj))
+    return resample_checked(traj, float(fps), interpolation, scene_of(traj),
+                            max_speed=np.zeros(traj.n_agents))  # never faster than its own fastest step
 
 
 def cmd_render(args) -> int:
@@ -613,7 +622,12 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--to", required=True, choices=sorted(EXPORT_FORMATS),
                    help="sqlite/jupedsim: JuPedSim v2 (PedPy reads it); usd/usdc: binary USD; usda: text USD")
     p.add_argument("-o", "--dest", help="file to write (default: trajectories.<ext> beside the input)")
-    p.add_argument("--fps", type=float, help="resample to this frame rate first (e.g. 24 for Blender's default)")
+    p.add_argument("--fps", type=float, help="resample to this frame rate first (e.g. 24 for Blender's default; "
+                                             "USD is written at 24 fps unless the run has more frames a second)")
+    p.add_argument("--interpolation", choices=("b-spline", "catmull-rom", "linear"), default="b-spline",
+                   help="how frames between the run's steps are made: b-spline (default: smooth root motion, "
+                        "continuous acceleration), catmull-rom (through every step's position) or linear "
+                        "(straight moves); splines are re-checked for collisions")
     p.set_defaults(func=cmd_export)
 
     p = sub.add_parser("render", help="animation (MP4/GIF), density map and paths of a run")

@@ -231,8 +231,9 @@ ROOT_MAX_AGENTS = 400    # agents sampled (evenly by index) to keep the measure 
 
 def root_motion(traj: Trajectories, fps: float = ROOT_FPS) -> dict:
     """How smooth the root motion is that a character bound to these paths would play:
-    the run resampled to ``fps`` by straight moves (as ``export --fps`` and the USD play
-    it), then, by central differences over the frames where an agent is active and moving
+    the run resampled to ``fps`` along the cubic B-spline of its frames, as ``export
+    --fps`` and the USD export give it (their collision check may turn a few steps back
+    into straight moves; they count them), then, by central differences over the frames where an agent is active and moving
     faster than 0.3 m/s, the 95th percentile (and maximum) of its acceleration (m/s²), of
     its turn rate (rad/s, the heading change of its velocity) and of its distance from
     its own 1 s moving average (m: the wobble a walk cycle would show). At most 400 agents,
@@ -242,7 +243,7 @@ def root_motion(traj: Trajectories, fps: float = ROOT_FPS) -> dict:
     pick = np.unique(np.linspace(0, traj.n_agents - 1, min(traj.n_agents, ROOT_MAX_AGENTS)).astype(int))
     sub = Trajectories(traj.positions[:, pick], traj.dt, radius=traj.radius[pick],
                        active=None if traj.active is None else traj.active[:, pick])
-    tr = resample(sub, fps) if abs(traj.dt * fps - 1.0) > 1e-9 else sub
+    tr = resample(sub, fps, "b-spline") if abs(traj.dt * fps - 1.0) > 1e-9 else sub
     p, act, h = tr.positions, tr.active_mask, tr.dt
     if len(p) < 3:
         return {}

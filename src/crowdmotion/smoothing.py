@@ -23,9 +23,10 @@ def resample_checked(traj: Trajectories, fps: float, kind: str, scene: Scene | N
     if that makes bodies overlap. A spline
     rounds corners and can bring two bodies together, or overshoot past ``max_speed`` (a
     per-agent (N,) array). Every step of an agent's path (a segment between two input
-    frames) where that happens falls back to the straight move — both pass through the
-    input positions, so the path stays continuous — and the audit runs again until it is
-    as clean as the straight moves. The metadata say how many segments fell back
+    frames) where that happens falls back to the straight move, and the steps on either
+    side ease from the spline into it and back (a cubic blend with level ends, so the path
+    keeps its tangent even where the spline does not pass through the frames); the audit
+    runs again until it is as clean as the straight moves. The metadata say how many segments fell back
     (``resampled.straight_segments`` of ``resampled.segments``); a warning says so too.
     """
     linear = resample(traj, fps, "linear")
@@ -51,8 +52,15 @@ def resample_checked(traj: Trajectories, fps: float, kind: str, scene: Scene | N
         straight[seg[f], i] = straight[seg[f + 1], i] = True
     base = collision_audit(linear, scene)
 
+    u = np.clip(smooth.times / traj.dt - seg, 0.0, 1.0)[:, None]
+    ease = u * u * (3.0 - 2.0 * u)  # 0 -> 1 with level ends: the blend keeps the path's tangent
+    before = np.maximum(seg - 1, 0)
+    after = np.minimum(seg + 1, traj.n_frames - 2)
+
     def mixed() -> Trajectories:
-        pos = np.where(straight[seg][:, :, None], linear.positions, smooth.positions)
+        # straight on a flagged step, easing back to the spline over the steps beside it
+        w = np.maximum.reduce([straight[seg].astype(float), straight[before] * (1.0 - ease), straight[after] * ease])
+        pos = smooth.positions + w[:, :, None] * (linear.positions - smooth.positions)
         own = smooth.has_own_facing  # a method's own facing is kept, not derived again
         return Trajectories(pos, smooth.dt, ids=smooth.ids, group=smooth.group, radius=smooth.radius,
                             active=smooth.active, metadata=dict(smooth.metadata),

@@ -194,14 +194,25 @@ class Trajectories:
         return read_trajectories(path)
 
 
+RESAMPLE_KINDS = ("linear", "catmull-rom", "b-spline")
+
+
 def resample(traj: Trajectories, fps: float, kind: str = "linear") -> Trajectories:
     """Resample one-frame-per-step trajectories to ``fps`` frames per second (any method).
 
     ``"linear"`` keeps the straight moves (and so their collision-freedom);
     ``"catmull-rom"`` passes a uniform Catmull-Rom spline through the cell centres, which
-    rounds corners and must be re-audited (the run summaries do so). Frames keep the
-    positions of every step when ``fps · dt`` is a whole number.
+    rounds corners; ``"b-spline"`` follows the uniform cubic B-spline whose control points
+    are the frames (the first and last frames reflected, so it starts and ends on them):
+    its acceleration is continuous and, at each frame, the step's own change of velocity,
+    so a character bound to it neither twitches at the frames nor overshoots; it passes
+    within a sixth of a step's change of velocity × dt of each frame. Both splines must
+    be re-audited (:func:`crowdmotion.smoothing.resample_checked` does so). Frames keep
+    the positions of every step when ``fps · dt`` is a whole number, except with
+    ``"b-spline"``.
     """
+    if kind not in RESAMPLE_KINDS:
+        raise ValueError(f"resampling must be one of {', '.join(RESAMPLE_KINDS)}, got {kind!r}")
     t_old = traj.times
     n_new = int(np.floor(t_old[-1] * fps + 1e-9)) + 1
     t_new = np.arange(n_new) / fps
@@ -213,12 +224,17 @@ def resample(traj: Trajectories, fps: float, kind: str = "linear") -> Trajectori
         pos = np.repeat(P, n_new, axis=0)
     elif kind == "linear":
         pos = P[k] * (1 - s) + P[k + 1] * s
-    else:
+    elif kind == "catmull-rom":
         p0 = P[np.maximum(k - 1, 0)]
         p1, p2 = P[k], P[k + 1]
         p3 = P[np.minimum(k + 2, traj.n_frames - 1)]
         pos = 0.5 * ((2 * p1) + (-p0 + p2) * s + (2 * p0 - 5 * p1 + 4 * p2 - p3) * s**2
                      + (-p0 + 3 * p1 - 3 * p2 + p3) * s**3)
+    else:  # uniform cubic B-spline, control points the frames with reflected ends
+        C = np.concatenate([2 * P[:1] - P[1:2], P, 2 * P[-1:] - P[-2:-1]])  # C[k + 1] = P[k]
+        p0, p1, p2, p3 = C[k], C[k + 1], C[k + 2], C[k + 3]
+        pos = ((1 - s) ** 3 * p0 + (3 * s**3 - 6 * s**2 + 4) * p1 + (-3 * s**3 + 3 * s**2 + 3 * s + 1) * p2
+               + s**3 * p3) / 6.0
     active = None
     if traj.active is not None:
         active = traj.active[np.minimum(np.ceil(u - 1e-9).astype(int), traj.n_frames - 1)]

@@ -6,6 +6,7 @@ import pytest
 
 import crowdmotion as cm
 from crowdmotion import rvo
+from crowdmotion.rvo import deadlock
 from crowdmotion.metrics import collision_audit
 from crowdmotion.trajectories import Trajectories
 
@@ -40,7 +41,11 @@ def test_two_walkers_meeting_head_on_in_a_deep_doorway_both_pass(seed):
     scene = _door(1.6, 4.0)
     sim, traj, longest = _head_on(scene, seed)
     assert sim.arrived.all(), f"arrived {sim.arrived}, stood still up to {longest:.1f} s"
-    assert longest <= 5.0, f"an agent stood still {longest:.1f} s"
+    # nobody stands for long, except one who yielded and waits (at most YIELD_MAX_S) for
+    # the other to walk past (seed 2: both hesitate at the start, one yields)
+    limit = 5.0 if sim.stats["yields"] == 0 else deadlock.YIELD_MAX_S
+    assert longest <= limit, f"an agent stood still {longest:.1f} s"
+    assert np.nanmax(sim.arrival_time) < 25.0, sim.arrival_time  # a free walk: 8.5 s
     assert collision_audit(traj, scene).clean
 
 
@@ -57,7 +62,7 @@ def test_in_a_one_body_passage_one_walker_yields_and_both_pass(seed):
 
 def test_without_the_rules_the_deep_doorway_stand_off_stays():
     # the stand-off the rules break is real: patience that never runs out, no keep right
-    sim, _, longest = _head_on(_door(1.6, 4.0), 0, limit_s=40, keep_right_deg=0.0, patience=1e9)
+    sim, _, longest = _head_on(_door(1.6, 4.0), 0, limit_s=40, keep_right_deg=0.0, patience=1e9, comfort_accel=0.0)
     assert not sim.arrived.any() and longest > 20
 
 

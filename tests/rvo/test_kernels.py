@@ -28,7 +28,7 @@ def test_knn_matches_ckdtree(m, dmax):
         assert np.allclose(np.sqrt(d2[:k]), [d for d, _ in ref])
 
 
-def _choose(pos, vel, vpref, samples=20, safety=5.0, segs=None):
+def _choose(pos, vel, vpref, samples=20, safety=5.0, segs=None, comfort=0.0):
     n = len(pos)
     active = np.ones(n, dtype=bool)
     h = 5.0
@@ -41,7 +41,8 @@ def _choose(pos, vel, vpref, samples=20, safety=5.0, segs=None):
     K.choose_velocities(pos, vel, vpref, np.full(n, 100.0), np.full(n, 0.5), np.full(n, 1.5), np.full(n, 10),
                         np.full(n, 10.0), np.full(n, samples), np.full(n, safety), active, start, items,
                         lo[0], lo[1], h, nx, ny, np.zeros((0, 2)), np.zeros(0), np.zeros((0, 2)), seg_a, seg_b,
-                        np.zeros_like(seg_a), 0.25, np.uint64(7), out, np.zeros(n, dtype=bool), 0.0, 5.0, np.zeros(n))
+                        np.zeros_like(seg_a), 0.25, np.uint64(7), out, np.zeros(n, dtype=bool), 0.0, 5.0, np.zeros(n),
+                        np.full(n, comfort))
     return out
 
 
@@ -55,3 +56,20 @@ def test_wall_ahead_within_the_step_is_never_chosen():
     segs = (np.array([[0.6, -5.0]]), np.array([[0.6, 5.0]]))
     out = _choose(np.array([[0.0, 0.0]]), np.zeros((1, 2)), np.array([[1.3, 0.0]]), samples=200, segs=segs)
     assert out[0, 0] * 0.25 <= 0.1 + 1e-9
+
+
+def test_from_rest_a_lone_walker_changes_its_velocity_only_comfortably():
+    # the comfortable change this step is 0.2 m/s: the choice is that far towards v_pref
+    vpref = np.array([[1.2, 0.3]])
+    out = _choose(np.array([[0.0, 0.0]]), np.zeros((1, 2)), vpref, comfort=0.2)
+    assert np.allclose(out[0], 0.2 * vpref[0] / np.linalg.norm(vpref[0]))
+
+
+def test_a_harder_change_is_taken_when_the_comfortable_ones_lead_into_a_neighbour():
+    # walking at 1.3 m/s onto one standing 1 m ahead (bodies of 0.5 m): every 0.2 m/s change
+    # still meets it within about a second, so the walker brakes or swerves harder
+    pos = np.array([[0.0, 0.0], [2.0, 0.0]])
+    vel = np.array([[1.3, 0.0], [0.0, 0.0]])
+    vpref = np.array([[1.3, 0.0], [0.0, 0.0]])
+    out = _choose(pos, vel, vpref, samples=200, comfort=0.2)
+    assert np.linalg.norm(out[0] - vel[0]) > 0.2 + 1e-9

@@ -30,3 +30,25 @@ def test_an_agent_that_has_arrived_may_hold_nan_and_the_others_walk_on():
     sim.positions[0] = np.nan
     sim.step()
     assert sim.steps == 1 and np.isfinite(sim.positions[1:]).all()
+
+
+def test_a_walker_from_rest_reaches_its_speed_at_the_comfortable_acceleration():
+    sim = rvo.Simulator(cm.Scene(bounds=([0, 0], [40, 10])), comfort_accel=0.8)
+    sim.add_agents([[1, 5]], [[39, 5]], pref_speed=1.2)
+    speeds = []
+    for _ in range(8):
+        sim.step()
+        speeds.append(float(np.linalg.norm(sim.velocities[0])))
+    assert np.allclose(speeds[:5], 0.8 * 0.25 * np.arange(1, 6))  # 0.2 m/s more each 0.25 s step
+    assert speeds[-1] == pytest.approx(1.2)
+
+
+def test_a_walker_passing_its_goal_at_speed_turns_in_instead_of_circling_it():
+    # at 1.3 m/s, 1 m to the side of its goal: a 0.8 m/s² turn has a radius of 2.1 m, so
+    # without slowing it would circle the goal for good
+    sim = rvo.Simulator(cm.Scene(bounds=([0, 0], [20, 20])), comfort_accel=0.8)
+    sim.add_agents([[10, 9]], [[10, 10]], pref_speed=1.3)
+    sim.velocities[0] = [1.3, 0.0]
+    while sim.time < 20 and sim.active.any():
+        sim.step()
+    assert sim.arrived.all() and sim.arrival_time[0] < 6.0, sim.arrival_time

@@ -20,6 +20,9 @@ GOLDEN_SIN = float(np.sin(np.pi * (3.0 - np.sqrt(5.0))))
 # a candidate whose obstacle time to collision is below dt·(1 + SLACK) would reach the
 # obstacle within the step: it is inadmissible (hard constraint)
 SLACK = 1e-6
+# penalty (m/s of eq. (3)'s deviation) per m/s of velocity change beyond the comfortable one
+COMFORT_WEIGHT = 2.0
+RING = 8  # candidates on the circle of comfortable changes round the current velocity
 
 
 @njit(cache=True)
@@ -104,7 +107,7 @@ def _obstacle_time(px, py, cx_, cy_, r, circ_c, circ_r, circ_v, near_c, n_near_c
 def choose_velocities(pos, vel, vpref, aim_dist, radius, vmax, max_nb, nb_dist, samples, safety, active,
                       cell_start, items, origin_x, origin_y, h, nx, ny,
                       circ_c, circ_r, circ_v, seg_a, seg_b, seg_v, dt, key,
-                      out_vel, out_forced, keep_right, look_s, follow):
+                      out_vel, out_forced, keep_right, look_s, follow, comfort):
     """Sampling RVO for every active agent at once (simultaneous, order-independent).
 
     For agent i the candidates are v_pref, the current velocity, standing still and
@@ -121,6 +124,12 @@ def choose_velocities(pos, vel, vpref, aim_dist, radius, vmax, max_nb, nb_dist, 
     bearing down) the choice is forced: the least penalty among candidates that at least
     keep out of static obstacles (standing still always does). Writes ``out_vel`` and
     whether the choice was forced.
+
+    Comfortable acceleration (a documented addition, ``comfort[i]`` m/s per step, 0 =
+    off): a candidate changing the velocity by more than ``comfort[i]`` costs
+    ``COMFORT_WEIGHT`` per m/s beyond it on top of eq. (3)'s penalty. The candidates then
+    also hold the comfortable change towards v_pref and ``RING`` comfortable changes all
+    round the current velocity.
 
     Keep right (a documented addition to the paper, ``keep_right`` radians, 0 = off): an
     agent that meets an oncoming neighbour — one among its M nearest whose v_pref points
@@ -148,7 +157,7 @@ def choose_velocities(pos, vel, vpref, aim_dist, radius, vmax, max_nb, nb_dist, 
             _choose_one(i, pos, vel, vpref, aim_dist, radius, vmax, max_nb, nb_dist, samples, safety, active,
                         cell_start, items, origin_x, origin_y, h, nx, ny, circ_c, circ_r, circ_v, seg_a, seg_b,
                         seg_v, dt, key, out_vel, out_forced, idx, d2, rel, near_c, near_s, keep_right, look_s,
-                        follow)
+                        follow, comfort)
 
 
 @njit(inline="always")
@@ -181,7 +190,8 @@ def _kept_right(i, k, idx, pos, vpref, radius, wx, wy, keep_right, look_s):
 @njit(cache=True)
 def _choose_one(i, pos, vel, vpref, aim_dist, radius, vmax, max_nb, nb_dist, samples, safety, active,
                 cell_start, items, origin_x, origin_y, h, nx, ny, circ_c, circ_r, circ_v, seg_a, seg_b,
-                seg_v, dt, key, out_vel, out_forced, idx, d2, rel, near_c, near_s, keep_right, look_s, follow):
+                seg_v, dt, key, out_vel, out_forced, idx, d2, rel, near_c, near_s, keep_right, look_s, follow,
+                comfort):
     """One agent's choice for :func:`choose_velocities`, with caller-owned scratch arrays."""
     n_circ = circ_c.shape[0]
     n_seg = seg_a.shape[0]
@@ -249,15 +259,27 @@ def _choose_one(i, pos, vel, vpref, aim_dist, radius, vmax, max_nb, nb_dist, sam
     offset = _uniform(key, i, 0)
     phi = 2.0 * np.pi * _uniform(key, i, 1)
     ca, sa = np.cos(phi), np.sin(phi)
-    for cnd in range(n_s + 3):
+    reach_i = comfort[i]  # the change of velocity this step can make comfortably (0: no limit)
+    ex, ey = wx - vix, wy - viy
+    en = np.sqrt(ex * ex + ey * ey)
+    gx, gy = wx, wy  # v_pref, or as near it as a comfortable change gets
+    if reach_i > 0.0 and en > reach_i:
+        gx, gy = vix + ex * reach_i / en, viy + ey * reach_i / en
+    n_ring = RING if reach_i > 0.0 else 0
+    for cnd in range(n_s + 4 + n_ring):
         if cnd == 0:
             cx_, cy_ = wx, wy
         elif cnd == 1:
             cx_, cy_ = vix, viy
         elif cnd == 2:
             cx_, cy_ = 0.0, 0.0
+        elif cnd == 3:
+            cx_, cy_ = gx, gy
+        elif cnd < 4 + n_ring:  # the comfortable changes all round the current velocity
+            ang = phi + 2.0 * np.pi * (cnd - 4) / n_ring
+            cx_, cy_ = vix + reach_i * np.cos(ang), viy + reach_i * np.sin(ang)
         else:
-            m_ = cnd - 3
+            m_ = cnd - 4 - n_ring
             frac = (m_ + offset) / n_s
             rr = vm * np.sqrt(frac)
             cx_, cy_ = rr * ca, rr * sa
@@ -269,6 +291,9 @@ def _choose_one(i, pos, vel, vpref, aim_dist, radius, vmax, max_nb, nb_dist, sam
             sp = vm
         dvx, dvy = wx - cx_, wy - cy_
         dev = np.sqrt(dvx * dvx + dvy * dvy)
+        if reach_i > 0.0:  # a harder change than comfortable costs COMFORT_WEIGHT per m/s beyond
+            chx, chy = cx_ - vix, cy_ - viy
+            dev += COMFORT_WEIGHT * max(np.sqrt(chx * chx + chy * chy) - reach_i, 0.0)
         if dev >= best_pen:
             continue  # its penalty cannot beat the best admissible candidate
         t_static, t_moving = INF, INF

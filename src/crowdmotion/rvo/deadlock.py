@@ -110,6 +110,11 @@ class Deadlock:
         out[y] = np.where(in_way[:, None], away * pref_speed[y, None], 0.0)
         return out
 
+    def breaking(self) -> np.ndarray:
+        """(N,) agents yielding, walking round a gridlock or standing for the patience:
+        they move off briskly."""
+        return (self.yield_to >= 0) | self.detour | (self.still >= self.patience)
+
     def update(self, pos, wanted, chosen, pref_speed, radius, sight, active, dt, goals=None) -> int:
         """After a step: held-up time, end of yields, new yields and detours; returns how
         many yields began.

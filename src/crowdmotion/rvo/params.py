@@ -43,6 +43,9 @@ class RVOParams(BaseModel):
                              reciprocal rule for every neighbour)
     lane_choice : bool       turn v_pref towards the side with the least oncoming traffic
                              ahead, so opposing streams form lanes (rvo.lanes)
+    comfort_accel : float    m/s² of velocity change a walker makes at ease each second;
+                             changes beyond it cost extra in the choice, so characters do
+                             not twitch (0 = eq. (3)'s free choice; walkers only)
     """
 
     model_config = ConfigDict(extra="forbid", frozen=True)
@@ -67,6 +70,7 @@ class RVOParams(BaseModel):
     density_slowing: bool = True
     follow: Annotated[float, Field(ge=0, le=1, allow_inf_nan=False)] = 0.5
     lane_choice: bool = True
+    comfort_accel: Annotated[float, Field(ge=0, le=100, allow_inf_nan=False)] = 0.8
 
 
 Params = RVOParams

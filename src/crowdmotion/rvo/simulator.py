@@ -11,7 +11,7 @@ from crowdmotion.groups import MovingTarget
 from crowdmotion.rvo import _kernels as K
 from crowdmotion.rvo.congestion import CongestionRouter
 from crowdmotion.rvo.deadlock import KEEP_RIGHT_LOOK_S, Deadlock, contact_arrivals
-from crowdmotion.rvo.density import DensitySlowing
+from crowdmotion.rvo.density import PERSON_MAX_RADIUS_M, DensitySlowing
 from crowdmotion.rvo.lanes import lane_velocities
 from crowdmotion.routing import DistanceFields, distance_fields
 from crowdmotion.rvo.guidance import preferred_velocities
@@ -20,6 +20,7 @@ from crowdmotion.obstacle_primitives import ObstacleSet
 from crowdmotion.rvo.personality import PARAM_KEYS, params_for_vectors, sample_personalities
 from crowdmotion.scene import Scene
 
+BRISK = 3.0  # an agent breaking a stand-off (yielding, detouring) changes velocity this much faster
 FOLLOW_FULL_DENSITY = 2.0  # persons/m² sensed ahead from which following is anticipated in full
 ESCAPE_HEADINGS = 32  # headings an agent in a moving obstacle's way tries after the safety pass
 # used when neither a value nor a personality is given: the neutral set of Table 4's
@@ -103,6 +104,13 @@ class Simulator:
     lane_choice : bool
         Turn v_pref towards the side with the least oncoming traffic ahead, so opposing
         streams form lanes (:mod:`crowdmotion.rvo.lanes`); False = v_pref as guidance gives it.
+    comfort_accel : float
+        Metres per second² of velocity change a walker makes at ease: a change beyond
+        ``comfort_accel × time_step`` in one step costs ``COMFORT_WEIGHT`` per m/s beyond
+        it in eq. (3)'s penalty, and near its goal a walker slows enough to turn in at this
+        acceleration instead of circling the goal (``_turn_in_factor``); walkers (radius up
+        to 0.4 m) only. 0 = eq. (3)'s free choice. See
+        :func:`crowdmotion.rvo._kernels.choose_velocities`.
     """
 
     def __init__(self, scene: Scene, time_step: float = 0.25, guidance: str = "auto",
@@ -110,7 +118,8 @@ class Simulator:
                  field_cell: float | None = None, dominant: str = "abs",
                  rng: np.random.Generator | None = None, keep_right_deg: float = 15.0,
                  patience: float = 2.0, congestion: float = 1.0, replan_s: float = 2.0,
-                 density_slowing: bool = True, follow: float = 0.5, lane_choice: bool = True):
+                 density_slowing: bool = True, follow: float = 0.5, lane_choice: bool = True,
+                 comfort_accel: float = 0.8):
         if not isinstance(scene, Scene):
             raise TypeError(f"scene must be a crowdmotion.Scene, got {scene!r}")
         if not (np.isfinite(time_step) and time_step > 0):
@@ -167,6 +176,9 @@ class Simulator:
         if not (isinstance(follow, (int, float)) and np.isfinite(follow) and 0 <= follow <= 1):
             raise ValueError(f"follow must be a number in [0, 1], got {follow!r}")
         self.follow = float(follow)
+        if not (isinstance(comfort_accel, (int, float)) and np.isfinite(comfort_accel) and comfort_accel >= 0):
+            raise ValueError(f"comfort_accel must be a number of m/s² >= 0, got {comfort_accel!r}")
+        self.comfort_accel = float(comfort_accel)
         self.lane_choice = bool(lane_choice)
         # the density sensed ahead slows walkers, and scales following and lane choice
         self.density_slowing = DensitySlowing(scene, bool(density_slowing),
@@ -354,6 +366,9 @@ class Simulator:
             vpref = lane_velocities(self.positions, self.velocities, vpref, p["radius"], p["safety"], self.density,
                                     self.active, grid, prims)
         vpref = vpref * slow[:, None]
+        if self.comfort_accel > 0.0:
+            person = self.params["radius"] <= PERSON_MAX_RADIUS_M
+            vpref = vpref * np.where(person, self._turn_in_factor(vpref), 1.0)[:, None]
         new = np.zeros((n, 2))
         forced = np.zeros(n, dtype=bool)
         key = step_key(self.rng)
@@ -361,7 +376,8 @@ class Simulator:
                             p["max_neighbors"], p["neighbor_dist"], p["samples"], p["safety"],
                             self.active, *grid, prims.circ_c, prims.circ_r, prims.circ_v, prims.seg_a, prims.seg_b,
                             prims.seg_v, self.dt, key, new, forced, dl.keep_right, KEEP_RIGHT_LOOK_S,
-                            self.follow * np.minimum(self.density / FOLLOW_FULL_DENSITY, 1.0))
+                            self.follow * np.minimum(self.density / FOLLOW_FULL_DENSITY, 1.0),
+                            self._comfort_reach())
         # safety: of two agents that would touch during the step, the one with the lower
         # (random, per step) priority stands still instead, until none would
         # agents a moving obstacle bears down on go first: standing still is no refuge for them
@@ -381,6 +397,28 @@ class Simulator:
         self.stats["yields"] += dl.update(self.positions, wanted, new, p["pref_speed"], p["radius"],
                                           p["neighbor_dist"], self.active, self.dt, self.goals)
         self._arrivals()
+
+    def _comfort_reach(self) -> np.ndarray:
+        """(N,) the change of velocity (m/s) each agent makes comfortably this step: the
+        comfortable acceleration × dt, faster while breaking a stand-off; 0 (no limit) for
+        bodies wider than a person (robots, vehicles: eq. (3) alone)."""
+        person = self.params["radius"] <= PERSON_MAX_RADIUS_M
+        return np.where(person, self.comfort_accel * self.dt * np.where(self.deadlock.breaking(), BRISK, 1.0), 0.0)
+
+    def _turn_in_factor(self, vpref: np.ndarray) -> np.ndarray:
+        """(N,) factor on |v_pref| so that an agent near its goal but not heading for it
+        can turn in at the comfortable acceleration a instead of circling it: the circle
+        through the goal tangent to its velocity has radius d / (2 sin θ) (d the distance,
+        θ the angle off the goal, up to 90°), and a turn of radius v² / a needs
+        v ≤ √(a d / (2 sin θ))."""
+        to_goal = self.goals - self.positions
+        d = np.linalg.norm(to_goal, axis=1)
+        sp = np.linalg.norm(self.velocities, axis=1)
+        cos = np.einsum("ij,ij->i", to_goal, self.velocities) / np.maximum(d * sp, 1e-12)
+        sin = np.where(cos > 0.0, np.sqrt(np.clip(1.0 - cos * cos, 0.0, 1.0)), 1.0)
+        cap = np.sqrt(self.comfort_accel * d / (2.0 * np.maximum(sin, 1e-6)))
+        want = np.linalg.norm(vpref, axis=1)
+        return np.minimum(1.0, cap / np.maximum(want, 1e-12))
 
     def _threatened(self, prims) -> np.ndarray:
         """(N,) 1.0 for agents within two steps' reach of a moving obstacle, else 0."""
