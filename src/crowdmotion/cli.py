@@ -57,30 +57,74 @@ def _output_folder(args, sc) -> Path:
 
 def _size_estimate(sc) -> str:
     """Upper bounds a user can plan with: steps, agent-steps, trajectory memory."""
-    from crowdmotion.registry import get_method
+    from crowdmotion.memory import human_bytes
+    from crowdmotion.scenario import size_estimate
 
-    n = sum(g.count for g in sc.groups)
-    expected = getattr(get_method(sc.method).module, "expected_steps", None)
-    steps = expected(sc.groups, sc.params) if expected else getattr(sc.params, "max_steps", None)
-    if steps is None:
-        return f"{n} agents"
-    frames = steps + 1
-    size = frames * n * sc.scene.dim * 8
-    units = [(1 << 30, "GiB"), (1 << 20, "MiB"), (1 << 10, "KiB")]
-    human = next((f"{size / u:.1f} {name}" for u, name in units if size >= u), f"{size} B")
-    return (f"{n} agents x at most {steps} steps = {n * steps:,} agent-steps; trajectories up to {human} "
-            f"in memory")
+    est = size_estimate(sc)
+    return (f"{est.agents} agents x at most {est.steps} steps = {est.agents * est.steps:,} agent-steps; "
+            f"trajectories up to {human_bytes(est.bytes)} in memory")
+
+
+def _whole(text: str, least: int) -> int:
+    try:
+        value = int(text.strip())
+    except ValueError:
+        value = None
+    if value is None or value < least:
+        raise argparse.ArgumentTypeError(f"{text!r} is not a whole number of at least {least}")
+    return value
 
 
 def _positive_int(text: str) -> int:
-    """A whole number of at least 1 (``--jobs``)."""
+    """A whole number of at least 1 (``--jobs``, ``--workers``, ``--max-frames``)."""
+    return _whole(text, 1)
+
+
+def _seed(text: str) -> int:
+    """A whole number of at least 0 (``--seed``)."""
+    return _whole(text, 0)
+
+
+def _number(text: str, positive: bool) -> float:
     try:
-        value = int(text)
+        value = float(text)
     except ValueError:
-        value = 0
-    if value < 1:
-        raise argparse.ArgumentTypeError(f"{text!r} is not a whole number of at least 1")
+        value = math.nan
+    if not (math.isfinite(value) and (value > 0 if positive else value >= 0)):
+        raise argparse.ArgumentTypeError(f"{text!r} is not a {'positive' if positive else 'non-negative'} "
+                                         f"finite number")
     return value
+
+
+def _positive_number(text: str) -> float:
+    """A finite number above 0 (``--cell``)."""
+    return _number(text, True)
+
+
+def _nonnegative_number(text: str) -> float:
+    """A finite number of at least 0 (``--trail``)."""
+    return _number(text, False)
+
+
+MAX_FPS = 1000.0  # frames per second a command may resample to
+
+
+def _fps(text: str) -> float:
+    """A frame rate above 0 and at most MAX_FPS (``--fps``)."""
+    value = _number(text, True)
+    if value > MAX_FPS:
+        raise argparse.ArgumentTypeError(f"{text!r} frames per second is more than {MAX_FPS:g}")
+    return value
+
+
+def _memory_size(text: str) -> int:
+    """``--max-memory``: 8G, 512MiB, 2.5GB or bytes."""
+    from crowdmotion.memory import parse_size
+
+    try:
+        return parse_size(text)
+    except ValueError as exc:
+        raise argparse.ArgumentTypeError(str(exc)) from None
 
 
 def _plot_list(text: str) -> list[str]:
@@ -128,7 +172,7 @@ def cmd_run(args) -> int:
     from crowdmotion.render.background import PictureProcess
     from crowdmotion.scenario import load_scenario, run_scenario
 
-    sc = load_scenario(path)
+    sc = load_scenario(path, max_memory=args.max_memory)
     out = prepare_output_folder(_output_folder(args, sc), args.overwrite)  # before, not after, the simulation
     plots = sc.spec.output.plots if args.plots is None else args.plots
     _precompile.start(sc.method)  # a cold cache: compiled on every core before the picture process takes one
@@ -197,7 +241,7 @@ def cmd_validate(args) -> int:
     from crowdmotion.scenario import load_scenario
 
     path = scenario_path(args.scenario)
-    sc = load_scenario(path)
+    sc = load_scenario(path, max_memory=args.max_memory)
     out = _output_folder(args, sc)
     check_output_folder(out, args.overwrite)
     print(f"{path}: OK: {sc.scene.dim}D scene, {len(sc.scene.obstacles)} obstacles, "
@@ -216,11 +260,9 @@ def cmd_bench(args) -> int:
     # its options may also come after the method's name (crowdmotion bench mdp -q), as for the others
     own = argparse.ArgumentParser(prog="crowdmotion bench mdp")
     own.add_argument("--no-reference", action="store_true", default=args.no_reference)
-    own.add_argument("--repeats", type=int, default=args.repeats)
+    own.add_argument("--repeats", type=_positive_int, default=args.repeats)
     own.add_argument("-q", "--quiet", action="store_true", default=args.quiet)
     opts = own.parse_args(args.options)
-    if opts.repeats < 1:
-        raise ValueError(f"bench mdp: --repeats must be at least 1, got {opts.repeats}")
     rows = run_paper_tables(reference=not opts.no_reference, repeats=opts.repeats, progress=not opts.quiet)
     print_tables(rows)
     return 0
@@ -395,41 +437,64 @@ def cmd_view(args) -> int:
     return 0
 
 
+MAX_SEEDS = 1_000_000  # runs one sweep may ask for
+
+
 def _seeds(text: str) -> list[int]:
-    """``0:100`` (a range), ``1,4,9`` or ``7``."""
+    """``0:100`` (a range), ``1,4,9`` or ``7``: distinct whole numbers of at least 0."""
+    how = f"--seeds must look like 0:100, 1,4,9 or 7 (whole numbers of at least 0), got {text!r}"
     try:
         if ":" in text:
-            a, b = text.split(":", 1)
-            return list(range(int(a), int(b)))
-        return [int(x) for x in text.split(",")]
+            a, b = (int(x) for x in text.split(":", 1))
+            if b - a > MAX_SEEDS:
+                raise argparse.ArgumentTypeError(f"--seeds {text!r} asks for {b - a:,} runs, more than {MAX_SEEDS:,}")
+            seeds = list(range(a, b))
+        else:
+            seeds = [int(x) for x in text.split(",")]
     except ValueError:
-        raise ValueError(f"--seeds must look like 0:100, 1,4,9 or 7, got {text!r}") from None
+        raise argparse.ArgumentTypeError(how) from None
+    if not seeds:
+        raise argparse.ArgumentTypeError(f"--seeds {text!r} names no seed (a range a:b runs a up to b - 1)")
+    if min(seeds) < 0:
+        raise argparse.ArgumentTypeError(how)
+    if len(set(seeds)) != len(seeds):
+        raise argparse.ArgumentTypeError(f"--seeds {text!r} names a seed twice")
+    return seeds
 
 
 def _setting(text: str) -> tuple[str, list]:
     """``rvo.safety=1,3,7.5`` -> ("rvo.safety", [1, 3, 7.5]); values read as TOML."""
     import tomllib
 
-    if "=" not in text:
-        raise ValueError(f"--set must look like field=value1,value2, got {text!r}")
+    if "=" not in text or not text.split("=", 1)[0].strip():
+        raise argparse.ArgumentTypeError(f"--set must look like field=value1,value2, got {text!r}")
     key, values = text.split("=", 1)
+    key = key.strip()
+    if key == "seed":
+        raise argparse.ArgumentTypeError(f"--set {text!r}: the seed is not a setting: give the seeds to run with "
+                                         f"--seeds (e.g. --seeds {values})")
     out = []
     for v in values.split(","):
         try:
             out.append(tomllib.loads(f"v = {v}")["v"])
         except tomllib.TOMLDecodeError:
             out.append(v)
-    return key.strip(), out
+    return key, out
 
 
 def cmd_sweep(args) -> int:
     from crowdmotion.outputs import folder_inside
     from crowdmotion.sweep import sweep
 
-    settings = dict(_setting(s) for s in args.set or [])
+    settings: dict[str, list] = {}
+    for key, values in args.set or []:
+        if key in settings:
+            raise ValueError(f"--set {key} is given twice: give all its values once, comma-separated "
+                             f"(--set {key}=v1,v2)")
+        settings[key] = values
     source = scenario_path(args.scenario)
     out = Path(args.output) if args.output else folder_inside("sweeps", source.stem)
-    table = sweep(source, _seeds(args.seeds), settings, out, scheduler=args.scheduler, workers=args.workers,
+    table = sweep(source, args.seeds, settings, out, scheduler=args.scheduler, workers=args.workers,
                   progress=not args.quiet)
     print(f"{table.num_rows} runs; table {out / 'sweep.parquet'}, trajectories in {out / 'runs'}/")
     return 0
@@ -503,11 +568,14 @@ def build_parser() -> argparse.ArgumentParser:
                    help="replace an earlier run's files in the output folder (default: refuse)")
     p.add_argument("--allow-collisions", action="store_true",
                    help="exit 0 even if the audit finds overlaps or penetrations (default: exit 3)")
-    p.add_argument("--seed", type=int, help="override the scenario's seed")
+    p.add_argument("--seed", type=_seed, help="override the scenario's seed (a whole number of at least 0)")
     p.add_argument("--plots", type=_plot_list, metavar="LIST",
                    help="pictures to write instead of the scenario's [output] plots: a comma-separated list of "
                         "paths, values, snapshots, player (view.html), or 'none' for trajectories and "
                         "summary.json alone (the pictures take 0.3-3 s of a run)")
+    p.add_argument("--max-memory", type=_memory_size, metavar="SIZE",
+                   help="refuse a run whose trajectories may take more memory than this (e.g. 8G, 512MiB; "
+                        "default: the memory available now)")
     p.add_argument("-q", "--quiet", action="store_true", help="no progress bar")
     p.set_defaults(func=cmd_run)
 
@@ -526,6 +594,9 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("scenario", help="a scenario TOML file, or the name of a built-in scene")
     p.add_argument("-o", "--output", help="the output folder `run` would use (default ./out/<scenario name>)")
     p.add_argument("--overwrite", action="store_true", help="as for run: an earlier run there may be replaced")
+    p.add_argument("--max-memory", type=_memory_size, metavar="SIZE",
+                   help="refuse a run whose trajectories may take more memory than this (e.g. 8G, 512MiB; "
+                        "default: the memory available now)")
     p.set_defaults(func=cmd_validate)
 
     p = sub.add_parser("bench", help="side-by-side benchmarks: the papers' tables beside our solvers and peers",
@@ -538,7 +609,7 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("method", choices=["mdp", "rvo", "pso", "formation", "startup"],
                    help="which benchmark: a method's, or startup (cold and warm runs of the built-in scenes)")
     p.add_argument("--no-reference", action="store_true", help="mdp: skip the slow plain-Python solvers")
-    p.add_argument("--repeats", type=int, default=3, help="mdp: runs per timing (the paper used 3)")
+    p.add_argument("--repeats", type=_positive_int, default=3, help="mdp: runs per timing (the paper used 3)")
     p.add_argument("-q", "--quiet", action="store_true", help="mdp: no progress bar")
     p.add_argument("options", nargs=argparse.REMAINDER, help="rvo, pso, formation, startup: their own options (--help)")
     p.set_defaults(func=cmd_bench)
@@ -553,33 +624,36 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--to", required=True, choices=sorted(EXPORT_FORMATS),
                    help="sqlite/jupedsim: JuPedSim v2 (PedPy reads it); usd/usdc: binary USD; usda: text USD")
     p.add_argument("-o", "--dest", help="file to write (default: trajectories.<ext> beside the input)")
-    p.add_argument("--fps", type=float, help="resample to this frame rate first (e.g. 24 for Blender's default)")
+    p.add_argument("--fps", type=_fps,
+                   help="resample to this frame rate first (e.g. 24 for Blender's default)")
     p.set_defaults(func=cmd_export)
 
     p = sub.add_parser("render", help="animation (MP4/GIF), density map and paths of a run")
     p.add_argument("output", help="a run's output folder (or a trajectories file)")
     p.add_argument("--to", choices=["mp4", "gif"], default="mp4", help="animation format (default mp4, H.264)")
-    p.add_argument("--fps", type=float, help="video frames per second (default 24; the run is resampled to it)")
-    p.add_argument("--trail", type=float, default=2.0, help="seconds of trail behind each agent")
-    p.add_argument("--max-frames", type=int, default=600,
+    p.add_argument("--fps", type=_fps,
+                   help="video frames per second (default 24; the run is resampled to it)")
+    p.add_argument("--trail", type=_nonnegative_number, default=2.0, help="seconds of trail behind each agent")
+    p.add_argument("--max-frames", type=_positive_int, default=600,
                    help="at most this many frames (a longer run is sampled evenly; default 600)")
-    p.add_argument("--cell", type=float, default=0.5, help="density map cell, metres")
+    p.add_argument("--cell", type=_positive_number, default=0.5, help="density map cell, metres")
     p.add_argument("-q", "--quiet", action="store_true", help="no progress bar")
     p.set_defaults(func=cmd_render)
 
     p = sub.add_parser("view", help="write a self-contained HTML player of a run (works offline)")
     p.add_argument("output", help="a run's output folder (or a trajectories file)")
     p.add_argument("-o", "--dest", help="HTML file to write (default: view.html beside the input)")
-    p.add_argument("--max-frames", type=int, default=3000,
+    p.add_argument("--max-frames", type=_positive_int, default=3000,
                    help="at most this many frames in the page (a longer run is sampled evenly; default 3000)")
     p.set_defaults(func=cmd_view)
 
     p = sub.add_parser("sweep", help="run a scenario over seeds and parameter values on Dask")
     p.add_argument("scenario", help="a scenario TOML file, or the name of a built-in scene")
-    p.add_argument("--seeds", default="0:8", help="0:100 (a range), 1,4,9 or 7 (default 0:8)")
-    p.add_argument("--set", action="append", metavar="FIELD=V1,V2", help="e.g. rvo.safety=1,3,7.5 (repeatable)")
+    p.add_argument("--seeds", type=_seeds, default="0:8", help="0:100 (a range), 1,4,9 or 7 (default 0:8)")
+    p.add_argument("--set", type=_setting, action="append", metavar="FIELD=V1,V2",
+                   help="e.g. rvo.safety=1,3,7.5 (repeatable, one field each time; not seed: see --seeds)")
     p.add_argument("--scheduler", help="address of a running Dask scheduler (default: a LocalCluster)")
-    p.add_argument("--workers", type=int, help="LocalCluster workers (default: the machine's cores)")
+    p.add_argument("--workers", type=_positive_int, help="LocalCluster workers (default: the machine's cores)")
     p.add_argument("-o", "--output", help="output folder (default ./sweeps/<scenario>)")
     p.add_argument("-q", "--quiet", action="store_true", help="no progress bar")
     p.set_defaults(func=cmd_sweep)

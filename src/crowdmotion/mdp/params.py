@@ -49,7 +49,7 @@ class MDPParams(BaseModel):
     replan_every: Annotated[int, Field(gt=0)] = 4
     lookahead: Annotated[int, Field(ge=0)] = 4
     smoothing: Literal["linear", "catmull-rom"] | None = None
-    fps: PosFloat = 24.0
+    fps: Annotated[float, Field(gt=0, le=1000.0, allow_inf_nan=False)] = 24.0
 
 
 Params = MDPParams

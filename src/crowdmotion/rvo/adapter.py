@@ -37,6 +37,21 @@ def check_scenario(scene, groups, params: RVOParams) -> None:
                          f"{groups[k].radius:g} m")
 
 
+def expected_steps(groups, params: RVOParams) -> int:
+    """Steps a run records at most (it stops sooner once everyone has arrived)."""
+    return params.max_steps
+
+
+def step_seconds(groups, params: RVOParams) -> float:
+    """Simulated seconds per step."""
+    return params.time_step
+
+
+def expected_frames(groups, params: RVOParams) -> int:
+    """Frames of the run's trajectories at most: one per step and the start."""
+    return params.max_steps + 1
+
+
 def run_scenario(scene, groups, params: RVOParams, rng, progress: bool = True):
     with step_bar(params.max_steps, "rvo steps", progress) as bar:
         result = run(scene, groups, params, rng, progress=bar.done)

@@ -5,9 +5,17 @@ from __future__ import annotations
 
 from typing import Annotated, Literal
 
-from pydantic import BaseModel, ConfigDict, Field
+from pydantic import BaseModel, ConfigDict, Field, model_validator
 
 PosFloat = Annotated[float, Field(gt=0, allow_inf_nan=False)]
+MAX_TIME_STEP_S = 10.0  # seconds: a longer step walks through walls between two looks
+# the per-agent parameters a group may set for itself (attributes) share these bounds
+MAX_NEIGHBORS = 10_000
+MAX_SAMPLES = 10_000
+MaxNeighbors = Annotated[int, Field(ge=0, le=MAX_NEIGHBORS)]
+NeighborDist = PosFloat
+Samples = Annotated[int, Field(gt=0, le=MAX_SAMPLES)]
+Safety = Annotated[float, Field(ge=0, allow_inf_nan=False)]
 
 
 class RVOParams(BaseModel):
@@ -47,12 +55,12 @@ class RVOParams(BaseModel):
 
     model_config = ConfigDict(extra="forbid", frozen=True)
 
-    time_step: PosFloat = 0.25
+    time_step: Annotated[float, Field(gt=0, le=MAX_TIME_STEP_S, allow_inf_nan=False)] = 0.25
     max_steps: Annotated[int, Field(gt=0, le=1_000_000)] = 2000
-    max_neighbors: Annotated[int, Field(ge=0, le=10_000)] = 10
-    neighbor_dist: PosFloat = 10.0
-    samples: Annotated[int, Field(gt=0, le=10_000)] = 50
-    safety: Annotated[float, Field(ge=0, allow_inf_nan=False)] = 5.0
+    max_neighbors: MaxNeighbors = 10
+    neighbor_dist: NeighborDist = 10.0
+    samples: Samples = 50
+    safety: Safety = 5.0
     dominant: Literal["abs", "max"] = "abs"
     guidance: Literal["auto", "direct", "field"] = "auto"
     field_cell: PosFloat | None = None
@@ -67,6 +75,34 @@ class RVOParams(BaseModel):
     density_slowing: bool = True
     follow: Annotated[float, Field(ge=0, le=1, allow_inf_nan=False)] = 0.5
     lane_choice: bool = True
+
+
+class RVOAttributes(BaseModel):
+    """What a group's ``attributes`` table may hold with the RVO method: its own values of
+    four of [rvo]'s parameters (bounded as there), and differing walking speeds.
+
+    pref_speed_range : list  [low, high]: each agent's preferred speed drawn uniformly
+                             from it, m/s, within max_speed (RiMEA test 7)
+    max_neighbors : int      [M] as [rvo] max_neighbors, for this group
+    neighbor_dist : float    [D] as [rvo] neighbor_dist, metres
+    samples : int            [N_sample] as [rvo] samples
+    safety : float           [w] as [rvo] safety
+    """
+
+    model_config = ConfigDict(extra="forbid", frozen=True)
+
+    pref_speed_range: Annotated[list[PosFloat], Field(min_length=2, max_length=2)] | None = None
+    max_neighbors: MaxNeighbors | None = None
+    neighbor_dist: NeighborDist | None = None
+    samples: Samples | None = None
+    safety: Safety | None = None
+
+    @model_validator(mode="after")
+    def _range(self):
+        r = self.pref_speed_range
+        if r is not None and r[0] > r[1]:
+            raise ValueError(f"pref_speed_range: low {r[0]:g} exceeds high {r[1]:g}")
+        return self
 
 
 Params = RVOParams
