@@ -64,6 +64,8 @@ def _message(e: dict) -> str:
         msg = "must be true or false (without quotes)"
     elif kind == "string_type":
         msg = "must be a string (in quotes)"
+    elif kind == "missing":
+        msg = "is missing: the scenario must give it"
     return msg
 
 
@@ -78,6 +80,8 @@ def error_lines(err: ValidationError, prefix: str = "", known: Iterable[str] = (
         path = [*([prefix] if prefix else []), *(str(x) for x in e["loc"])]
         msg = _message(e)
         got = f" (got {shown(e.get('input'))})"
+        if e["type"] == "missing" or (isinstance(e.get("input"), dict) and e["type"] == "value_error"):
+            got = ""  # the whole table the field is missing from, or a check that names its values
         if not e["loc"]:  # a check of the whole model: its message names the field itself
             m = _OWN_FIELD.match(msg)
             if m and ("." in m.group(1) or m.group(1) in known):

@@ -102,6 +102,20 @@ def spawn_room(scene: Scene, group: Group, gap: float, clearance=None) -> tuple[
     return int(min(PLACEABLE_SHARE * free / body, 1e15)), free
 
 
+def check_spawn_inside(scene: Scene, k: int, group: Group) -> None:
+    """Refuse a spawn region (rect or disc) that reaches outside the scene's bounds, where
+    sampled starts would leave the scene."""
+    spawn = group.spawn
+    if not isinstance(spawn, (Rect, Disc)):
+        return
+    lo, hi = (spawn.lower, spawn.upper) if isinstance(spawn, Rect) else \
+        (spawn.center - spawn.radius, spawn.center + spawn.radius)
+    tol = 1e-9 * float(np.max(scene.upper - scene.lower))
+    if np.any(lo < scene.lower - tol) or np.any(hi > scene.upper + tol):
+        raise ValueError(f"{where(k, group)} spawn: {describe_region(spawn)} reaches outside scene.bounds "
+                         f"{_fmt(scene.lower)}-{_fmt(scene.upper)}: agents would start outside the scene")
+
+
 def check_spawn_capacity(scene: Scene, k: int, group: Group, gap: float) -> None:
     """Refuse a spawn region that cannot hold the group's bodies ``gap`` apart (by area)."""
     spawn = group.spawn

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import argparse
 import math
+import re
 import sys
 import warnings
 from pathlib import Path
@@ -279,12 +280,54 @@ def _find_trajectories(out: Path) -> Path:
     raise FileNotFoundError(f"no trajectories.parquet or trajectories.csv in {out}")
 
 
-def _load_run(output: str):
-    """(trajectory file, Trajectories) of a run folder or a trajectory file."""
+def _load_trajectories(path: Path):
+    """Trajectories read from ``path``, with the scene its metadata holds checked too; a
+    file that cannot be used is refused with a ValueError that names it."""
+    import json
+
+    from crowdmotion.scene import Scene
     from crowdmotion.trajectories import Trajectories
 
+    try:
+        traj = Trajectories.load(path)
+        if not isinstance(traj.metadata, dict):
+            raise TypeError("metadata is not a table")
+        if traj.metadata.get("scene"):  # a damaged scene is refused here, not half-way through a picture
+            Scene.from_dict(traj.metadata["scene"])
+    except FileNotFoundError:
+        raise
+    except json.JSONDecodeError as exc:
+        where = f"{path.name}.meta.json beside it" if path.suffix.lower() == ".csv" else "the file"
+        raise ValueError(f"{path}: a damaged trajectory file: its metadata (in {where}) is not JSON: {exc}") from None
+    except KeyError as exc:
+        raise ValueError(f"{path}: a damaged trajectory file: its metadata lacks {exc.args[0]!r}") from None
+    except (TypeError, AttributeError, IndexError):
+        raise ValueError(f"{path}: a damaged trajectory file: its metadata is not laid out as crowdmotion "
+                         f"writes it") from None
+    except (ValueError, OSError) as exc:
+        msg = str(exc)
+        raise ValueError(msg if str(path) in msg else f"{path}: a damaged trajectory file: {msg}") from None
+    return traj
+
+
+def _load_run(output: str):
+    """(trajectory file, Trajectories) of a run folder or a trajectory file."""
     path = _find_trajectories(Path(output))
-    return path, Trajectories.load(path)
+    return path, _load_trajectories(path)
+
+
+def _read_json(path: Path, what: str) -> dict:
+    """A JSON table written by a run (summary.json, ...); a ValueError naming the file when
+    it is not one."""
+    import json
+
+    try:
+        data = json.loads(path.read_text(encoding="utf-8"))
+    except (ValueError, UnicodeDecodeError) as exc:
+        raise ValueError(f"{path}: a damaged {what}: not JSON ({exc})") from None
+    if not isinstance(data, dict):
+        raise ValueError(f"{path}: a damaged {what}: not a JSON table")
+    return data
 
 
 REPORT_COLUMNS = [("agents", "agents", "{:d}"), ("lateral_spread_m", "spread m", "{:.2f}"),
@@ -304,14 +347,14 @@ def _print_report_table(rows: dict, cell) -> None:
 
 def _run_report(path: Path, traj) -> dict:
     """metrics.group_report of one run, with the arrival times its summary measured."""
-    import json
-
     from crowdmotion.metrics import group_report
 
     report = group_report(traj)
     summary_file = path.parent / "summary.json"
     if summary_file.is_file():  # arrival times the method measured (agents that stay at the goal too)
-        by_group = json.loads(summary_file.read_text()).get("time_to_goal_by_group_s", {})
+        by_group = _read_json(summary_file, "run summary").get("time_to_goal_by_group_s", {})
+        if not isinstance(by_group, dict):
+            raise ValueError(f"{summary_file}: a damaged run summary: time_to_goal_by_group_s is not a table")
         for name, row in report.items():
             if row["time_to_goal_s"] is None:
                 row["time_to_goal_s"] = by_group.get(name)
@@ -346,17 +389,21 @@ def _sweep_report(folder: Path) -> int:
 
     from crowdmotion.io.atomic import atomic_path
     from crowdmotion.rvo.claims import check_claims, format_claims, mean_ci
-    from crowdmotion.trajectories import Trajectories
 
-    table = pq.read_table(folder / "sweep.parquet").to_pylist()
+    try:
+        table = pq.read_table(folder / "sweep.parquet").to_pylist()
+    except Exception as exc:  # pyarrow raises several types for damaged files
+        raise ValueError(f"{folder / 'sweep.parquet'}: a damaged sweep table: {exc}") from None
     if not table:
         raise ValueError(f"{folder / 'sweep.parquet'} lists no runs")
+    if not all(isinstance(row.get("file"), str) for row in table):
+        raise ValueError(f"{folder / 'sweep.parquet'}: a damaged sweep table: a row names no trajectory file")
     runs = []
     for row in tqdm(table, desc="report runs", unit="run", leave=False):
         path = Path(row["file"])
         if not path.is_file():  # the sweep folder was moved: its runs/ sits beside sweep.parquet
             path = folder / "runs" / path.name
-        runs.append(_run_report(path, Trajectories.load(path)))
+        runs.append(_run_report(path, _load_trajectories(path)))
     groups = list(dict.fromkeys(g for r in runs for g in r))
     stats = {g: {k: mean_ci([r[g][k] for r in runs if g in r and r[g][k] is not None])
                  for k, _, _ in REPORT_COLUMNS} for g in groups}
@@ -385,10 +432,16 @@ def _sweep_report(folder: Path) -> int:
 
 EXPORT_FORMATS = {"parquet": ".parquet", "csv": ".csv", "sqlite": ".sqlite", "jupedsim": ".sqlite",
                   "usd": ".usdc", "usda": ".usda", "usdc": ".usdc"}
+# what -o may end in for each --to (the file's format follows its name)
+EXPORT_SUFFIXES = {**{k: (v,) for k, v in EXPORT_FORMATS.items()}, "usd": (".usd", ".usdc"), "usdc": (".usdc", ".usd")}
 
 
 def cmd_export(args) -> int:
-
+    if args.dest and Path(args.dest).suffix.lower() not in EXPORT_SUFFIXES[args.to]:
+        raise ValueError(f"--to {args.to} writes a {' or '.join(EXPORT_SUFFIXES[args.to])} file, but -o "
+                         f"{args.dest} ends in {Path(args.dest).suffix or 'no suffix'}: name it "
+                         f"{Path(args.dest).with_suffix(EXPORT_FORMATS[args.to]).name}, or give the --to its "
+                         f"name asks for")
     src, traj = _load_run(args.output)
     folder = src.parent
     dest = Path(args.dest) if args.dest else folder / f"trajectories{EXPORT_FORMATS[args.to]}"
@@ -542,23 +595,48 @@ def cmd_list(args) -> int:
     return 0
 
 
+_TEMP_NAME = re.compile(r"\.([^/\\\s'\"]+?)\.[A-Za-z0-9_]+\.tmp\b")  # atomic_path's hidden .NAME.xxxx.tmp
+_NUMPY_REPR = re.compile(r"\bnp\.(?:float|int|uint|bool|str)\w*\(([^()]*)\)")  # np.float64(0.0) -> 0.0
+
+
+def _user_message(exc: BaseException) -> str:
+    """An error as one line in the user's terms: the file a write was for (never its
+    temporary name), numbers as numbers (never np.float64(...))."""
+    if isinstance(exc, OSError) and exc.strerror and exc.filename is not None:
+        text = f"{exc.strerror}: {exc.filename}"
+    else:
+        text = str(exc) or type(exc).__name__
+    text = _TEMP_NAME.sub(r"\1", text)
+    return _NUMPY_REPR.sub(r"\1", text)
+
+
 def main(argv=None) -> int:
+    """The command; returns its exit status: 0 done, 2 refused (the message says why),
+    3 a run that ends with collisions, 130 interrupted, 1 an internal error."""
     args = build_parser().parse_args(argv)
     warnings.showwarning = _one_line_warning
+    if args.debug:  # every error with its traceback
+        return args.func(args)
     try:
         return args.func(args)
-    except (ValueError, FileNotFoundError, MemoryError, OSError) as exc:
-        print(f"crowdmotion: error: {exc}", file=sys.stderr)
+    except (ValueError, FileNotFoundError, MemoryError, OSError, RecursionError) as exc:
+        print(f"crowdmotion: error: {_user_message(exc)}", file=sys.stderr)
         return 2
     except KeyboardInterrupt:
         print("crowdmotion: interrupted", file=sys.stderr)
         return 130
+    except Exception as exc:  # a bug of ours: one line, and how to see the rest
+        print(f"crowdmotion: internal error: {type(exc).__name__}: {_user_message(exc)} (run again with --debug "
+              f"for the traceback, and please report it)", file=sys.stderr)
+        return 1
 
 
 def build_parser() -> argparse.ArgumentParser:
     """The command line: one subcommand per job, every argument with its help."""
     parser = argparse.ArgumentParser(prog="crowdmotion", description="Collision-free crowd and group motion.")
     parser.add_argument("--version", action="version", version=f"crowdmotion {__version__}")
+    parser.add_argument("--debug", action="store_true",
+                        help="show the traceback of an error instead of its one-line message")
     sub = parser.add_subparsers(dest="command", required=True)
 
     p = sub.add_parser("run", help="run a scenario file and write its outputs")

@@ -44,6 +44,17 @@ class _Model(BaseModel):
 
 Coord = Annotated[list[float], Field(min_length=2, max_length=3)]
 PosFloat = Annotated[float, Field(gt=0, allow_inf_nan=False)]
+Times = Annotated[list[Annotated[float, Field(allow_inf_nan=False)]], Field(min_length=1)]
+
+
+def _keyframes(times: list[float], positions: list) -> None:
+    """Keyframes as a path needs them: one position per time, times increasing."""
+    if len(times) != len(positions):
+        raise ValueError(f"times and positions must give one position per time, got {len(times)} time(s) and "
+                         f"{len(positions)} position(s)")
+    back = next((i for i in range(1, len(times)) if times[i] <= times[i - 1]), None)
+    if back is not None:
+        raise ValueError(f"times must increase, got {times[back - 1]:g} then {times[back]:g}")
 
 
 class PathSpec(_Model):
@@ -54,8 +65,13 @@ class PathSpec(_Model):
     positions : list   one [x, y] or [x, y, z] centre per keyframe, metres
     """
 
-    times: list[Annotated[float, Field(allow_inf_nan=False)]]
+    times: Times
     positions: list[Coord]
+
+    @model_validator(mode="after")
+    def _keyframes(self):
+        _keyframes(self.times, self.positions)
+        return self
 
 
 class CircleSpec(_Model):
@@ -187,8 +203,13 @@ class MovingRegion(_Model):
     """
 
     shape: Literal["moving"]
-    times: list[Annotated[float, Field(allow_inf_nan=False)]]
+    times: Times
     positions: list[Coord]
+
+    @model_validator(mode="after")
+    def _keyframes(self):
+        _keyframes(self.times, self.positions)
+        return self
 
 
 class RingRegion(_Model):
