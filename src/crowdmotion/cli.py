@@ -684,12 +684,14 @@ def build_parser() -> argparse.ArgumentParser:
                                    "warm `crowdmotion run` of every built-in scene. Peers come "
                                    "with pip install \"crowdmotion[bench]\"; options after the method go to "
                                    "that benchmark (e.g. crowdmotion bench rvo --sizes 1000 --steps 10).")
-    p.add_argument("method", choices=["mdp", "rvo", "pso", "formation", "startup"],
-                   help="which benchmark: a method's, or startup (cold and warm runs of the built-in scenes)")
+    p.add_argument("method", choices=["mdp", "rvo", "pso", "formation", "startup", "validate"],
+                   help="which benchmark: a method's, startup (cold and warm runs of the built-in scenes) or "
+                        "validate (refusing runs too large for memory, against the count)")
     p.add_argument("--no-reference", action="store_true", help="mdp: skip the slow plain-Python solvers")
     p.add_argument("--repeats", type=_positive_int, default=3, help="mdp: runs per timing (the paper used 3)")
     p.add_argument("-q", "--quiet", action="store_true", help="mdp: no progress bar")
-    p.add_argument("options", nargs=argparse.REMAINDER, help="rvo, pso, formation, startup: their own options (--help)")
+    p.add_argument("options", nargs=argparse.REMAINDER,
+                   help="rvo, pso, formation, startup, validate: their own options (--help)")
     p.set_defaults(func=cmd_bench)
 
     p = sub.add_parser("report", help="per-group behaviour report of a run, or of a sweep's runs with confidence "
