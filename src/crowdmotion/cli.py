@@ -18,20 +18,6 @@ def _one_line_warning(message, category, filename, lineno, file=None, line=None)
     print(f"crowdmotion: warning: {message}", file=sys.stderr)
 
 
-def _headline(summary: dict) -> str:
-    parts = [f"{summary['agents']} agents", f"{summary['frames']} frames",
-             f"agent overlaps {summary['agent_agent_overlaps']}",
-             f"obstacle penetrations {summary['agent_obstacle_penetrations']}"]
-    if "arrival_rate" in summary:
-        parts.append(f"arrived {summary['arrival_rate']:.0%}")
-    if "formation" in summary:
-        groups = summary["formation"]
-        done = sum(g["recovered_s"] is not None for g in groups.values())
-        worst = max(g["edge_length_error_mean"] for g in groups.values())
-        parts.append(f"formations recovered {done}/{len(groups)} (edge-length error {worst:.1%})")
-    return ", ".join(parts)
-
-
 def scenario_path(name: str) -> Path:
     """A scenario file, or the built-in scene of that name (``crowdmotion run rvo_doorway``)."""
     import difflib
@@ -169,6 +155,7 @@ def cmd_run(args) -> int:
     path = scenario_path(args.scenario)
     _begin_compiling(path, args.quiet)
     from crowdmotion import _precompile
+    from crowdmotion.metrics import headline
     from crowdmotion.outputs import prepare_output_folder, write_run
     from crowdmotion.render.background import PictureProcess
     from crowdmotion.scenario import load_scenario, run_scenario
@@ -184,7 +171,7 @@ def cmd_run(args) -> int:
     finally:
         if pictures is not None:
             pictures.close()
-    print(f"{sc.spec.name}: {_headline(result.summary)}")
+    print(f"{sc.spec.name}: {headline(result.summary)}")
     for f in files:
         print(f"  wrote {f}")
     s = result.summary

@@ -696,8 +696,13 @@ class RunResult:
     seed: int
 
 
-def run_scenario(scenario, seed: int | None = None, progress: bool = True) -> RunResult:
-    """Run a scenario (object or path) with its method; metrics are computed on the result."""
+def run_scenario(scenario, seed: int | None = None, progress: bool = True, precompile: bool = False) -> RunResult:
+    """Run a scenario (object or path) with its method; metrics are computed on the result.
+
+    ``precompile``: on a cold numba cache, compile the run's kernels on every core first,
+    in forked children (:mod:`crowdmotion._precompile`; the command line asks for it). A
+    library call forks nothing unless asked: numba compiles what the run calls, in this
+    process."""
     from crowdmotion.registry import get_method
 
     if not isinstance(scenario, Scenario):
@@ -706,9 +711,10 @@ def run_scenario(scenario, seed: int | None = None, progress: bool = True) -> Ru
     if seed < 0:
         raise ScenarioError(f"seed must be a non-negative integer, got {seed}")
     method = get_method(scenario.method)
-    from crowdmotion._precompile import start as precompile
+    if precompile:
+        from crowdmotion._precompile import start
 
-    precompile(scenario.method)  # a cold cache: the run's kernels compiled on every core first
+        start(scenario.method)
     rng = np.random.default_rng(seed)
     traj, extras, summary = method.run(scenario.scene, scenario.groups, scenario.params, rng, progress=progress)
     traj.metadata.update({"seed": seed, "scenario": scenario.spec.name})
