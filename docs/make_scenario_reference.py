@@ -203,7 +203,8 @@ def render() -> str:
              "this, with strict types: a whole number where an integer is asked for (not `4.0` or `true`), "
              "`true` or `false` for a switch (not `\"no\"` or `1`). Unknown fields are errors, and so are "
              "another method's fields (its parameter table, a group's `personality` or `formation`, its "
-             "attributes); every error names the field and the value.", ""]
+             "attributes); every error names the field and the value. Every coordinate, length and duration is "
+             "a finite number of at most 1,000,000 (metres or seconds) in size.", ""]
     parts += ["## What each method takes", "",
               "Found by loading a small scenario of each kind with each method (the loader runs the method's "
               "own checks), so it cannot drift from the code. \"—\" means `validate` refuses it with a "

@@ -305,3 +305,18 @@ def test_heading_deg_north_is_refused_naming_the_attribute():
 
 def test_deeply_nested_toml_is_refused_in_a_sentence():
     _refused("a = " + "[" * 5000 + "]" * 5000, ["nested too deeply"])
+
+
+@pytest.mark.parametrize("old,new,words", [
+    ("bounds = [[0, 0], [10, 10]]", "bounds = [[0, 0], [1e12, 1e12]]", ["scene.bounds.1.0", "1000000", "got 1e+12"]),
+    ("radius = 1 }", "radius = 1e300 }", ["scene.obstacles.0.circle.radius", "1000000"]),
+    ("count = 4", "count = 4\nmax_speed = 1e9", ["groups.0.max_speed", "1000"]),
+])
+def test_a_1e12_m_scene_is_refused_naming_the_field_not_left_to_overflow(old, new, words):
+    _refused(GOOD.replace(old, new), words)
+
+
+def test_a_goal_region_reaching_outside_the_bounds_is_refused_where_goal_points_are_sampled():
+    _refused(RVO.replace('goal = { shape = "rect", lower = [25, 1], upper = [29, 9] }',
+                         'goal = { shape = "rect", lower = [25, 1], upper = [35, 9] }'),
+             ["group 'a' (groups.0) goal: rect [25, 1]-[35, 9] reaches outside scene.bounds [0, 0]-[30, 10]"])

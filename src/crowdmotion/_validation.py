@@ -5,11 +5,19 @@ from __future__ import annotations
 import difflib
 import math
 import re
-from typing import Any, Callable, Iterable
+from typing import Annotated, Any, Callable, Iterable
 
-from pydantic import BaseModel, ValidationError
+from pydantic import BaseModel, Field, ValidationError
 
 SHOWN_MAX = 80  # characters of a value shown in a message
+
+# The largest coordinate, length or duration a scenario or a method's parameters may give:
+# 1000 km (or 1e6 s). Beyond it grids cannot be allocated and squared distances overflow
+# (a 1e300 m obstacle once covered nothing), so such values are refused by name.
+MAX_MAGNITUDE = 1e6
+Coordinate = Annotated[float, Field(ge=-MAX_MAGNITUDE, le=MAX_MAGNITUDE, allow_inf_nan=False)]
+Positive = Annotated[float, Field(gt=0, le=MAX_MAGNITUDE, allow_inf_nan=False)]
+NonNegative = Annotated[float, Field(ge=0, le=MAX_MAGNITUDE, allow_inf_nan=False)]
 
 # a message from a model-level check that names its own field: "groups.0.goal: ..."
 _OWN_FIELD = re.compile(r"^([A-Za-z_][\w]*(?:\.[\w]+)*): (.*)$", re.S)
@@ -27,7 +35,10 @@ def shown(value: Any) -> str:
             if isinstance(v, bool):
                 return "true" if v else "false"
         if isinstance(v, float):
-            return "nan" if math.isnan(v) else ("inf" if v == math.inf else "-inf" if v == -math.inf else repr(v))
+            if math.isnan(v) or math.isinf(v):
+                return "nan" if math.isnan(v) else ("inf" if v > 0 else "-inf")
+            text = repr(v)  # the shortest that reads back, or 12 digits: 1e+12, not 1000000000000.0
+            return text if len(text) <= 12 else format(v, ".12g")
         if isinstance(v, int):
             return str(v)
         if isinstance(v, str):  # 'text' is a TOML literal string too

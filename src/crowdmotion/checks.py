@@ -102,18 +102,19 @@ def spawn_room(scene: Scene, group: Group, gap: float, clearance=None) -> tuple[
     return int(min(PLACEABLE_SHARE * free / body, 1e15)), free
 
 
-def check_spawn_inside(scene: Scene, k: int, group: Group) -> None:
-    """Refuse a spawn region (rect or disc) that reaches outside the scene's bounds, where
-    sampled starts would leave the scene."""
-    spawn = group.spawn
-    if not isinstance(spawn, (Rect, Disc)):
+def check_inside(scene: Scene, k: int, group: Group, part: str = "spawn") -> None:
+    """Refuse a spawn or goal region (rect or disc; ``part``) that reaches outside the
+    scene's bounds, where sampled starts or goal points would lie outside the scene."""
+    region = getattr(group, part)
+    if not isinstance(region, (Rect, Disc)):
         return
-    lo, hi = (spawn.lower, spawn.upper) if isinstance(spawn, Rect) else \
-        (spawn.center - spawn.radius, spawn.center + spawn.radius)
+    lo, hi = (region.lower, region.upper) if isinstance(region, Rect) else \
+        (region.center - region.radius, region.center + region.radius)
     tol = 1e-9 * float(np.max(scene.upper - scene.lower))
     if np.any(lo < scene.lower - tol) or np.any(hi > scene.upper + tol):
-        raise ValueError(f"{where(k, group)} spawn: {describe_region(spawn)} reaches outside scene.bounds "
-                         f"{_fmt(scene.lower)}-{_fmt(scene.upper)}: agents would start outside the scene")
+        what = "agents would start outside the scene" if part == "spawn" else "goal points would lie outside the scene"
+        raise ValueError(f"{where(k, group)} {part}: {describe_region(region)} reaches outside scene.bounds "
+                         f"{_fmt(scene.lower)}-{_fmt(scene.upper)}: {what}")
 
 
 def check_spawn_capacity(scene: Scene, k: int, group: Group, gap: float) -> None:

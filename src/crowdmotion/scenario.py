@@ -18,7 +18,7 @@ import numpy as np
 from pydantic import BaseModel, ConfigDict, Field, ValidationError, field_validator, model_validator
 
 from crowdmotion import groups as G
-from crowdmotion._validation import error_lines, field_names, shown
+from crowdmotion._validation import Coordinate, Positive, error_lines, field_names, shown
 from crowdmotion.formation.params import FormationAttributes, FormationParams, TemplateSpec
 from crowdmotion.mdp.params import MDPParams
 from crowdmotion.pso.params import PSOParams
@@ -42,9 +42,10 @@ class _Model(BaseModel):
     model_config = ConfigDict(extra="forbid", frozen=True)
 
 
-Coord = Annotated[list[float], Field(min_length=2, max_length=3)]
-PosFloat = Annotated[float, Field(gt=0, allow_inf_nan=False)]
-Times = Annotated[list[Annotated[float, Field(allow_inf_nan=False)]], Field(min_length=1)]
+Coord = Annotated[list[Coordinate], Field(min_length=2, max_length=3)]
+PosFloat = Positive
+Speed = Annotated[float, Field(gt=0, le=1000.0, allow_inf_nan=False)]  # m/s
+Times = Annotated[list[Coordinate], Field(min_length=1)]
 
 
 def _keyframes(times: list[float], positions: list) -> None:
@@ -128,7 +129,7 @@ class PolygonSpec(_Model):
     """
 
     shape: Literal["polygon"]
-    vertices: list[Annotated[list[float], Field(min_length=2, max_length=2)]] = Field(min_length=3)
+    vertices: list[Annotated[list[Coordinate], Field(min_length=2, max_length=2)]] = Field(min_length=3)
     path: PathSpec | None = None
 
 
@@ -222,9 +223,9 @@ class RingRegion(_Model):
     """
 
     shape: Literal["ring"]
-    center: Annotated[list[float], Field(min_length=2, max_length=2)]
+    center: Annotated[list[Coordinate], Field(min_length=2, max_length=2)]
     radius: PosFloat
-    phase_deg: Annotated[float, Field(allow_inf_nan=False)] = 0.0
+    phase_deg: Annotated[float, Field(ge=-360_000, le=360_000, allow_inf_nan=False)] = 0.0
 
 
 class AntipodalRegion(_Model):
@@ -267,8 +268,8 @@ class GroupSpec(_Model):
     spawn: RegionSpec
     goal: RegionSpec
     radius: PosFloat = 0.25
-    max_speed: PosFloat = 1.5
-    pref_speed: PosFloat = 1.3
+    max_speed: Speed = 1.5
+    pref_speed: Speed = 1.3
     personality: str | list[float] | dict[str, Any] | None = None
     formation: TemplateSpec | None = None
     attributes: dict[str, Any] = {}

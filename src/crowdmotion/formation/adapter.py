@@ -17,11 +17,12 @@ def check_scenario(scene, groups, params: FormationParams) -> None:
     """Problems a scenario can be refused for before running: a goal outside the bounds
     or where a body cannot stand, a 3D scene, a template that does not match the count,
     duplicate or blocked starts, a goal that walls cut off from the formation's start."""
-    from crowdmotion.checks import check_goal_clear, describe_region, where
+    from crowdmotion.checks import check_goal_clear, check_inside, describe_region, where
 
     for k, g in enumerate(groups):
         if g.dim == scene.dim:  # (a 3D group is refused, by name, as the simulator is built)
             check_goal_clear(scene, k, g)
+            check_inside(scene, k, g, "goal")
     sim = build_simulator(scene, groups, params, np.random.default_rng(0))
     try:
         stranded = sim.cut_off()

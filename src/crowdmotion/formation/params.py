@@ -8,8 +8,10 @@ from typing import Annotated, Literal, Union
 
 from pydantic import BaseModel, ConfigDict, Field, model_validator
 
-PosFloat = Annotated[float, Field(gt=0, allow_inf_nan=False)]
-NonNeg = Annotated[float, Field(ge=0, allow_inf_nan=False)]
+from crowdmotion._validation import Coordinate, NonNegative, Positive
+
+PosFloat = Positive
+NonNeg = NonNegative
 Count = Annotated[int, Field(gt=0, le=1_000_000)]
 MAX_TIME_STEP_S = 10.0  # seconds per step at most
 MAX_FPS = 1000.0  # output frames per second at most
@@ -102,7 +104,7 @@ class PointsTemplate(_Model):
     """
 
     kind: Literal["points"]
-    points: list[Annotated[list[float], Field(min_length=2, max_length=2)]] = Field(min_length=1)
+    points: list[Annotated[list[Coordinate], Field(min_length=2, max_length=2)]] = Field(min_length=1)
 
 
 TemplateSpec = Annotated[Union[BlockTemplate, WedgeTemplate, CircleTemplate, LineTemplate, CarsTemplate,
@@ -195,7 +197,7 @@ class FormationAttributes(_Model):
     """
 
     reassign: bool | None = None
-    heading_deg: Annotated[float, Field(allow_inf_nan=False)] | None = None
+    heading_deg: Annotated[float, Field(ge=-360_000, le=360_000, allow_inf_nan=False)] | None = None
 
 
 def make_params(params: FormationParams | dict | None = None, **overrides) -> FormationParams:

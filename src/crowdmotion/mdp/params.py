@@ -7,7 +7,9 @@ from typing import Annotated, Literal
 
 from pydantic import AliasChoices, BaseModel, ConfigDict, Field
 
-PosFloat = Annotated[float, Field(gt=0, allow_inf_nan=False)]
+from crowdmotion._validation import Positive
+
+PosFloat = Positive
 
 
 class MDPParams(BaseModel):

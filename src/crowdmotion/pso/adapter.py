@@ -27,7 +27,7 @@ def check_scenario(scene, groups, params: PSOParams) -> None:
     regions too small, goals walled off from their spawns, and a generated obstacle
     field that leaves a spawn no room to start. Warns when v_max lets a particle move
     faster than its group's max_speed."""
-    from crowdmotion.checks import check_goal_clear, check_reachable, check_spawn_capacity, check_spawn_inside, \
+    from crowdmotion.checks import check_goal_clear, check_inside, check_reachable, check_spawn_capacity, \
         check_start_points, where
 
     ObstacleArrays.from_scene(scene)
@@ -42,7 +42,8 @@ def check_scenario(scene, groups, params: PSOParams) -> None:
                              f"(clearance {clear.min():.3g} m < radius {g.radius} m)")
     check_start_points(scene, groups, apart=params.avoid_agents)
     for i, g in enumerate(groups):
-        check_spawn_inside(scene, i, g)
+        check_inside(scene, i, g, "spawn")
+        check_inside(scene, i, g, "goal")
     for i, g in enumerate(groups):  # the placement run does: listed starts, room when bodies keep apart
         if isinstance(g.spawn, Points) or params.avoid_agents:
             check_spawn_capacity(scene, i, g, params.spawn_gap)

@@ -8,11 +8,11 @@ from typing import Annotated, Literal
 
 from pydantic import BaseModel, ConfigDict, Field, ValidationError, model_validator
 
-from crowdmotion._validation import error_lines
+from crowdmotion._validation import Coordinate, NonNegative, Positive, error_lines
 
-PosFloat = Annotated[float, Field(gt=0, allow_inf_nan=False)]
-NonNeg = Annotated[float, Field(ge=0, allow_inf_nan=False)]
-Coord = Annotated[list[float], Field(min_length=2, max_length=3)]
+PosFloat = Positive
+NonNeg = NonNegative
+Coord = Annotated[list[Coordinate], Field(min_length=2, max_length=3)]
 MAX_ITERATION_TIME_S = 10.0  # seconds per iteration at most
 MAX_FPS = 1000.0  # output frames per second at most
 

@@ -16,13 +16,14 @@ def check_scenario(scene, groups, params: RVOParams) -> None:
     """Everything a run refuses, refused before it starts: a 3D scene, goals an agent
     cannot stand on, spawn regions too small, then the set-up itself (placement, personality,
     guidance fields) and goals the field says no agent can reach."""
-    from crowdmotion.checks import check_dimension, check_goal_clear, check_spawn_capacity, check_spawn_inside, \
+    from crowdmotion.checks import check_dimension, check_goal_clear, check_inside, check_spawn_capacity, \
         describe_region, where
 
     check_dimension("rvo", scene, (2,), "use method = 'mdp' or 'pso' for 3D scenes")
     for k, g in enumerate(groups):
         check_goal_clear(scene, k, g)
-        check_spawn_inside(scene, k, g)
+        check_inside(scene, k, g, "spawn")
+        check_inside(scene, k, g, "goal")
         check_spawn_capacity(scene, k, g, params.spawn_gap)
     sim = build_simulator(scene, groups, params, np.random.default_rng(0))
     try:

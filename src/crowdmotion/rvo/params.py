@@ -7,7 +7,9 @@ from typing import Annotated, Literal
 
 from pydantic import BaseModel, ConfigDict, Field, model_validator
 
-PosFloat = Annotated[float, Field(gt=0, allow_inf_nan=False)]
+from crowdmotion._validation import NonNegative, Positive
+
+PosFloat = Positive
 MAX_TIME_STEP_S = 10.0  # seconds: a longer step walks through walls between two looks
 # the per-agent parameters a group may set for itself (attributes) share these bounds
 MAX_NEIGHBORS = 10_000
@@ -15,7 +17,7 @@ MAX_SAMPLES = 10_000
 MaxNeighbors = Annotated[int, Field(ge=0, le=MAX_NEIGHBORS)]
 NeighborDist = PosFloat
 Samples = Annotated[int, Field(gt=0, le=MAX_SAMPLES)]
-Safety = Annotated[float, Field(ge=0, allow_inf_nan=False)]
+Safety = NonNegative
 
 
 class RVOParams(BaseModel):
@@ -67,10 +69,10 @@ class RVOParams(BaseModel):
     remove_on_arrival: bool = True
     arrival_radius: PosFloat = 0.5
     goal_assignment: Literal["sample", "shift"] = "sample"
-    spawn_gap: Annotated[float, Field(ge=0, allow_inf_nan=False)] = 0.05
+    spawn_gap: NonNegative = 0.05
     keep_right_deg: Annotated[float, Field(ge=0, lt=90, allow_inf_nan=False)] = 15.0
     patience: PosFloat = 2.0
-    congestion: Annotated[float, Field(ge=0, allow_inf_nan=False)] = 1.0
+    congestion: NonNegative = 1.0
     replan_s: PosFloat = 2.0
     density_slowing: bool = True
     follow: Annotated[float, Field(ge=0, le=1, allow_inf_nan=False)] = 0.5
