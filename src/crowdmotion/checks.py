@@ -173,7 +173,10 @@ def check_start_points(scene: Scene, groups, apart: bool = True) -> None:
                              f"{radii} would overlap at the start")
 
 
-REACH_CELLS = 250_000  # cells of the grid on which check_reachable looks for a way
+# cells of the grid on which check_reachable looks for a way: as many as REACH_WORK
+# cell-obstacle distances allow, within these bounds (a validate stays well under a second)
+REACH_CELLS = (20_000, 250_000)
+REACH_WORK = 4_000_000
 
 
 def check_reachable(scene: Scene, k: int, group: Group) -> None:
@@ -190,7 +193,8 @@ def check_reachable(scene: Scene, k: int, group: Group) -> None:
         return
     dim = scene.dim
     extent = scene.upper - scene.lower
-    cell = float(max(group.radius / 2, (np.prod(extent) / REACH_CELLS) ** (1 / dim)))
+    cells = min(max(REACH_WORK // len(scene.static_obstacles), REACH_CELLS[0]), REACH_CELLS[1])
+    cell = float(max(group.radius / 2, (np.prod(extent) / cells) ** (1 / dim)))
     shape = tuple(int(n) for n in np.maximum(np.ceil(extent / cell - 1e-9), 1))
     idx = np.indices(shape).reshape(dim, -1).T
     centres = scene.lower + (idx + 0.5) * cell
