@@ -263,11 +263,11 @@ def test_attributes_samples_within_the_rvo_bound_reach_the_agents():
 
 @pytest.mark.parametrize("text,old,new,words", [
     (PSO, "count = 12", "count = 12\nattributes = { pref_speed_range = [1.0, 1.2] }",
-     ["groups.0.attributes.pref_speed_range", "not an attribute method 'pso' reads", "method 'rvo'"]),
+     ["groups.0.attributes.pref_speed_range", "not an attribute method 'pso' reads: it belongs to method 'rvo'"]),
     (PSO, "count = 12", 'count = 12\npersonality = "A+"', ["groups.0.personality", "only method 'rvo'", "'pso'"]),
     (PSO, "[pso]", "[rvo]\nsamples = 10\n[pso]", ["rvo: a [rvo] table, but method = 'pso'"]),
     (PSO, "iterations = 80", "iterations = 80\ntime_step = 0.1",
-     ["pso.time_step", "is not a [pso] parameter (it is one of [rvo] and [formation]'s)"]),
+     ["pso.time_step", "is not a [pso] parameter: it belongs to [rvo] and [formation]"]),
     (PSO, "iterations = 80", "iterations = 80\niteration = 3", ["pso.iteration", "did you mean 'iterations'?"]),
     (RVO, "max_steps = 50", "max_steps = 50\n[mdp]\nmax_steps = 4", ["mdp: a [mdp] table, but method = 'rvo'"]),
     (RVO, 'personality = "A+"', 'formation = { kind = "line", count = 5 }', ["groups.0.formation", "only method"]),

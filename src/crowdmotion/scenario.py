@@ -429,8 +429,8 @@ def _unknown_key(loc: tuple, key: str) -> str | None:
         block = loc[0]
         owners = _owners(key, PARAMS, block)
         if owners:
-            return (f"is not a [{block}] parameter (it is one of " + " and ".join(f"[{m}]" for m in owners)
-                    + f"'s){_close(key, PARAMS[block].model_fields)}")
+            return (f"is not a [{block}] parameter: it belongs to " + " and ".join(f"[{m}]" for m in owners)
+                    + _close(key, PARAMS[block].model_fields))
         return f"is not a [{block}] parameter{_close(key, field_names(PARAMS[block]))}"
     return None
 
@@ -442,8 +442,8 @@ def _attribute_lines(attrs: dict, method: str, where: str) -> list[str]:
     def about(key: str) -> str | None:
         owners = _owners(key, ATTRIBUTES, method)
         if owners:
-            return (f"is not an attribute method {method!r} reads (it is one of method "
-                    + " and ".join(repr(m) for m in owners) + "'s)")
+            return (f"is not an attribute method {method!r} reads: it belongs to method "
+                    + " and ".join(repr(m) for m in owners))
         if key in GroupSpec.model_fields:
             return "is a field of the group itself: write it in the [[groups]] table, not in attributes"
         if model is None:
