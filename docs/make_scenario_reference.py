@@ -27,6 +27,8 @@ SECTIONS = [
     ("[scene]", [S.SceneSpec, S.CircleSpec, S.SphereSpec, S.BoxSpec, S.PolygonSpec, S.PathSpec]),
     ("[[groups]]", [S.GroupSpec, S.PointRegion, S.PointsRegion, S.RectRegion, S.DiscRegion, S.MovingRegion,
                     S.RingRegion, S.AntipodalRegion]),
+    ("Group attributes (a group's `attributes` table: rvo and formation; mdp and pso take none)",
+     [R.RVOAttributes, F.FormationAttributes]),
     ("Formation templates (a group's `formation` table)", [F.BlockTemplate, F.WedgeTemplate, F.CircleTemplate,
                                                           F.LineTemplate, F.CarsTemplate, F.PointsTemplate]),
     ("[mdp]", [M.MDPParams]),
@@ -160,11 +162,10 @@ def _accepts(method: str, dim: int = 2, obstacle: str = "", spawn: str = SPAWNS[
     if dim == 3:
         spawn = spawn.replace("[2, 5]", "[2, 5, 5]").replace("[8, 15]", "[8, 15, 15]")
         goal = goal.replace("[35, 10]", "[35, 10, 10]")
-    extra = '[formation]\nmax_steps = 10\n' if method != "formation" else ""
     group_extra = 'formation = { kind = "block", rows = 2, cols = 2, spacing = 1.2 }' \
         if method == "formation" and '"points"' not in spawn else ""
     text = PROBE.format(method=method, bounds=bounds, obstacle=obstacle, spawn=spawn, goal=goal,
-                        extra=group_extra + "\n" + extra)
+                        extra=group_extra)
     try:
         with warnings.catch_warnings():  # e.g. PSO's speed note: accepted is accepted
             warnings.simplefilter("ignore")
@@ -199,7 +200,11 @@ def render() -> str:
     """The whole reference page."""
     parts = ["# Scenario file reference", "",
              "Generated from the schema by `python docs/make_scenario_reference.py`; the loader accepts exactly "
-             "this. Unknown fields are errors; every error names the field and the value.", ""]
+             "this, with strict types: a whole number where an integer is asked for (not `4.0` or `true`), "
+             "`true` or `false` for a switch (not `\"no\"` or `1`). Unknown fields are errors, and so are "
+             "another method's fields (its parameter table, a group's `personality` or `formation`, its "
+             "attributes); every error names the field and the value. Every coordinate, length and duration is "
+             "a finite number of at most 1,000,000 (metres or seconds) in size.", ""]
     parts += ["## What each method takes", "",
               "Found by loading a small scenario of each kind with each method (the loader runs the method's "
               "own checks), so it cannot drift from the code. \"—\" means `validate` refuses it with a "

@@ -296,3 +296,31 @@ def test_the_exit_codes_are_documented_in_help_and_readme(capsys):
             assert f"\n  {code}" in text, (argv, code)
             assert f"| {code.strip()} |" in readme, code
         assert "SIGTERM" in text and "partial = true" in text
+
+
+@pytest.mark.parametrize("argv,option", [
+    (["render", "RUN", "--max-frames", "0"], "--max-frames"),
+    (["render", "RUN", "--max-frames", "ten"], "--max-frames"),
+    (["render", "RUN", "--fps", "-24"], "--fps"),
+    (["render", "RUN", "--fps", "1e9"], "--fps"),
+    (["render", "RUN", "--trail", "nan"], "--trail"),
+    (["render", "RUN", "--cell", "0"], "--cell"),
+    (["render", "RUN", "--cell", "inf"], "--cell"),
+    (["view", "RUN", "--max-frames", "-5"], "--max-frames"),
+    (["export", "RUN", "--to", "csv", "--fps", "0"], "--fps"),
+    (["sweep", "RUN", "--workers", "0"], "--workers"),
+    (["sweep", "RUN", "--seeds", "5:2"], "--seeds"),
+    (["sweep", "RUN", "--seeds", "-1,2"], "--seeds"),
+    (["sweep", "RUN", "--seeds", "1,1"], "--seeds"),
+    (["sweep", "RUN", "--seeds", "0:10000000000"], "--seeds"),
+    (["run", "RUN", "--seed", "-1"], "--seed"),
+    (["run", "RUN", "--seed", "1.5"], "--seed"),
+    (["bench", "mdp", "--repeats", "0"], "--repeats"),
+])
+def test_a_bad_number_on_the_command_line_is_an_argparse_error_not_a_traceback(tmp_path, capsys, argv, option):
+    argv = [str(tmp_path) if a == "RUN" else a for a in argv]
+    with pytest.raises(SystemExit) as exc:
+        main(argv)
+    assert exc.value.code == 2
+    err = capsys.readouterr().err
+    assert f"argument {option}" in err and "Traceback" not in err, err

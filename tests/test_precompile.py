@@ -8,6 +8,8 @@ import sys
 import pytest
 
 from crowdmotion import _precompile as pc
+from crowdmotion import precompile_record
+
 RECORD = json.loads(pc.RECORD.read_text())
 # for the scripts below: ``compiled`` lists what numba compiles once ``L()`` is registered
 LISTENER = """from numba.core import event
@@ -118,12 +120,12 @@ def test_signatures_parse_without_eval():
 @pytest.mark.parametrize("method", sorted(RECORD))
 def test_the_record_matches_what_a_run_compiles(method):
     # a kernel whose argument types changed, or a helper added or gone, would be
-    # precompiled for nothing: rerun python -m crowdmotion._precompile --record
+    # precompiled for nothing: rerun python -m crowdmotion.precompile_record --record
     def summary(kernels):
         return {k["name"]: (sorted(k["signatures"]), bool(k.get("at_load")), sorted(k.get("needs", ())))
                 for k in kernels}
 
-    assert summary(pc._fresh_run("--record-one", method)) == summary(RECORD[method])
+    assert summary(precompile_record._fresh_run("--record-one", method)) == summary(RECORD[method])
 
 
 @pytest.mark.skipif(not hasattr(os, "fork"), reason="needs fork")
@@ -162,7 +164,7 @@ children = [pid for v in pc._PENDING.values() for pid in v[2]]
 """ + LISTENER + """from crowdmotion.cli import builtin_scenarios
 from crowdmotion.scenario import load_scenario, run_scenario
 sc = load_scenario([p for p in builtin_scenarios() if p.stem == "mdp_robots_2d"][0])
-done = pc.start("mdp")  # what run_scenario calls first: this process's share, then the wait
+done = pc.start("mdp")  # what `crowdmotion run` calls first: this process's share, then the wait
 event.register("numba:compile", L())
 run_scenario(sc, progress=False)
 print(json.dumps({"children": children, "compiled": compiled, "pending": list(pc._PENDING), "done": done}))
@@ -273,3 +275,22 @@ _begin_compiling(scenario_path("pso_gathering"), quiet=True)
     assert done.returncode == 0, done.stderr
     assert done.stdout.strip() == "True"
     assert "compiling" not in done.stderr
+
+
+def test_a_library_run_forks_no_compiling_children_unless_asked(monkeypatch):
+    import crowdmotion
+    from crowdmotion.builtin import builtin_scenarios
+    from crowdmotion.scenario import load_scenario, run_scenario
+
+    forks = []  # a cold cache on four cores, where `crowdmotion run` would fork
+    monkeypatch.setattr(pc, "can_fork", lambda: True)
+    monkeypatch.setattr(pc, "cores", lambda: 4)
+    monkeypatch.setattr(pc, "_cold_kernels", lambda method: [{"name": "k", "seconds": 1.0, "signatures": []}])
+    monkeypatch.setattr(pc, "_fork", lambda n, *args: forks.append(n) or [])
+    monkeypatch.setattr(pc, "_work", lambda *args, **kw: None)
+    sc = load_scenario(next(p for p in builtin_scenarios() if p.stem == "mdp_robots_2d"))
+    run_scenario(sc, progress=False)
+    crowdmotion.run(sc, progress=False)
+    assert forks == []
+    run_scenario(sc, progress=False, precompile=True)  # what the command line asks for
+    assert forks == [1]

@@ -149,7 +149,7 @@ def test_pso_scenario_block_is_the_api_params():
     ("v_max = [0.5, 0.5]", "v_max = [0.5, 0.5]\nconstriction = true", ["pso", "c1 + c2 > 4"]),
     ('obstacles = [{ shape = "circle", center = [10, 0], radius = 2 }]',
      'obstacles = [{ shape = "polygon", vertices = [[5, 5], [8, 5], [6, 9]] }]', ["scene.obstacles.0 is a polygon"]),
-    ("position = [0, 0]", "position = [10, 0.5]", ["covered by an obstacle"]),
+    ("position = [0, 0]", "position = [10, 0.5]", ["groups.0", "goal", "[10, 0.5] lies inside scene.obstacles.0"]),
 ])
 def test_pso_scenario_errors_name_the_field(old, new, words):
     _refused(PSO.replace(old, new), words, run=True)
@@ -186,7 +186,7 @@ def test_formation_scenario_runs_and_reports_the_formation():
 
 @pytest.mark.parametrize("old,new,words", [
     ("count = 9", "count = 10", ["group 'squad'", "count = 10 but its formation template (block) holds 9"]),
-    ("position = [33, 0]", "position = [20, 0.4]", ["goal [20.0, 0.4] is inside an obstacle"]),
+    ("position = [33, 0]", "position = [20, 0.4]", ["goal: the point [20, 0.4] lies inside scene.obstacles.0"]),
     ("rows = 3, cols", "rows = 0, cols", ["groups.0.formation.block.rows", "got 0"]),
     ('kind = "block", rows = 3, cols = 3, spacing = 1.2', 'kind = "hexagon"', ["groups.0.formation", "hexagon"]),
     ("field_range = 1.5", "field_range = -1", ["formation.field_range", "got -1"]),
@@ -206,3 +206,117 @@ def test_remove_on_arrival_is_one_option_in_mdp_and_rvo_and_the_old_mdp_name_sti
     assert MDPParams(despawn=True) == MDPParams(remove_on_arrival=True)
     sc = parse_scenario(GOOD.replace("max_steps = 30", "max_steps = 30\nremove_on_arrival = true"))
     assert sc.params.remove_on_arrival is True
+
+
+# strict scenarios: a value of the wrong kind, an unknown key or another method's field is
+# refused, naming it, instead of being read as something else or ignored
+
+FORMATION_POINTS = FORMATION.replace('formation = { kind = "block", rows = 3, cols = 3, spacing = 1.2 }\n',
+                                     'formation = { kind = "block", rows = 3, cols = 3, spacing = 1.2 }\n'
+                                     'attributes = { reassign = false }\n')
+
+
+@pytest.mark.parametrize("text,old,new,words", [
+    (GOOD, "count = 4", "count = true", ["groups.0.count (group 'g')", "whole number", "got true"]),
+    (GOOD, "count = 4", "count = 4.0", ["groups.0.count", "whole number", "got 4.0"]),
+    (GOOD, "count = 4", 'count = "4"', ["groups.0.count", "without quotes"]),
+    (GOOD, "seed = 1", "seed = false", ["seed", "got false"]),
+    (GOOD, "max_steps = 30", "max_steps = 30\nforbid_crossing = 1", ["mdp.forbid_crossing", "true or false", "got 1"]),
+    (GOOD, "max_steps = 30", 'max_steps = 30\ntheta = true', ["mdp.theta", "must be a number", "got true"]),
+    (FORMATION_POINTS, "reassign = false", 'reassign = "no"', ["groups.0.attributes.reassign", "true or false",
+                                                                 "got 'no'"]),
+])
+def test_a_value_of_the_wrong_kind_is_refused_not_converted(text, old, new, words):
+    assert old in text
+    _refused(text.replace(old, new), words)
+
+
+def test_count_true_is_refused_naming_groups_0_count():
+    _refused(GOOD.replace("count = 4", "count = true"), ["groups.0.count", "got true"])
+
+
+def test_reassign_no_is_refused_not_read_as_true():
+    _refused(FORMATION_POINTS.replace("reassign = false", 'reassign = "no"'), ["groups.0.attributes.reassign"])
+    sc = parse_scenario(FORMATION_POINTS)
+    assert sc.groups[0].attributes["reassign"] is False
+
+
+@pytest.mark.parametrize("attrs,words", [
+    ("pref_speed_rang = [1.0, 1.2]", ["groups.0.attributes.pref_speed_rang", "did you mean 'pref_speed_range'?"]),
+    ("samples = 1e8", ["groups.0.attributes.samples", "whole number"]),
+    ("samples = 100000000", ["groups.0.attributes.samples", "less than or equal to 10000"]),
+    ("max_neighbors = -1", ["groups.0.attributes.max_neighbors", "got -1"]),
+    ("safety = nan", ["groups.0.attributes.safety", "got nan"]),
+    ("pref_speed_range = [1.2, 1.0]", ["groups.0.attributes.pref_speed_range", "low 1.2 exceeds high 1"]),
+    ("heading_deg = 90.0", ["groups.0.attributes.heading_deg", "method 'formation'"]),
+    ('personality = "A+"', ["groups.0.attributes.personality", "write it in the [[groups]] table"]),
+])
+def test_rvo_attributes_are_checked_like_the_rvo_block(attrs, words):
+    text = RVO.replace('personality = "A+"\n', f"attributes = {{ {attrs} }}\n")
+    _refused(text, words)
+
+
+def test_attributes_samples_within_the_rvo_bound_reach_the_agents():
+    sc = parse_scenario(RVO.replace('personality = "A+"\n', "attributes = { samples = 200, safety = 2 }\n"))
+    assert sc.groups[0].attributes == {"samples": 200, "safety": 2}
+
+
+@pytest.mark.parametrize("text,old,new,words", [
+    (PSO, "count = 12", "count = 12\nattributes = { pref_speed_range = [1.0, 1.2] }",
+     ["groups.0.attributes.pref_speed_range", "not an attribute method 'pso' reads: it belongs to method 'rvo'"]),
+    (PSO, "count = 12", 'count = 12\npersonality = "A+"', ["groups.0.personality", "only method 'rvo'", "'pso'"]),
+    (PSO, "[pso]", "[rvo]\nsamples = 10\n[pso]", ["rvo: a [rvo] table, but method = 'pso'"]),
+    (PSO, "iterations = 80", "iterations = 80\ntime_step = 0.1",
+     ["pso.time_step", "is not a [pso] parameter: it belongs to [rvo] and [formation]"]),
+    (PSO, "iterations = 80", "iterations = 80\niteration = 3", ["pso.iteration", "did you mean 'iterations'?"]),
+    (RVO, "max_steps = 50", "max_steps = 50\n[mdp]\nmax_steps = 4", ["mdp: a [mdp] table, but method = 'rvo'"]),
+    (RVO, 'personality = "A+"', 'formation = { kind = "line", count = 5 }', ["groups.0.formation", "only method"]),
+    (FORMATION, "field_range = 1.5", "field_range = 1.5\nsamples = 5", ["formation.samples", "[rvo]"]),
+])
+def test_another_methods_field_is_refused_naming_the_method(text, old, new, words):
+    assert old in text
+    _refused(text.replace(old, new), words)
+
+
+def test_formats_empty_is_refused():
+    _refused(GOOD + '[output]\nformats = []\n', ["output.formats", "at least 1"])
+
+
+@pytest.mark.parametrize("old,new,words", [
+    ("max_steps = 50", "max_steps = 50\ntime_step = 1e6", ["rvo.time_step", "less than or equal to 10"]),
+    ("max_steps = 50", "max_steps = 1000000", ["more than a day", "rvo.max_steps", "rvo.time_step"]),
+])
+def test_an_absurd_time_step_or_duration_is_refused(old, new, words):
+    _refused(RVO.replace(old, new), words)
+
+
+def test_a_model_check_names_its_field_without_pydantic_words():
+    with pytest.raises(ScenarioError) as e:
+        parse_scenario(GOOD.replace("position = [9, 9]", "position = [9, 9, 9]"), "s.toml")
+    text = str(e.value)
+    assert "  groups.0.goal (group 'g'): coordinates [9.0, 9.0, 9.0] are not 2D" in text
+    assert "(top level)" not in text and "Value error" not in text
+
+
+def test_heading_deg_north_is_refused_naming_the_attribute():
+    _refused(FORMATION_POINTS.replace("reassign = false", 'heading_deg = "north"'),
+             ["groups.0.attributes.heading_deg", "must be a number", "'north'"])
+
+
+def test_deeply_nested_toml_is_refused_in_a_sentence():
+    _refused("a = " + "[" * 5000 + "]" * 5000, ["nested too deeply"])
+
+
+@pytest.mark.parametrize("old,new,words", [
+    ("bounds = [[0, 0], [10, 10]]", "bounds = [[0, 0], [1e12, 1e12]]", ["scene.bounds.1.0", "1000000", "got 1e+12"]),
+    ("radius = 1 }", "radius = 1e300 }", ["scene.obstacles.0.circle.radius", "1000000"]),
+    ("count = 4", "count = 4\nmax_speed = 1e9", ["groups.0.max_speed", "1000"]),
+])
+def test_a_1e12_m_scene_is_refused_naming_the_field_not_left_to_overflow(old, new, words):
+    _refused(GOOD.replace(old, new), words)
+
+
+def test_a_goal_region_reaching_outside_the_bounds_is_refused_where_goal_points_are_sampled():
+    _refused(RVO.replace('goal = { shape = "rect", lower = [25, 1], upper = [29, 9] }',
+                         'goal = { shape = "rect", lower = [25, 1], upper = [35, 9] }'),
+             ["group 'a' (groups.0) goal: rect [25, 1]-[35, 9] reaches outside scene.bounds [0, 0]-[30, 10]"])

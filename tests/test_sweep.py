@@ -23,7 +23,7 @@ def test_eight_seeds_on_a_local_cluster_give_eight_rows_and_eight_files(tmp_path
 def test_settings_multiply_the_runs_and_bad_values_name_the_field(tmp_path):
     path = tmp_path / "s.toml"
     path.write_text(GOOD)
-    runs = plan(path, [0, 1], {"mdp.tau": [0.5, 2.0], "seed": [1]})
+    runs = plan(path, [0, 1], {"mdp.tau": [0.5, 2.0], "mdp.theta": [1.0]})
     assert len(runs) == 4 and {r[2]["mdp.tau"] for r in runs} == {0.5, 2.0}
     with pytest.raises(ScenarioError, match="mdp.tau"):
         plan(path, [0], {"mdp.tau": [-1.0]})
@@ -40,5 +40,32 @@ def test_sweep_command(tmp_path, capsys):
     assert "4 runs" in capsys.readouterr().out
     table = pq.read_table(out / "sweep.parquet")
     assert table.num_rows == 4 and sorted(set(table["mdp.tau"].to_pylist())) == [0.5, 1.0]  # numbers, not text
-    assert main(["sweep", str(path), "--seeds", "a:b"]) == 2
-    assert "--seeds must look like" in capsys.readouterr().err
+    with pytest.raises(SystemExit) as exc:
+        main(["sweep", str(path), "--seeds", "a:b"])
+    assert exc.value.code == 2 and "--seeds must look like" in capsys.readouterr().err
+
+
+def test_sweep_set_seed_is_refused_pointing_to_seeds(tmp_path, capsys):
+    path = tmp_path / "s.toml"
+    path.write_text(GOOD)
+    with pytest.raises(SystemExit) as exc:
+        main(["sweep", str(path), "--set", "seed=1,2", "-o", str(tmp_path / "o")])
+    assert exc.value.code == 2 and "--seeds" in capsys.readouterr().err
+    with pytest.raises(ValueError, match="seed cannot be a setting"):
+        plan(path, [0], {"seed": [1, 2]})
+    assert not (tmp_path / "o").exists()
+
+
+def test_sweep_set_given_twice_for_one_field_is_refused(tmp_path, capsys):
+    path = tmp_path / "s.toml"
+    path.write_text(GOOD)
+    assert main(["sweep", str(path), "--set", "mdp.tau=0.5", "--set", "mdp.tau=2", "-o", str(tmp_path / "o")]) == 2
+    assert "--set mdp.tau is given twice" in capsys.readouterr().err
+    assert not (tmp_path / "o").exists()
+
+
+def test_a_sweep_setting_another_methods_field_is_refused_naming_it(tmp_path):
+    path = tmp_path / "s.toml"
+    path.write_text(GOOD)
+    with pytest.raises(ScenarioError, match=r"rvo: a \[rvo\] table, but method = 'mdp'"):
+        plan(path, [0], {"rvo.samples": [5]})

@@ -246,3 +246,46 @@ def test_a_speed_range_beyond_max_speed_is_refused_by_validate(tmp_path, capsys)
     path = scenario(tmp_path)
     path.write_text(path.read_text().replace("count = 9\n", "count = 9\nattributes = { pref_speed_range = [1.0, 2.0] }\n"))
     refused(capsys, ["validate", str(path)], "group 'walkers'", "pref_speed_range", "max_speed")
+
+
+def test_validate_refuses_a_run_larger_than_max_memory_before_placing_anyone(tmp_path, capsys, monkeypatch):
+    from crowdmotion.rvo import adapter
+
+    def never(*args):  # placing a million agents is the slow part validate must not reach
+        raise AssertionError("check_scenario ran")
+
+    monkeypatch.setattr(adapter, "check_scenario", never)
+    path = scenario(tmp_path, count=1_000_000, spawn='{ shape = "rect", lower = [0, 0], upper = [30, 20] }',
+                    bounds="[[0, 0], [3000, 2000]]")
+    err = refused(capsys, ["validate", str(path), "--max-memory", "1G"], str(path), "29.8 GiB of trajectories",
+                  "1,000,000 agents x 2,000 steps", "1.0 GiB", "rvo.max_steps")
+    assert "Traceback" not in err
+    refused(capsys, ["run", str(path), "--max-memory", "1G", "-o", str(tmp_path / "o")], "29.8 GiB")
+    assert not (tmp_path / "o").exists()
+
+
+def test_validate_refuses_a_run_larger_than_the_available_memory(tmp_path, capsys, monkeypatch):
+    import crowdmotion.memory
+
+    monkeypatch.setattr(crowdmotion.memory, "available_memory", lambda: 1 << 20)
+    path = scenario(tmp_path, count=50, spawn='{ shape = "rect", lower = [2, 2], upper = [12, 18] }')
+    refused(capsys, ["validate", str(path)], "1.5 MiB of trajectories", "1.0 MiB, the memory available now")
+    assert main(["validate", str(path), "--max-memory", "2M"]) == 0
+
+
+def test_the_size_estimate_counts_resampled_frames(tmp_path):
+    from crowdmotion.scenario import load_scenario, size_estimate
+
+    path = scenario(tmp_path, "pso", count=10, extra="[pso]\niterations = 100\nfps = 24\n")
+    est = size_estimate(load_scenario(path))
+    assert (est.steps, est.frames, est.seconds) == (100, 601, 25.0)  # 100 iterations of 0.25 s at 24 fps
+    assert est.bytes == (101 + 601) * 10 * 2 * 8
+
+
+@pytest.mark.parametrize("size", ["lots", "0", "-1G", "1e400"])
+def test_a_bad_max_memory_is_an_argparse_error(tmp_path, capsys, size):
+    with pytest.raises(SystemExit) as exc:
+        main(["validate", str(scenario(tmp_path)), "--max-memory", size])
+    assert exc.value.code == 2
+    err = capsys.readouterr().err
+    assert "argument --max-memory" in err and "Traceback" not in err

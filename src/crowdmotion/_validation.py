@@ -3,26 +3,113 @@
 from __future__ import annotations
 
 import difflib
-from typing import Iterable
+import math
+import re
+from typing import Annotated, Any, Callable, Iterable
 
-from pydantic import BaseModel, ValidationError
+from pydantic import BaseModel, Field, ValidationError
+
+SHOWN_MAX = 80  # characters of a value shown in a message
+
+# The largest coordinate, length or duration a scenario or a method's parameters may give:
+# 1000 km (or 1e6 s). Beyond it grids cannot be allocated and squared distances overflow
+# (a 1e300 m obstacle once covered nothing), so such values are refused by name.
+MAX_MAGNITUDE = 1e6
+Coordinate = Annotated[float, Field(ge=-MAX_MAGNITUDE, le=MAX_MAGNITUDE, allow_inf_nan=False)]
+Positive = Annotated[float, Field(gt=0, le=MAX_MAGNITUDE, allow_inf_nan=False)]
+NonNegative = Annotated[float, Field(ge=0, le=MAX_MAGNITUDE, allow_inf_nan=False)]
+
+# a message from a model-level check that names its own field: "groups.0.goal: ..."
+_OWN_FIELD = re.compile(r"^([A-Za-z_][\w]*(?:\.[\w]+)*): (.*)$", re.S)
 
 
-def error_lines(err: ValidationError, prefix: str = "", known: Iterable[str] = ()) -> list[str]:
+def shown(value: Any) -> str:
+    """A value as a scenario file writes it (TOML): ``true``, ``'no'``, ``[1.0, 2]``, ``nan``;
+    numpy scalars as plain numbers; cut to ``SHOWN_MAX`` characters."""
+
+    def fmt(v: Any) -> str:
+        if isinstance(v, bool):
+            return "true" if v else "false"
+        if hasattr(v, "item") and getattr(v, "ndim", 1) == 0:  # a numpy scalar
+            v = v.item()
+            if isinstance(v, bool):
+                return "true" if v else "false"
+        if isinstance(v, float):
+            if math.isnan(v) or math.isinf(v):
+                return "nan" if math.isnan(v) else ("inf" if v > 0 else "-inf")
+            text = repr(v)  # the shortest that reads back, or 12 digits: 1e+12, not 1000000000000.0
+            return text if len(text) <= 12 else format(v, ".12g")
+        if isinstance(v, int):
+            return str(v)
+        if isinstance(v, str):  # 'text' is a TOML literal string too
+            return repr(v)
+        if isinstance(v, (list, tuple)):
+            return "[" + ", ".join(fmt(x) for x in v) + "]"
+        if isinstance(v, dict):
+            return "{ " + ", ".join(f"{k} = {fmt(x)}" for k, x in v.items()) + " }" if v else "{}"
+        if v is None:
+            return "nothing"
+        return repr(v)
+
+    text = fmt(value)
+    return text if len(text) <= SHOWN_MAX else text[: SHOWN_MAX - 3] + "..."
+
+
+def _message(e: dict) -> str:
+    """pydantic's message in a user's words: no "Value error, " prefix; strict types say
+    what a scenario file must write."""
+    msg = e["msg"]
+    if msg.startswith("Value error, "):
+        msg = msg[len("Value error, "):]
+    if msg.startswith("Assertion failed, "):
+        msg = msg[len("Assertion failed, "):]
+    kind, value = e["type"], e.get("input")
+    if kind == "int_type" and isinstance(value, (bool, float)):
+        msg = "must be a whole number" + (" (true and false are not numbers)" if isinstance(value, bool) else "")
+    elif kind == "float_type" and isinstance(value, (bool, str)):
+        msg = "must be a number" + (" (true and false are not numbers)" if isinstance(value, bool) else
+                                    " (write it without quotes)")
+    elif kind == "int_type" and isinstance(value, str):
+        msg = "must be a whole number (write it without quotes)"
+    elif kind == "bool_type":
+        msg = "must be true or false (without quotes)"
+    elif kind == "string_type":
+        msg = "must be a string (in quotes)"
+    elif kind == "missing":
+        msg = "is missing: the scenario must give it"
+    return msg
+
+
+def error_lines(err: ValidationError, prefix: str = "", known: Iterable[str] = (),
+                hint: Callable[[tuple, str], str | None] | None = None) -> list[str]:
     """One line per problem: ``prefix.field: message (got value)``; an unknown field gets
-    the nearest of the ``known`` field names as a suggestion."""
+    the nearest of the ``known`` field names as a suggestion, or what ``hint(loc, key)``
+    says about it (``loc``: the table holding the key) when that is not None."""
     known = sorted(set(known))
     lines = []
     for e in err.errors():
-        loc = ".".join([*([prefix] if prefix else []), *(str(x) for x in e["loc"])])
-        shown = repr(e.get("input"))
-        if len(shown) > 80:
-            shown = shown[:77] + "..."
-        hint = ""
+        path = [*([prefix] if prefix else []), *(str(x) for x in e["loc"])]
+        msg = _message(e)
+        got = f" (got {shown(e.get('input'))})"
+        if e["type"] == "missing" or (isinstance(e.get("input"), dict) and e["type"] == "value_error"):
+            got = ""  # the whole table the field is missing from, or a check that names its values
+        if not e["loc"]:  # a check of the whole model: its message names the field itself
+            m = _OWN_FIELD.match(msg)
+            if m and ("." in m.group(1) or m.group(1) in known):
+                path, msg = [*([prefix] if prefix else []), m.group(1)], m.group(2)
+            got = ""
+        loc = ".".join(path)
+        extra = ""
         if e["type"] == "extra_forbidden" and e["loc"]:
-            close = difflib.get_close_matches(str(e["loc"][-1]), known, n=1, cutoff=0.6)
-            hint = f"; did you mean {close[0]!r}?" if close else ""
-        lines.append(f"{loc or '(top level)'}: {e['msg']} (got {shown}){hint}")
+            key = str(e["loc"][-1])
+            said = hint(tuple(e["loc"][:-1]), key) if hint is not None else None
+            if said is not None:
+                msg, extra = said, ""
+            else:
+                close = difflib.get_close_matches(key, known, n=1, cutoff=0.6)
+                msg = "is not a known field"
+                extra = f"; did you mean {close[0]!r}?" if close else ""
+        lines.append(f"{loc or '(top level)'}: {msg}{got}{extra}")
     return lines
 
 

@@ -1,6 +1,8 @@
 """Refusals every method shares before it simulates: the method's dimension, goals inside
-obstacles, and spawn regions too small for their groups. Messages name the group, the
-field and the value in the scenario file's own terms (``groups 'walkers' goal: ...``).
+obstacles or outside the bounds, spawn regions too small for their groups, listed starts
+that overlap or stand in obstacles, and goals walled off from their spawns. Messages name
+the group, the field and the value in the scenario file's own terms (``groups 'walkers'
+goal: ...``).
 """
 
 from __future__ import annotations
@@ -58,10 +60,15 @@ def check_dimension(method: str, scene: Scene, supported: tuple[int, ...], alter
 
 
 def check_goal_clear(scene: Scene, k: int, group: Group) -> None:
-    """Refuse goal points a body of the group's radius cannot stand on, and goal regions
-    with no such spot (static obstacles at t = 0)."""
+    """Refuse goal points a body of the group's radius cannot stand on, goal regions with
+    no such spot (static obstacles at t = 0), and a moving goal that leaves the bounds."""
     goal = group.goal
     if isinstance(goal, MovingTarget):
+        out = np.flatnonzero(~scene.contains(goal.positions))
+        if len(out):
+            raise ValueError(f"{where(k, group)} goal: the moving target's keyframe {int(out[0])} at "
+                             f"{_fmt(goal.positions[out[0]])} lies outside scene.bounds {_fmt(scene.lower)}-"
+                             f"{_fmt(scene.upper)}")
         return
     pts = goal.points if isinstance(goal, Points) else region_samples(scene, goal)
     if len(pts) == 0:
@@ -82,6 +89,34 @@ def check_goal_clear(scene: Scene, k: int, group: Group) -> None:
                          f"keeps an agent of radius {group.radius:g} m clear")
 
 
+def spawn_room(scene: Scene, group: Group, gap: float, clearance=None) -> tuple[int, float]:
+    """(about how many bodies of the group fit ``gap`` apart in its spawn region, the
+    area (volume in 3D) free of obstacles there). ``clearance(points)``: distances to
+    further obstacles, beyond the scene's own."""
+    pts, cell_area = region_samples(scene, group.spawn, with_area=True)
+    clear = _clearance(scene, pts)
+    if clearance is not None and len(pts):
+        clear = np.minimum(clear, clearance(pts))
+    free = float(np.sum(clear >= group.radius + gap) * cell_area)
+    body = np.pi * (group.radius + gap / 2) ** (2 if scene.dim == 2 else 3) * (1 if scene.dim == 2 else 4 / 3)
+    return int(min(PLACEABLE_SHARE * free / body, 1e15)), free
+
+
+def check_inside(scene: Scene, k: int, group: Group, part: str = "spawn") -> None:
+    """Refuse a spawn or goal region (rect or disc; ``part``) that reaches outside the
+    scene's bounds, where sampled starts or goal points would lie outside the scene."""
+    region = getattr(group, part)
+    if not isinstance(region, (Rect, Disc)):
+        return
+    lo, hi = (region.lower, region.upper) if isinstance(region, Rect) else \
+        (region.center - region.radius, region.center + region.radius)
+    tol = 1e-9 * float(np.max(scene.upper - scene.lower))
+    if np.any(lo < scene.lower - tol) or np.any(hi > scene.upper + tol):
+        what = "agents would start outside the scene" if part == "spawn" else "goal points would lie outside the scene"
+        raise ValueError(f"{where(k, group)} {part}: {describe_region(region)} reaches outside scene.bounds "
+                         f"{_fmt(scene.lower)}-{_fmt(scene.upper)}: {what}")
+
+
 def check_spawn_capacity(scene: Scene, k: int, group: Group, gap: float) -> None:
     """Refuse a spawn region that cannot hold the group's bodies ``gap`` apart (by area)."""
     spawn = group.spawn
@@ -89,15 +124,94 @@ def check_spawn_capacity(scene: Scene, k: int, group: Group, gap: float) -> None
         if len(spawn.points) != group.count:
             raise ValueError(f"{where(k, group)} spawn: {len(spawn.points)} points given for count = {group.count}")
         return
-    pts, cell_area = region_samples(scene, spawn, with_area=True)
-    free = float(np.sum(_clearance(scene, pts) >= group.radius + gap) * cell_area)
-    body = np.pi * (group.radius + gap / 2) ** (2 if scene.dim == 2 else 3) * (1 if scene.dim == 2 else 4 / 3)
-    room = int(PLACEABLE_SHARE * free / body)
+    room, free = spawn_room(scene, group, gap)
     if group.count > room:
         unit = "m²" if scene.dim == 2 else "m³"
         raise ValueError(f"{where(k, group)} spawn: {describe_region(spawn)} has room for about {room} agents of "
                          f"radius {group.radius:g} m ({free:.3g} {unit} free of obstacles), but count = "
                          f"{group.count}: enlarge the spawn region or lower the count")
+
+
+def check_start_points(scene: Scene, groups, apart: bool = True) -> None:
+    """Refuse listed start points (spawn shape points or point) where a body of the
+    group's radius leaves the bounds or stands in a static obstacle, and, with ``apart``,
+    two bodies that overlap at the start (the same point given twice, say)."""
+    from scipy.spatial import cKDTree
+
+    pts, rad, owner = [], [], []
+    for k, g in enumerate(groups):
+        if not isinstance(g.spawn, Points):
+            continue
+        p = g.spawn.points
+        clear = _clearance(scene, p)
+        bad = np.flatnonzero(clear < g.radius)
+        if len(bad):
+            q, c = p[bad[0]], clear[bad[0]]
+            if not scene.contains(q[None])[0]:
+                how = f"lies outside scene.bounds {_fmt(scene.lower)}-{_fmt(scene.upper)}"
+            else:
+                how = f"lies inside {_blocker(scene, q)}" if c < 0 else f"is only {c:.3g} m from {_blocker(scene, q)}"
+            raise ValueError(f"{where(k, g)} spawn: the point {_fmt(q)} {how}: an agent of radius {g.radius:g} m "
+                             f"cannot start there")
+        pts.append(p)
+        rad.append(np.full(len(p), g.radius))
+        owner += [(k, i) for i in range(len(p))]
+    if not apart or not pts:
+        return
+    pts, rad = np.concatenate(pts), np.concatenate(rad)
+    pairs = cKDTree(pts).query_pairs(2 * float(rad.max()), output_type="ndarray")
+    if len(pairs):
+        d = np.linalg.norm(pts[pairs[:, 0]] - pts[pairs[:, 1]], axis=1)
+        close = np.flatnonzero(d < rad[pairs[:, 0]] + rad[pairs[:, 1]])
+        if len(close):
+            a, b = (int(x) for x in pairs[close[np.argmin(d[close])]])
+            (ka, ia), (kb, ib) = owner[a], owner[b]
+            other = "" if ka == kb else f" {where(kb, groups[kb])}'s"
+            radii = f"{rad[a]:g} m" if rad[a] == rad[b] else f"{rad[a]:g} m and {rad[b]:g} m"
+            raise ValueError(f"{where(ka, groups[ka])} spawn: start points {ia} {_fmt(pts[a])} and{other} {ib} "
+                             f"{_fmt(pts[b])} are {np.linalg.norm(pts[a] - pts[b]):.3g} m apart: agents of radius "
+                             f"{radii} would overlap at the start")
+
+
+# cells of the grid on which check_reachable looks for a way: as many as REACH_WORK
+# cell-obstacle distances allow, within these bounds (a validate stays well under a second)
+REACH_CELLS = (20_000, 250_000)
+REACH_WORK = 4_000_000
+
+
+def check_reachable(scene: Scene, k: int, group: Group) -> None:
+    """Refuse a goal that static obstacles wall off from the whole spawn for a body of
+    the group's radius. Looked for on a grid whose free cells are every cell that may
+    hold a point clear of obstacles and walls by the radius (clearance is 1-Lipschitz,
+    so a cell whose centre is within radius - half its diagonal holds none), joined
+    across faces, edges and corners: a way in the plane always shows on the grid, so the
+    grid never refuses a goal that can be reached."""
+    from scipy import ndimage
+
+    goal, spawn = group.goal, group.spawn
+    if isinstance(goal, MovingTarget) or not scene.static_obstacles:
+        return
+    dim = scene.dim
+    extent = scene.upper - scene.lower
+    cells = min(max(REACH_WORK // len(scene.static_obstacles), REACH_CELLS[0]), REACH_CELLS[1])
+    cell = float(max(group.radius / 2, (np.prod(extent) / cells) ** (1 / dim)))
+    shape = tuple(int(n) for n in np.maximum(np.ceil(extent / cell - 1e-9), 1))
+    idx = np.indices(shape).reshape(dim, -1).T
+    centres = scene.lower + (idx + 0.5) * cell
+    free = (_clearance(scene, centres) >= group.radius - cell * np.sqrt(dim) / 2).reshape(shape)
+    labels, _ = ndimage.label(free, structure=np.ones((3,) * dim))
+
+    def parts(points) -> set:
+        cells = np.clip(np.floor((points - scene.lower) / cell).astype(np.int64), 0, np.array(shape) - 1)
+        found = labels[tuple(cells.T)]
+        return set(found[found > 0].tolist())
+
+    starts = spawn.points if isinstance(spawn, Points) else region_samples(scene, spawn)
+    ends = goal.points if isinstance(goal, Points) else region_samples(scene, goal)
+    if len(starts) and len(ends) and not parts(starts) & parts(ends):
+        raise ValueError(f"{where(k, group)} goal: {describe_region(goal)} cannot be reached from the spawn "
+                         f"{describe_region(spawn)}: obstacles close the way for a body of radius "
+                         f"{group.radius:g} m")
 
 
 def region_samples(scene: Scene, region, with_area: bool = False):

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import argparse
 import math
+import re
 import sys
 import warnings
 from pathlib import Path
@@ -15,20 +16,6 @@ from crowdmotion.builtin import builtin_scenarios  # noqa: F401  (also the CLI's
 def _one_line_warning(message, category, filename, lineno, file=None, line=None) -> None:
     """Warnings as one clean line on stderr, without the library's file and line."""
     print(f"crowdmotion: warning: {message}", file=sys.stderr)
-
-
-def _headline(summary: dict) -> str:
-    parts = [f"{summary['agents']} agents", f"{summary['frames']} frames",
-             f"agent overlaps {summary['agent_agent_overlaps']}",
-             f"obstacle penetrations {summary['agent_obstacle_penetrations']}"]
-    if "arrival_rate" in summary:
-        parts.append(f"arrived {summary['arrival_rate']:.0%}")
-    if "formation" in summary:
-        groups = summary["formation"]
-        done = sum(g["recovered_s"] is not None for g in groups.values())
-        worst = max(g["edge_length_error_mean"] for g in groups.values())
-        parts.append(f"formations recovered {done}/{len(groups)} (edge-length error {worst:.1%})")
-    return ", ".join(parts)
 
 
 def scenario_path(name: str) -> Path:
@@ -57,30 +44,74 @@ def _output_folder(args, sc) -> Path:
 
 def _size_estimate(sc) -> str:
     """Upper bounds a user can plan with: steps, agent-steps, trajectory memory."""
-    from crowdmotion.registry import get_method
+    from crowdmotion.memory import human_bytes
+    from crowdmotion.scenario import size_estimate
 
-    n = sum(g.count for g in sc.groups)
-    expected = getattr(get_method(sc.method).module, "expected_steps", None)
-    steps = expected(sc.groups, sc.params) if expected else getattr(sc.params, "max_steps", None)
-    if steps is None:
-        return f"{n} agents"
-    frames = steps + 1
-    size = frames * n * sc.scene.dim * 8
-    units = [(1 << 30, "GiB"), (1 << 20, "MiB"), (1 << 10, "KiB")]
-    human = next((f"{size / u:.1f} {name}" for u, name in units if size >= u), f"{size} B")
-    return (f"{n} agents x at most {steps} steps = {n * steps:,} agent-steps; trajectories up to {human} "
-            f"in memory")
+    est = size_estimate(sc)
+    return (f"{est.agents} agents x at most {est.steps} steps = {est.agents * est.steps:,} agent-steps; "
+            f"trajectories up to {human_bytes(est.bytes)} in memory")
+
+
+def _whole(text: str, least: int) -> int:
+    try:
+        value = int(text.strip())
+    except ValueError:
+        value = None
+    if value is None or value < least:
+        raise argparse.ArgumentTypeError(f"{text!r} is not a whole number of at least {least}")
+    return value
 
 
 def _positive_int(text: str) -> int:
-    """A whole number of at least 1 (``--jobs``)."""
+    """A whole number of at least 1 (``--jobs``, ``--workers``, ``--max-frames``)."""
+    return _whole(text, 1)
+
+
+def _seed(text: str) -> int:
+    """A whole number of at least 0 (``--seed``)."""
+    return _whole(text, 0)
+
+
+def _number(text: str, positive: bool) -> float:
     try:
-        value = int(text)
+        value = float(text)
     except ValueError:
-        value = 0
-    if value < 1:
-        raise argparse.ArgumentTypeError(f"{text!r} is not a whole number of at least 1")
+        value = math.nan
+    if not (math.isfinite(value) and (value > 0 if positive else value >= 0)):
+        raise argparse.ArgumentTypeError(f"{text!r} is not a {'positive' if positive else 'non-negative'} "
+                                         f"finite number")
     return value
+
+
+def _positive_number(text: str) -> float:
+    """A finite number above 0 (``--cell``)."""
+    return _number(text, True)
+
+
+def _nonnegative_number(text: str) -> float:
+    """A finite number of at least 0 (``--trail``)."""
+    return _number(text, False)
+
+
+MAX_FPS = 1000.0  # frames per second a command may resample to
+
+
+def _fps(text: str) -> float:
+    """A frame rate above 0 and at most MAX_FPS (``--fps``)."""
+    value = _number(text, True)
+    if value > MAX_FPS:
+        raise argparse.ArgumentTypeError(f"{text!r} frames per second is more than {MAX_FPS:g}")
+    return value
+
+
+def _memory_size(text: str) -> int:
+    """``--max-memory``: 8G, 512MiB, 2.5GB or bytes."""
+    from crowdmotion.memory import parse_size
+
+    try:
+        return parse_size(text)
+    except ValueError as exc:
+        raise argparse.ArgumentTypeError(str(exc)) from None
 
 
 def _plot_list(text: str) -> list[str]:
@@ -125,12 +156,13 @@ def cmd_run(args) -> int:
     _begin_compiling(path, args.quiet)
     from crowdmotion import _precompile
     from crowdmotion.interrupts import Interrupts
+    from crowdmotion.metrics import headline
     from crowdmotion.outputs import MANIFEST, claim_output_folder, write_run
     from crowdmotion.render.background import PictureProcess
     from crowdmotion.scenario import load_scenario, run_scenario
 
     stop = getattr(args, "interrupts", None) or Interrupts()
-    sc = load_scenario(path)
+    sc = load_scenario(path, max_memory=args.max_memory)
     # held from before, not after, the simulation until the files are written: a second run is refused
     with claim_output_folder(_output_folder(args, sc), args.overwrite) as out:
         plots = sc.spec.output.plots if args.plots is None else args.plots
@@ -151,7 +183,7 @@ def cmd_run(args) -> int:
         finally:
             if pictures is not None:
                 pictures.close()
-    print(f"{sc.spec.name}: {_headline(result.summary)}")
+    print(f"{sc.spec.name}: {headline(result.summary)}")
     for f in files:
         print(f"  wrote {f}")
     s = result.summary
@@ -165,10 +197,21 @@ def cmd_run(args) -> int:
         return stop.exit_code or 130
     if (s["agent_agent_overlaps"] or s["agent_obstacle_penetrations"]) and not args.allow_collisions:
         print(f"crowdmotion: error: the run ends with {s['agent_agent_overlaps']} agent overlaps and "
-              f"{s['agent_obstacle_penetrations']} obstacle penetrations (first: {s.get('first_events', [])[:1]}); "
-              f"the files are written for inspection; pass --allow-collisions to accept them", file=sys.stderr)
+              f"{s['agent_obstacle_penetrations']} obstacle penetrations{_first_event(s)}; the files are written "
+              f"for inspection; pass --allow-collisions to accept them", file=sys.stderr)
         return 3
     return 0
+
+
+def _first_event(summary: dict) -> str:
+    """`` (first: agent 3 and agent 7 overlap by 0.02 m at t = 4.25 s, frame 17)``, or nothing."""
+    events = summary.get("first_events") or []
+    if not events:
+        return ""
+    e = events[0]
+    other = f"agent {e['b']}" if e["kind"] == "agent-agent" else f"obstacle {e['b']}"
+    return (f" (first: agent {e['a']} and {other} overlap by {float(e['penetration']):.3g} m at "
+            f"t = {float(e['time']):.2f} s, frame {e['frame']})")
 
 
 def cmd_demo(args) -> int:
@@ -213,7 +256,7 @@ def cmd_validate(args) -> int:
     from crowdmotion.scenario import load_scenario
 
     path = scenario_path(args.scenario)
-    sc = load_scenario(path)
+    sc = load_scenario(path, max_memory=args.max_memory)
     out = _output_folder(args, sc)
     check_output_folder(out, args.overwrite)
     print(f"{path}: OK: {sc.scene.dim}D scene, {len(sc.scene.obstacles)} obstacles, "
@@ -232,11 +275,9 @@ def cmd_bench(args) -> int:
     # its options may also come after the method's name (crowdmotion bench mdp -q), as for the others
     own = argparse.ArgumentParser(prog="crowdmotion bench mdp")
     own.add_argument("--no-reference", action="store_true", default=args.no_reference)
-    own.add_argument("--repeats", type=int, default=args.repeats)
+    own.add_argument("--repeats", type=_positive_int, default=args.repeats)
     own.add_argument("-q", "--quiet", action="store_true", default=args.quiet)
     opts = own.parse_args(args.options)
-    if opts.repeats < 1:
-        raise ValueError(f"bench mdp: --repeats must be at least 1, got {opts.repeats}")
     rows = run_paper_tables(reference=not opts.no_reference, repeats=opts.repeats, progress=not opts.quiet)
     print_tables(rows)
     return 0
@@ -253,12 +294,54 @@ def _find_trajectories(out: Path) -> Path:
     raise FileNotFoundError(f"no trajectories.parquet or trajectories.csv in {out}")
 
 
-def _load_run(output: str):
-    """(trajectory file, Trajectories) of a run folder or a trajectory file."""
+def _load_trajectories(path: Path):
+    """Trajectories read from ``path``, with the scene its metadata holds checked too; a
+    file that cannot be used is refused with a ValueError that names it."""
+    import json
+
+    from crowdmotion.scene import Scene
     from crowdmotion.trajectories import Trajectories
 
+    try:
+        traj = Trajectories.load(path)
+        if not isinstance(traj.metadata, dict):
+            raise TypeError("metadata is not a table")
+        if traj.metadata.get("scene"):  # a damaged scene is refused here, not half-way through a picture
+            Scene.from_dict(traj.metadata["scene"])
+    except FileNotFoundError:
+        raise
+    except json.JSONDecodeError as exc:
+        where = f"{path.name}.meta.json beside it" if path.suffix.lower() == ".csv" else "the file"
+        raise ValueError(f"{path}: a damaged trajectory file: its metadata (in {where}) is not JSON: {exc}") from None
+    except KeyError as exc:
+        raise ValueError(f"{path}: a damaged trajectory file: its metadata lacks {exc.args[0]!r}") from None
+    except (TypeError, AttributeError, IndexError):
+        raise ValueError(f"{path}: a damaged trajectory file: its metadata is not laid out as crowdmotion "
+                         f"writes it") from None
+    except (ValueError, OSError) as exc:
+        msg = str(exc)
+        raise ValueError(msg if str(path) in msg else f"{path}: a damaged trajectory file: {msg}") from None
+    return traj
+
+
+def _load_run(output: str):
+    """(trajectory file, Trajectories) of a run folder or a trajectory file."""
     path = _find_trajectories(Path(output))
-    return path, Trajectories.load(path)
+    return path, _load_trajectories(path)
+
+
+def _read_json(path: Path, what: str) -> dict:
+    """A JSON table written by a run (summary.json, ...); a ValueError naming the file when
+    it is not one."""
+    import json
+
+    try:
+        data = json.loads(path.read_text(encoding="utf-8"))
+    except (ValueError, UnicodeDecodeError) as exc:
+        raise ValueError(f"{path}: a damaged {what}: not JSON ({exc})") from None
+    if not isinstance(data, dict):
+        raise ValueError(f"{path}: a damaged {what}: not a JSON table")
+    return data
 
 
 REPORT_COLUMNS = [("agents", "agents", "{:d}"), ("lateral_spread_m", "spread m", "{:.2f}"),
@@ -278,14 +361,14 @@ def _print_report_table(rows: dict, cell) -> None:
 
 def _run_report(path: Path, traj) -> dict:
     """metrics.group_report of one run, with the arrival times its summary measured."""
-    import json
-
     from crowdmotion.metrics import group_report
 
     report = group_report(traj)
     summary_file = path.parent / "summary.json"
     if summary_file.is_file():  # arrival times the method measured (agents that stay at the goal too)
-        by_group = json.loads(summary_file.read_text()).get("time_to_goal_by_group_s", {})
+        by_group = _read_json(summary_file, "run summary").get("time_to_goal_by_group_s", {})
+        if not isinstance(by_group, dict):
+            raise ValueError(f"{summary_file}: a damaged run summary: time_to_goal_by_group_s is not a table")
         for name, row in report.items():
             if row["time_to_goal_s"] is None:
                 row["time_to_goal_s"] = by_group.get(name)
@@ -323,17 +406,21 @@ def _sweep_report(folder: Path) -> int:
 
     from crowdmotion.io.atomic import atomic_path
     from crowdmotion.rvo.claims import check_claims, format_claims, mean_ci
-    from crowdmotion.trajectories import Trajectories
 
-    table = pq.read_table(folder / "sweep.parquet").to_pylist()
+    try:
+        table = pq.read_table(folder / "sweep.parquet").to_pylist()
+    except Exception as exc:  # pyarrow raises several types for damaged files
+        raise ValueError(f"{folder / 'sweep.parquet'}: a damaged sweep table: {exc}") from None
     if not table:
         raise ValueError(f"{folder / 'sweep.parquet'} lists no runs")
+    if not all(isinstance(row.get("file"), str) for row in table):
+        raise ValueError(f"{folder / 'sweep.parquet'}: a damaged sweep table: a row names no trajectory file")
     runs = []
     for row in tqdm(table, desc="report runs", unit="run", leave=False):
         path = Path(row["file"])
         if not path.is_file():  # the sweep folder was moved: its runs/ sits beside sweep.parquet
             path = folder / "runs" / path.name
-        runs.append(_run_report(path, Trajectories.load(path)))
+        runs.append(_run_report(path, _load_trajectories(path)))
     groups = list(dict.fromkeys(g for r in runs for g in r))
     stats = {g: {k: mean_ci([r[g][k] for r in runs if g in r and r[g][k] is not None])
                  for k, _, _ in REPORT_COLUMNS} for g in groups}
@@ -364,9 +451,16 @@ USD_FORMATS = ("usd", "usda", "usdc")
 USD_FPS = 24.0
 EXPORT_FORMATS = {"parquet": ".parquet", "csv": ".csv", "sqlite": ".sqlite", "jupedsim": ".sqlite",
                   "usd": ".usdc", "usda": ".usda", "usdc": ".usdc"}
+# what -o may end in for each --to (the file's format follows its name)
+EXPORT_SUFFIXES = {**{k: (v,) for k, v in EXPORT_FORMATS.items()}, "usd": (".usd", ".usdc"), "usdc": (".usdc", ".usd")}
 
 
 def cmd_export(args) -> int:
+    if args.dest and Path(args.dest).suffix.lower() not in EXPORT_SUFFIXES[args.to]:
+        raise ValueError(f"--to {args.to} writes a {' or '.join(EXPORT_SUFFIXES[args.to])} file, but -o "
+                         f"{args.dest} ends in {Path(args.dest).suffix or 'no suffix'}: name it "
+                         f"{Path(args.dest).with_suffix(EXPORT_FORMATS[args.to]).name}, or give the --to its "
+                         f"name asks for")
     from crowdmotion.io.csv import sidecar
     from crowdmotion.outputs import adding_to_run
 
@@ -436,41 +530,64 @@ def cmd_view(args) -> int:
     return 0
 
 
+MAX_SEEDS = 1_000_000  # runs one sweep may ask for
+
+
 def _seeds(text: str) -> list[int]:
-    """``0:100`` (a range), ``1,4,9`` or ``7``."""
+    """``0:100`` (a range), ``1,4,9`` or ``7``: distinct whole numbers of at least 0."""
+    how = f"--seeds must look like 0:100, 1,4,9 or 7 (whole numbers of at least 0), got {text!r}"
     try:
         if ":" in text:
-            a, b = text.split(":", 1)
-            return list(range(int(a), int(b)))
-        return [int(x) for x in text.split(",")]
+            a, b = (int(x) for x in text.split(":", 1))
+            if b - a > MAX_SEEDS:
+                raise argparse.ArgumentTypeError(f"--seeds {text!r} asks for {b - a:,} runs, more than {MAX_SEEDS:,}")
+            seeds = list(range(a, b))
+        else:
+            seeds = [int(x) for x in text.split(",")]
     except ValueError:
-        raise ValueError(f"--seeds must look like 0:100, 1,4,9 or 7, got {text!r}") from None
+        raise argparse.ArgumentTypeError(how) from None
+    if not seeds:
+        raise argparse.ArgumentTypeError(f"--seeds {text!r} names no seed (a range a:b runs a up to b - 1)")
+    if min(seeds) < 0:
+        raise argparse.ArgumentTypeError(how)
+    if len(set(seeds)) != len(seeds):
+        raise argparse.ArgumentTypeError(f"--seeds {text!r} names a seed twice")
+    return seeds
 
 
 def _setting(text: str) -> tuple[str, list]:
     """``rvo.safety=1,3,7.5`` -> ("rvo.safety", [1, 3, 7.5]); values read as TOML."""
     import tomllib
 
-    if "=" not in text:
-        raise ValueError(f"--set must look like field=value1,value2, got {text!r}")
+    if "=" not in text or not text.split("=", 1)[0].strip():
+        raise argparse.ArgumentTypeError(f"--set must look like field=value1,value2, got {text!r}")
     key, values = text.split("=", 1)
+    key = key.strip()
+    if key == "seed":
+        raise argparse.ArgumentTypeError(f"--set {text!r}: the seed is not a setting: give the seeds to run with "
+                                         f"--seeds (e.g. --seeds {values})")
     out = []
     for v in values.split(","):
         try:
             out.append(tomllib.loads(f"v = {v}")["v"])
         except tomllib.TOMLDecodeError:
             out.append(v)
-    return key.strip(), out
+    return key, out
 
 
 def cmd_sweep(args) -> int:
     from crowdmotion.outputs import folder_inside
     from crowdmotion.sweep import sweep
 
-    settings = dict(_setting(s) for s in args.set or [])
+    settings: dict[str, list] = {}
+    for key, values in args.set or []:
+        if key in settings:
+            raise ValueError(f"--set {key} is given twice: give all its values once, comma-separated "
+                             f"(--set {key}=v1,v2)")
+        settings[key] = values
     source = scenario_path(args.scenario)
     out = Path(args.output) if args.output else folder_inside("sweeps", source.stem)
-    table = sweep(source, _seeds(args.seeds), settings, out, scheduler=args.scheduler, workers=args.workers,
+    table = sweep(source, args.seeds, settings, out, scheduler=args.scheduler, workers=args.workers,
                   progress=not args.quiet)
     print(f"{table.num_rows} runs; table {out / 'sweep.parquet'}, trajectories in {out / 'runs'}/")
     return 0
@@ -518,27 +635,51 @@ def cmd_list(args) -> int:
     return 0
 
 
+_TEMP_NAME = re.compile(r"\.([^/\\\s'\"]+?)\.[A-Za-z0-9_]+\.tmp\b")  # atomic_path's hidden .NAME.xxxx.tmp
+_NUMPY_REPR = re.compile(r"\bnp\.(?:float|int|uint|bool|str)\w*\(([^()]*)\)")  # np.float64(0.0) -> 0.0
+
+
+def _user_message(exc: BaseException) -> str:
+    """An error as one line in the user's terms: the file a write was for (never its
+    temporary name), numbers as numbers (never np.float64(...))."""
+    if isinstance(exc, OSError) and exc.strerror and exc.filename is not None:
+        text = f"{exc.strerror}: {exc.filename}"
+    else:
+        text = str(exc) or type(exc).__name__
+    text = _TEMP_NAME.sub(r"\1", text)
+    return _NUMPY_REPR.sub(r"\1", text)
+
+
 def main(argv=None) -> int:
+    """The command; returns its exit status (EXIT_STATUS): 0 done, 2 refused (the message
+    says why), 3 a run that ends with collisions, 130/143 interrupted, 1 an internal error."""
     from crowdmotion.interrupts import Interrupts
 
     args = build_parser().parse_args(argv)
     warnings.showwarning = _one_line_warning
     with Interrupts() as stop:  # SIGTERM as Ctrl-C, for this command only
         args.interrupts = stop
+        if args.debug:  # every error with its traceback
+            return args.func(args)
         try:
             return args.func(args)
-        except (ValueError, FileNotFoundError, MemoryError, OSError) as exc:
-            print(f"crowdmotion: error: {exc}", file=sys.stderr)
+        except (ValueError, FileNotFoundError, MemoryError, OSError, RecursionError) as exc:
+            print(f"crowdmotion: error: {_user_message(exc)}", file=sys.stderr)
             return 2
         except KeyboardInterrupt:
             print(f"crowdmotion: interrupted{f' ({stop.name})' if stop.name else ''}", file=sys.stderr)
             return stop.exit_code or 130
+        except Exception as exc:  # a bug of ours: one line, and how to see the rest
+            print(f"crowdmotion: internal error: {type(exc).__name__}: {_user_message(exc)} (run again with --debug "
+                  f"for the traceback, and please report it)", file=sys.stderr)
+            return 1
 
 
 EXIT_STATUS = """\
 exit status:
   0    done
-  1    demo: a scene failed; verify: a case failed its criterion
+  1    demo: a scene failed; verify: a case failed its criterion; an internal error
+       (a bug of ours: --debug shows its traceback)
   2    refused or failed, with a message naming what: a bad argument, scenario or
        trajectory file; an output folder in use by another run, holding an earlier run
        (without --overwrite) or files no run listed; a file that could not be read or
@@ -557,6 +698,8 @@ def build_parser() -> argparse.ArgumentParser:
     parser = argparse.ArgumentParser(prog="crowdmotion", description="Collision-free crowd and group motion.",
                                      epilog=EXIT_STATUS, formatter_class=argparse.RawDescriptionHelpFormatter)
     parser.add_argument("--version", action="version", version=f"crowdmotion {__version__}")
+    parser.add_argument("--debug", action="store_true",
+                        help="show the traceback of an error instead of its one-line message")
     sub = parser.add_subparsers(dest="command", required=True)
 
     p = sub.add_parser("run", help="run a scenario file and write its outputs",
@@ -572,11 +715,14 @@ def build_parser() -> argparse.ArgumentParser:
                         "either way)")
     p.add_argument("--allow-collisions", action="store_true",
                    help="exit 0 even if the audit finds overlaps or penetrations (default: exit 3)")
-    p.add_argument("--seed", type=int, help="override the scenario's seed")
+    p.add_argument("--seed", type=_seed, help="override the scenario's seed (a whole number of at least 0)")
     p.add_argument("--plots", type=_plot_list, metavar="LIST",
                    help="pictures to write instead of the scenario's [output] plots: a comma-separated list of "
                         "paths, values, snapshots, player (view.html), or 'none' for trajectories and "
                         "summary.json alone (the pictures take 0.3-3 s of a run)")
+    p.add_argument("--max-memory", type=_memory_size, metavar="SIZE",
+                   help="refuse a run whose trajectories may take more memory than this (e.g. 8G, 512MiB; "
+                        "default: the memory available now)")
     p.add_argument("-q", "--quiet", action="store_true", help="no progress bar")
     p.set_defaults(func=cmd_run)
 
@@ -595,6 +741,9 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("scenario", help="a scenario TOML file, or the name of a built-in scene")
     p.add_argument("-o", "--output", help="the output folder `run` would use (default ./out/<scenario name>)")
     p.add_argument("--overwrite", action="store_true", help="as for run: an earlier run there may be replaced")
+    p.add_argument("--max-memory", type=_memory_size, metavar="SIZE",
+                   help="refuse a run whose trajectories may take more memory than this (e.g. 8G, 512MiB; "
+                        "default: the memory available now)")
     p.set_defaults(func=cmd_validate)
 
     p = sub.add_parser("bench", help="side-by-side benchmarks: the papers' tables beside our solvers and peers",
@@ -604,12 +753,14 @@ def build_parser() -> argparse.ArgumentParser:
                                    "warm `crowdmotion run` of every built-in scene. Peers come "
                                    "with pip install \"crowdmotion[bench]\"; options after the method go to "
                                    "that benchmark (e.g. crowdmotion bench rvo --sizes 1000 --steps 10).")
-    p.add_argument("method", choices=["mdp", "rvo", "pso", "formation", "startup"],
-                   help="which benchmark: a method's, or startup (cold and warm runs of the built-in scenes)")
+    p.add_argument("method", choices=["mdp", "rvo", "pso", "formation", "startup", "validate"],
+                   help="which benchmark: a method's, startup (cold and warm runs of the built-in scenes) or "
+                        "validate (refusing runs too large for memory, against the count)")
     p.add_argument("--no-reference", action="store_true", help="mdp: skip the slow plain-Python solvers")
-    p.add_argument("--repeats", type=int, default=3, help="mdp: runs per timing (the paper used 3)")
+    p.add_argument("--repeats", type=_positive_int, default=3, help="mdp: runs per timing (the paper used 3)")
     p.add_argument("-q", "--quiet", action="store_true", help="mdp: no progress bar")
-    p.add_argument("options", nargs=argparse.REMAINDER, help="rvo, pso, formation, startup: their own options (--help)")
+    p.add_argument("options", nargs=argparse.REMAINDER,
+                   help="rvo, pso, formation, startup, validate: their own options (--help)")
     p.set_defaults(func=cmd_bench)
 
     p = sub.add_parser("report", help="per-group behaviour report of a run, or of a sweep's runs with confidence "
@@ -622,7 +773,7 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--to", required=True, choices=sorted(EXPORT_FORMATS),
                    help="sqlite/jupedsim: JuPedSim v2 (PedPy reads it); usd/usdc: binary USD; usda: text USD")
     p.add_argument("-o", "--dest", help="file to write (default: trajectories.<ext> beside the input)")
-    p.add_argument("--fps", type=float, help="resample to this frame rate first (e.g. 24 for Blender's default; "
+    p.add_argument("--fps", type=_fps, help="resample to this frame rate first (e.g. 24 for Blender's default; "
                                              "USD is written at 24 fps unless the run has more frames a second)")
     p.add_argument("--interpolation", choices=("b-spline", "catmull-rom", "linear"), default="b-spline",
                    help="how frames between the run's steps are made: b-spline (default: smooth root motion, "
@@ -633,27 +784,29 @@ def build_parser() -> argparse.ArgumentParser:
     p = sub.add_parser("render", help="animation (MP4/GIF), density map and paths of a run")
     p.add_argument("output", help="a run's output folder (or a trajectories file)")
     p.add_argument("--to", choices=["mp4", "gif"], default="mp4", help="animation format (default mp4, H.264)")
-    p.add_argument("--fps", type=float, help="video frames per second (default 24; the run is resampled to it)")
-    p.add_argument("--trail", type=float, default=2.0, help="seconds of trail behind each agent")
-    p.add_argument("--max-frames", type=int, default=600,
+    p.add_argument("--fps", type=_fps,
+                   help="video frames per second (default 24; the run is resampled to it)")
+    p.add_argument("--trail", type=_nonnegative_number, default=2.0, help="seconds of trail behind each agent")
+    p.add_argument("--max-frames", type=_positive_int, default=600,
                    help="at most this many frames (a longer run is sampled evenly; default 600)")
-    p.add_argument("--cell", type=float, default=0.5, help="density map cell, metres")
+    p.add_argument("--cell", type=_positive_number, default=0.5, help="density map cell, metres")
     p.add_argument("-q", "--quiet", action="store_true", help="no progress bar")
     p.set_defaults(func=cmd_render)
 
     p = sub.add_parser("view", help="write a self-contained HTML player of a run (works offline)")
     p.add_argument("output", help="a run's output folder (or a trajectories file)")
     p.add_argument("-o", "--dest", help="HTML file to write (default: view.html beside the input)")
-    p.add_argument("--max-frames", type=int, default=3000,
+    p.add_argument("--max-frames", type=_positive_int, default=3000,
                    help="at most this many frames in the page (a longer run is sampled evenly; default 3000)")
     p.set_defaults(func=cmd_view)
 
     p = sub.add_parser("sweep", help="run a scenario over seeds and parameter values on Dask")
     p.add_argument("scenario", help="a scenario TOML file, or the name of a built-in scene")
-    p.add_argument("--seeds", default="0:8", help="0:100 (a range), 1,4,9 or 7 (default 0:8)")
-    p.add_argument("--set", action="append", metavar="FIELD=V1,V2", help="e.g. rvo.safety=1,3,7.5 (repeatable)")
+    p.add_argument("--seeds", type=_seeds, default="0:8", help="0:100 (a range), 1,4,9 or 7 (default 0:8)")
+    p.add_argument("--set", type=_setting, action="append", metavar="FIELD=V1,V2",
+                   help="e.g. rvo.safety=1,3,7.5 (repeatable, one field each time; not seed: see --seeds)")
     p.add_argument("--scheduler", help="address of a running Dask scheduler (default: a LocalCluster)")
-    p.add_argument("--workers", type=int, help="LocalCluster workers (default: the machine's cores)")
+    p.add_argument("--workers", type=_positive_int, help="LocalCluster workers (default: the machine's cores)")
     p.add_argument("-o", "--output", help="output folder (default ./sweeps/<scenario>)")
     p.add_argument("-q", "--quiet", action="store_true", help="no progress bar")
     p.set_defaults(func=cmd_sweep)

@@ -68,16 +68,18 @@ def interleave(scenes: list) -> list:
 def run_one(path: str, out: str, progress: bool = False) -> SceneDone:
     """Run one scenario file and write everything it asks for into folder ``out``
     (held while the scene runs, an earlier demo's files replaced)."""
-    from crowdmotion.cli import _headline
+    from crowdmotion.metrics import headline
     from crowdmotion.outputs import claim_output_folder, write_run
     from crowdmotion.scenario import load_scenario, run_scenario
 
     t0 = time.perf_counter()
     sc = load_scenario(path)
     with claim_output_folder(out, overwrite=True) as folder:  # the demo's own folders
-        result = run_scenario(sc, progress=progress)
+        # (kernels compiled on every core on a cold cache: the demo is the command's; in a
+        # worker CROWDMOTION_PRECOMPILE=0 leaves it to the workers themselves)
+        result = run_scenario(sc, progress=progress, precompile=True)
         write_run(result, folder)
-    return SceneDone(sc.spec.name, _headline(result.summary), time.perf_counter() - t0)
+    return SceneDone(sc.spec.name, headline(result.summary), time.perf_counter() - t0)
 
 
 def _safe_run_one(job: tuple[str, str]) -> SceneDone:

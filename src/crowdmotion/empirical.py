@@ -2,7 +2,7 @@
 model against, the experiments' set-ups rebuilt as scenes, and the measures the
 experimenters used (``crowdmotion verify --empirical``).
 
-Each case is a :class:`crowdmotion.verify.Case`: it builds its runs (several seeds
+Each case is a :class:`crowdmotion.cases.Case`: it builds its runs (several seeds
 each), runs them through the same registry as ``crowdmotion run``, and judges them with
 its own tolerance against the data below (sources in docs/verification.md and
 shared data file ``empirical-references.md``):
@@ -29,7 +29,7 @@ from crowdmotion.groups import Group, Rect
 from crowdmotion.rvo.density import weidmann_speed
 from crowdmotion.scene import Box, Scene
 from crowdmotion.trajectories import Trajectories
-from crowdmotion.verify import Case, Outcome, Setup, crossing_times
+from crowdmotion.cases import Case, Outcome, Setup, crossing_times
 
 SEEDS = (0, 1, 2)
 RADIUS = 0.2

@@ -8,14 +8,24 @@ import numpy as np
 from numpy.typing import ArrayLike
 
 
+def plain(value):
+    """``value`` with numpy arrays and scalars as plain lists and numbers, for messages
+    (``[1.0, nan]``, not ``array([ 1., nan])`` or ``np.float64(1.0)``)."""
+    if isinstance(value, (np.ndarray, np.generic)):
+        return value.tolist()
+    if isinstance(value, (list, tuple)):
+        return type(value)(plain(v) for v in value)
+    return value
+
+
 def finite_array(value, name: str, dtype=float) -> np.ndarray:
     """``value`` as a numpy array, or a ValueError naming ``name`` if any entry is NaN/inf."""
     try:
         arr = np.asarray(value, dtype=dtype)
     except (TypeError, ValueError) as exc:
-        raise ValueError(f"{name} must be numeric, got {value!r}") from exc
+        raise ValueError(f"{name} must be numeric, got {plain(value)!r}") from exc
     if not np.all(np.isfinite(arr)):
-        raise ValueError(f"{name} must be finite numbers, got {value!r}")
+        raise ValueError(f"{name} must be finite numbers, got {plain(value)!r}")
     return arr
 
 
@@ -40,7 +50,7 @@ def require_finite_agents(arrays: Mapping[str, ArrayLike], active: ArrayLike | N
         agent = where[-1] if ids is None else ids[where[-1]]
         frame = f" at frame {where[0]}" if len(where) == 2 else ""
         row = v[where]
-        raise ValueError(f"{name} of agent {agent}{frame} is not finite: {row[~np.isfinite(row)][0]}")
+        raise ValueError(f"{name} of agent {agent}{frame} is not finite: {float(row[~np.isfinite(row)][0])}")
 
 
 def positive_number(value, name: str) -> float:
@@ -48,9 +58,9 @@ def positive_number(value, name: str) -> float:
     try:
         v = float(value)
     except (TypeError, ValueError):
-        raise ValueError(f"{name} must be a positive number, got {value!r}") from None
+        raise ValueError(f"{name} must be a positive number, got {plain(value)!r}") from None
     if not np.isfinite(v) or v <= 0:
-        raise ValueError(f"{name} must be a positive number, got {value!r}")
+        raise ValueError(f"{name} must be a positive number, got {plain(value)!r}")
     return v
 
 

@@ -61,9 +61,9 @@ class Rect(Region):
         lo = finite_array(lower, "Rect.lower").ravel()
         hi = finite_array(upper, "Rect.upper").ravel()
         if lo.shape != hi.shape or lo.size not in (2, 3):
-            raise ValueError(f"Rect corners must both have 2 or 3 coordinates, got {list(lo)}, {list(hi)}")
+            raise ValueError(f"Rect corners must both have 2 or 3 coordinates, got {lo.tolist()}, {hi.tolist()}")
         if np.any(hi < lo):
-            raise ValueError(f"Rect.upper must not be below Rect.lower, got lower={list(lo)} upper={list(hi)}")
+            raise ValueError(f"Rect.upper must not be below Rect.lower, got lower={lo.tolist()} upper={hi.tolist()}")
         self.lower, self.upper, self.dim = lo, hi, lo.size
 
     @property
@@ -87,7 +87,7 @@ class Disc(Region):
     def __init__(self, center: Sequence[float], radius: float):
         c = finite_array(center, "Disc.center").ravel()
         if c.size not in (2, 3):
-            raise ValueError(f"Disc.center must have 2 or 3 coordinates, got {list(c)}")
+            raise ValueError(f"Disc.center must have 2 or 3 coordinates, got {c.tolist()}")
         r = float(radius)
         if not np.isfinite(r) or r <= 0:
             raise ValueError(f"Disc.radius must be a positive number, got {radius!r}")

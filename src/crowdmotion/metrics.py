@@ -502,3 +502,18 @@ def diversity(runs: list[Trajectories]) -> dict:
     return {"pairs": len(runs) * (len(runs) - 1) // 2, "mean_distance_m": float(sums.sum() / max(counts.sum(), 1)),
             "max_distance_m": worst, "share_apart": apart / max(total, 1), "by_frame_m": by_frame.tolist(),
             "first_apart_s": None if first is None else first * runs[0].dt}
+
+
+def headline(summary: dict) -> str:
+    """A run's summary in one line: agents, frames, the audit, arrivals, formations."""
+    parts = [f"{summary['agents']} agents", f"{summary['frames']} frames",
+             f"agent overlaps {summary['agent_agent_overlaps']}",
+             f"obstacle penetrations {summary['agent_obstacle_penetrations']}"]
+    if "arrival_rate" in summary:
+        parts.append(f"arrived {summary['arrival_rate']:.0%}")
+    if "formation" in summary:
+        groups = summary["formation"]
+        done = sum(g["recovered_s"] is not None for g in groups.values())
+        worst = max(g["edge_length_error_mean"] for g in groups.values())
+        parts.append(f"formations recovered {done}/{len(groups)} (edge-length error {worst:.1%})")
+    return ", ".join(parts)

@@ -7,6 +7,7 @@ in the file is ever executed. Each method adds its block here without changing t
 
 from __future__ import annotations
 
+import difflib
 import re
 import tomllib
 from dataclasses import dataclass
@@ -17,11 +18,11 @@ import numpy as np
 from pydantic import BaseModel, ConfigDict, Field, ValidationError, field_validator, model_validator
 
 from crowdmotion import groups as G
-from crowdmotion._validation import error_lines, field_names
-from crowdmotion.formation.params import FormationParams, TemplateSpec
+from crowdmotion._validation import Coordinate, Positive, error_lines, field_names, shown
+from crowdmotion.formation.params import FormationAttributes, FormationParams, TemplateSpec
 from crowdmotion.mdp.params import MDPParams
 from crowdmotion.pso.params import PSOParams
-from crowdmotion.rvo.params import RVOParams
+from crowdmotion.rvo.params import RVOAttributes, RVOParams
 from crowdmotion import scene as S
 
 
@@ -29,12 +30,32 @@ class ScenarioError(ValueError):
     """A scenario file that cannot be used; the message names each bad field and value."""
 
 
+METHODS = ("mdp", "rvo", "pso", "formation")
+# what a group's ``attributes`` table may hold, per method (None: nothing)
+ATTRIBUTES: dict[str, type[BaseModel] | None] = {"mdp": None, "rvo": RVOAttributes, "pso": None,
+                                                 "formation": FormationAttributes}
+# [[groups]] fields only one method reads
+GROUP_FIELD_METHOD = {"personality": "rvo", "formation": "formation"}
+
+
 class _Model(BaseModel):
     model_config = ConfigDict(extra="forbid", frozen=True)
 
 
-Coord = Annotated[list[float], Field(min_length=2, max_length=3)]
-PosFloat = Annotated[float, Field(gt=0, allow_inf_nan=False)]
+Coord = Annotated[list[Coordinate], Field(min_length=2, max_length=3)]
+PosFloat = Positive
+Speed = Annotated[float, Field(gt=0, le=1000.0, allow_inf_nan=False)]  # m/s
+Times = Annotated[list[Coordinate], Field(min_length=1)]
+
+
+def _keyframes(times: list[float], positions: list) -> None:
+    """Keyframes as a path needs them: one position per time, times increasing."""
+    if len(times) != len(positions):
+        raise ValueError(f"times and positions must give one position per time, got {len(times)} time(s) and "
+                         f"{len(positions)} position(s)")
+    back = next((i for i in range(1, len(times)) if times[i] <= times[i - 1]), None)
+    if back is not None:
+        raise ValueError(f"times must increase, got {times[back - 1]:g} then {times[back]:g}")
 
 
 class PathSpec(_Model):
@@ -45,8 +66,13 @@ class PathSpec(_Model):
     positions : list   one [x, y] or [x, y, z] centre per keyframe, metres
     """
 
-    times: list[Annotated[float, Field(allow_inf_nan=False)]]
+    times: Times
     positions: list[Coord]
+
+    @model_validator(mode="after")
+    def _keyframes(self):
+        _keyframes(self.times, self.positions)
+        return self
 
 
 class CircleSpec(_Model):
@@ -103,7 +129,7 @@ class PolygonSpec(_Model):
     """
 
     shape: Literal["polygon"]
-    vertices: list[Annotated[list[float], Field(min_length=2, max_length=2)]] = Field(min_length=3)
+    vertices: list[Annotated[list[Coordinate], Field(min_length=2, max_length=2)]] = Field(min_length=3)
     path: PathSpec | None = None
 
 
@@ -178,8 +204,13 @@ class MovingRegion(_Model):
     """
 
     shape: Literal["moving"]
-    times: list[Annotated[float, Field(allow_inf_nan=False)]]
+    times: Times
     positions: list[Coord]
+
+    @model_validator(mode="after")
+    def _keyframes(self):
+        _keyframes(self.times, self.positions)
+        return self
 
 
 class RingRegion(_Model):
@@ -192,9 +223,9 @@ class RingRegion(_Model):
     """
 
     shape: Literal["ring"]
-    center: Annotated[list[float], Field(min_length=2, max_length=2)]
+    center: Annotated[list[Coordinate], Field(min_length=2, max_length=2)]
     radius: PosFloat
-    phase_deg: Annotated[float, Field(allow_inf_nan=False)] = 0.0
+    phase_deg: Annotated[float, Field(ge=-360_000, le=360_000, allow_inf_nan=False)] = 0.0
 
 
 class AntipodalRegion(_Model):
@@ -226,9 +257,10 @@ class GroupSpec(_Model):
     personality : str   rvo: an OCEAN pole name (O+, O-, C+, C-, E+, E-, A+, A-, N+, N-),
                         a 5-vector of traits in [-1, 1], or a distribution table
     formation : table   formation: the group's template (see "Formation templates")
-    attributes : table  method-specific extras passed through to the method (Python:
-                        Group.attributes), e.g. rvo: pref_speed_range = [low, high]
-                        (each agent's speed drawn uniformly, RiMEA test 7), heading_deg
+    attributes : table  method-specific extras (Python: Group.attributes), checked against the
+                        method's own list (see "Group attributes"): rvo: pref_speed_range,
+                        max_neighbors, neighbor_dist, samples, safety; formation: reassign,
+                        heading_deg; mdp and pso take none
     """
 
     name: str = Field(min_length=1)
@@ -236,8 +268,8 @@ class GroupSpec(_Model):
     spawn: RegionSpec
     goal: RegionSpec
     radius: PosFloat = 0.25
-    max_speed: PosFloat = 1.5
-    pref_speed: PosFloat = 1.3
+    max_speed: Speed = 1.5
+    pref_speed: Speed = 1.3
     personality: str | list[float] | dict[str, Any] | None = None
     formation: TemplateSpec | None = None
     attributes: dict[str, Any] = {}
@@ -277,12 +309,12 @@ def check_name(name: str) -> str:
 class OutputSpec(_Model):
     """What ``crowdmotion run`` writes beside summary.json.
 
-    formats : list      trajectory files: "parquet" and/or "csv"
+    formats : list      trajectory files: "parquet" and/or "csv" (at least one)
     plots : list        pictures: "paths", "values" (mdp), "snapshots" (formation), "player"
                         (view.html)
     """
 
-    formats: list[Literal["parquet", "csv"]] = ["parquet"]
+    formats: Annotated[list[Literal["parquet", "csv"]], Field(min_length=1)] = ["parquet"]
     plots: list[Literal[PLOTS]] = list(PLOTS)
 
 
@@ -297,10 +329,10 @@ class ScenarioSpec(_Model):
     seed : int          random seed: the same seed gives the same trajectories
     scene : table       [scene]: bounds and obstacles
     groups : list       [[groups]]: one table per group of agents
-    mdp : table         [mdp] parameters (used when method = "mdp")
-    rvo : table         [rvo] parameters (used when method = "rvo")
-    pso : table         [pso] parameters (used when method = "pso")
-    formation : table   [formation] parameters (used when method = "formation")
+    mdp : table         [mdp] parameters (only with method = "mdp")
+    rvo : table         [rvo] parameters (only with method = "rvo")
+    pso : table         [pso] parameters (only with method = "pso")
+    formation : table   [formation] parameters (only with method = "formation")
     output : table      [output]: files and pictures to write
     """
 
@@ -376,9 +408,82 @@ class Scenario:
         return method_params(self.spec.method, getattr(self.spec, self.spec.method).model_dump())
 
 
-def _fmt_errors(err: ValidationError, source: str, data: dict | None = None) -> str:
-    lines = error_lines(err, known=field_names(ScenarioSpec))
-    groups = (data or {}).get("groups")
+PARAMS: dict[str, type[BaseModel]] = {"mdp": MDPParams, "rvo": RVOParams, "pso": PSOParams,
+                                     "formation": FormationParams}
+
+
+def _owners(key: str, tables: dict[str, type[BaseModel] | None], besides: str) -> list[str]:
+    """The methods other than ``besides`` whose table in ``tables`` has a field ``key``."""
+    return [m for m, model in tables.items() if m != besides and model is not None and key in model.model_fields]
+
+
+def _close(key: str, names) -> str:
+    close = difflib.get_close_matches(key, sorted(names), n=1, cutoff=0.6)
+    return f"; did you mean {close[0]!r}?" if close else ""
+
+
+def _unknown_key(loc: tuple, key: str) -> str | None:
+    """What to say of an unknown ``key`` in the table at ``loc``: a method block's key
+    that belongs to another method's block, or a near miss among this block's own keys."""
+    if len(loc) == 1 and loc[0] in PARAMS:
+        block = loc[0]
+        owners = _owners(key, PARAMS, block)
+        if owners:
+            return (f"is not a [{block}] parameter: it belongs to " + " and ".join(f"[{m}]" for m in owners)
+                    + _close(key, PARAMS[block].model_fields))
+        return f"is not a [{block}] parameter{_close(key, field_names(PARAMS[block]))}"
+    return None
+
+
+def _attribute_lines(attrs: dict, method: str, where: str) -> list[str]:
+    """Problems with one group's ``attributes`` table under ``method``."""
+    model = ATTRIBUTES[method]
+
+    def about(key: str) -> str | None:
+        owners = _owners(key, ATTRIBUTES, method)
+        if owners:
+            return (f"is not an attribute method {method!r} reads: it belongs to method "
+                    + " and ".join(repr(m) for m in owners))
+        if key in GroupSpec.model_fields:
+            return "is a field of the group itself: write it in the [[groups]] table, not in attributes"
+        if model is None:
+            return f"is not an attribute: method {method!r} reads no group attributes"
+        return None
+
+    if model is None:
+        return [f"{where}.{k}: {about(k)} (got {shown(v)})" for k, v in attrs.items()]
+    try:
+        model.model_validate(attrs, strict=True)
+    except ValidationError as exc:
+        return error_lines(exc, where, known=model.model_fields, hint=lambda loc, key: about(key))
+    return []
+
+
+def _method_lines(data: Any) -> list[str]:
+    """Fields the scenario's method does not read: another method's block, a group's
+    ``personality`` or ``formation`` without that method, unknown or bad ``attributes``."""
+    if not isinstance(data, dict) or data.get("method") not in METHODS:
+        return []
+    method = data["method"]
+    lines = [f"{m}: a [{m}] table, but method = {shown(method)} reads only [{method}]: remove it "
+             f"(or set method = {shown(m)})" for m in METHODS if m != method and m in data]
+    groups = data.get("groups")
+    for i, g in enumerate(groups if isinstance(groups, list) else []):
+        if not isinstance(g, dict):
+            continue
+        for key, owner in GROUP_FIELD_METHOD.items():
+            if key in g and owner != method:
+                lines.append(f"groups.{i}.{key}: only method {shown(owner)} reads a group's {key}, but method = "
+                             f"{shown(method)} (got {shown(g[key])})")
+        attrs = g.get("attributes")
+        if isinstance(attrs, dict):
+            lines += _attribute_lines(attrs, method, f"groups.{i}.attributes")
+    return lines
+
+
+def _report(lines: list[str], source: str, data: Any = None) -> str:
+    """``source: N problem(s)`` and one indented line per problem, groups named too."""
+    groups = data.get("groups") if isinstance(data, dict) else None
     if isinstance(groups, list):  # name the group too: groups.0.radius (group 'walkers'): ...
         def named(m: re.Match) -> str:
             k = int(m.group(2))
@@ -386,7 +491,26 @@ def _fmt_errors(err: ValidationError, source: str, data: dict | None = None) -> 
             name = g.get("name") if isinstance(g, dict) else None
             return f"{m.group(1)} (group {name!r}):" if isinstance(name, str) else m.group(0)
         lines = [re.sub(r"^(groups\.(\d+)[^:]*):", named, line) for line in lines]
-    return "\n".join([f"{source}: {err.error_count()} problem(s)"] + ["  " + line for line in lines])
+    return "\n".join([f"{source}: {len(lines)} problem(s)"] + ["  " + line for line in lines])
+
+
+def validate_spec(data: Any, source: str = "scenario") -> ScenarioSpec:
+    """The scenario's schema checked on the data of a TOML file: strict types (``count =
+    true`` and ``reassign = "no"`` are refused, not read as 1 and true), unknown fields
+    with a suggestion, and fields the scenario's method does not read. Raises
+    ScenarioError naming every bad field and value."""
+    lines = []
+    spec = None
+    try:
+        spec = ScenarioSpec.model_validate(data, strict=True)
+    except ValidationError as exc:
+        lines = error_lines(exc, known=field_names(ScenarioSpec), hint=_unknown_key)
+    except RecursionError:
+        raise ScenarioError(f"{source}: tables or arrays nested too deeply to be a scenario") from None
+    lines += _method_lines(data)
+    if lines:
+        raise ScenarioError(_report(lines, source, data))
+    return spec
 
 
 def ring_points(center, radius: float, count: int, phase_deg: float = 0.0) -> np.ndarray:
@@ -439,58 +563,117 @@ def _obstacle(spec) -> S.Obstacle:
     return S.Polygon(spec.vertices, path=path)
 
 
-def build(spec: ScenarioSpec, source: str = "scenario") -> Scenario:
-    """Turn a validated spec into Scene and Groups; shape errors name the field."""
-    try:
-        obstacles = []
-        for i, o in enumerate(spec.scene.obstacles):
-            try:
-                obstacles.append(_obstacle(o))
-            except ValueError as exc:
-                raise ScenarioError(f"{source}: scene.obstacles.{i}: {exc}") from None
-        try:
-            scene = S.Scene(bounds=spec.scene.bounds, obstacles=obstacles)
-        except (ValueError, TypeError) as exc:
-            raise ScenarioError(f"{source}: scene: {exc}") from None
-        groups = []
-        for i, g in enumerate(spec.groups):
-            try:
-                spawn = _spawn(g.spawn, g.count)
-                groups.append(G.Group(name=g.name, count=g.count, spawn=spawn, goal=_goal(g.goal, spawn),
-                                      radius=g.radius, max_speed=g.max_speed, pref_speed=g.pref_speed,
-                                      attributes=_attributes(g)))
-            except ValueError as exc:
-                raise ScenarioError(f"{source}: groups.{i}: {exc}") from None
-        scenario = Scenario(spec, scene, groups)
-        try:
-            params = scenario.params  # validates the method block once more, in the method's terms
-            from crowdmotion.registry import get_method
+# the parameters that bound a run's length, per method (named when a run would not fit)
+STEPS_FIELD = {"mdp": "mdp.max_steps", "rvo": "rvo.max_steps", "pso": "pso.iterations",
+               "formation": "formation.max_steps"}
+STEP_FIELD = {"mdp": "mdp.cell_size", "rvo": "rvo.time_step", "pso": "pso.iteration_time",
+              "formation": "formation.time_step"}
+MAX_DURATION_S = 86_400.0  # simulated seconds a run may last at most: a day
 
-            check = getattr(get_method(spec.method).module, "check_scenario", None)
-            if check is not None:
-                check(scene, groups, params)
+
+@dataclass(frozen=True)
+class SizeEstimate:
+    """Upper bounds of a run, from the groups' counts and the method's parameters alone:
+    ``agents``, ``steps`` simulated, ``seconds`` simulated, ``frames`` in its trajectories
+    and the ``bytes`` its positions take in memory (the raw steps and, when resampled, the
+    output frames)."""
+
+    agents: int
+    steps: int
+    seconds: float
+    frames: int
+    bytes: int
+
+
+def size_estimate(scenario: Scenario) -> SizeEstimate:
+    """What a run of ``scenario`` holds at most, without placing a single agent."""
+    from crowdmotion.registry import get_method
+
+    module = get_method(scenario.method).module
+    params = scenario.params
+    n = sum(g.count for g in scenario.groups)
+    steps = int(module.expected_steps(scenario.groups, params))
+    seconds = steps * float(module.step_seconds(scenario.groups, params))
+    frames = int(module.expected_frames(scenario.groups, params))
+    held = steps + 1 + (frames if frames != steps + 1 else 0)
+    return SizeEstimate(n, steps, seconds, frames, held * n * scenario.scene.dim * 8)
+
+
+def _check_size(scenario: Scenario, source: str, max_memory: int | None) -> None:
+    """Refuse a run longer than a simulated day, or whose trajectories would not fit in
+    ``max_memory`` bytes (default: the memory available now), before any agent is placed."""
+    from crowdmotion.memory import available_memory, human_bytes
+
+    est = size_estimate(scenario)
+    if est.seconds > MAX_DURATION_S:
+        m = scenario.method
+        raise ScenarioError(f"{source}: a run may last {est.steps:,} steps of {est.seconds / est.steps:.3g} s = "
+                            f"{est.seconds:.3g} s of simulated time, more than a day ({MAX_DURATION_S:g} s): lower "
+                            f"{STEPS_FIELD[m]} or {STEP_FIELD[m]}")
+    limit = available_memory() if max_memory is None else int(max_memory)
+    if limit is None:
+        return
+    if est.bytes > limit:
+        what = "the memory available now" if max_memory is None else "the most allowed (--max-memory)"
+        raise ScenarioError(f"{source}: a run would hold up to {human_bytes(est.bytes)} of trajectories "
+                            f"({est.agents:,} agents x {est.steps:,} steps, {est.frames:,} frames), more than "
+                            f"{human_bytes(limit)}, {what}: lower the groups' count or "
+                            f"{STEPS_FIELD[scenario.method]}")
+
+
+def build(spec: ScenarioSpec, source: str = "scenario", max_memory: int | None = None) -> Scenario:
+    """Turn a validated spec into Scene and Groups; shape errors name the field. A run
+    that would not fit in ``max_memory`` bytes (default: the memory available now) is
+    refused before the method checks the scenario."""
+    obstacles = []
+    for i, o in enumerate(spec.scene.obstacles):
+        try:
+            obstacles.append(_obstacle(o))
         except ValueError as exc:
-            raise ScenarioError(f"{source}: {exc}") from None
-        return scenario
+            raise ScenarioError(f"{source}: scene.obstacles.{i}: {exc}") from None
+    try:
+        scene = S.Scene(bounds=spec.scene.bounds, obstacles=obstacles)
+    except (ValueError, TypeError) as exc:
+        raise ScenarioError(f"{source}: scene: {exc}") from None
+    groups = []
+    for i, g in enumerate(spec.groups):
+        try:
+            spawn = _spawn(g.spawn, g.count)
+            groups.append(G.Group(name=g.name, count=g.count, spawn=spawn, goal=_goal(g.goal, spawn),
+                                  radius=g.radius, max_speed=g.max_speed, pref_speed=g.pref_speed,
+                                  attributes=_attributes(g)))
+        except ValueError as exc:
+            raise ScenarioError(f"{source}: groups.{i}: {exc}") from None
+    scenario = Scenario(spec, scene, groups)
+    try:
+        params = scenario.params  # validates the method block once more, in the method's terms
+        _check_size(scenario, source, max_memory)
+        from crowdmotion.registry import get_method
+
+        check = getattr(get_method(spec.method).module, "check_scenario", None)
+        if check is not None:
+            check(scene, groups, params)
     except ScenarioError:
         raise
+    except ValueError as exc:
+        raise ScenarioError(f"{source}: {exc}") from None
+    return scenario
 
 
-def parse_scenario(text: str, source: str = "scenario") -> Scenario:
-    """Validate TOML text; raises ScenarioError naming every bad field and value."""
+def parse_scenario(text: str, source: str = "scenario", max_memory: int | None = None) -> Scenario:
+    """Validate TOML text; raises ScenarioError naming every bad field and value.
+    ``max_memory``: bytes a run's trajectories may take (default: the memory available now)."""
     try:
         data = tomllib.loads(text)
     except tomllib.TOMLDecodeError as exc:
         raise ScenarioError(f"{source}: not valid TOML: {exc}") from None
-    try:
-        spec = ScenarioSpec.model_validate(data)
-    except ValidationError as exc:
-        raise ScenarioError(_fmt_errors(exc, source, data)) from None
-    return build(spec, source)
+    except RecursionError:
+        raise ScenarioError(f"{source}: tables or arrays nested too deeply to be a scenario") from None
+    return build(validate_spec(data, source), source, max_memory)
 
 
-def load_scenario(path) -> Scenario:
-    """Read and validate a scenario file."""
+def load_scenario(path, max_memory: int | None = None) -> Scenario:
+    """Read and validate a scenario file (``max_memory``: see :func:`parse_scenario`)."""
     path = Path(path)
     if not path.is_file():
         raise ScenarioError(f"no scenario file at {path}")
@@ -498,7 +681,7 @@ def load_scenario(path) -> Scenario:
         text = path.read_text(encoding="utf-8")
     except (OSError, UnicodeDecodeError) as exc:
         raise ScenarioError(f"{path}: cannot read: {exc}") from None
-    sc = parse_scenario(text, str(path))
+    sc = parse_scenario(text, str(path), max_memory)
     sc.source = path
     return sc
 
@@ -514,8 +697,13 @@ class RunResult:
     seed: int
 
 
-def run_scenario(scenario, seed: int | None = None, progress: bool = True) -> RunResult:
-    """Run a scenario (object or path) with its method; metrics are computed on the result."""
+def run_scenario(scenario, seed: int | None = None, progress: bool = True, precompile: bool = False) -> RunResult:
+    """Run a scenario (object or path) with its method; metrics are computed on the result.
+
+    ``precompile``: on a cold numba cache, compile the run's kernels on every core first,
+    in forked children (:mod:`crowdmotion._precompile`; the command line asks for it). A
+    library call forks nothing unless asked: numba compiles what the run calls, in this
+    process."""
     from crowdmotion.registry import get_method
 
     if not isinstance(scenario, Scenario):
@@ -524,9 +712,10 @@ def run_scenario(scenario, seed: int | None = None, progress: bool = True) -> Ru
     if seed < 0:
         raise ScenarioError(f"seed must be a non-negative integer, got {seed}")
     method = get_method(scenario.method)
-    from crowdmotion._precompile import start as precompile
+    if precompile:
+        from crowdmotion._precompile import start
 
-    precompile(scenario.method)  # a cold cache: the run's kernels compiled on every core first
+        start(scenario.method)
     rng = np.random.default_rng(seed)
     traj, extras, summary = method.run(scenario.scene, scenario.groups, scenario.params, rng, progress=progress)
     traj.metadata.update({"seed": seed, "scenario": scenario.spec.name})

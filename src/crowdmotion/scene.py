@@ -33,7 +33,7 @@ class KeyframePath:
                 f"{where}.path.positions must have shape ({len(times)}, {dim}), got {pos.shape}"
             )
         if len(times) == 0 or np.any(np.diff(times) <= 0):
-            raise ValueError(f"{where}.path.times must be non-empty and increasing, got {times}")
+            raise ValueError(f"{where}.path.times must be non-empty and increasing, got {times.tolist()}")
         return cls(times, pos)
 
     def at(self, t: float | np.ndarray) -> np.ndarray:
@@ -90,7 +90,7 @@ class _Round(Obstacle):
         name = type(self).__name__
         c = finite_array(center, f"{name}.center").ravel()
         if c.shape != (self._dim,):
-            raise ValueError(f"{name}.center must have {self._dim} coordinates, got {list(c)}")
+            raise ValueError(f"{name}.center must have {self._dim} coordinates, got {c.tolist()}")
         r = float(radius)
         if not np.isfinite(r) or r <= 0:
             raise ValueError(f"{name}.radius must be a positive number, got {radius!r}")
@@ -144,9 +144,11 @@ class Box(Obstacle):
         lo = finite_array(lower, "Box.lower").ravel()
         hi = finite_array(upper, "Box.upper").ravel()
         if lo.shape != hi.shape or lo.size not in (2, 3):
-            raise ValueError(f"Box.lower and Box.upper must both have 2 or 3 coordinates, got {list(lo)}, {list(hi)}")
+            raise ValueError(f"Box.lower and Box.upper must both have 2 or 3 coordinates, got {lo.tolist()}, "
+                             f"{hi.tolist()}")
         if np.any(hi <= lo):
-            raise ValueError(f"Box.upper must exceed Box.lower on every axis, got lower={list(lo)} upper={list(hi)}")
+            raise ValueError(f"Box.upper must exceed Box.lower on every axis, got lower={lo.tolist()} "
+                             f"upper={hi.tolist()}")
         self.dim = lo.size
         self.lower = lo
         self.upper = hi
@@ -236,9 +238,11 @@ class Scene:
         lo = finite_array(bounds[0], "Scene.bounds.lower").ravel()
         hi = finite_array(bounds[1], "Scene.bounds.upper").ravel()
         if lo.shape != hi.shape or lo.size not in (2, 3):
-            raise ValueError(f"Scene.bounds corners must both have 2 or 3 coordinates, got {list(lo)}, {list(hi)}")
+            raise ValueError(f"Scene.bounds corners must both have 2 or 3 coordinates, got {lo.tolist()}, "
+                             f"{hi.tolist()}")
         if np.any(hi <= lo):
-            raise ValueError(f"Scene.bounds upper corner must exceed the lower on every axis, got {list(lo)}, {list(hi)}")
+            raise ValueError(f"Scene.bounds upper corner must exceed the lower on every axis, got {lo.tolist()}, "
+                             f"{hi.tolist()}")
         self.lower = lo
         self.upper = hi
         self.obstacles: list[Obstacle] = list(obstacles)

@@ -15,12 +15,11 @@ from typing import Any, Iterable, Sequence
 
 import pyarrow as pa
 import pyarrow.parquet as pq
-from pydantic import ValidationError
 from tqdm.auto import tqdm
 
-from crowdmotion._validation import error_lines
+from crowdmotion._validation import shown
 from crowdmotion.io.atomic import atomic_path
-from crowdmotion.scenario import Scenario, ScenarioError, ScenarioSpec, build, load_scenario
+from crowdmotion.scenario import Scenario, build, load_scenario, validate_spec
 
 SUMMARY_KEYS = ("agents", "frames", "duration_s", "mean_path_length_m", "mean_speed_mps", "max_speed_mps",
                 "agent_agent_overlaps", "agent_obstacle_penetrations", "worst_agent_agent_penetration_m",
@@ -52,9 +51,11 @@ def plan(scenario: Scenario | str | Path, seeds: Iterable[int], settings: dict[s
     """Every (scenario dict, seed, setting) of the sweep, each validated now so that a bad
     value is refused, naming the field, before anything runs."""
     sc = scenario if isinstance(scenario, Scenario) else load_scenario(scenario)
-    base = sc.spec.model_dump(mode="json")
+    base = sc.spec.model_dump(mode="json", exclude_unset=True)  # as the file says it: no other method's block
     settings = settings or {}
     names = list(settings)
+    if "seed" in names:
+        raise ValueError("sweep: seed cannot be a setting: give the seeds to run as seeds (--seeds 1,2)")
     runs = []
     seeds = [int(s) for s in seeds]
     if not seeds or min(seeds) < 0:
@@ -63,10 +64,7 @@ def plan(scenario: Scenario | str | Path, seeds: Iterable[int], settings: dict[s
         data = base
         for n, v in zip(names, combo):
             data = _with_setting(data, n, v)
-        try:
-            build(ScenarioSpec.model_validate(data), "sweep")
-        except ValidationError as exc:
-            raise ScenarioError("sweep: " + "; ".join(error_lines(exc))) from None
+        build(validate_spec(data, "sweep " + ", ".join(f"{n} = {shown(v)}" for n, v in zip(names, combo))), "sweep")
         for seed in seeds:
             runs.append((data, seed, dict(zip(names, combo))))
     return runs
@@ -77,7 +75,7 @@ def run_one(data: dict, seed: int, setting: dict, path: str) -> dict:
     return its row of the summary table."""
     from crowdmotion.scenario import run_scenario
 
-    sc = build(ScenarioSpec.model_validate(data), "sweep")
+    sc = build(validate_spec(data, "sweep"), "sweep")
     result = run_scenario(sc, seed=seed, progress=False)
     result.trajectories.save(path)
     s = result.summary

@@ -26,3 +26,13 @@ def test_the_snapshots_figure_and_its_animation_drawn_apart_are_the_same_files(t
     assert [p.name for p in both] == [p.name for p in drawn] == ["snapshots.png", "formation.gif"]
     for p in both:
         assert p.read_bytes() == (apart / p.name).read_bytes()
+
+
+def test_a_formation_goal_outside_the_bounds_is_refused_not_run_to_zero_recovered():
+    from tests.test_scenario import _refused
+
+    _refused(FORMATION.replace("position = [33, 0]", "position = [60, 0]"),
+             ["group 'squad' (groups.0) goal: the point [60, 0] lies outside scene.bounds [0, -10]-[40, 10]"])
+    _refused(FORMATION.replace('goal = { shape = "point", position = [33, 0] }',
+                               'goal = { shape = "rect", lower = [50, -2], upper = [55, 2] }'),
+             ["group 'squad' (groups.0) goal: rect [50, -2]-[55, 2] lies outside scene.bounds"])

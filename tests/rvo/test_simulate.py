@@ -116,6 +116,8 @@ def test_agents_may_stay_at_their_goal():
     ({"personality": [0, 0, 0, 0, 2]}, "ψN must lie in [-1, 1]"),
     ({"personality": "O+", "safety": 2.0}, "give either a personality or those parameters"),
     ({"samples": 2.5}, "samples must be > 0 whole"),
+    ({"samples": 1e8}, "samples must be > 0 whole and at most 10000, got 100000000.0"),
+    ({"max_neighbors": [5, 20_000]}, "max_neighbors must be >= 0 whole and at most 10000, got 20000.0 for agent 1"),
 ])
 def test_bad_agent_parameters_are_named(kwargs, words):
     sim = rvo.Simulator(cm.Scene(bounds=([0, 0], [10, 10])))
@@ -142,3 +144,9 @@ def test_personality_sets_table4_parameters_per_agent():
     assert sim.params["neighbor_dist"].tolist() == [20.0, 20.0, 5.0]
     assert sim.params["samples"].tolist() == [50, 50, 25]
     assert sim.params["safety"].tolist() == [1.0, 1.0, 7.5]
+
+
+def test_a_groups_own_samples_obey_the_rvo_bound_in_the_python_api_too():
+    group = cm.Group("g", 4, spawn=cm.Rect([1, 1], [4, 4]), goal=cm.Points([[9, 9]]), attributes={"samples": 1e8})
+    with pytest.raises(ValueError, match="group 'g'.*samples must be > 0 whole and at most 10000"):
+        rvo.simulate(cm.Scene(bounds=([0, 0], [10, 10])), [group])

@@ -14,11 +14,15 @@ Params = FormationParams
 
 
 def check_scenario(scene, groups, params: FormationParams) -> None:
-    """Problems a scenario can be refused for before running: a 3D scene, a template
-    that does not match the count, duplicate or blocked starts, a goal in an obstacle,
-    a goal that walls cut off from the formation's start."""
-    from crowdmotion.checks import describe_region, where
+    """Problems a scenario can be refused for before running: a goal outside the bounds
+    or where a body cannot stand, a 3D scene, a template that does not match the count,
+    duplicate or blocked starts, a goal that walls cut off from the formation's start."""
+    from crowdmotion.checks import check_goal_clear, check_inside, describe_region, where
 
+    for k, g in enumerate(groups):
+        if g.dim == scene.dim:  # (a 3D group is refused, by name, as the simulator is built)
+            check_goal_clear(scene, k, g)
+            check_inside(scene, k, g, "goal")
     sim = build_simulator(scene, groups, params, np.random.default_rng(0))
     try:
         stranded = sim.cut_off()
@@ -28,6 +32,23 @@ def check_scenario(scene, groups, params: FormationParams) -> None:
         k = stranded[0]
         raise ValueError(f"{where(k, groups[k])} goal: {describe_region(groups[k].goal)} cannot be reached from the "
                          f"spawn {describe_region(groups[k].spawn)}: walls close the way")
+
+
+def expected_steps(groups, params: FormationParams) -> int:
+    """Steps a run records at most (it stops sooner once every group has recovered)."""
+    return params.max_steps
+
+
+def step_seconds(groups, params: FormationParams) -> float:
+    """Simulated seconds per step."""
+    return params.time_step
+
+
+def expected_frames(groups, params: FormationParams) -> int:
+    """Frames of the run's trajectories at most: one per step, or ``fps`` a second."""
+    if params.fps is None:
+        return params.max_steps + 1
+    return int(params.max_steps * params.time_step * params.fps) + 1
 
 
 def run_scenario(scene, groups, params: FormationParams, rng, progress: bool = True):

@@ -45,10 +45,11 @@ class PotentialField:
         check_supported(scene, "formation", "the guiding-mesh method")
         self.reach, self.cell = float(reach), float(cell)
         self.origin = scene.lower.astype(float)
-        self.shape = tuple(np.maximum(np.ceil((scene.upper - scene.lower) / cell).astype(int), 1))  # (nx, ny)
-        if self.shape[0] * self.shape[1] > 50_000_000:
-            raise ValueError(f"formation: a field grid of {self.shape[0]} x {self.shape[1]} cells is too large; "
-                             f"raise formation.field_cell (now {cell} m)")
+        cells = np.maximum(np.ceil((scene.upper - scene.lower) / cell), 1)  # floats: no overflow
+        if float(np.prod(cells)) > 50_000_000:
+            raise ValueError(f"formation: a field grid of {cells[0]:.3g} x {cells[1]:.3g} cells is too large; "
+                             f"raise formation.field_cell (now {cell:g} m) or shrink scene.bounds")
+        self.shape = tuple(int(n) for n in cells)  # (nx, ny)
         self.static_vec = np.zeros(self.shape + (2,))
         self.static_f = np.zeros(self.shape)
         self.dynamic_vec = np.zeros(self.shape + (2,))

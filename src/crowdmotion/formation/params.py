@@ -8,9 +8,14 @@ from typing import Annotated, Literal, Union
 
 from pydantic import BaseModel, ConfigDict, Field, model_validator
 
-PosFloat = Annotated[float, Field(gt=0, allow_inf_nan=False)]
-NonNeg = Annotated[float, Field(ge=0, allow_inf_nan=False)]
+from crowdmotion._validation import Coordinate, NonNegative, Positive
+
+PosFloat = Positive
+NonNeg = NonNegative
 Count = Annotated[int, Field(gt=0, le=1_000_000)]
+MAX_TIME_STEP_S = 10.0  # seconds per step at most
+MAX_FPS = 1000.0  # output frames per second at most
+Fps = Annotated[float, Field(gt=0, le=MAX_FPS, allow_inf_nan=False)]
 
 
 class _Model(BaseModel):
@@ -99,7 +104,7 @@ class PointsTemplate(_Model):
     """
 
     kind: Literal["points"]
-    points: list[Annotated[list[float], Field(min_length=2, max_length=2)]] = Field(min_length=1)
+    points: list[Annotated[list[Coordinate], Field(min_length=2, max_length=2)]] = Field(min_length=1)
 
 
 TemplateSpec = Annotated[Union[BlockTemplate, WedgeTemplate, CircleTemplate, LineTemplate, CarsTemplate,
@@ -155,9 +160,9 @@ class FormationParams(_Model):
                                of its place in the rest shape on the goal
     """
 
-    time_step: PosFloat = 0.1
+    time_step: Annotated[float, Field(gt=0, le=MAX_TIME_STEP_S, allow_inf_nan=False)] = 0.1
     max_steps: Annotated[int, Field(gt=0, le=1_000_000)] = 3000
-    fps: PosFloat | None = 24.0
+    fps: Fps | None = 24.0
     field_range: PosFloat = 2.0
     field_cell: PosFloat = 0.25
     repulsion: NonNeg = 2.0
@@ -181,6 +186,18 @@ class FormationParams(_Model):
         if self.relink_ratio > self.tear_ratio:
             raise ValueError(f"relink_ratio {self.relink_ratio} must not exceed tear_ratio {self.tear_ratio}")
         return self
+
+
+class FormationAttributes(_Model):
+    """What a group's ``attributes`` table may hold with the formation method.
+
+    reassign : bool        as [formation] reassign, for this group (cars keep their pair)
+    heading_deg : float    the direction the template faces at the start, degrees
+                           counter-clockwise from +x (default: towards the goal)
+    """
+
+    reassign: bool | None = None
+    heading_deg: Annotated[float, Field(ge=-360_000, le=360_000, allow_inf_nan=False)] | None = None
 
 
 def make_params(params: FormationParams | dict | None = None, **overrides) -> FormationParams:

@@ -204,6 +204,7 @@ class Simulator:
             if not np.isfinite(float(heading)):
                 raise ValueError(f"{what}: heading must be a finite angle in radians, got {heading!r}")
             start_pos = tpl.placed(start, float(heading))
+        self._check_inside(start_pos, radius, what)  # (first: a template of 1e300 m breaks the mesh's search)
         mesh = FormationMesh(start_pos, what)  # checks NaN, duplicates; warns on a chain
         self._check_start(start_pos, radius, gc, what)
         p = self.params
@@ -228,13 +229,16 @@ class Simulator:
                 start_pos[tpl.pairs[:, 1]] - start_pos[tpl.pairs[:, 0]], axis=1)])
         return len(self.groups) - 1
 
-    def _check_start(self, pos: np.ndarray, radius: float, goal: np.ndarray, what: str) -> None:
+    def _check_inside(self, pos: np.ndarray, radius: float, what: str) -> None:
         lo, hi = self.scene.lower, self.scene.upper
-        out = np.any((pos - radius < lo) | (pos + radius > hi), axis=1)
+        out = ~np.all(np.isfinite(pos), axis=1) | np.any((pos - radius < lo) | (pos + radius > hi), axis=1)
         if out.any():
             i = int(np.flatnonzero(out)[0])
             raise ValueError(f"{what}: agent {i} at {pos[i].round(3).tolist()} is outside the scene bounds "
                              f"{lo.tolist()}-{hi.tolist()}")
+
+    def _check_start(self, pos: np.ndarray, radius: float, goal: np.ndarray, what: str) -> None:
+        self._check_inside(pos, radius, what)
         clear = self.scene.obstacle_distance(pos, 0.0)
         if np.any(clear < radius):
             i = int(np.argmin(clear))

@@ -46,6 +46,26 @@ def check_scenario(scene, groups, params: MDPParams) -> None:
                              f"{su.cell:.3g} m cells")
 
 
+def expected_steps(groups, params: MDPParams) -> int:
+    """Steps a run records at most (it stops sooner once everyone has arrived)."""
+    return params.max_steps
+
+
+def step_seconds(groups, params: MDPParams) -> float:
+    """Simulated seconds per step: a cell at the slowest group's preferred speed."""
+    from crowdmotion.mdp.simulation import cell_size_for
+
+    return cell_size_for(groups, params) / min(g.pref_speed for g in groups)
+
+
+def expected_frames(groups, params: MDPParams) -> int:
+    """Frames of the run's trajectories at most: one per step, or ``fps`` a second when
+    smoothed."""
+    if params.smoothing is None:
+        return params.max_steps + 1
+    return int(params.max_steps * step_seconds(groups, params) * params.fps) + 1
+
+
 def run_scenario(scene, groups, params: MDPParams, rng, progress: bool = True):
     with step_bar(params.max_steps, "mdp steps", progress) as bar:
         result = run(scene, groups, params, rng, progress=bar.done)

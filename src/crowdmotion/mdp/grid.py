@@ -63,19 +63,25 @@ class GridMap:
         return self.centers(idx)
 
 
-def check_grid_size(shape: tuple[int, ...]) -> None:
+class GridTooLarge(ValueError, MemoryError):
+    """A grid that would not fit in memory: a mistake in the scenario (ValueError) as
+    much as a lack of memory."""
+
+
+def check_grid_size(shape: tuple[float, ...], cell_size: float | None = None) -> None:
     """Refuse a grid that would not fit in memory, before allocating it."""
-    cells = int(np.prod([s + 4 for s in shape], dtype=np.float64))
-    need = cells * BYTES_PER_CELL
+    with np.errstate(over="ignore"):  # inf for absurd shapes, and no overflow
+        need = float(np.prod([float(s) + 4 for s in shape])) * BYTES_PER_CELL
     try:
         avail = os.sysconf("SC_AVPHYS_PAGES") * os.sysconf("SC_PAGE_SIZE")
     except (ValueError, OSError, AttributeError):  # pragma: no cover - non-POSIX
         avail = 16 * 2**30
     if need > avail:
-        raise MemoryError(
-            f"a grid of shape {tuple(shape)} needs about {need / 2**30:.1f} GiB but only "
-            f"{avail / 2**30:.1f} GiB is free; use a larger cell_size"
-        )
+        dims = " x ".join(f"{s:.3g}" for s in shape)
+        cell = "" if cell_size is None else f" of {cell_size:.3g} m cells"
+        raise GridTooLarge(f"a grid{cell} over this scene has {dims} cells and needs about {need / 2**30:.3g} GiB, "
+                           f"but only {avail / 2**30:.1f} GiB is free: use a larger mdp.cell_size, or smaller "
+                           f"scene.bounds")
 
 
 def rasterise(scene: Scene, cell_size: float, t: float | None = 0.0, moving: bool = True) -> GridMap:
@@ -89,8 +95,9 @@ def rasterise(scene: Scene, cell_size: float, t: float | None = 0.0, moving: boo
     if not (np.isfinite(cell_size) and cell_size > 0):
         raise ValueError(f"cell_size must be a positive number of metres, got {cell_size!r}")
     extent = scene.upper - scene.lower
-    shape = tuple(int(n) for n in np.maximum(np.floor(extent / cell_size + 1e-9), 1))
-    check_grid_size(shape)
+    cells = np.maximum(np.floor(extent / cell_size + 1e-9), 1)
+    check_grid_size(tuple(float(n) for n in cells), float(cell_size))
+    shape = tuple(int(n) for n in cells)
     grid = GridMap(np.zeros(shape, dtype=np.uint8), float(cell_size), scene.lower.copy())
     for ob in scene.obstacles:
         if ob.is_moving and not moving:

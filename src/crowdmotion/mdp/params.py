@@ -7,7 +7,9 @@ from typing import Annotated, Literal
 
 from pydantic import AliasChoices, BaseModel, ConfigDict, Field
 
-PosFloat = Annotated[float, Field(gt=0, allow_inf_nan=False)]
+from crowdmotion._validation import Positive
+
+PosFloat = Positive
 
 
 class MDPParams(BaseModel):
@@ -49,7 +51,7 @@ class MDPParams(BaseModel):
     replan_every: Annotated[int, Field(gt=0)] = 4
     lookahead: Annotated[int, Field(ge=0)] = 4
     smoothing: Literal["linear", "catmull-rom"] | None = None
-    fps: PosFloat = 24.0
+    fps: Annotated[float, Field(gt=0, le=1000.0, allow_inf_nan=False)] = 24.0
 
 
 Params = MDPParams

@@ -17,12 +17,40 @@ from crowdmotion.pso.simulation import PSORun, run
 Params = PSOParams
 
 
-def check_scenario(scene, groups, params: PSOParams) -> None:
-    from crowdmotion.checks import check_spawn_capacity, where
+FIELD_DRAWS = 3  # obstacle fields drawn to see whether the spawns keep room to start
 
+
+def check_scenario(scene, groups, params: PSOParams) -> None:
+    """Everything a run refuses, refused before it starts: obstacles the swarm cannot
+    take (polygons, moving ones), v_max axes, goals outside the bounds or covered,
+    listed starts outside the bounds, in obstacles or on top of each other, spawn
+    regions too small, goals walled off from their spawns, and a generated obstacle
+    field that leaves a spawn no room to start. Warns when v_max lets a particle move
+    faster than its group's max_speed."""
+    from crowdmotion.checks import check_goal_clear, check_inside, check_reachable, check_spawn_capacity, \
+        check_start_points, where
+
+    ObstacleArrays.from_scene(scene)
+    params.axis_vmax(scene.dim)
+    for i, g in enumerate(groups):
+        check_goal_clear(scene, i, g)
+        points = g.goal.positions if isinstance(g.goal, MovingTarget) else np.asarray(g.goal.center)[None]
+        clear = scene.obstacle_distance(points, 0.0)  # the swarm's target is the goal's centre
+        if np.any(clear < g.radius):
+            bad = points[int(np.argmin(clear))].tolist()
+            raise ValueError(f"{where(i, g)} goal: the target {bad} is covered by an obstacle "
+                             f"(clearance {clear.min():.3g} m < radius {g.radius} m)")
+    check_start_points(scene, groups, apart=params.avoid_agents)
+    for i, g in enumerate(groups):
+        check_inside(scene, i, g, "spawn")
+        check_inside(scene, i, g, "goal")
     for i, g in enumerate(groups):  # the placement run does: listed starts, room when bodies keep apart
         if isinstance(g.spawn, Points) or params.avoid_agents:
             check_spawn_capacity(scene, i, g, params.spawn_gap)
+    for i, g in enumerate(groups):
+        check_reachable(scene, i, g)
+    if params.obstacle_field is not None:
+        _check_field(scene, groups, params)
     # the paper's clamp is per axis and per iteration: say so when it allows more than a group's max_speed
     top = float(np.linalg.norm(params.axis_vmax(scene.dim))) / params.iteration_time
     for i, g in enumerate(groups):
@@ -32,17 +60,39 @@ def check_scenario(scene, groups, params: PSOParams) -> None:
                           f"the group's max_speed {g.max_speed:g} m/s (PSO clamps per axis, as the paper does); "
                           f"lower pso.v_max or raise pso.iteration_time to keep to it", stacklevel=2)
 
-    """Problems a scenario can be refused for before running: obstacle kinds, v_max axes,
-    targets covered by an obstacle."""
-    ObstacleArrays.from_scene(scene)
-    params.axis_vmax(scene.dim)
-    for i, g in enumerate(groups):
-        points = g.goal.positions if isinstance(g.goal, MovingTarget) else np.asarray(g.goal.center)[None]
-        clear = scene.obstacle_distance(points, 0.0)
-        if np.any(clear < g.radius):
-            bad = points[int(np.argmin(clear))].tolist()
-            raise ValueError(f"{where(i, g)} goal: the target {bad} is covered by an obstacle "
-                             f"(clearance {clear.min():.3g} m < radius {g.radius} m)")
+
+def _check_field(scene, groups, params: PSOParams) -> None:
+    """Refuse an obstacle field that cannot be generated, or that in each of
+    ``FIELD_DRAWS`` draws leaves some group's spawn region room for fewer agents than
+    its count (the run would fail placing them, after long tries)."""
+    from scipy.spatial import cKDTree
+
+    from crowdmotion.checks import describe_region, spawn_room, where
+    from crowdmotion.pso.simulation import generated_obstacles
+
+    spec = params.obstacle_field
+    short = {}
+    for draw in range(FIELD_DRAWS):
+        obstacles = generated_obstacles(groups, params, scene.dim, np.random.default_rng(draw))
+        tree = cKDTree(np.array([o.center for o in obstacles]))
+
+        def clearance(points):
+            return tree.query(points)[0] - spec.radius
+
+        for i, g in enumerate(groups):
+            if isinstance(g.spawn, Points):
+                continue
+            room, _ = spawn_room(scene, g, params.spawn_gap, clearance)
+            if g.count > room:
+                short.setdefault(i, []).append(room)
+    for i, rooms in short.items():
+        if len(rooms) == FIELD_DRAWS:
+            g = groups[i]
+            raise ValueError(f"pso.obstacle_field: {spec.count} obstacles of radius {spec.radius:g} m leave "
+                             f"{where(i, g)} room for about {max(rooms)} agents in its spawn "
+                             f"{describe_region(g.spawn)} (in each of {FIELD_DRAWS} draws), but count = {g.count}: "
+                             f"lower pso.obstacle_field.count or radius, or set its lower and upper corners away "
+                             f"from the spawn")
 
 
 def expected_steps(groups, params: PSOParams) -> int:
@@ -56,6 +106,17 @@ def expected_steps(groups, params: PSOParams) -> int:
         updates = len(follow_schedule(min(p.times[0] for p in paths), max(p.times[-1] for p in paths),
                                       params.iterations, params.iteration_time)) + 1
     return min(updates * params.iterations, params.max_iterations)
+
+
+def step_seconds(groups, params: PSOParams) -> float:
+    """Simulated seconds per iteration."""
+    return params.iteration_time
+
+
+def expected_frames(groups, params: PSOParams) -> int:
+    """Frames of the run's trajectories at most: one per iteration, or ``fps`` a second."""
+    steps = expected_steps(groups, params)
+    return steps + 1 if params.fps is None else int(steps * params.iteration_time * params.fps) + 1
 
 
 def run_scenario(scene, groups, params: PSOParams, rng, progress: bool = True):

@@ -8,11 +8,13 @@ from typing import Annotated, Literal
 
 from pydantic import BaseModel, ConfigDict, Field, ValidationError, model_validator
 
-from crowdmotion._validation import error_lines
+from crowdmotion._validation import Coordinate, NonNegative, Positive, error_lines
 
-PosFloat = Annotated[float, Field(gt=0, allow_inf_nan=False)]
-NonNeg = Annotated[float, Field(ge=0, allow_inf_nan=False)]
-Coord = Annotated[list[float], Field(min_length=2, max_length=3)]
+PosFloat = Positive
+NonNeg = NonNegative
+Coord = Annotated[list[Coordinate], Field(min_length=2, max_length=3)]
+MAX_ITERATION_TIME_S = 10.0  # seconds per iteration at most
+MAX_FPS = 1000.0  # output frames per second at most
 
 
 class _Model(BaseModel):
@@ -86,8 +88,8 @@ class PSOParams(_Model):
     constriction: bool = False
     v_max: Annotated[list[PosFloat], Field(min_length=1, max_length=3)] = [0.5, 0.5, 0.5]
     threshold: PosFloat = 0.5
-    iteration_time: PosFloat = 0.25
-    fps: PosFloat | None = 24.0
+    iteration_time: Annotated[float, Field(gt=0, le=MAX_ITERATION_TIME_S, allow_inf_nan=False)] = 0.25
+    fps: Annotated[float, Field(gt=0, le=MAX_FPS, allow_inf_nan=False)] | None = 24.0
     avoid_obstacles: bool = True
     detection: NonNeg = 1.0
     avoid_agents: bool = True

@@ -45,6 +45,20 @@ def _target(group: Group, t: float = 0.0) -> np.ndarray:
     return np.asarray(group.goal.center, float)
 
 
+def generated_obstacles(groups: Sequence[Group], params: PSOParams, dim: int, rng: np.random.Generator) -> list:
+    """The obstacles ``params.obstacle_field`` generates for these groups: over the box
+    spanned by their spawns and targets (unless the field gives its own), clear of every
+    target."""
+    targets0 = np.array([_target(g) for g in groups]).reshape(len(groups), dim)
+    boxes = [_region_box(g.spawn) for g in groups] + [_region_box(g.goal) if isinstance(g.goal, MovingTarget)
+                                                      else (t, t) for g, t in zip(groups, targets0)]
+    lo = np.min([b[0] for b in boxes], axis=0)
+    hi = np.max([b[1] for b in boxes], axis=0)
+    moving_targets = [g.goal.positions for g in groups if isinstance(g.goal, MovingTarget)]
+    keep_clear = np.concatenate([targets0, *moving_targets]) if moving_targets else targets0
+    return obstacle_field(params.obstacle_field, dim, lo, hi, keep_clear, params.threshold, rng)
+
+
 def run(scene: Scene, groups: Sequence[Group], params: PSOParams | None = None,
         rng: np.random.Generator | None = None, progress: Callable[[int], None] | None = None) -> PSORun:
     """Gather or follow for every group; returns the run with its Trajectories.
@@ -61,13 +75,7 @@ def run(scene: Scene, groups: Sequence[Group], params: PSOParams | None = None,
     targets0 = np.array([_target(g) for g in groups]).reshape(len(groups), dim)
     obstacles = list(scene.obstacles)
     if params.obstacle_field is not None:
-        boxes = [_region_box(g.spawn) for g in groups] + [_region_box(g.goal) if isinstance(g.goal, MovingTarget)
-                                                          else (t, t) for g, t in zip(groups, targets0)]
-        lo = np.min([b[0] for b in boxes], axis=0)
-        hi = np.max([b[1] for b in boxes], axis=0)
-        moving_targets = [g.goal.positions for g in groups if isinstance(g.goal, MovingTarget)]
-        keep_clear = np.concatenate([targets0, *moving_targets]) if moving_targets else targets0
-        obstacles += obstacle_field(params.obstacle_field, dim, lo, hi, keep_clear, params.threshold, rng)
+        obstacles += generated_obstacles(groups, params, dim, rng)
     used = Scene(scene.bounds, obstacles)
     try:
         xs, rs, sw = spawn_groups(used, groups, params.spawn_gap, rng, overlap=not params.avoid_agents)

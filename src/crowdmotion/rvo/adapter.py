@@ -16,11 +16,14 @@ def check_scenario(scene, groups, params: RVOParams) -> None:
     """Everything a run refuses, refused before it starts: a 3D scene, goals an agent
     cannot stand on, spawn regions too small, then the set-up itself (placement, personality,
     guidance fields) and goals the field says no agent can reach."""
-    from crowdmotion.checks import check_dimension, check_goal_clear, check_spawn_capacity, describe_region, where
+    from crowdmotion.checks import check_dimension, check_goal_clear, check_inside, check_spawn_capacity, \
+        describe_region, where
 
     check_dimension("rvo", scene, (2,), "use method = 'mdp' or 'pso' for 3D scenes")
     for k, g in enumerate(groups):
         check_goal_clear(scene, k, g)
+        check_inside(scene, k, g, "spawn")
+        check_inside(scene, k, g, "goal")
         check_spawn_capacity(scene, k, g, params.spawn_gap)
     sim = build_simulator(scene, groups, params, np.random.default_rng(0))
     try:
@@ -35,6 +38,21 @@ def check_scenario(scene, groups, params: RVOParams) -> None:
                          f"the spawn {describe_region(groups[k].spawn)} (e.g. an agent placed at "
                          f"{np.round(sim.positions[i], 2).tolist()}): obstacles close the way for a body of radius "
                          f"{groups[k].radius:g} m")
+
+
+def expected_steps(groups, params: RVOParams) -> int:
+    """Steps a run records at most (it stops sooner once everyone has arrived)."""
+    return params.max_steps
+
+
+def step_seconds(groups, params: RVOParams) -> float:
+    """Simulated seconds per step."""
+    return params.time_step
+
+
+def expected_frames(groups, params: RVOParams) -> int:
+    """Frames of the run's trajectories at most: one per step and the start."""
+    return params.max_steps + 1
 
 
 def run_scenario(scene, groups, params: RVOParams, rng, progress: bool = True):

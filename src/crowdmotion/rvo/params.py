@@ -5,9 +5,19 @@ from __future__ import annotations
 
 from typing import Annotated, Literal
 
-from pydantic import BaseModel, ConfigDict, Field
+from pydantic import BaseModel, ConfigDict, Field, model_validator
 
-PosFloat = Annotated[float, Field(gt=0, allow_inf_nan=False)]
+from crowdmotion._validation import NonNegative, Positive
+
+PosFloat = Positive
+MAX_TIME_STEP_S = 10.0  # seconds: a longer step walks through walls between two looks
+# the per-agent parameters a group may set for itself (attributes) share these bounds
+MAX_NEIGHBORS = 10_000
+MAX_SAMPLES = 10_000
+MaxNeighbors = Annotated[int, Field(ge=0, le=MAX_NEIGHBORS)]
+NeighborDist = PosFloat
+Samples = Annotated[int, Field(gt=0, le=MAX_SAMPLES)]
+Safety = NonNegative
 
 
 class RVOParams(BaseModel):
@@ -50,27 +60,55 @@ class RVOParams(BaseModel):
 
     model_config = ConfigDict(extra="forbid", frozen=True)
 
-    time_step: PosFloat = 0.25
+    time_step: Annotated[float, Field(gt=0, le=MAX_TIME_STEP_S, allow_inf_nan=False)] = 0.25
     max_steps: Annotated[int, Field(gt=0, le=1_000_000)] = 2000
-    max_neighbors: Annotated[int, Field(ge=0, le=10_000)] = 10
-    neighbor_dist: PosFloat = 10.0
-    samples: Annotated[int, Field(gt=0, le=10_000)] = 50
-    safety: Annotated[float, Field(ge=0, allow_inf_nan=False)] = 5.0
+    max_neighbors: MaxNeighbors = 10
+    neighbor_dist: NeighborDist = 10.0
+    samples: Samples = 50
+    safety: Safety = 5.0
     dominant: Literal["abs", "max"] = "abs"
     guidance: Literal["auto", "direct", "field"] = "auto"
     field_cell: PosFloat | None = None
     remove_on_arrival: bool = True
     arrival_radius: PosFloat = 0.5
     goal_assignment: Literal["sample", "shift"] = "sample"
-    spawn_gap: Annotated[float, Field(ge=0, allow_inf_nan=False)] = 0.05
+    spawn_gap: NonNegative = 0.05
     keep_right_deg: Annotated[float, Field(ge=0, lt=90, allow_inf_nan=False)] = 15.0
     patience: PosFloat = 2.0
-    congestion: Annotated[float, Field(ge=0, allow_inf_nan=False)] = 1.0
+    congestion: NonNegative = 1.0
     replan_s: PosFloat = 2.0
     density_slowing: bool = True
     follow: Annotated[float, Field(ge=0, le=1, allow_inf_nan=False)] = 0.5
     lane_choice: bool = True
     comfort_accel: Annotated[float, Field(ge=0, le=100, allow_inf_nan=False)] = 0.8
+
+
+class RVOAttributes(BaseModel):
+    """What a group's ``attributes`` table may hold with the RVO method: its own values of
+    four of [rvo]'s parameters (bounded as there), and differing walking speeds.
+
+    pref_speed_range : list  [low, high]: each agent's preferred speed drawn uniformly
+                             from it, m/s, within max_speed (RiMEA test 7)
+    max_neighbors : int      [M] as [rvo] max_neighbors, for this group
+    neighbor_dist : float    [D] as [rvo] neighbor_dist, metres
+    samples : int            [N_sample] as [rvo] samples
+    safety : float           [w] as [rvo] safety
+    """
+
+    model_config = ConfigDict(extra="forbid", frozen=True)
+
+    pref_speed_range: Annotated[list[PosFloat], Field(min_length=2, max_length=2)] | None = None
+    max_neighbors: MaxNeighbors | None = None
+    neighbor_dist: NeighborDist | None = None
+    samples: Samples | None = None
+    safety: Safety | None = None
+
+    @model_validator(mode="after")
+    def _range(self):
+        r = self.pref_speed_range
+        if r is not None and r[0] > r[1]:
+            raise ValueError(f"pref_speed_range: low {r[0]:g} exceeds high {r[1]:g}")
+        return self
 
 
 Params = RVOParams

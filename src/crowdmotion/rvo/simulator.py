@@ -17,6 +17,7 @@ from crowdmotion.routing import DistanceFields, distance_fields
 from crowdmotion.rvo.guidance import preferred_velocities
 from crowdmotion._contact import grid_for
 from crowdmotion.obstacle_primitives import ObstacleSet
+from crowdmotion.rvo.params import MAX_NEIGHBORS, MAX_SAMPLES
 from crowdmotion.rvo.personality import PARAM_KEYS, params_for_vectors, sample_personalities
 from crowdmotion.scene import Scene
 
@@ -29,8 +30,9 @@ DEFAULTS = {"max_neighbors": 10, "neighbor_dist": 10.0, "samples": 50, "safety":
 
 
 def _per_agent(value, n: int, name: str, integer: bool = False, minimum: float = 0.0,
-               strict: bool = True) -> np.ndarray:
-    """Broadcast a scalar or (n,) array, checking it is finite and above ``minimum``."""
+               strict: bool = True, maximum: float = np.inf) -> np.ndarray:
+    """Broadcast a scalar or (n,) array, checking it is finite, above ``minimum`` and at
+    most ``maximum``."""
     try:
         arr = np.asarray(value, dtype=float)
     except (TypeError, ValueError):
@@ -38,12 +40,13 @@ def _per_agent(value, n: int, name: str, integer: bool = False, minimum: float =
     if arr.ndim > 1 or (arr.ndim == 1 and arr.shape[0] != n):
         raise ValueError(f"{name} must be a number or {n} numbers (one per agent), got shape {arr.shape}")
     arr = np.broadcast_to(arr, (n,)).copy()
-    bad = ~np.isfinite(arr) | ((arr <= minimum) if strict else (arr < minimum))
+    bad = ~np.isfinite(arr) | ((arr <= minimum) if strict else (arr < minimum)) | (arr > maximum)
     if integer:
         bad |= arr != np.round(arr)
     if bad.any():
         i = int(np.flatnonzero(bad)[0])
-        need = f"{'>' if strict else '>='} {minimum:g}" + (" whole" if integer else "")
+        need = f"{'>' if strict else '>='} {minimum:g}" + (" whole" if integer else "") \
+            + (f" and at most {maximum:g}" if maximum < np.inf else "")
         raise ValueError(f"{name} must be {need}, got {float(arr[i])!r} for agent {i}")
     return arr.astype(np.int64) if integer else arr
 
@@ -250,8 +253,9 @@ class Simulator:
             given = {k: DEFAULTS[k] if v is None else v for k, v in given.items()}
         per = {
             "neighbor_dist": _per_agent(given["neighbor_dist"], n, "neighbor_dist"),
-            "max_neighbors": _per_agent(given["max_neighbors"], n, "max_neighbors", integer=True, strict=False),
-            "samples": _per_agent(given["samples"], n, "samples", integer=True),
+            "max_neighbors": _per_agent(given["max_neighbors"], n, "max_neighbors", integer=True, strict=False,
+                                        maximum=MAX_NEIGHBORS),
+            "samples": _per_agent(given["samples"], n, "samples", integer=True, maximum=MAX_SAMPLES),
             "safety": _per_agent(given["safety"], n, "safety", strict=False),
             "radius": rad, "max_speed": vmax, "pref_speed": vpref,
         }
