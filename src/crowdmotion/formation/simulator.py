@@ -10,7 +10,10 @@ One step (§4.2–4.3), for every group:
 2. edges stretched beyond ``tear_ratio`` × rest length are torn (their triangles leave
    the deformation); torn edges back within ``relink_ratio`` are relinked;
 3. the two-step as-rigid-as-possible solve gives every other vertex its desired position;
-   each moves with the attraction plus a correction proportional to its error;
+   each moves with the attraction plus a correction proportional to its error; with
+   comfortable motion (``crowdmotion.formation.comfort``) a vertex's velocity changes by
+   at most ``mesh_acceleration`` per second and vertices nearer each other than the
+   agents' bodies are pushed apart;
 4. each agent follows its vertex; a dislocated agent heads for the nearest unoccupied
    vertex, eqs. (3)–(4), with local repulsion from other agents; a car's two agents
    (the ``cars`` template's pairs, §5 traffic) move as one rigid body: the pair's centre
