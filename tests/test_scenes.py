@@ -44,6 +44,18 @@ def test_builtin_scene_is_clean_gathers_and_opens_in_the_readers(name, tmp_path)
             assert g["recovered_s"] is not None, name
             assert g["edge_length_error_mean"] < 0.02, (name, g)
             assert g["kabsch_rms_m"] < 0.1, (name, g)
+        # issue 28: soldiers (walkers, not cars) walk without twitching at 24 fps, within max speed
+        from crowdmotion.metrics import root_motion
+
+        for g in result.extras.simulator.groups:
+            if g.cars:
+                continue
+            walkers = traj.select(agents=g.agents)
+            rm = root_motion(walkers)
+            assert rm["acceleration_mps2"]["p95"] <= 2.0, (g.name, rm)
+            assert rm["turn_rate_rad_s"]["p95"] <= 2.0, (g.name, rm)
+            assert rm["deviation_from_1s_average_m"]["p95"] <= 0.05, (g.name, rm)
+            assert np.nanmax(walkers.speed) <= g.max_speed + 1e-9, g.name
 
 
 def test_seed_gives_diversity_and_reproducibility():

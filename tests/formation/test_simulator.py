@@ -127,23 +127,22 @@ def test_one_or_two_agents_fall_back_and_still_walk(pts):
     assert np.all(np.isfinite(sim.positions)) and sim.positions[:, 0].min() > 20
 
 
-def _turn_deg(before: np.ndarray, after: np.ndarray) -> float:
-    """The best-fit rotation (degrees) taking one point set's shape to the other's."""
-    a, b = before - before.mean(axis=0), after - after.mean(axis=0)
-    return float(np.degrees(np.arctan2(np.sum(a[:, 0] * b[:, 1] - a[:, 1] * b[:, 0]), np.sum(a * b))))
-
-
 def test_blocks_that_pushed_past_each_other_recover_square_to_the_way_they_set_out():
     from crowdmotion.cli import scenario_path
     from crowdmotion.scenario import load_scenario, run_scenario
 
     result = run_scenario(load_scenario(scenario_path("formation_exchange")), progress=False)
     pos, group = result.trajectories.positions, result.trajectories.group
+    from scipy.spatial import cKDTree
+
     for name in ("red", "blue"):
         sel = group == name
         assert result.summary["formation"][name]["recovered_s"] is not None
-        # they stood turned about 11 degrees when they arrived (the exchange twisted them)
-        assert abs(_turn_deg(pos[0, sel], pos[-1, sel])) < 1.0, f"{name} ends turned"
+        # they stood turned about 11 degrees when they arrived (the exchange twisted them);
+        # now every performer stands on the start's grid, moved (performers may have
+        # swapped slots, so the grid is compared, not each performer's own place)
+        start, end = pos[0, sel] - pos[0, sel].mean(axis=0), pos[-1, sel] - pos[-1, sel].mean(axis=0)
+        assert cKDTree(start).query(end)[0].max() < 0.05, f"{name} ends turned"
 
 
 def test_a_column_that_arrives_far_turned_from_its_start_heading_keeps_the_way_it_stands():

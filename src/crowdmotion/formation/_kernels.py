@@ -1,5 +1,6 @@
 """Numba kernels of the formation step: the per-triangle fitting of step 2 (fused with
-its right-hand side), local agent repulsion over the contact grid, edge-length error."""
+its right-hand side), local agent repulsion over the contact grid, pushing vertices apart
+over the same grid, edge-length error."""
 
 from __future__ import annotations
 
@@ -71,6 +72,33 @@ def repulsion(who, pos, radius, reach, speed, start, items, origin_x, origin_y, 
                 fy += w * dy / d
         out[s, 0] = fx
         out[s, 1] = fy
+
+
+@njit(cache=True)
+def spread_push(pos, need, start, items, origin_x, origin_y, h, nx, ny, out):
+    """For every point, the sum over the points nearer than ``need`` of half the
+    shortfall, straight away from each (coincident points push nothing), into ``out``
+    (n, 2); returns how many (ordered) pairs were too near. The grid
+    (:func:`crowdmotion._contact.build_grid`) must have cells of at least ``need``.
+    Serial: threads did not pay on two cores (16 ms against 8 at 100,000 points)."""
+    buf = np.empty(9 * max_cell(start), np.int64)
+    count = 0
+    for i in range(pos.shape[0]):
+        px, py = pos[i, 0], pos[i, 1]
+        fx, fy = 0.0, 0.0
+        for k in range(grid_neighbours(i, pos, start, items, origin_x, origin_y, h, nx, ny, buf)):
+            j = buf[k]
+            dx, dy = px - pos[j, 0], py - pos[j, 1]
+            d = np.sqrt(dx * dx + dy * dy)
+            if d < need:
+                count += 1
+                if d > 0:
+                    w = 0.5 * (need - d) / d
+                    fx += w * dx
+                    fy += w * dy
+        out[i, 0] = fx
+        out[i, 1] = fy
+    return count
 
 
 @njit(cache=True)

@@ -158,6 +158,16 @@ class FormationParams(_Model):
                                relative edge-length error is below this, no agent is
                                dislocated, no edge is torn and every vertex is within L
                                of its place in the rest shape on the goal
+    mesh_acceleration : float  [a_m] m/s²: comfortable motion (ours, see
+                               crowdmotion.formation.comfort): a vertex's velocity changes
+                               by at most this much per second, and in the target area a
+                               vertex approaches its place no faster than it can stop in;
+                               0: off (the paper's mesh, placed anew every step). A
+                               ``cars`` formation keeps its own kinematics
+    vertex_gap : float         metres: vertices nearer each other than two agents' radii
+                               and this are pushed apart after every deformation (walkers,
+                               not cars), so that agents on a compressed mesh are not
+                               pressed together and stopped by the safety pass; 0: off
     """
 
     time_step: Annotated[float, Field(gt=0, le=MAX_TIME_STEP_S, allow_inf_nan=False)] = 0.1
@@ -180,6 +190,8 @@ class FormationParams(_Model):
     repulsion_range: NonNeg = 0.3
     arrive_distance: PosFloat = 1.0
     recovered_error: PosFloat = 0.01
+    mesh_acceleration: NonNeg = 0.8
+    vertex_gap: NonNeg = 0.05
 
     @model_validator(mode="after")
     def _ranges(self):

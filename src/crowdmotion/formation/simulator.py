@@ -10,7 +10,10 @@ One step (§4.2–4.3), for every group:
 2. edges stretched beyond ``tear_ratio`` × rest length are torn (their triangles leave
    the deformation); torn edges back within ``relink_ratio`` are relinked;
 3. the two-step as-rigid-as-possible solve gives every other vertex its desired position;
-   each moves with the attraction plus a correction proportional to its error;
+   each moves with the attraction plus a correction proportional to its error; with
+   comfortable motion (``crowdmotion.formation.comfort``) a vertex's velocity changes by
+   at most ``mesh_acceleration`` per second and vertices nearer each other than the
+   agents' bodies are pushed apart;
 4. each agent follows its vertex; a dislocated agent heads for the nearest unoccupied
    vertex, eqs. (3)–(4), with local repulsion from other agents; a car's two agents
    (the ``cars`` template's pairs, §5 traffic) move as one rigid body: the pair's centre
@@ -34,6 +37,7 @@ from scipy.spatial import cKDTree
 
 from crowdmotion._contact import grid_for, line_of_sight, obstacle_safe_moves, resolve_conflicts
 from crowdmotion.formation.arap import ARAPSolver
+from crowdmotion.formation.comfort import clip_rows, limit_acceleration, spread_vertices, stopping_speed
 from crowdmotion.formation.field import PotentialField, disc_field
 from crowdmotion.formation.guidance import REBALANCE_MAX, AttractionGuide, attraction_magnitude
 from crowdmotion.formation.mesh import FormationMesh, MeshView
@@ -61,6 +65,8 @@ PAIR_TOLERANCE = 0.01  # a car's wheels further off its width than this share ar
 CAR_TURN_RADIUS = 4.0  # metres: a car turns at most |v| / radius rad/s (a kinematic car), ...
 CAR_TURN_MIN = 0.3  # ... and at least this many rad/s, so a standing car can still straighten up
 REBALANCE_EVERY = 2.0  # seconds between whole-group reassignments in the target area
+SETTLED_M = 0.01  # a recovered group has settled when vertices and agents are this near their places ...
+SETTLE_WAIT_S = 5.0  # ... or this long after it recovered
 
 
 def rotational_symmetry(points: np.ndarray) -> tuple:
@@ -106,6 +112,17 @@ class FormationGroup:
     best_progress: float = float("inf")  # least distance to the goal so far (route field or straight)
     stale_steps: int = 0  # steps since it last came nearer
     uniform_until: float = float("-inf")  # stall relief: uniform handles until then
+    settled_at: float | None = None  # recovered and standing on its places (see Simulator._settle)
+    vertex_velocity: np.ndarray | None = None  # (n, 2) each vertex's move over the last step / dt
+
+    @property
+    def cars(self) -> bool:
+        """A traffic formation (pairs of agents as rigid cars): keeps its own kinematics."""
+        return bool(len(self.template.pairs))
+
+    def comfortable(self, params: FormationParams) -> bool:
+        """Whether the mesh moves comfortably (mesh_acceleration on; walkers, not cars)."""
+        return params.mesh_acceleration > 0 and not self.cars
 
     def rest_shape(self) -> np.ndarray:
         """The rest shape about its centre, turned to the group's heading now."""
@@ -215,7 +232,8 @@ class Simulator:
         extent = float(np.linalg.norm(start_pos - start_pos.mean(axis=0), axis=1).max()) + radius
         idx = np.arange(len(self.positions), len(self.positions) + n)
         grp = FormationGroup(name, tpl, mesh, solver, guide, start_pos.copy(), idx, region, gc, pref_speed, max_speed,
-                             radius, extent, float(heading), float(heading), symmetry=rotational_symmetry(mesh.rest))
+                             radius, extent, float(heading), float(heading), symmetry=rotational_symmetry(mesh.rest),
+                             vertex_velocity=np.zeros_like(start_pos))
         self._route_stale = True
         self.groups.append(grp)
         self.positions = np.concatenate([self.positions, start_pos])
@@ -274,6 +292,7 @@ class Simulator:
         V = g.vertices
         centroid = V.mean(axis=0)
         in_area = g.arrived_at is not None
+        comfortable = g.comfortable(p)
         if not in_area:
             to_goal = g.goal_center - centroid
             dist = float(np.linalg.norm(to_goal))
@@ -306,7 +325,10 @@ class Simulator:
             slot = g.rest_shape() + g.goal_center
             gap = slot - V
             gl = np.linalg.norm(gap, axis=1, keepdims=True)
-            moved = V + gap * np.minimum(1.0, g.pref_speed * dt / np.maximum(gl, 1e-300))
+            speed = g.pref_speed
+            if comfortable:  # no faster than it can stop in at the comfortable deceleration
+                speed = np.minimum(speed, stopping_speed(gl, p.mesh_acceleration))
+            moved = V + gap * np.minimum(1.0, speed * dt / np.maximum(gl, 1e-300))
         # every vertex is pulled weakly to its place in the rest shape (with the group's
         # heading) centred on the mesh: torn-off vertices come back until their edges
         # relink, and the formation keeps facing the way it set out
@@ -330,12 +352,15 @@ class Simulator:
             aim = moved.copy()
             aim[handles] = targets
             new = g.solver.deform(g.all_vertices, aim, anchor, p.arap)
-        step = new - V
-        sl = np.linalg.norm(step, axis=1, keepdims=True)
-        cap = g.max_speed * dt
-        new = V + np.where(sl > cap, step * cap / np.maximum(sl, 1e-300), step)
+        velocity = (new - V) / dt
+        if comfortable:  # the mesh changes velocity no faster than the walkers on it
+            velocity = limit_acceleration(g.vertex_velocity, velocity, p.mesh_acceleration, dt)
+        new = V + dt * clip_rows(velocity, g.max_speed)
+        if p.vertex_gap > 0 and not g.cars:  # room for the agents' bodies between the vertices
+            new = spread_vertices(new, 2 * g.radius + p.vertex_gap)
         g.vertices = self._clear_of_walls(np.clip(new, self.scene.lower + g.radius, self.scene.upper - g.radius),
                                           g.radius + VERTEX_CLEARANCE)
+        g.vertex_velocity = (g.vertices - V) / dt
 
     def _stall_relief(self, k: int, g: FormationGroup, centroid: np.ndarray, in_area: bool) -> bool:
         """With the paper's handle rule a mesh pressed against a wide obstacle across its
@@ -546,10 +571,7 @@ class Simulator:
                 v[lost] = self._steer(o[lost], v[lost], fvec, fmag, o[lost] - o.mean(axis=0), g.max_speed,
                                       g.max_speed)
             want[g.span] = v
-        sp = np.linalg.norm(want, axis=1)
-        over = sp > self.max_speed
-        want[over] *= (self.max_speed[over] / sp[over])[:, None]
-        self.velocities = want
+        self.velocities = clip_rows(want, self.max_speed[:, None])
 
     def _obstacle_pass(self, active: np.ndarray) -> np.ndarray:
         """Every move made safe from the obstacles placed now (in place); returns each
@@ -688,6 +710,8 @@ class Simulator:
         for g in self.groups:
             mean, _ = edge_errors(self.positions[g.span][g.guide.slot_order], g.mesh.edges, g.mesh.rest_length)
             g.edge_error.append(mean)
+            if g.recovered_at is not None and g.settled_at is None:
+                self._settle(g)
             if g.arrived_at is None or g.recovered_at is not None:
                 continue
             slot = g.rest_shape() + g.goal_center
@@ -695,11 +719,23 @@ class Simulator:
             if settled and mean < self.params.recovered_error and not g.guide.dislocated.any() \
                     and not g.mesh.torn.any():  # torn edges relink first
                 g.recovered_at = self.time
+                self._settle(g)
+
+    def _settle(self, g: FormationGroup) -> None:
+        """A recovered group has settled once its vertices stand on their places and its
+        agents on their vertices (within SETTLED_M). Without comfortable motion both hold
+        as it recovers; with it the last centimetres are walked at a comfortable pace,
+        and a run goes on until they are (at most SETTLE_WAIT_S after recovery)."""
+        slot = g.rest_shape() + g.goal_center
+        on = self.positions[g.span] - g.vertices[g.guide.assignment]
+        if not g.comfortable(self.params) or self.time - g.recovered_at >= SETTLE_WAIT_S or \
+                max(np.abs(g.vertices - slot).max(), np.abs(on).max()) < SETTLED_M:
+            g.settled_at = self.time
 
     @property
     def done(self) -> bool:
-        """Every group is in its target area and has recovered its formation."""
-        return all(g.recovered_at is not None for g in self.groups)
+        """Every group is in its target area, has recovered its formation and settled."""
+        return all(g.recovered_at is not None and g.settled_at is not None for g in self.groups)
 
     def facing(self) -> np.ndarray:
         """(n,) the way each agent faces now, yaw radians: a car along its body (the
