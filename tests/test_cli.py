@@ -224,7 +224,7 @@ max_speed = 0.05
 spawn = { shape = "rect", lower = [1, 1], upper = [15, 19] }
 goal = { shape = "rect", lower = [190, 1], upper = [199, 19] }
 [rvo]
-max_steps = 1000000
+max_steps = 300000
 [output]
 plots = []
 """
@@ -252,7 +252,7 @@ def start_long_run(tmp_path, out):
             if not chunk:
                 break
             err += chunk
-            if re.search(rb"\| *[1-9]\d*/1000000 \[", err):
+            if re.search(rb"\| *[1-9]\d*/300000 \[", err):
                 return proc, err.decode(errors="replace")
     proc.kill()
     proc.wait()
