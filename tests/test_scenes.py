@@ -35,6 +35,16 @@ def test_builtin_scene_is_clean_gathers_and_opens_in_the_readers(name, tmp_path)
     elif result.scenario.method == "rvo":  # everyone reaches their own goal point
         assert s["arrival_rate"] == 1.0, s
         assert set(s["groups"]) == {g.name for g in result.scenario.groups}
+        # walkers (person-sized) walk without twitching at 24 fps as the export plays them
+        from crowdmotion.metrics import root_motion
+        from crowdmotion.rvo.density import PERSON_MAX_RADIUS_M
+
+        people = np.flatnonzero(traj.radius <= PERSON_MAX_RADIUS_M)
+        if len(people):
+            rm = root_motion(traj.select(agents=people))
+            assert rm["acceleration_mps2"]["p95"] <= 2.0, rm
+            assert rm["turn_rate_rad_s"]["p95"] <= 2.0, rm
+            assert rm["deviation_from_1s_average_m"]["p95"] <= 0.05, rm
     elif result.scenario.method == "pso":  # every group gathers (threshold or the group arrival rule)
         assert s["arrival_rate"] == 1.0, s
         assert all(s["groups_gathered"].values()), s["groups_gathered"]

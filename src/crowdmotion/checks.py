@@ -77,11 +77,8 @@ def check_goal_clear(scene: Scene, k: int, group: Group) -> None:
     if isinstance(goal, Points):
         bad = np.flatnonzero(clear < group.radius)
         if len(bad):
-            p, c = pts[bad[0]], clear[bad[0]]
-            if not scene.contains(p[None])[0]:
-                how = f"lies outside scene.bounds {_fmt(scene.lower)}-{_fmt(scene.upper)}"
-            else:
-                how = f"lies inside {_blocker(scene, p)}" if c < 0 else f"is only {c:.3g} m from {_blocker(scene, p)}"
+            p = pts[bad[0]]
+            how = _why_unfit(scene, p, clear[bad[0]])
             raise ValueError(f"{where(k, group)} goal: the point {_fmt(p)} {how}: an agent of radius "
                              f"{group.radius:g} m cannot stand there")
     elif not np.any(clear >= group.radius):
@@ -146,11 +143,8 @@ def check_start_points(scene: Scene, groups, apart: bool = True) -> None:
         clear = _clearance(scene, p)
         bad = np.flatnonzero(clear < g.radius)
         if len(bad):
-            q, c = p[bad[0]], clear[bad[0]]
-            if not scene.contains(q[None])[0]:
-                how = f"lies outside scene.bounds {_fmt(scene.lower)}-{_fmt(scene.upper)}"
-            else:
-                how = f"lies inside {_blocker(scene, q)}" if c < 0 else f"is only {c:.3g} m from {_blocker(scene, q)}"
+            q = p[bad[0]]
+            how = _why_unfit(scene, q, clear[bad[0]])
             raise ValueError(f"{where(k, g)} spawn: the point {_fmt(q)} {how}: an agent of radius {g.radius:g} m "
                              f"cannot start there")
         pts.append(p)
@@ -235,6 +229,14 @@ def _clearance(scene: Scene, pts: np.ndarray) -> np.ndarray:
     """Distance from each point to the nearest static obstacle or the scene's walls."""
     walls = np.minimum(pts - scene.lower, scene.upper - pts).min(axis=1)
     return np.minimum(walls, scene.static_obstacle_distance(pts))
+
+
+def _why_unfit(scene, p: np.ndarray, clear: float) -> str:
+    """Why an agent cannot stand at point ``p`` (its clearance ``clear``, m): outside the
+    bounds, inside an obstacle, or too near one (the obstacle named)."""
+    if not scene.contains(p[None])[0]:
+        return f"lies outside scene.bounds {_fmt(scene.lower)}-{_fmt(scene.upper)}"
+    return f"lies inside {_blocker(scene, p)}" if clear < 0 else f"is only {clear:.3g} m from {_blocker(scene, p)}"
 
 
 def _blocker(scene: Scene, p: np.ndarray) -> str:
