@@ -56,7 +56,7 @@ def test_builtin_scene_is_clean_gathers_and_opens_in_the_readers(name, tmp_path)
             assert g["recovered_s"] is not None, name
             assert g["edge_length_error_mean"] < 0.02, (name, g)
             assert g["kabsch_rms_m"] < 0.1, (name, g)
-        # issue 28: soldiers (walkers, not cars) walk without twitching at 24 fps, within max speed
+        # soldiers (walkers, not cars) walk without twitching at 24 fps, within max speed
         from crowdmotion.metrics import root_motion
 
         for g in result.extras.simulator.groups:

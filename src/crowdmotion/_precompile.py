@@ -1,4 +1,4 @@
-"""A first run compiles its numba kernels on every core it has (issue 16).
+"""A first run compiles its numba kernels on every core it has.
 
 numba compiles a kernel the first time it is called, one after another, on one core,
 and with it every jitted helper the kernel calls: a fresh install spends 6-7 s of an

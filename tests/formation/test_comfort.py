@@ -1,4 +1,4 @@
-"""Comfortable motion (issue 28): soldiers of a formation walk without twitching, because
+"""Comfortable motion: soldiers of a formation walk without twitching, because
 the guiding mesh changes velocity no faster than a walker does and leaves room for the
 agents' bodies; the collision guarantee and the recovery are kept."""
 

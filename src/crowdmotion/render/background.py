@@ -1,5 +1,5 @@
 """A run's pictures drawn in another process, whose plotting imports overlap the
-simulation (issue 16).
+simulation.
 
 matplotlib takes about half a second to import and a run's pictures another 0.3-1 s to
 draw, all on one core, after the simulation. ``crowdmotion run`` instead forks a
