@@ -263,7 +263,7 @@ CASES: list[Case] = [
          _judge_steer("squeeze", 1000)),
     Case("steersuite_oncoming_groups", "SteerSuite testcases/oncoming-groups.xml",
          "two groups of six walk through each other in the open", ("rvo",), _steer_oncoming_groups,
-         _judge_steer("groups", 12)),
+         _judge_steer("groups", 12), quick=True),
     Case("steersuite_curves", "SteerSuite testcases/curves.xml",
          "one agent follows an S-shaped passage", ("rvo",), _steer_curves, _judge_steer("curves", 1)),
     Case("steersuite_doorway_two_way", "SteerSuite testcases/doorway-two-way.xml",
