@@ -32,8 +32,15 @@ def test_quick_cases_pass_with_a_clean_audit(case, method):
     assert v.passed, f"{case}/{method}: {v.criterion}: measured {v.measured}"
 
 
+#: cases that fail today, kept in verify as they are (docs/verification.md says why)
+FAILING = {("steersuite_bottleneck_squeeze", "rvo"):
+           "issue 28: 1000 agents to one point, removed within 0.5 m of it: about 10 % arrive in 1000 s"}
+
+
 @pytest.mark.slow
-@pytest.mark.parametrize("case,method", [(c.name, m) for c, m in verify.select()])
+@pytest.mark.parametrize("case,method", [
+    pytest.param(c.name, m, marks=pytest.mark.xfail(reason=FAILING[c.name, m], strict=True))
+    if (c.name, m) in FAILING else (c.name, m) for c, m in verify.select()])
 def test_full_suite(case, method):
     c = next(c for c in verify.CASES if c.name == case)
     v = verify.run_case(c, method)
@@ -83,3 +90,56 @@ def test_a_group_can_walk_at_speeds_drawn_from_a_range():
     bad = cm.Group("x", 3, spawn=cm.Rect([0, 0], [10, 10]), goal=[20, 5], attributes={"pref_speed_range": [1, 2]})
     with pytest.raises(ValueError, match="max_speed"):
         preferred_speeds(bad, np.random.default_rng(0))
+
+
+# ---- the peers' own example scenes (crowdmotion.peers), each by its author's own test -----
+def _peer(name):
+    return next(c for c in verify.CASES if c.name == name)
+
+
+@pytest.mark.parametrize("case", ["menge_4square", "steersuite_hallway_two_way", "steersuite_curves",
+                                  "steersuite_doorway_two_way"])
+def test_everyone_gets_home_in_the_peers_small_examples(case):
+    v = verify.run_case(_peer(case), "rvo")
+    assert v.clean, v
+    assert v.passed, f"{case}: {v.criterion}: measured {v.measured}"
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("case", ["rvo2_circle", "rvo2_roadmap"])
+@pytest.mark.parametrize("seed", [1, 2])
+def test_everyone_gets_home_in_the_peers_large_examples(case, seed):
+    # RVO2's Circle (all 250 at their antipodes at once) and Roadmap (all 100 within 20 m of
+    # their corner's vertex at once): 5-10 s each; seed 0 is test_full_suite's
+    v = verify.run_case(_peer(case), "rvo", seed=seed)
+    assert v.clean, v
+    assert v.passed, f"{case} seed {seed}: {v.criterion}: measured {v.measured}"
+
+
+def test_the_peers_scenes_are_built_as_their_authors_wrote_them():
+    # counts, radii and speeds from the sources (RVO2 examples/*.cc, Menge 4squareS.xml,
+    # SteerSuite testcases/*.xml), checked against numbers written out here by hand
+    circle = _peer("rvo2_circle").build("rvo")["circle"]
+    (g,) = circle.groups
+    start = g.spawn.points
+    assert g.count == 250 and g.radius == 1.5 and g.max_speed == 2.0 and g.pref_speed == 1.0
+    assert np.allclose(np.linalg.norm(start, axis=1), 200.0) and np.allclose(g.goal.points, -start)
+    assert start[1] == pytest.approx([200 * np.cos(0.008 * np.pi), 200 * np.sin(0.008 * np.pi)])
+    assert circle.params["time_step"] == 0.25 and circle.params["neighbor_dist"] == 15.0
+    assert circle.params["remove_on_arrival"] is False
+
+    square = _peer("menge_4square").build("rvo")["4square"]
+    assert [(g.count, g.radius, g.pref_speed) for g in square.groups] == [(25, 0.2, 1.34)] * 3 + [(25, 0.35, 0.75)]
+    sw = square.groups[0].spawn.points
+    grid = np.array([[-7.3 - 1.333 * (i % 5), -7.3 - 1.333 * (i // 5)] for i in range(25)])
+    assert np.all(np.linalg.norm(sw - grid, axis=1) <= 0.25) and np.allclose(square.groups[0].goal.points, -sw)
+    assert square.params["time_step"] == 0.1 and square.params["arrival_radius"] == 0.05
+
+    squeeze = _peer("steersuite_bottleneck_squeeze").build("rvo")["squeeze"]
+    (crowd,) = squeeze.groups
+    assert crowd.count == 1000 and crowd.radius == 0.5 and crowd.pref_speed == 1.3
+    assert squeeze.params["remove_on_arrival"] is True and squeeze.params["arrival_radius"] == 0.5
+    assert squeeze.params["max_steps"] * 0.25 == 1000.0
+    gap = [o for o in squeeze.scene.obstacles]
+    assert sorted(float(o.lower[1]) for o in gap) == [-100.0, 2.1] and {float(o.upper[0]) for o in gap} == {20.0}
+

@@ -17,6 +17,7 @@ import numpy as np
 
 from crowdmotion.cases import Case, Outcome, Setup, Verdict, crossing_times, flow, simulate  # noqa: F401
 from crowdmotion.groups import Group, Points, Rect
+from crowdmotion.peers import CASES as PEER_CASES
 from crowdmotion.scene import Box, Polygon, Scene
 
 RADIUS = 0.25
@@ -397,6 +398,8 @@ CASES: list[Case] = [
     Case("rvo2_blocks", "RVO2 example Blocks",
          "4 x 25 agents (radius 2 m) cross to the opposite corner past four square blocks", ("rvo",),
          _rvo2_blocks, _judge_rvo2_blocks),
+    # the peers' own example scenes as their authors wrote them (crowdmotion.peers)
+    *PEER_CASES,
 ]
 
 
