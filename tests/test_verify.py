@@ -34,7 +34,7 @@ def test_quick_cases_pass_with_a_clean_audit(case, method):
 
 #: cases that fail today, kept in verify as they are (docs/verification.md says why)
 FAILING = {("steersuite_bottleneck_squeeze", "rvo"):
-           "issue 28: 1000 agents to one point, removed within 0.5 m of it: about 10 % arrive in 1000 s"}
+           "1000 agents to one point, removed within 0.5 m of it: about 10 % arrive in 1000 s"}
 
 
 @pytest.mark.slow

@@ -1,4 +1,4 @@
-"""The peers' own example scenes as their authors wrote them (issue 28, "everyone home"):
+"""The peers' own example scenes as their authors wrote them ("everyone home"):
 RVO2's Circle and Roadmap examples, Menge's 4square and five SteerSuite test cases, as
 ``crowdmotion verify`` cases for the RVO method, each judged by its author's own success
 test. Read from the sources named in each builder: agent counts, radii, speeds, goals,
