@@ -294,3 +294,31 @@ def test_a_library_run_forks_no_compiling_children_unless_asked(monkeypatch):
     assert forks == []
     run_scenario(sc, progress=False, precompile=True)  # what the command line asks for
     assert forks == [1]
+
+
+def test_a_sigterm_as_soon_as_a_child_is_forked_ends_the_child_not_runs_the_parents_handler():
+    # a run's handler raises on SIGTERM; a child forked for pictures or compiling that got
+    # the signal before installing its own handlers ran that handler and unwound into the
+    # run's code (a test suite hung on it): the child must simply end
+    import os
+    import signal
+    import time
+
+    from crowdmotion._precompile import fork
+
+    def raising(signum, frame):
+        raise KeyboardInterrupt
+
+    old = signal.signal(signal.SIGTERM, raising)
+    try:
+        pid = fork()
+        if pid == 0:
+            try:
+                os.kill(os.getpid(), signal.SIGTERM)
+                time.sleep(1.0)
+            finally:
+                os._exit(7)  # reached only if the parent's handler ran here
+        _, status = os.waitpid(pid, 0)
+    finally:
+        signal.signal(signal.SIGTERM, old)
+    assert os.WIFSIGNALED(status) and os.WTERMSIG(status) == signal.SIGTERM, status

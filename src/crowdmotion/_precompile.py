@@ -255,7 +255,7 @@ def _fork(n: int, kernels: list[dict], marks: Path, deadline: float) -> list[int
     for _ in range(n):
         sys.stdout.flush()
         sys.stderr.flush()
-        pid = os.fork()
+        pid = fork()
         if pid == 0:
             code = 0
             try:
@@ -306,12 +306,45 @@ def _launch(method: str, background: bool = False):
     return first, todo, _fork(n_children, todo, marks, deadline), marks, deadline
 
 
+def fork() -> int:
+    """``os.fork()`` with SIGINT and SIGTERM held back across it. The child resets both to
+    their defaults before letting them through, so a signal that arrives just after the
+    fork ends the child instead of running the parent's handler there (which could raise
+    into, and run on in, the parent's code); it installs its own handlers after. The
+    parent lets them through as before."""
+    held = {signal.SIGINT, signal.SIGTERM}
+    old = signal.pthread_sigmask(signal.SIG_BLOCK, held)
+    try:
+        pid = os.fork()
+    except BaseException:
+        signal.pthread_sigmask(signal.SIG_SETMASK, old)
+        raise
+    if pid == 0:
+        signal.signal(signal.SIGINT, signal.SIG_DFL)
+        signal.signal(signal.SIGTERM, signal.SIG_DFL)
+    signal.pthread_sigmask(signal.SIG_SETMASK, old)
+    return pid
+
+
+STOP_GRACE_S = 5.0  # a child that outlives a polite signal this long is killed
+
+
 def stop_children(pids: list[int], sig: int = signal.SIGKILL) -> None:
-    """Send ``sig`` to each child process and reap it (one already gone is skipped)."""
+    """Send ``sig`` to each child process and reap it (one already gone is skipped); one
+    still there ``STOP_GRACE_S`` after a signal other than SIGKILL is killed."""
     for pid in pids:
         try:
             os.kill(pid, sig)
-            os.waitpid(pid, 0)
+            if sig == signal.SIGKILL:
+                os.waitpid(pid, 0)
+                continue
+            deadline = time.monotonic() + STOP_GRACE_S
+            while os.waitpid(pid, os.WNOHANG) == (0, 0):
+                if time.monotonic() > deadline:
+                    os.kill(pid, signal.SIGKILL)
+                    os.waitpid(pid, 0)
+                    break
+                time.sleep(0.01)
         except (OSError, ChildProcessError):
             pass
 

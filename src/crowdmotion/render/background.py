@@ -31,7 +31,7 @@ from collections.abc import Callable
 from multiprocessing.connection import Connection, Pipe
 from pathlib import Path
 
-from crowdmotion._precompile import can_fork, cores, stop_children
+from crowdmotion._precompile import can_fork, cores, fork, stop_children
 
 
 def _leave(signum, frame) -> None:
@@ -63,7 +63,7 @@ def _draw_parts(draw: Callable, parts: list[tuple]) -> tuple:
     if can_fork():
         for k in range(1, min(len(parts), cores())):
             theirs, ours = Pipe(duplex=False)
-            pid = os.fork()
+            pid = fork()
             if pid == 0:  # a helper: never returns
                 try:
                     theirs.close()
@@ -140,7 +140,7 @@ class PictureProcess:
         ours, theirs = Pipe()
         sys.stdout.flush()
         sys.stderr.flush()
-        pid = os.fork()
+        pid = fork()
         if pid == 0:  # the child: never returns
             code = 0
             try:
