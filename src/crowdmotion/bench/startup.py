@@ -79,7 +79,9 @@ def cold_and_warm(name: str, root: Path, src: str | None) -> tuple[float, float]
     env.pop("PYTHONPATH", None)
     if src:
         env["PYTHONPATH"] = src
-    run = _run_command(name, root)
+    # each code into its own folder: an older version's files (no manifest.json) are not
+    # this version's to overwrite
+    run = _run_command(name, root / ("baseline" if src else "current"))
     return timed_run(run, env), timed_run(run, env)
 
 
