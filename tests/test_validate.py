@@ -289,3 +289,26 @@ def test_a_bad_max_memory_is_an_argparse_error(tmp_path, capsys, size):
     assert exc.value.code == 2
     err = capsys.readouterr().err
     assert "argument --max-memory" in err and "Traceback" not in err
+
+
+def test_the_spawn_room_lower_bound_never_promises_more_room_than_the_sampled_count():
+    # validating a spawn region skips sampling its free area when a lower bound already
+    # leaves room; that bound must stay below the sampled count (up to the lattice)
+    import numpy as np
+
+    import crowdmotion as cm
+    from crowdmotion.checks import _room_at_least, spawn_room
+    from crowdmotion.groups import Group, Rect
+
+    rng = np.random.default_rng(0)
+    for trial in range(40):
+        obstacles = [cm.Circle(rng.uniform(0, 20, 2), rng.uniform(0.2, 2.0)) for _ in range(rng.integers(0, 6))]
+        lo = rng.uniform(0, 14, 2)
+        obstacles += [cm.Box(lo, lo + rng.uniform(0.5, 5, 2))] if trial % 2 else []
+        scene = cm.Scene(bounds=([0, 0], [20, 20]), obstacles=obstacles)
+        a = rng.uniform(0, 12, 2)
+        group = Group("g", 1, spawn=Rect(a, a + rng.uniform(1, 8, 2)), goal=Rect([0, 0], [1, 1]),
+                      radius=float(rng.uniform(0.1, 0.5)))
+        bound = _room_at_least(scene, group, 0.05)
+        room, _ = spawn_room(scene, group, 0.05)
+        assert bound <= room * 1.02 + 1, (trial, bound, room)

@@ -99,6 +99,27 @@ def spawn_room(scene: Scene, group: Group, gap: float, clearance=None) -> tuple[
     return int(min(PLACEABLE_SHARE * free / body, 1e15)), free
 
 
+def _room_at_least(scene: Scene, group: Group, gap: float) -> int:
+    """A lower bound of :func:`spawn_room`'s count without sampling: the spawn region's
+    box within the bounds, a body and the gap in from the walls, less the part inside it
+    of every static obstacle's bounding box grown by as much (0 for a disc or sphere
+    region)."""
+    region = group.spawn
+    if not isinstance(region, Rect):
+        return 0
+    reach = group.radius + gap
+    lo, hi = np.maximum(region.lower, scene.lower + reach), np.minimum(region.upper, scene.upper - reach)
+    if np.any(hi <= lo):
+        return 0
+    free = float(np.prod(hi - lo))
+    for ob in scene.static_obstacles:  # less the part of its grown box inside the region
+        olo, ohi = ob.bounds()
+        free -= float(np.prod(np.clip(np.minimum(hi, np.asarray(ohi) + reach) - np.maximum(lo, np.asarray(olo) - reach),
+                                      0.0, None)))
+    body = np.pi * (group.radius + gap / 2) ** (2 if scene.dim == 2 else 3) * (1 if scene.dim == 2 else 4 / 3)
+    return int(max(PLACEABLE_SHARE * free / body, 0.0))
+
+
 def check_inside(scene: Scene, k: int, group: Group, part: str = "spawn") -> None:
     """Refuse a spawn or goal region (rect or disc; ``part``) that reaches outside the
     scene's bounds, where sampled starts or goal points would lie outside the scene."""
@@ -121,6 +142,8 @@ def check_spawn_capacity(scene: Scene, k: int, group: Group, gap: float) -> None
         if len(spawn.points) != group.count:
             raise ValueError(f"{where(k, group)} spawn: {len(spawn.points)} points given for count = {group.count}")
         return
+    if group.count <= _room_at_least(scene, group, gap):
+        return  # room enough by a lower bound: no sampling needed
     room, free = spawn_room(scene, group, gap)
     if group.count > room:
         unit = "m²" if scene.dim == 2 else "m³"
