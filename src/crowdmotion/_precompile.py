@@ -271,12 +271,18 @@ def _wait(children: list[int], deadline: float) -> None:
     """Wait for the children; one still compiling after the deadline is stopped (the run
     then compiles what it lacks as usual)."""
     for pid in children:
-        while os.waitpid(pid, os.WNOHANG) == (0, 0):
-            if time.monotonic() > deadline:
-                os.kill(pid, signal.SIGKILL)
-                os.waitpid(pid, 0)
-                break
-            time.sleep(0.02)
+        _reap(pid, deadline, 0.02)
+
+
+def _reap(pid: int, deadline: float, poll: float) -> None:
+    """Wait for child ``pid`` to end, every ``poll`` seconds; one still there after
+    ``deadline`` (time.monotonic) is killed and reaped."""
+    while os.waitpid(pid, os.WNOHANG) == (0, 0):
+        if time.monotonic() > deadline:
+            os.kill(pid, signal.SIGKILL)
+            os.waitpid(pid, 0)
+            return
+        time.sleep(poll)
 
 
 def _load_registries() -> None:
@@ -337,14 +343,8 @@ def stop_children(pids: list[int], sig: int = signal.SIGKILL) -> None:
             os.kill(pid, sig)
             if sig == signal.SIGKILL:
                 os.waitpid(pid, 0)
-                continue
-            deadline = time.monotonic() + STOP_GRACE_S
-            while os.waitpid(pid, os.WNOHANG) == (0, 0):
-                if time.monotonic() > deadline:
-                    os.kill(pid, signal.SIGKILL)
-                    os.waitpid(pid, 0)
-                    break
-                time.sleep(0.01)
+            else:
+                _reap(pid, time.monotonic() + STOP_GRACE_S, 0.01)
         except (OSError, ChildProcessError):
             pass
 

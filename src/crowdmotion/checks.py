@@ -75,12 +75,7 @@ def check_goal_clear(scene: Scene, k: int, group: Group) -> None:
         raise ValueError(f"{where(k, group)} goal: {describe_region(goal)} lies outside scene.bounds")
     clear = _clearance(scene, pts)
     if isinstance(goal, Points):
-        bad = np.flatnonzero(clear < group.radius)
-        if len(bad):
-            p = pts[bad[0]]
-            how = _why_unfit(scene, p, clear[bad[0]])
-            raise ValueError(f"{where(k, group)} goal: the point {_fmt(p)} {how}: an agent of radius "
-                             f"{group.radius:g} m cannot stand there")
+        _refuse_unfit(scene, k, group, "goal", pts, clear, "stand")
     elif not np.any(clear >= group.radius):
         raise ValueError(f"{where(k, group)} goal: {describe_region(goal)} is covered by obstacles: no spot in it "
                          f"keeps an agent of radius {group.radius:g} m clear")
@@ -163,13 +158,7 @@ def check_start_points(scene: Scene, groups, apart: bool = True) -> None:
         if not isinstance(g.spawn, Points):
             continue
         p = g.spawn.points
-        clear = _clearance(scene, p)
-        bad = np.flatnonzero(clear < g.radius)
-        if len(bad):
-            q = p[bad[0]]
-            how = _why_unfit(scene, q, clear[bad[0]])
-            raise ValueError(f"{where(k, g)} spawn: the point {_fmt(q)} {how}: an agent of radius {g.radius:g} m "
-                             f"cannot start there")
+        _refuse_unfit(scene, k, g, "spawn", p, _clearance(scene, p), "start")
         pts.append(p)
         rad.append(np.full(len(p), g.radius))
         owner += [(k, i) for i in range(len(p))]
@@ -252,6 +241,17 @@ def _clearance(scene: Scene, pts: np.ndarray) -> np.ndarray:
     """Distance from each point to the nearest static obstacle or the scene's walls."""
     walls = np.minimum(pts - scene.lower, scene.upper - pts).min(axis=1)
     return np.minimum(walls, scene.static_obstacle_distance(pts))
+
+
+def _refuse_unfit(scene: Scene, k: int, group: Group, part: str, pts: np.ndarray, clear: np.ndarray,
+                  verb: str) -> None:
+    """Refuse the first of a group's listed ``part`` points (spawn or goal) whose
+    clearance ``clear`` leaves no room for its body, saying why."""
+    bad = np.flatnonzero(clear < group.radius)
+    if len(bad):
+        p = pts[bad[0]]
+        raise ValueError(f"{where(k, group)} {part}: the point {_fmt(p)} {_why_unfit(scene, p, clear[bad[0]])}: an "
+                         f"agent of radius {group.radius:g} m cannot {verb} there")
 
 
 def _why_unfit(scene, p: np.ndarray, clear: float) -> str:
