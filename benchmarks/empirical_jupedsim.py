@@ -94,7 +94,8 @@ def run_jupedsim(model_name: str, scene: Scene, groups, seed: int, max_time_s: f
     sim = jps.Simulation(model=_model(model_name, seed), geometry=walkable_area(scene), dt=DT)
     ids, names, start = [], [], []
     for g in groups:
-        pos = spawn_positions(scene, g, np.zeros((0, 2)), np.zeros(0), SPAWN_GAP, rng)
+        placed = np.array(start, dtype=float).reshape(-1, 2)  # groups may share a spawn region
+        pos = spawn_positions(scene, g, placed, np.full(len(placed), RADIUS), SPAWN_GAP, rng)
         rng_speed = g.attributes.get("pref_speed_range") if g.attributes else None
         speeds = rng.uniform(*rng_speed, size=len(pos)) if rng_speed else np.full(len(pos), g.pref_speed)
         exit_id = sim.add_exit_stage(_rect_polygon(g.goal))
