@@ -5,6 +5,7 @@ import pytest
 
 import crowdmotion as cm
 from crowdmotion import rvo
+from crowdmotion.metrics import collision_audit
 
 
 def _sim():
@@ -52,3 +53,108 @@ def test_a_walker_passing_its_goal_at_speed_turns_in_instead_of_circling_it():
     while sim.time < 20 and sim.active.any():
         sim.step()
     assert sim.arrived.all() and sim.arrival_time[0] < 6.0, sim.arrival_time
+
+
+# ---- the live API: new goals and removals between steps ---------------------------------------
+def _walled():
+    """A 20 × 10 m room split by a wall at x 9-11 with a door at y 4-6."""
+    return cm.Scene(bounds=([0, 0], [20, 10]), obstacles=[cm.Box([9, 0], [11, 4]), cm.Box([9, 6], [11, 10])])
+
+
+def _record(sim, frames, present):
+    frames.append(sim.positions.copy())
+    present.append(sim.present.copy())
+
+
+def test_a_crowd_rerouted_and_thinned_mid_run_reaches_its_new_goals_without_a_collision():
+    rng = np.random.default_rng(3)
+    scene = _walled()
+    sim = rvo.Simulator(scene, rng=rng)
+    starts = np.array([[1.0 + 1.2 * (k % 6), 1.0 + 1.4 * (k // 6)] for k in range(36)])
+    ids = sim.add_agents(starts, [18, 5])
+    frames, present = [], []
+    _record(sim, frames, present)
+    for _ in range(12):
+        sim.step()
+        _record(sim, frames, present)
+    back = ids[::2]  # half of them change their minds: back to the west wall
+    sim.set_goals(back, [1.0, 9.0])
+    sim.remove_agents(ids[1:20:2])  # and ten others leave the scene
+    for _ in range(400):
+        if not (sim.active & ~sim.arrived).any():
+            break
+        sim.step()
+        _record(sim, frames, present)
+    assert sim.arrived[back].all(), "every rerouted agent reached its new goal"
+    assert np.allclose(sim.goals[back], [1.0, 9.0])
+    kept = np.setdiff1d(ids[1::2], ids[1:20:2])
+    assert sim.arrived[kept].all() and not sim.arrived[ids[1:20:2]].any()
+    traj = cm.Trajectories(np.array(frames), sim.dt, radius=sim.params["radius"], active=np.array(present))
+    report = collision_audit(traj, scene)
+    assert report.agent_agent == 0 and report.agent_obstacle == 0, report.events[:3]
+
+
+def test_a_goal_inside_a_wall_is_refused_and_every_agent_keeps_its_goal():
+    sim = rvo.Simulator(_walled())
+    sim.add_agents([[2, 5], [3, 5]], [18, 5])
+    sim.step()  # the guidance fields exist from here on
+    with pytest.raises(ValueError, match="no cell free of obstacles"):
+        sim.set_goals([0], [10, 2])
+    assert np.allclose(sim.goals, [18, 5])
+    sim.step()
+
+
+def test_the_same_goal_given_again_reuses_its_guidance_field():
+    sim = rvo.Simulator(_walled())
+    sim.add_agents([[2, 5], [3, 7], [2, 2]], [18, 5])
+    sim.step()
+    for k in range(3):
+        sim.set_goals([k], [18, 9])
+        sim.step()
+    assert sim._fields.dist.shape[0] == 2
+
+
+def test_an_agent_that_arrived_and_stayed_walks_again_when_given_a_new_goal():
+    sim = rvo.Simulator(cm.Scene(bounds=([0, 0], [10, 10])), remove_on_arrival=False)
+    sim.add_agents([[5, 4.9]], [5, 5])
+    sim.step()
+    assert sim.arrived[0]
+    sim.set_goals([0], [5, 9])
+    assert not sim.arrived[0]
+    while sim.time < 20 and not sim.arrived[0]:
+        sim.step()
+    assert sim.arrived[0] and np.linalg.norm(sim.positions[0] - [5, 9]) <= sim.arrival_radius
+
+
+def test_a_removed_agent_no_longer_blocks_the_way():
+    sim = rvo.Simulator(cm.Scene(bounds=([0, 0], [20, 4])), remove_on_arrival=False)
+    sim.add_agents([[2, 2], [10, 2]], [[18, 2], [10, 2]], radius=0.3)  # agent 1 stands on its goal, in the way
+    sim.step()
+    sim.remove_agents([1])
+    ys = []
+    while sim.time < 20 and not sim.arrived[0]:
+        sim.step()
+        ys.append(sim.positions[0, 1])
+    assert sim.arrived[0] and np.max(np.abs(np.array(ys) - 2.0)) < 0.1, "walked on through where it stood (0.46 m round it if it stays)"
+
+
+@pytest.mark.parametrize("call,args,message", [
+    ("set_goals", ([5], [1, 1]), r"set_goals: no agent 5 \(ids run from 0 to 2\)"),
+    ("set_goals", ([0], [np.nan, 1]), "goals"),
+    ("set_goals", ([0, 1], [[1, 1]]), r"goals must be \(2,\) or \(2, 2\)"),
+    ("set_goals", ([0.5], [1, 1]), "agents must be a list of agent ids"),
+    ("remove_agents", ([-1],), "remove_agents: no agent -1"),
+])
+def test_the_live_api_refuses_bad_calls_naming_the_agent_and_changes_nothing(call, args, message):
+    sim = _sim()
+    goals = sim.goals.copy()
+    with pytest.raises(ValueError, match=message):
+        getattr(sim, call)(*args)
+    assert np.array_equal(sim.goals, goals) and sim.active.all()
+
+
+def test_an_agent_that_left_cannot_be_given_a_goal():
+    sim = _sim()
+    sim.remove_agents([1])
+    with pytest.raises(ValueError, match="set_goals: agent 1 has left the simulation"):
+        sim.set_goals([1], [5, 5])

@@ -88,6 +88,16 @@ class Deadlock:
         self.detour = np.concatenate([self.detour, np.zeros(n, dtype=bool)])
         self.still = np.concatenate([self.still, np.zeros(n)])
 
+    def forget(self, ids: np.ndarray) -> None:
+        """Clear the stand-off state of agents ``ids`` (given a new goal or taken out):
+        nobody yields to them, and they yield to nobody."""
+        self.stuck[ids] = 0.0
+        self.yield_to[ids] = -1
+        self.yield_left[ids] = 0.0
+        self.detour[ids] = False
+        self.still[ids] = 0.0
+        self.yield_to[np.isin(self.yield_to, ids)] = -1
+
     @staticmethod
     def priority(ids: np.ndarray) -> np.ndarray:
         """A fixed pseudo-random priority per agent id (Knuth's multiplicative hash)."""

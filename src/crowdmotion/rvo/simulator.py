@@ -56,7 +56,9 @@ class Simulator:
 
     ``sim = Simulator(scene, time_step=0.25)``, then ``sim.add_agents(...)`` and
     ``sim.step()``. Positions and velocities are (N, 2) arrays over every agent ever
-    added; ``sim.active`` says who is still walking.
+    added; ``sim.active`` says who is still walking. Between steps, ``set_goals`` sends
+    agents elsewhere and ``remove_agents`` takes them out (the live API; read the arrays,
+    do not write them).
 
     Parameters
     ----------
@@ -160,7 +162,8 @@ class Simulator:
         self.goals = np.zeros(n0)
         self.active = np.zeros(0, dtype=bool)
         self.arrival_time = np.zeros(0)
-        self.group = np.zeros(0, dtype=np.int64)
+        self.group = np.zeros(0, dtype=np.int64)     # the add_agents call that added each agent
+        self.field_of = np.zeros(0, dtype=np.int64)  # each agent's goal region (its guidance field)
         self.params = {k: np.zeros(0, dtype=np.int64 if k in ("max_neighbors", "samples") else float)
                        for k in PARAM_KEYS}
         for k in ("radius", "max_speed", "pref_speed"):
@@ -168,6 +171,8 @@ class Simulator:
         self.personality = np.zeros((0, 5))
         self._targets: list[tuple[MovingTarget, np.ndarray]] = []
         self._goal_regions: list = []
+        self._region_keys: list = []  # one per goal region, so a region given twice has one field
+        self._batches = 0
         self._fields: DistanceFields | None = None
         self._exact: np.ndarray | None = None  # the exact distances, while _fields holds the weighted ones
         self._router: CongestionRouter | None = None
@@ -270,14 +275,93 @@ class Simulator:
         self.personality = np.concatenate([self.personality, psi])
         for k, v in per.items():
             self.params[k] = np.concatenate([self.params[k], v])
-        self._goal_regions.append(goal_region if goal_region is not None else _points_region(goal))
-        self.group = np.concatenate([self.group, np.full(n, len(self._goal_regions) - 1)])
+        self.field_of = np.concatenate([self.field_of, np.full(n, self._region_index(goal, goal_region, solve=False))])
+        self.group = np.concatenate([self.group, np.full(n, self._batches)])
+        self._batches += 1
         self.deadlock.grow(n)
         self.density_slowing.grow(n)
         if target is not None:
             self._targets.append((target, ids))
         self._fields_stale = True
         return ids
+
+    def set_goals(self, agents, goals, goal_region=None) -> None:
+        """Send agents to new goals from the next step on (the live API).
+
+        Parameters
+        ----------
+        agents : ids (rows of ``positions``) of agents still in the simulation.
+        goals : (2,) one goal point for all of them, (K, 2) one each, or a MovingTarget
+            they all chase.
+        goal_region : the region the goals lie in, for the guidance field (default: the
+            goal points). A region given before, or the same points, reuses its field.
+
+        The new goal's guidance field (with field guidance) is solved here, so a goal
+        that cannot be used (inside a wall, off the grid) raises ValueError and every
+        agent keeps its old goal. Agents that had arrived and stayed walk again; their
+        stand-off state (yielding, detours) is cleared.
+        """
+        ids = self._agent_ids(agents, "set_goals")
+        target = goals if isinstance(goals, MovingTarget) else None
+        if target is not None:
+            if target.dim != 2:
+                raise ValueError("goals: a 2D moving target is needed")
+            goal = np.tile(target.at(self.time), (len(ids), 1))
+        else:
+            goal = finite_array(goals, "goals")
+            if goal.shape == (2,):
+                goal = np.tile(goal, (len(ids), 1))
+            if goal.shape != (len(ids), 2):
+                raise ValueError(f"goals must be (2,) or ({len(ids)}, 2), got shape {goal.shape}")
+        field = self._region_index(goal, goal_region)
+        self._targets = [(t, held[~np.isin(held, ids)]) for t, held in self._targets]
+        self._targets = [(t, held) for t, held in self._targets if len(held)]
+        if target is not None:
+            self._targets.append((target, ids))
+        self.goals[ids] = goal
+        self.field_of[ids] = field
+        self.arrival_time[ids] = np.nan
+        self.deadlock.forget(ids)
+
+    def remove_agents(self, agents) -> None:
+        """Take agents out of the simulation now (the live API): they stop, nobody avoids
+        them any more, and they count as not arrived. Their rows stay in the arrays."""
+        ids = self._agent_ids(agents, "remove_agents")
+        self.active[ids] = False
+        self.velocities[ids] = 0.0
+        self.deadlock.forget(ids)
+        self._targets = [(t, held[~np.isin(held, ids)]) for t, held in self._targets]
+
+    def _agent_ids(self, agents, what: str) -> np.ndarray:
+        """``agents`` as unique int ids of agents still in the simulation (ValueError otherwise)."""
+        raw = np.atleast_1d(np.asarray(agents))
+        if raw.ndim != 1 or (raw.size and not np.issubdtype(raw.dtype, np.integer)):
+            raise ValueError(f"{what}: agents must be a list of agent ids (integers), got {agents!r}")
+        ids = np.unique(raw.astype(np.int64))
+        bad = ids[(ids < 0) | (ids >= self.n_agents)]
+        if len(bad):
+            raise ValueError(f"{what}: no agent {int(bad[0])} (ids run from 0 to {self.n_agents - 1})")
+        gone = ids[~self.active[ids]]
+        if len(gone):
+            raise ValueError(f"{what}: agent {int(gone[0])} has left the simulation")
+        return ids
+
+    def _region_index(self, goal: np.ndarray, goal_region, solve: bool = True) -> int:
+        """The index of the goal region (``goal_region``, or the goal points) among those
+        known, adding it if it is new, and with ``solve`` its field once fields exist (new
+        agents instead mark every field for a rebuild: they may be wider)."""
+        region = goal_region if goal_region is not None else _points_region(goal)
+        key = (type(region).__name__, repr(region))
+        if key in self._region_keys:
+            return self._region_keys.index(key)
+        if solve and self._fields is not None and not self._fields_stale:  # a bad goal raises here
+            more = distance_fields(self.scene, [region], float(self.params["radius"].max()), self._fields.cell)
+            self._exact = np.concatenate([self._exact, more.dist])
+            self._fields.dist = np.concatenate([self._fields.dist, more.dist])
+            self._fields.goal_cells.extend(more.goal_cells)
+        self._goal_regions.append(region)
+        self._region_keys.append(key)
+        return len(self._goal_regions) - 1
 
     def _check_placement(self, pos: np.ndarray, rad: np.ndarray) -> None:
         """Refuse agents that start inside an obstacle, outside the bounds or overlapping another."""
@@ -340,7 +424,7 @@ class Simulator:
         for target, ids in self._targets:
             self.goals[ids] = target.at(self.time)
         v, aim = preferred_velocities(self.positions, self.goals, self.params["pref_speed"], self.active, self.dt,
-                                      self._fields, self.group, prims, self.params["radius"])
+                                      self._fields, self.field_of, prims, self.params["radius"])
         v[~self.active] = 0.0
         return v, aim
 
@@ -461,7 +545,7 @@ class Simulator:
         self._ensure_fields()
         if self._fields is None:
             return np.zeros(self.n_agents, dtype=bool)
-        return self.active & ~self._fields.reachable(self.group, self.positions, window=2)
+        return self.active & ~self._fields.reachable(self.field_of, self.positions, window=2)
 
     @property
     def density(self) -> np.ndarray:
