@@ -180,3 +180,45 @@ def test_a_square_block_that_arrives_turned_near_a_quarter_turn_recovers_square_
     assert cKDTree(start).query(end)[0].max() < 0.05, "the block ends square to the axes"
     sim = result.extras.simulator
     assert np.allclose(np.cos(sim.facing()), 1.0), "its soldiers face east, the way it marched"
+
+
+def test_a_block_sent_back_after_it_arrived_walks_to_its_new_goal_and_recovers_there_without_a_collision():
+    sim, gid = _sim()
+    frames = [sim.positions.copy()]
+    while not sim.done and sim.time < 150:
+        sim.step()
+        frames.append(sim.positions.copy())
+    assert sim.done
+    sim.set_goal(gid, (10, -8))
+    assert not sim.done
+    while not sim.done and sim.time < 300:
+        sim.step()
+        frames.append(sim.positions.copy())
+    assert sim.done and np.linalg.norm(sim.positions.mean(axis=0) - (10, -8)) < 0.5
+    from crowdmotion.trajectories import Trajectories
+    traj = Trajectories(np.array(frames), sim.dt, radius=sim.radius)
+    assert metrics.collision_audit(traj, sim.scene).clean
+
+
+@pytest.mark.parametrize("group,goal,message", [
+    (3, (10, 0), r"formation.set_goal: no group 3 \(ids run from 0 to 0\)"),
+    (0, (25, 0.5), "inside an obstacle"),
+    (0, (70, 0), "outside the scene bounds"),
+    (0, (np.nan, 0), "goal"),
+])
+def test_set_goal_refuses_a_bad_goal_and_the_group_keeps_its_own(group, goal, message):
+    sim, gid = _sim()
+    with pytest.raises(ValueError, match=message):
+        sim.set_goal(group, goal)
+    assert np.allclose(sim.groups[gid].goal_center, (50, 0))
+
+
+def test_set_goal_refuses_a_goal_walled_off_from_the_group():
+    from crowdmotion.scene import Box
+    room = [Box([36, 6], [44, 7]), Box([36, 13], [44, 14]), Box([36, 6], [37, 14]), Box([43, 6], [44, 14])]
+    sim = formation.Simulator(Scene(((0, -15), (60, 15)), room), time_step=0.1)
+    gid = sim.add_group(formation.block(3, 3, 1.2), goal=(50, 0), start=(8, 0), radius=0.3)
+    with pytest.raises(ValueError, match="cannot be reached"):
+        sim.set_goal(gid, (40, 10))
+    assert np.allclose(sim.groups[gid].goal_center, (50, 0))
+    sim.step()

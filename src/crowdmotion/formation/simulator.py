@@ -247,6 +247,35 @@ class Simulator:
                 start_pos[tpl.pairs[:, 1]] - start_pos[tpl.pairs[:, 0]], axis=1)])
         return len(self.groups) - 1
 
+    def set_goal(self, group: int, goal) -> None:
+        """Send a group to a new goal from the next step on (the live API): a point or a
+        Rect / Disc target area, as in :meth:`add_group`. The group keeps its shape and
+        walks there; one that had arrived (or recovered) sets off again. A goal outside
+        the bounds, inside an obstacle or cut off by walls raises ValueError and the
+        group keeps its goal."""
+        if isinstance(group, bool) or not isinstance(group, (int, np.integer)) or not 0 <= group < len(self.groups):
+            raise ValueError(f"formation.set_goal: no group {group!r} (ids run from 0 to {len(self.groups) - 1})")
+        g = self.groups[group]
+        what = f"formation group {g.name!r}"
+        region, gc = _region_goal(goal)
+        self._check_inside(gc[None], g.radius, f"{what}: goal")
+        gclear = float(self.scene.obstacle_distance(gc[None], self.time)[0])
+        if gclear < g.radius:
+            raise ValueError(f"{what}: the goal {gc.tolist()} is inside an obstacle (clearance {gclear:.3g} m)")
+        old = (g.goal, g.goal_center)
+        g.goal, g.goal_center = region, gc
+        try:
+            self._build_route()
+            if group in self.cut_off():
+                raise ValueError(f"{what}: the goal {gc.tolist()} cannot be reached: walls close the way")
+        except ValueError:
+            g.goal, g.goal_center = old
+            self._build_route()
+            raise
+        g.arrived_at = g.recovered_at = g.settled_at = None
+        g.facing_offset = 0.0
+        g.best_progress, g.stale_steps, g.uniform_until = float("inf"), 0, float("-inf")
+
     def _check_inside(self, pos: np.ndarray, radius: float, what: str) -> None:
         lo, hi = self.scene.lower, self.scene.upper
         out = ~np.all(np.isfinite(pos), axis=1) | np.any((pos - radius < lo) | (pos + radius > hi), axis=1)
