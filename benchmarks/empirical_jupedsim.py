@@ -3,12 +3,12 @@
 Runs JuPedSim 1.4's Collision-Free Speed Model ("csm"), Anticipation Velocity Model
 ("avm") and Social Force Model ("sfm") at their documented default parameters and
 default time step (0.01 s) on the geometries of :mod:`crowdmotion.empirical` (the FZJ
-open corridor and the bottleneck), with the same spawn positions, desired speeds and
-radius (0.2 m) crowdmotion uses, and measures the runs with the suite's own measures
-(``stationary``, ``area_density_speed``, ``crossing_times``), so the numbers sit beside
-crowdmotion's and the data::
+open corridor, the bottleneck and the BOT-360 counterflow), with the same spawn positions,
+desired speeds and radius (0.2 m) crowdmotion uses, and measures the runs with the suite's
+own measures (``stationary``, ``area_density_speed``, ``crossing_times``,
+``bot_measures``), so the numbers sit beside crowdmotion's and the data::
 
-    python benchmarks/empirical_jupedsim.py --seeds 1 --models csm avm sfm --cases bottleneck corridor
+    python benchmarks/empirical_jupedsim.py --seeds 1 --models csm avm sfm --cases bottleneck corridor counterflow
 """
 
 from __future__ import annotations
@@ -37,7 +37,7 @@ DT = 0.01  # JuPedSim's default time step
 RECORD_EVERY = 25  # iterations between recorded frames: 0.25 s
 RADIUS = 0.2
 SPAWN_GAP = 0.02
-MAX_TIME_S = {"bottleneck": 400.0, "corridor": 400.0}  # crowdmotion's runs: 4000 steps of 0.1 s
+MAX_TIME_S = {"bottleneck": 400.0, "corridor": 400.0, "counterflow": 600.0}  # crowdmotion's: 4000 / 2400 steps
 FREEZE_S, FREEZE_M = 60.0, 0.05  # a run stops early once no agent has moved FREEZE_M in FREEZE_S seconds
 
 
@@ -155,6 +155,22 @@ def _uo_setups():
     return empirical._uo("rvo")
 
 
+def counterflow_points(model: str, seeds, max_time_s: float = MAX_TIME_S["counterflow"], runs: list | None = None):
+    """(run, density, speed, lane order, shuffled lane order) of each BOT-360 run, the
+    means over ``seeds``, measured as :func:`crowdmotion.empirical.bot_measures`; runs
+    JuPedSim stopped with an error left out."""
+    out = []
+    for name, st in empirical._bot("rvo").items():
+        pts = []
+        for s in seeds:
+            tr = run_jupedsim(model, st.scene, st.groups, s, max_time_s)
+            pts.append((np.nan,) * 4 if tr.metadata["error"] else empirical.bot_measures(tr, np.random.default_rng(0)))
+            if runs is not None:
+                runs.append((name, s, tr))
+        out.append((name, *map(float, _mean(pts, axis=0))))
+    return out
+
+
 def _mean(values, axis=None):
     """Mean over the runs that gave a number (NaN if none did)."""
     v = np.asarray(values, dtype=float)
@@ -231,7 +247,8 @@ def main(argv=None) -> None:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("--seeds", type=int, default=1, help="seeds 0..N-1 per set-up (default 1)")
     ap.add_argument("--models", nargs="+", choices=MODELS, default=list(MODELS))
-    ap.add_argument("--cases", nargs="+", choices=("bottleneck", "corridor"), default=["bottleneck", "corridor"])
+    ap.add_argument("--cases", nargs="+", choices=("bottleneck", "corridor", "counterflow"),
+                    default=["bottleneck", "corridor", "counterflow"])
     ap.add_argument("--max-time", type=float, default=None, help="cap on simulated seconds per run (default 400)")
     args = ap.parse_args(argv)
     if args.seeds < 1:
@@ -281,19 +298,39 @@ def main(argv=None) -> None:
             print(f"| {name} | {m}{lf} | {_num(rho)} | {_num(v)} | {_num(w)} | "
                   + (f"({ug[0]:.2f}, {ug[1]:.2f}) |" if np.isfinite(ug[0]) else "— |"))
 
+    if "counterflow" in args.cases:
+        print(f"\n### Counterflow BOT-360: density (/m²), speed (m/s) and lane order in {empirical.BOT_AREA}, "
+              f"seeds {args.seeds}\n")
+        print("| run | model | ρ | v | nearest FZJ BOT (ρ, v) | lane order (shuffled) |")
+        print("|---|---|---|---|---|---|")
+        for m in args.models:
+            t0, runs = time.perf_counter(), []
+            pts = counterflow_points(m, seeds, args.max_time or MAX_TIME_S["counterflow"], runs)
+            wall[m]["counterflow"] = time.perf_counter() - t0
+            _note_errors(m, runs)
+            errs = []
+            for name, rho, v, order, base in pts:
+                ref = min(empirical.BOT_360_RUNS, key=lambda r: abs(r[0] - rho)) if np.isfinite(rho) else (np.nan,) * 2
+                errs.append(abs(v - ref[1]))
+                print(f"| {name} | {m}{_left([r for r in runs if r[0] == name])} | {_num(rho)} | {_num(v)} | "
+                      + (f"({ref[0]:.2f}, {ref[1]:.2f})" if np.isfinite(ref[0]) else "—")
+                      + f" | {_num(order)} ({_num(base)}) |")
+            summary[m]["counterflow"] = _mae(errs)
+
     if ERRORS:
         print("\nRuns ended by a JuPedSim error (left out of the measures):\n")
         print("\n".join(f"- {e}" for e in ERRORS))
 
     print("\n### Mean absolute error against the data (over the runs with a value: (k/n)), and wall time\n")
     print("| model | bottleneck mean abs(J - data) (/s) | corridor mean abs(v - Weidmann) (m/s) "
-          "| corridor mean abs(v - FZJ UG) (m/s) | wall time (s) |")
-    print("|---|---|---|---|---|")
+          "| corridor mean abs(v - FZJ UG) (m/s) | counterflow mean abs(v - FZJ BOT) (m/s) | wall time (s) |")
+    print("|---|---|---|---|---|---|")
     for m in args.models:
         s = summary[m]
         f = lambda k: s.get(k, "—")  # noqa: E731
         wt = ", ".join(f"{c} {t:.1f}" for c, t in wall[m].items())
-        print(f"| {m} ({MODEL_NAMES[m]}) | {f('bottleneck')} | {f('corridor_w')} | {f('corridor_ug')} | {wt} |")
+        print(f"| {m} ({MODEL_NAMES[m]}) | {f('bottleneck')} | {f('corridor_w')} | {f('corridor_ug')} "
+              f"| {f('counterflow')} | {wt} |")
 
 
 if __name__ == "__main__":

@@ -34,3 +34,13 @@ def test_csm_empties_the_one_metre_bottleneck_at_a_positive_flow():
     assert traj.metadata["end_time"] <= max_time
     flow = stationary(crossing_times(traj, 0, 12.0))[2]
     assert np.isfinite(flow) and flow > 0
+
+
+def test_groups_sharing_a_spawn_region_start_apart_so_jupedsim_takes_the_counterflow_runs():
+    ej = _load()
+    setup = ej.empirical._bot("rvo")["BOT b 0.9"]  # each stream is two groups in one holding area
+    traj = ej.run_jupedsim("csm", setup.scene, setup.groups, seed=0, max_time_s=0.5)
+    assert traj.metadata["error"] is None and traj.n_agents == 200
+    start = traj.positions[0]
+    d = np.linalg.norm(start[:, None] - start[None], axis=2) + np.eye(len(start)) * 9
+    assert d.min() >= 2 * 0.2
