@@ -37,10 +37,12 @@ def test_stage_is_y_up_in_metres_at_the_run_frame_rate_with_headings(tmp_path):
     assert stage.GetTimeCodesPerSecond() == 24.0 and stage.GetEndTimeCode() == 24
     inst = UsdGeom.PointInstancer(stage.GetPrimAtPath("/World/Crowd"))
     q = inst.GetOrientationsAttr().Get(12)[0]
-    # +x of the prototype turned to north, which is USD -Z
+    # the prototype's forward (-Y, a Blender character's) turned to north, which is USD -Z; its up (+Z) to +Y
     from pxr import Gf
-    v = Gf.Rotation(Gf.Quatd(q.GetReal(), Gf.Vec3d(q.GetImaginary()))).TransformDir(Gf.Vec3d(1, 0, 0))
+    turn = Gf.Rotation(Gf.Quatd(q.GetReal(), Gf.Vec3d(q.GetImaginary())))
+    v = turn.TransformDir(Gf.Vec3d(0, -1, 0))
     assert (v[0], v[1], v[2]) == pytest.approx((0.0, 0.0, -1.0), abs=1e-3)
+    assert tuple(turn.TransformDir(Gf.Vec3d(0, 0, 1))) == pytest.approx((0.0, 1.0, 0.0), abs=1e-3)
     np.testing.assert_allclose(np.array(inst.GetPositionsAttr().Get(24))[0], [0.0, 0.0, -2.0])
     np.testing.assert_allclose(np.array(inst.GetPositionsAttr().Get(6))[0], [0.0, 0.0, -0.5], atol=1e-6)
 
@@ -118,12 +120,12 @@ def test_3d_flyers_face_their_way_with_pitch_and_are_centred_on_the_point(tmp_pa
     stage = Usd.Stage.Open(str(Trajectories(pos, 0.5, radius=[0.3]).save(tmp_path / "drone.usda")))
     inst = UsdGeom.PointInstancer(stage.GetPrimAtPath("/World/Crowd"))
     q = inst.GetOrientationsAttr().Get(12)[0]
-    forward = Gf.Rotation(Gf.Quatd(q.GetReal(), Gf.Vec3d(q.GetImaginary()))).TransformDir(Gf.Vec3d(1, 0, 0))
+    forward = Gf.Rotation(Gf.Quatd(q.GetReal(), Gf.Vec3d(q.GetImaginary()))).TransformDir(Gf.Vec3d(0, -1, 0))
     s = np.sqrt(0.5)
     assert tuple(forward) == pytest.approx((0.0, s, -s), abs=2e-3)  # world (0, s, s): north is USD -Z
     proto = stage.GetPrimAtPath(inst.GetPrototypesRel().GetTargets()[0])
     cap = UsdGeom.Capsule(proto)
-    assert cap.GetAxisAttr().Get() == "X" and not UsdGeom.Xformable(proto).GetOrderedXformOps()
+    assert cap.GetAxisAttr().Get() == "Y" and not UsdGeom.Xformable(proto).GetOrderedXformOps()  # along forward
     lo, hi = (np.array(v) for v in cap.GetExtentAttr().Get())
     np.testing.assert_allclose(lo, -hi)  # centred on the point
 
