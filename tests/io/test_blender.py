@@ -1,4 +1,4 @@
-"""Blender imports our USD (issue 17). Runs where a Python with the ``bpy`` package is
+"""Blender imports our USD. Runs where a Python with the ``bpy`` package is
 named by CROWDMOTION_BLENDER_PYTHON (bpy pins its own numpy, so it lives in a venv of its
 own: ``python3.11 -m venv bpyenv && bpyenv/bin/pip install bpy``); skipped elsewhere."""
 
@@ -50,8 +50,9 @@ def test_a_blender_character_stands_upright_facing_its_way_by_both_routes_and_th
     tr = _at_fps(Trajectories(pos, 0.25, radius=[0.25] * 3), 24.0)  # as `export --to usd` writes it
     path = tr.save(tmp_path / "run.usdc")  # the default prototype axes: Z up, facing -Y
     times = [0.0, 5.0, 10.0]
+    (tmp_path / "blend").mkdir()  # the .blend is saved in another folder than the .usdc
     done = subprocess.run([BLENDER_PYTHON, str(pathlib.Path(__file__).with_name("blender_character.py")), str(path),
-                           str(tmp_path), *map(str, times)], capture_output=True, text=True, timeout=300)
+                           str(tmp_path / "blend"), *map(str, times)], capture_output=True, text=True, timeout=300)
     line = next(x for x in done.stdout.splitlines() if x.startswith("CROWDMOTION_JSON "))
     got = json.loads(line.split(" ", 1)[1])
     assert "Agents" not in got["objects"]  # the guide points are not imported, so never rendered, by default
