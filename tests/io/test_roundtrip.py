@@ -69,7 +69,7 @@ def test_tables_are_typed_for_any_reader_and_say_rate_units_and_axes(tmp_path):
     assert meta["fps"] == 4.0 and meta["dim"] == 2 and meta["units"]["length"] == "m" and "axes" in meta
     table = pq.read_table(tr.save(tmp_path / "t.parquet"))
     assert "z" not in table.column_names
-    assert all(str(t) in ("int64", "double", "string", "bool") for t in table.schema.types)
+    assert all(str(t) in ("int64", "double", "float", "string", "bool") for t in table.schema.types)
     assert Trajectories.load(tmp_path / "t.parquet").dim == 2
 
 
@@ -129,7 +129,7 @@ def test_every_format_round_trips_the_locomotion_channels(tmp_path, suffix):
         warnings.simplefilter("ignore")  # SQLite: agents outside the walkable area
         back = read_locomotion(tr.save(tmp_path / f"t.{suffix}"))
     want = locomotion(tr)
-    tol = 1e-5 if suffix.startswith("usd") else 1e-9
+    tol = 1e-9 if suffix == "sqlite" else 1e-5  # the others store single precision
     assert back.kind.tolist() == ["walker", "walker", "car"]
     for name in ("distance", "gait_phase", "turn_rate"):
         np.testing.assert_allclose(getattr(back, name)[active], getattr(want, name)[active], atol=tol, err_msg=name)
@@ -152,4 +152,4 @@ def test_an_export_at_another_rate_carries_channels_of_the_frames_it_writes(tmp_
     written = Trajectories.load(tmp_path / "at24.parquet")
     loco = read_locomotion(tmp_path / "at24.parquet")
     assert written.n_frames == loco.gait_phase.shape[0] == 121
-    np.testing.assert_allclose(loco.gait_phase, locomotion(written).gait_phase, atol=1e-12)
+    np.testing.assert_allclose(loco.gait_phase, locomotion(written).gait_phase, atol=1e-6)

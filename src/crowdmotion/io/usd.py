@@ -273,7 +273,8 @@ def _locomotion_primvars(loco: Locomotion) -> dict:
     and 0 contacts for agents that are not walkers)."""
     walker = loco.walker[None, :]
     return {"distance": (loco.distance.astype(np.float32), "FloatArray"),
-            "gait_phase": (np.where(walker, loco.gait_phase, -1.0).astype(np.float32), "FloatArray"),
+            "gait_phase": (np.where(walker, np.mod(loco.gait_phase.astype(np.float32), np.float32(1.0)), -1.0)
+                           .astype(np.float32), "FloatArray"),
             "gait_state": (loco.gait_state.astype(np.int32), "IntArray"),
             "turn_rate": (loco.turn_rate.astype(np.float32), "FloatArray"),
             "contact_left": (loco.contact_left.astype(np.int32), "IntArray"),
