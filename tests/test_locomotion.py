@@ -210,3 +210,15 @@ def test_a_bad_body_kind_is_refused_by_name():
 
 def test_states_are_named():
     assert STATES[IDLE] == "idle" and STATES[WALK] == "walk" and STATES[RUN] == "run" and STATES[TURN] == "turn"
+
+
+def test_positions_of_inactive_agents_may_be_nan_but_not_of_active_ones():
+    tr = straight([1.0, 1.0], seconds=2.0)
+    active = np.ones((tr.n_frames, 2), bool)
+    active[20:, 1] = False
+    tr.positions[20:, 1] = np.nan  # gone: where it stands is no one's business
+    loco = locomotion(Trajectories(tr.positions, DT, active=active))
+    assert np.isfinite(loco.distance).all() and loco.distance[-1, 1] == pytest.approx(19 * DT)
+    tr.positions[5, 0, 1] = np.nan
+    with pytest.raises(ValueError, match="positions of agent 0 at frame 5 is not finite: nan"):
+        locomotion(Trajectories(tr.positions, DT, active=active))

@@ -36,7 +36,7 @@ it), on the frames that are written: an export resampled to 24 fps gets channels
     Inactive frames are idle.
 ``turn_rate``
     rad/s about the up axis, positive counter-clockwise seen from above (a left turn):
-    the time derivative of :attr:`Trajectories.facing`.
+    the time derivative of :attr:`Trajectories.facing`; 0 on inactive frames.
 ``contact_left``, ``contact_right``
     whether each foot is on the ground: in ``walk`` the left foot is down for phases in
     [0, ``walk_duty``) and the right for [0.5, 0.5 + ``walk_duty``) (a stance of 60 % of
@@ -212,7 +212,8 @@ def path_speed(positions: np.ndarray, active: np.ndarray, dt: float, window_s: f
     ds = np.zeros((t, n))
     if t < 2:
         return ds, ds.copy()
-    ds[1:] = np.linalg.norm(np.diff(positions, axis=0), axis=-1) * (active[1:] & active[:-1])
+    both = active[1:] & active[:-1]
+    ds[1:] = np.where(both, np.linalg.norm(np.diff(positions, axis=0), axis=-1), 0.0)  # NaN where inactive: 0
     k = max(1, int(round(window_s / (2 * dt))))
     csum = np.concatenate([np.zeros((1, n)), np.cumsum(ds[1:], axis=0)])  # csum[j]: steps 1..j
     idx = np.arange(t)
@@ -288,19 +289,29 @@ def locomotion(traj, params: LocomotionParams | None = None, kinds: dict | None 
     Returns
     -------
     Locomotion
+
+    Raises
+    ------
+    ValueError
+        An active agent at a NaN or infinite position (naming agent, frame and value), a
+        body kind that is none of :data:`KINDS`.
     """
     p = params or LocomotionParams()
     if not isinstance(p, LocomotionParams):
         raise TypeError(f"params must be a LocomotionParams, got {type(p).__name__}")
+    from crowdmotion.geometry import require_finite_agents
+
     t, n, _ = traj.positions.shape
     dt = traj.dt
     active = traj.active_mask
+    require_finite_agents({"Trajectories.positions": traj.positions}, active, ids=traj.ids)
     kind = body_kinds(traj, kinds)
     walker = kind == "walker"
 
     ds, speed = path_speed(traj.positions, active, dt, p.speed_window_s)
     distance = np.cumsum(ds, axis=0)
     rate = signed_turn_rate(traj.facing, dt)
+    rate[~active | ~np.isfinite(rate)] = 0.0  # an agent that is not there does not turn
 
     moving = hysteresis(speed, p.walk_start, p.walk_stop)
     moving &= active

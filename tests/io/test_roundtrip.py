@@ -74,11 +74,21 @@ def test_tables_are_typed_for_any_reader_and_say_rate_units_and_axes(tmp_path):
 
 
 @pytest.mark.parametrize("suffix", ["parquet", "csv"])
-def test_a_trajectories_file_with_nan_positions_of_an_active_agent_is_refused_on_load_naming_the_file(
+def test_nan_positions_of_an_active_agent_are_refused_on_save_and_on_load_naming_the_file(
         tmp_path, suffix):
+    import pyarrow.csv as pacsv
+    import pyarrow.parquet as pq
+
+    from crowdmotion.io.longform import to_table
+    from crowdmotion.locomotion import locomotion
+
     tr = sample()
     tr.positions[2, 1] = np.nan
-    path = tr.save(tmp_path / f"t.{suffix}")
+    with pytest.raises(ValueError, match=r"positions of agent 1 at frame 2 is not finite: nan$"):
+        tr.save(tmp_path / f"refused.{suffix}")  # the writer refuses it ...
+    assert not (tmp_path / f"refused.{suffix}").exists()
+    path = tmp_path / f"t.{suffix}"  # ... so a damaged file is made by hand
+    (pq.write_table if suffix == "parquet" else pacsv.write_csv)(to_table(tr, locomotion(sample())), path)
     with pytest.raises(ValueError, match=rf"^{path}: positions of agent 1 at frame 2 is not finite: nan$"):
         Trajectories.load(path)
     tr = sample()
