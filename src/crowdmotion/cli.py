@@ -464,6 +464,20 @@ def cmd_export(args) -> int:
     from crowdmotion.io.csv import sidecar
     from crowdmotion.outputs import adding_to_run
 
+    options = {}
+    if args.prototype_up is not None or args.prototype_forward is not None:
+        if args.to not in USD_FORMATS:
+            raise ValueError(f"--prototype-up and --prototype-forward set the axes of USD prototypes; --to {args.to} "
+                             f"has none (use --to usd, usdc or usda)")
+        from crowdmotion.io.usd import PROTOTYPE_FORWARD, PROTOTYPE_UP, prototype_axes
+
+        options = {"prototype_up": args.prototype_up or PROTOTYPE_UP,
+                   "prototype_forward": args.prototype_forward or PROTOTYPE_FORWARD}
+        try:
+            prototype_axes(options["prototype_up"], options["prototype_forward"])
+        except ValueError as exc:
+            raise ValueError(str(exc).replace("prototype_up", "--prototype-up")
+                             .replace("prototype_forward", "--prototype-forward")) from None
     src, traj = _load_run(args.output)
     folder = src.parent
     dest = Path(args.dest) if args.dest else folder / f"trajectories{EXPORT_FORMATS[args.to]}"
@@ -473,7 +487,7 @@ def cmd_export(args) -> int:
     if fps is not None and abs(fps * traj.dt - 1.0) > 1e-9:  # the run's own rate keeps its frames
         traj = _at_fps(traj, fps, args.interpolation)
     with adding_to_run(dest.parent) as add:  # into a run's folder: listed with its files
-        traj.save(dest)
+        traj.save(dest, **options)
         add(dest)
         if dest.suffix.lower() == ".csv":
             add(sidecar(dest))
@@ -779,6 +793,12 @@ def build_parser() -> argparse.ArgumentParser:
                    help="how frames between the run's steps are made: b-spline (default: smooth root motion, "
                         "continuous acceleration), catmull-rom (through every step's position) or linear "
                         "(straight moves); splines are re-checked for collisions")
+    p.add_argument("--prototype-up", metavar="AXIS",
+                   help="usd: the up axis your characters are modelled with, one of X Y Z -X -Y -Z (default Z, "
+                        "Blender's; Y for Maya, Houdini, Unity); the stage stays Y-up")
+    p.add_argument("--prototype-forward", metavar="AXIS",
+                   help="usd: the way your characters face in their own coordinates (default -Y, Blender's; "
+                        "Z for Maya, Houdini, Unity); write a negative axis with '=': --prototype-forward=-X")
     p.set_defaults(func=cmd_export)
 
     p = sub.add_parser("render", help="animation (MP4/GIF), density map and paths of a run")

@@ -179,11 +179,13 @@ class Trajectories:
         )
 
     # ---- files -------------------------------------------------------------------
-    def save(self, path: str | Path) -> Path:
-        """Write to ``.parquet`` or ``.csv`` (long form), atomically. Returns the path."""
+    def save(self, path: str | Path, **options) -> Path:
+        """Write to ``.parquet``, ``.csv`` (long form), ``.sqlite`` (JuPedSim) or ``.usd*``,
+        atomically, with the locomotion channels; ``options`` go to the writer (see
+        :func:`crowdmotion.io.write_trajectories`). Returns the path."""
         from crowdmotion.io import write_trajectories
 
-        return write_trajectories(self, path)
+        return write_trajectories(self, path, **options)
 
     @classmethod
     def load(cls, path: str | Path) -> "Trajectories":

@@ -69,16 +69,26 @@ def test_tables_are_typed_for_any_reader_and_say_rate_units_and_axes(tmp_path):
     assert meta["fps"] == 4.0 and meta["dim"] == 2 and meta["units"]["length"] == "m" and "axes" in meta
     table = pq.read_table(tr.save(tmp_path / "t.parquet"))
     assert "z" not in table.column_names
-    assert all(str(t) in ("int64", "double", "string", "bool") for t in table.schema.types)
+    assert all(str(t) in ("int64", "double", "float", "string", "bool") for t in table.schema.types)
     assert Trajectories.load(tmp_path / "t.parquet").dim == 2
 
 
 @pytest.mark.parametrize("suffix", ["parquet", "csv"])
-def test_a_trajectories_file_with_nan_positions_of_an_active_agent_is_refused_on_load_naming_the_file(
+def test_nan_positions_of_an_active_agent_are_refused_on_save_and_on_load_naming_the_file(
         tmp_path, suffix):
+    import pyarrow.csv as pacsv
+    import pyarrow.parquet as pq
+
+    from crowdmotion.io.longform import to_table
+    from crowdmotion.locomotion import locomotion
+
     tr = sample()
     tr.positions[2, 1] = np.nan
-    path = tr.save(tmp_path / f"t.{suffix}")
+    with pytest.raises(ValueError, match=r"positions of agent 1 at frame 2 is not finite: nan$"):
+        tr.save(tmp_path / f"refused.{suffix}")  # the writer refuses it ...
+    assert not (tmp_path / f"refused.{suffix}").exists()
+    path = tmp_path / f"t.{suffix}"  # ... so a damaged file is made by hand
+    (pq.write_table if suffix == "parquet" else pacsv.write_csv)(to_table(tr, locomotion(sample())), path)
     with pytest.raises(ValueError, match=rf"^{path}: positions of agent 1 at frame 2 is not finite: nan$"):
         Trajectories.load(path)
     tr = sample()
@@ -105,3 +115,51 @@ def test_a_trajectories_file_without_frames_or_with_a_bad_radius_is_refused_nami
             Trajectories.load(path)
     no_radii = Trajectories(sample().positions, 0.25)  # every radius 0: the file gives none
     assert (Trajectories.load(no_radii.save(tmp_path / "points.parquet")).radius == 0).all()
+
+
+@pytest.mark.parametrize("suffix", ["parquet", "csv", "sqlite", "usda", "usdc"])
+def test_every_format_round_trips_the_locomotion_channels(tmp_path, suffix):
+    import warnings
+
+    from crowdmotion.io import read_locomotion
+    from crowdmotion.locomotion import locomotion
+
+    if suffix.startswith("usd"):
+        pytest.importorskip("pxr")
+    t = np.arange(73) / 24
+    pos = np.zeros((73, 3, 2))
+    pos[:, 0, 0] = 1.3 * t  # walks
+    pos[:, 1, 0] = 2.8 * t  # runs
+    pos[:, 2, 1] = np.minimum(t, 1.5) * 6.0  # a car that stops
+    active = np.ones((73, 3), bool)
+    active[60:, 0] = False  # the walker leaves
+    tr = Trajectories(pos, 1 / 24, group=np.array(["a", "a", "cars"], object), radius=[0.25, 0.25, 0.9],
+                      active=active, metadata={"bodies": {"cars": "car"}})
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")  # SQLite: agents outside the walkable area
+        back = read_locomotion(tr.save(tmp_path / f"t.{suffix}"))
+    want = locomotion(tr)
+    tol = 1e-9 if suffix == "sqlite" else 1e-5  # the others store single precision
+    assert back.kind.tolist() == ["walker", "walker", "car"]
+    for name in ("distance", "gait_phase", "turn_rate"):
+        np.testing.assert_allclose(getattr(back, name)[active], getattr(want, name)[active], atol=tol, err_msg=name)
+    for name in ("gait_state", "contact_left", "contact_right"):
+        np.testing.assert_array_equal(getattr(back, name)[active], getattr(want, name)[active], err_msg=name)
+    assert np.isnan(back.gait_phase[:, 2]).all()
+
+
+def test_an_export_at_another_rate_carries_channels_of_the_frames_it_writes(tmp_path):
+    from crowdmotion.cli import main
+    from crowdmotion.io import read_locomotion
+    from crowdmotion.locomotion import locomotion
+
+    t = np.arange(21) * 0.25  # a 4 fps run, as RVO steps
+    pos = np.zeros((21, 2, 2))
+    pos[:, 0, 0] = 1.0 * t
+    pos[:, 1, 0] = 2.0 * t
+    src = Trajectories(pos, 0.25).save(tmp_path / "run.parquet")
+    assert main(["export", str(src), "--to", "parquet", "--fps", "24", "-o", str(tmp_path / "at24.parquet")]) == 0
+    written = Trajectories.load(tmp_path / "at24.parquet")
+    loco = read_locomotion(tmp_path / "at24.parquet")
+    assert written.n_frames == loco.gait_phase.shape[0] == 121
+    np.testing.assert_allclose(loco.gait_phase, locomotion(written).gait_phase, atol=1e-6)

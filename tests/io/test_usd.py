@@ -37,10 +37,12 @@ def test_stage_is_y_up_in_metres_at_the_run_frame_rate_with_headings(tmp_path):
     assert stage.GetTimeCodesPerSecond() == 24.0 and stage.GetEndTimeCode() == 24
     inst = UsdGeom.PointInstancer(stage.GetPrimAtPath("/World/Crowd"))
     q = inst.GetOrientationsAttr().Get(12)[0]
-    # +x of the prototype turned to north, which is USD -Z
+    # the prototype's forward (-Y, a Blender character's) turned to north, which is USD -Z; its up (+Z) to +Y
     from pxr import Gf
-    v = Gf.Rotation(Gf.Quatd(q.GetReal(), Gf.Vec3d(q.GetImaginary()))).TransformDir(Gf.Vec3d(1, 0, 0))
+    turn = Gf.Rotation(Gf.Quatd(q.GetReal(), Gf.Vec3d(q.GetImaginary())))
+    v = turn.TransformDir(Gf.Vec3d(0, -1, 0))
     assert (v[0], v[1], v[2]) == pytest.approx((0.0, 0.0, -1.0), abs=1e-3)
+    assert tuple(turn.TransformDir(Gf.Vec3d(0, 0, 1))) == pytest.approx((0.0, 1.0, 0.0), abs=1e-3)
     np.testing.assert_allclose(np.array(inst.GetPositionsAttr().Get(24))[0], [0.0, 0.0, -2.0])
     np.testing.assert_allclose(np.array(inst.GetPositionsAttr().Get(6))[0], [0.0, 0.0, -0.5], atol=1e-6)
 
@@ -118,12 +120,12 @@ def test_3d_flyers_face_their_way_with_pitch_and_are_centred_on_the_point(tmp_pa
     stage = Usd.Stage.Open(str(Trajectories(pos, 0.5, radius=[0.3]).save(tmp_path / "drone.usda")))
     inst = UsdGeom.PointInstancer(stage.GetPrimAtPath("/World/Crowd"))
     q = inst.GetOrientationsAttr().Get(12)[0]
-    forward = Gf.Rotation(Gf.Quatd(q.GetReal(), Gf.Vec3d(q.GetImaginary()))).TransformDir(Gf.Vec3d(1, 0, 0))
+    forward = Gf.Rotation(Gf.Quatd(q.GetReal(), Gf.Vec3d(q.GetImaginary()))).TransformDir(Gf.Vec3d(0, -1, 0))
     s = np.sqrt(0.5)
     assert tuple(forward) == pytest.approx((0.0, s, -s), abs=2e-3)  # world (0, s, s): north is USD -Z
     proto = stage.GetPrimAtPath(inst.GetPrototypesRel().GetTargets()[0])
     cap = UsdGeom.Capsule(proto)
-    assert cap.GetAxisAttr().Get() == "X" and not UsdGeom.Xformable(proto).GetOrderedXformOps()
+    assert cap.GetAxisAttr().Get() == "Y" and not UsdGeom.Xformable(proto).GetOrderedXformOps()  # along forward
     lo, hi = (np.array(v) for v in cap.GetExtentAttr().Get())
     np.testing.assert_allclose(lo, -hi)  # centred on the point
 
@@ -159,3 +161,76 @@ def test_every_boundable_prim_has_its_extent(tmp_path):
     w = np.array(points.GetWidthsAttr().Get(code))[:, None] / 2
     np.testing.assert_allclose(lo, (p - w).min(axis=0), atol=1e-6)
     np.testing.assert_allclose(hi, (p + w).max(axis=0), atol=1e-6)
+
+
+@pytest.mark.parametrize("up, forward", [("Z", "-Y"), ("Y", "Z"), ("Y", "X"), ("-X", "Z")])
+def test_prototypes_stand_on_the_stage_up_and_face_their_agents_way_in_any_axes(tmp_path, up, forward):
+    from pxr import Usd, UsdGeom
+
+    from crowdmotion.io.usd import AXES, rotate
+
+    rng = np.random.default_rng(2)
+    pos = np.cumsum(rng.normal(0, 0.3, (12, 5, 2)), axis=0)
+    tr = Trajectories(pos, 0.5)
+    path = tr.save(tmp_path / "a.usda", prototype_up=up, prototype_forward=forward)
+    stage = Usd.Stage.Open(str(path))
+    data = stage.GetMetadata("customLayerData")
+    assert (data["crowdmotion_prototype_up"], data["crowdmotion_prototype_forward"]) == (up, forward)
+    inst = UsdGeom.PointInstancer(stage.GetPrimAtPath("/World/Crowd"))
+    code = inst.GetOrientationsAttr().GetTimeSamples()[7]
+    frame = int(round(code / 24 / 0.5))
+    q = np.array([[*o.GetImaginary(), o.GetReal()] for o in inst.GetOrientationsAttr().Get(code)])
+    np.testing.assert_allclose(rotate(q, AXES[up]), np.tile([0.0, 1.0, 0.0], (5, 1)), atol=2e-3)
+    yaw = tr.facing[frame]
+    want = np.stack([np.cos(yaw), np.zeros(5), -np.sin(yaw)], axis=1)  # world (cos, sin, 0) in USD (x, z, -y)
+    np.testing.assert_allclose(rotate(q, AXES[forward]), want, atol=2e-3)
+    # the walker prototype stands on the point along its up axis, 1.7 m tall
+    proto = UsdGeom.Mesh(stage.GetPrimAtPath(inst.GetPrototypesRel().GetTargets()[0]))
+    assert not proto.GetOrderedXformOps()
+    along = np.array(proto.GetPointsAttr().Get()) @ np.array(AXES[up])
+    assert along.min() == pytest.approx(0.0, abs=1e-6) and along.max() == pytest.approx(1.7, abs=1e-6)
+    back = Trajectories.load(path)
+    np.testing.assert_allclose(np.cos(back.facing - tr.facing), 1.0, atol=1e-5)  # facing read through the axes
+
+
+@pytest.mark.parametrize("options, message", [
+    ({"prototype_up": "W"}, "prototype_up must be one of X, Y, Z, -X, -Y, -Z .*got 'W'"),
+    ({"prototype_forward": 3}, "prototype_forward must be one of .*got 3"),
+    ({"prototype_up": "y", "prototype_forward": "-Y"}, "must be perpendicular axes, got up 'Y' and forward '-Y'"),
+])
+def test_bad_prototype_axes_are_refused_naming_them(tmp_path, options, message):
+    with pytest.raises(ValueError, match=message):
+        sample(2).save(tmp_path / "bad.usda", **options)
+    assert list(tmp_path.iterdir()) == []
+
+
+def test_the_points_are_a_guide_with_orient_and_both_prims_carry_the_locomotion_primvars(tmp_path):
+    from pxr import Usd, UsdGeom
+
+    from crowdmotion.locomotion import MOVE, WALK, locomotion
+
+    t = np.arange(49) / 24
+    pos = np.zeros((49, 2, 2))
+    pos[:, 0, 0] = 1.2 * t  # a walker
+    pos[:, 1, 1] = 5.0 * t  # a car
+    tr = Trajectories(pos, 1 / 24, group=np.array(["people", "traffic"], dtype=object),
+                      metadata={"bodies": {"traffic": "car"}})
+    stage = Usd.Stage.Open(str(tr.save(tmp_path / "l.usda")))
+    points = UsdGeom.Points(stage.GetPrimAtPath("/World/Agents"))
+    assert points.GetPurposeAttr().Get() == UsdGeom.Tokens.guide
+    inst = UsdGeom.PointInstancer(stage.GetPrimAtPath("/World/Crowd"))
+    assert UsdGeom.Imageable(inst).ComputePurpose() == UsdGeom.Tokens.default_
+    code = 24.0
+    orient = UsdGeom.PrimvarsAPI(points).GetPrimvar("orient").Get(code)
+    np.testing.assert_allclose([tuple(o.GetImaginary()) + (o.GetReal(),) for o in orient],
+                               [tuple(o.GetImaginary()) + (o.GetReal(),) for o in inst.GetOrientationsAttr().Get(code)],
+                               atol=1e-3)
+    loco = locomotion(tr)
+    for prim in (points, inst):
+        api = UsdGeom.PrimvarsAPI(prim)
+        np.testing.assert_allclose(api.GetPrimvar("distance").Get(code), loco.distance[24], rtol=1e-6)
+        assert list(api.GetPrimvar("gait_state").Get(code)) == [WALK, MOVE]
+        phase = np.array(api.GetPrimvar("gait_phase").Get(code))
+        assert phase[0] == pytest.approx(loco.gait_phase[24, 0], abs=1e-6) and phase[1] == -1.0  # a car has none
+        assert list(api.GetPrimvar("contact_left").Get(code))[1] == 0
+        assert api.GetPrimvar("turn_rate").Get(code) is not None and api.GetPrimvar("speed").Get(code) is not None

@@ -53,6 +53,7 @@ def test_player_plays_in_headless_chromium_without_errors(tmp_path, dim):
     result, stderr = _selftest(page, tmp_path)
     assert result["errors"] == []
     assert result["changed_pixels"] > 100 and result["frames"] == 60
+    assert result["gait_pixels"] > 100  # the gait rings and feet are drawn
     assert "Uncaught" not in stderr
 
 
@@ -64,3 +65,18 @@ def test_player_data_round_trips_positions_and_escapes_names():
     pos = np.frombuffer(base64.b64decode(data["positions"]), np.float32).reshape(60, 6, 2)
     np.testing.assert_allclose(pos, tr.positions, rtol=1e-6)
     assert [g["name"] for g in data["groups"]] == ["a", "b"]
+
+
+def test_player_data_carries_each_agents_gait_state_and_feet():
+    import base64
+
+    from crowdmotion.locomotion import locomotion
+
+    tr = _run()
+    data = player_data(tr)
+    gait = np.frombuffer(base64.b64decode(data["gait"]), np.uint8).reshape(60, 6)
+    loco = locomotion(tr)
+    np.testing.assert_array_equal(gait & 7, loco.gait_state)
+    np.testing.assert_array_equal((gait >> 3) & 1, loco.contact_left)
+    np.testing.assert_array_equal((gait >> 4) & 1, loco.contact_right)
+    assert [s["name"] for s in data["states"]] == ["idle", "walk", "run", "turn", "move"]

@@ -134,7 +134,8 @@ def run(scene: Scene, groups: Sequence[Group], params: FormationParams | dict | 
     traj = Trajectories(frames, sim.dt, group=names, radius=sim.radius.copy(), facing=facing,
                         metadata={"method": "formation", "params": params.model_dump(), "scene": scene.to_dict(),
                                   "version": __version__, "steps": sim.steps, "stats": dict(sim.stats),
-                                  "partial": partial, "facing": FACING})
+                                  "partial": partial, "facing": FACING,
+                                  "bodies": {g.name: "car" if g.cars else "walker" for g in sim.groups}})
     dislocated = [np.array(d) for d in dislocated]
     report = {g.name: _group_report(sim, k, g, np.array(field_steps[k]), dislocated[k].sum(axis=1))
               for k, g in enumerate(sim.groups)}

@@ -24,11 +24,27 @@ def _format(path: Path):
     return importlib.import_module(f"crowdmotion.io.{name}")
 
 
-def write_trajectories(traj, path) -> Path:
-    """Write ``traj`` to ``path`` (format from the suffix), atomically."""
+def write_trajectories(traj, path, **options) -> Path:
+    """Write ``traj`` to ``path`` (format from the suffix), atomically, with its
+    locomotion channels (:mod:`crowdmotion.locomotion`).
+
+    ``options`` go to the format's writer: every format takes ``locomotion`` (a
+    :class:`~crowdmotion.locomotion.LocomotionParams`); USD also takes
+    ``prototype_up`` and ``prototype_forward`` (see :func:`crowdmotion.io.usd.write`).
+    """
     path = Path(path)
-    _format(path).write(traj, path)
+    _format(path).write(traj, path, **options)
     return path
+
+
+def read_locomotion(path):
+    """The locomotion channels a trajectory file holds, as a
+    :class:`~crowdmotion.locomotion.Locomotion` (format from the suffix)."""
+    path = Path(path)
+    fmt = _format(path)
+    if not path.is_file():
+        raise FileNotFoundError(f"no trajectory file at {path}")
+    return fmt.read_locomotion(path)
 
 
 def read_trajectories(path):

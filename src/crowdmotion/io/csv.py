@@ -8,19 +8,23 @@ from pathlib import Path
 import pyarrow.csv as pacsv
 
 from crowdmotion.io.atomic import atomic_path
-from crowdmotion.io.longform import from_table, metadata_json, to_table
+from crowdmotion.io.longform import from_table, locomotion_from_table, metadata_json, to_table
+from crowdmotion.locomotion import LocomotionParams, locomotion as derive_locomotion
 
 
 def sidecar(path: Path) -> Path:
     return path.with_name(path.name + ".meta.json")
 
 
-def write(traj, path: Path) -> None:
-    table = to_table(traj)
+def write(traj, path: Path, locomotion: LocomotionParams | None = None) -> None:
+    """Write ``traj`` and its locomotion channels (derived with ``locomotion``'s
+    parameters, the defaults when None) to ``path``, atomically."""
+    loco = derive_locomotion(traj, locomotion)
+    table = to_table(traj, loco)
     with atomic_path(path) as tmp:
         pacsv.write_csv(table, tmp)
     with atomic_path(sidecar(path)) as tmp:
-        tmp.write_text(metadata_json(traj))
+        tmp.write_text(metadata_json(traj, loco))
 
 
 def read(path: Path):
@@ -32,3 +36,13 @@ def read(path: Path):
     if sidecar(path).is_file():
         meta = json.loads(sidecar(path).read_text())
     return from_table(table, meta)
+
+
+def read_locomotion(path: Path):
+    """The locomotion channels written into ``path`` (a :class:`~crowdmotion.locomotion.Locomotion`)."""
+    try:
+        table = pacsv.read_csv(path)
+    except Exception as exc:
+        raise ValueError(f"{path} is not a readable trajectory CSV: {exc}") from exc
+    meta = json.loads(sidecar(path).read_text()) if sidecar(path).is_file() else {}
+    return locomotion_from_table(table, meta)

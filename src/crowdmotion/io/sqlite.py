@@ -9,8 +9,11 @@ and ``frame_data(frame, geometry_hash)``. Positions are written with a fixed jit
 at most ``JITTER_M`` (1 µm, the ``jitter_m`` metadata entry) so that PedPy's Voronoi
 density (GEOS) runs on every frame: it fails on exact lattices and coincident points. crowdmotion adds
 ``crowdmotion_agents(id, grp, radius)`` and a ``crowdmotion`` metadata entry (JSON) so
-that its own reader gets the groups, radii and metadata back; JuPedSim and PedPy ignore
-them. 3D runs are projected onto the ground plane (x, y): the ``projection`` metadata
+that its own reader gets the groups, radii and metadata back, and the locomotion channels
+(:mod:`crowdmotion.locomotion`) in ``crowdmotion_locomotion(frame, id, distance,
+gait_phase, gait_state, turn_rate, contact_left, contact_right)``, one row per row of
+``trajectory_data`` (phase and contacts NULL for agents that are not walkers; the state a
+code into ``crowdmotion_gait_states(code, name)``); JuPedSim and PedPy ignore them. 3D runs are projected onto the ground plane (x, y): the ``projection`` metadata
 entry says so, and so does a ``UserWarning`` on writing. Drones stacked in z then stand
 1 µm apart on the ground: their Voronoi density there is meaningless.
 """
@@ -29,6 +32,7 @@ import shapely
 
 from crowdmotion.io.atomic import atomic_path
 from crowdmotion.io.longform import metadata_json
+from crowdmotion.locomotion import IDLE, STATES, Locomotion, LocomotionParams, locomotion as derive_locomotion
 from crowdmotion.scene import Box, Circle, Polygon, Scene, Sphere
 from crowdmotion.trajectories import Trajectories
 
@@ -108,7 +112,9 @@ def _first_caller_outside_package() -> int:
     return level
 
 
-def write(traj: Trajectories, path: Path) -> None:
+def write(traj: Trajectories, path: Path, locomotion: LocomotionParams | None = None) -> None:
+    """Write ``traj`` and its locomotion channels (derived with ``locomotion``'s
+    parameters, the defaults when None) to ``path``, atomically."""
     if traj.dim == 3:
         warnings.warn(f"{path.name}: JuPedSim files are 2D; the 3D run is projected onto the ground plane (x, y)",
                       UserWarning, stacklevel=_first_caller_outside_package())
@@ -120,6 +126,15 @@ def write(traj: Trajectories, path: Path) -> None:
     pos = traj.positions[frame, agent, :2] + np.random.default_rng(0).uniform(-JITTER_M, JITTER_M, (len(frame), 2))
     ori = _orientation(traj)[frame, agent]
     rows = np.column_stack([frame, traj.ids[agent], pos, ori])
+    loco = derive_locomotion(traj, locomotion)
+    walker = loco.walker[agent]
+
+    def gait(values):  # NULL (NaN) for agents that are not walkers
+        return np.where(walker, values[frame, agent], np.nan).tolist()
+
+    gait_rows = zip(frame.tolist(), traj.ids[agent].tolist(), loco.distance[frame, agent].tolist(),
+                    gait(loco.gait_phase), loco.gait_state[frame, agent].tolist(), loco.turn_rate[frame, agent].tolist(),
+                    gait(loco.contact_left.astype(float)), gait(loco.contact_right.astype(float)))
     area, note = walkable_area(traj.metadata.get("scene"), traj.positions, act)
     if note:
         warnings.warn(f"{path.name}: {note}", UserWarning, stacklevel=_first_caller_outside_package())
@@ -127,7 +142,7 @@ def write(traj: Trajectories, path: Path) -> None:
     geo_hash = zlib.crc32(geo.encode())
     xmin, ymin, xmax, ymax = area.bounds
     meta = [("version", str(VERSION)), ("fps", repr(traj.fps)), ("xmin", repr(xmin)), ("xmax", repr(xmax)),
-            ("ymin", repr(ymin)), ("ymax", repr(ymax)), ("crowdmotion", metadata_json(traj)),
+            ("ymin", repr(ymin)), ("ymax", repr(ymax)), ("crowdmotion", metadata_json(traj, loco)),
             ("crowdmotion_frames", str(t)), ("jitter_m", repr(JITTER_M))]
     if traj.dim == 3:
         meta.append(("projection", "3D run projected onto the ground plane (x, y); z dropped"))
@@ -152,6 +167,13 @@ def write(traj: Trajectories, path: Path) -> None:
             cur.execute("CREATE TABLE crowdmotion_agents(id INTEGER NOT NULL, grp TEXT NOT NULL, radius REAL NOT NULL)")
             cur.executemany("INSERT INTO crowdmotion_agents VALUES(?, ?, ?)",
                             ((int(i), str(g), float(r)) for i, g, r in zip(traj.ids, traj.group, traj.radius)))
+            cur.execute("CREATE TABLE crowdmotion_locomotion (frame INTEGER NOT NULL, id INTEGER NOT NULL, "
+                        "distance REAL NOT NULL, gait_phase REAL, gait_state INTEGER NOT NULL, turn_rate REAL NOT NULL, "
+                        "contact_left INTEGER, contact_right INTEGER)")
+            cur.executemany("INSERT INTO crowdmotion_locomotion VALUES(?, ?, ?, ?, ?, ?, ?, ?)", gait_rows)
+            cur.execute("CREATE INDEX crowdmotion_locomotion_idx ON crowdmotion_locomotion(frame, id)")
+            cur.execute("CREATE TABLE crowdmotion_gait_states(code INTEGER NOT NULL PRIMARY KEY, name TEXT NOT NULL)")
+            cur.executemany("INSERT INTO crowdmotion_gait_states VALUES(?, ?)", enumerate(STATES))
             con.commit()
         finally:
             con.close()
@@ -197,3 +219,47 @@ def read(path: Path) -> Trajectories:
     metadata = json.loads(meta["crowdmotion"]) if "crowdmotion" in meta else {}
     return Trajectories(pos, 1.0 / float(meta["fps"]), ids=ids, group=group, radius=radius,
                         active=None if active.all() else active, metadata=metadata, facing=facing)
+
+
+def read_locomotion(path: Path) -> Locomotion:
+    """The locomotion channels of a file written by :func:`write`; an agent's frames
+    without a row (it was absent) hold its distance and phase, idle, feet down."""
+    traj = read(path)
+    try:
+        con = sqlite3.connect(f"file:{path}?mode=ro", uri=True)
+        try:
+            rows = con.execute("SELECT frame, id, distance, gait_phase, gait_state, turn_rate, contact_left, "
+                               "contact_right FROM crowdmotion_locomotion").fetchall()
+        finally:
+            con.close()
+    except sqlite3.DatabaseError as exc:
+        raise ValueError(f"{path} has no crowdmotion_locomotion table (not written by crowdmotion): {exc}") from None
+    data = np.array(rows, dtype=float).reshape(-1, 8)  # NULL -> NaN
+    meta = traj.metadata.get("locomotion") or {}
+    kinds = meta.get("kinds") or {}
+    kind = np.array([kinds.get(str(g), "walker") for g in traj.group], dtype=object)
+    t, n = traj.n_frames, traj.n_agents
+    f0 = int(data[:, 0].min()) if len(data) else 0
+    f = data[:, 0].astype(np.int64) - f0
+    a = np.searchsorted(traj.ids, data[:, 1].astype(np.int64))
+    present = np.zeros((t, n), bool)
+    present[f, a] = True
+    grids = []
+    for k in (2, 3, 5):
+        g = np.full((t, n), np.nan)
+        g[f, a] = data[:, k]
+        grids.append(g)
+    distance, phase, rate = grids
+    held = np.maximum.accumulate(np.where(present, np.arange(t)[:, None], 0), axis=0)  # absent: held
+    distance = np.nan_to_num(np.take_along_axis(distance, held, axis=0))
+    phase = np.take_along_axis(phase, held, axis=0)
+    rate[~present] = 0.0
+    state = np.full((t, n), IDLE, np.int8)
+    state[f, a] = data[:, 4]
+    walker = kind == "walker"
+    left = np.tile(walker, (t, 1))
+    right = left.copy()
+    left[f, a] = data[:, 6] == 1
+    right[f, a] = data[:, 7] == 1
+    params = LocomotionParams(**meta["params"]) if meta.get("params") else LocomotionParams()
+    return Locomotion(distance, phase, state, rate, left, right, kind, params)

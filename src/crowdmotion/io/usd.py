@@ -5,26 +5,44 @@ import), ``metersPerUnit`` = 1 and ``timeCodesPerSecond`` = ``framesPerSecond`` 
 the run's own rate when that is 25, 30, 48, 50 or 60): each frame of the run is sampled at
 time code t × rate, so an MDP run stepping every 0.85 s plays at its true speed in a 24 fps
 scene (USD interpolates between samples). World (x, y[, z]) with z up maps to USD
-(x, z, −y): a 2D run lies on the ground plane at height 0. Under ``/World``:
+(x, z, −y): a 2D run lies on the ground plane at height 0.
 
-- ``Agents`` — a ``UsdGeomPoints`` with time-sampled ``points``, ``velocities`` (m/s, for
-  motion blur), ``widths`` (body diameters; 0 while an agent is inactive), ``ids`` and a
-  per-point ``displayColor`` by group, and primvars ``group`` (the index of the agent's
-  group in ``/World/Crowd``'s prototypes) and ``speed`` (m/s, time-sampled) for shaders
-  and Houdini/Blender attributes;
+Prototype axes: the instancer's orientations turn a prototype whose up and forward axes
+are ``prototype_up`` and ``prototype_forward`` (its own coordinates; by default Z up and
+facing −Y, a character as Blender models it) so that it stands on the stage's up (+Y) and
+faces the agent's facing. The stage stays Y-up; only the prototypes' frame is chosen.
+``customLayerData`` says which (``crowdmotion_prototype_up``,
+``crowdmotion_prototype_forward``). Under ``/World``:
+
+- ``Agents`` — a ``UsdGeomPoints`` of purpose ``guide`` (not rendered: importers leave
+  it out unless asked for guides, e.g. Blender's *Guide* purpose option) with
+  time-sampled ``points``, ``velocities`` (m/s, for motion blur), ``widths`` (body
+  diameters; 0 while an agent is inactive), ``ids`` and a per-point ``displayColor`` by
+  group, and primvars ``group`` (the index of the agent's group in ``/World/Crowd``'s
+  prototypes), ``speed`` (m/s), ``orient`` (the instancer's orientation of each agent, a
+  quaternion, as Houdini's point attribute of that name) and the locomotion channels
+  (below), all time-sampled but ``group``;
 - ``Crowd`` — a ``UsdGeomPointInstancer`` with one prototype per group, named after it (a
-  capsule of the group's body size: in 2D standing on the point, 1.7 m tall; in 3D lying
-  along the body's forward axis, centred on the point), time-sampled ``positions``,
-  ``velocities``, ``orientations`` (the prototype's +X turned to the agent's facing,
-  :attr:`Trajectories.facing`, about the up axis and, in 3D, raised by its
-  ``facing_pitch``) and ``invisibleIds`` for inactive agents;
+  capsule of the group's body size in the prototype axes: for walkers along the up axis,
+  standing on the point, 1.7 m tall; in 3D along the forward axis, centred on the
+  point), time-sampled ``positions``, ``velocities``, ``orientations`` (the prototype's
+  forward axis turned to the agent's facing, :attr:`Trajectories.facing`, about the up
+  axis and, in 3D, raised by its ``facing_pitch``; its up axis to the stage's up) and
+  ``invisibleIds`` for inactive agents, and the same ``speed`` and locomotion primvars
+  per instance;
 - ``Obstacles`` — cylinders, spheres, cubes and flat polygon meshes for the scene's static
   obstacles (moving ones at their start place, with their path as ``translate`` samples
   at t × rate; a box's translate comes before its scale in ``xformOpOrder``).
 
+Locomotion primvars (:mod:`crowdmotion.locomotion`), one value per agent, time-sampled:
+``distance`` (float, m), ``gait_phase`` (float, strides in [0, 1); −1 for agents that are
+not walkers), ``gait_state`` (int: 0 idle, 1 walk, 2 run, 3 turn, 4 move), ``turn_rate``
+(float, rad/s about the up axis, counter-clockwise seen from above) and ``contact_left``
+/ ``contact_right`` (int, 1 while the foot is down; 0 for agents that are not walkers).
+
 Every boundable prim has its ``extent`` (time-sampled on the agents and the instancer),
 as renderers and USD validators expect. ``customLayerData`` keeps crowdmotion's metadata
-(method, seed, parameters) as JSON.
+(method, seed, parameters, the locomotion parameters) as JSON.
 """
 
 from __future__ import annotations
@@ -36,7 +54,13 @@ import numpy as np
 
 from crowdmotion.io.atomic import atomic_path
 from crowdmotion.io.longform import metadata_json
+from crowdmotion.locomotion import Locomotion, LocomotionParams, locomotion as derive_locomotion
 from crowdmotion.trajectories import Trajectories
+
+AXES = {"X": (1.0, 0.0, 0.0), "Y": (0.0, 1.0, 0.0), "Z": (0.0, 0.0, 1.0),
+        "-X": (-1.0, 0.0, 0.0), "-Y": (0.0, -1.0, 0.0), "-Z": (0.0, 0.0, -1.0)}
+PROTOTYPE_UP = "Z"  # a character as Blender models it: Z up ...
+PROTOTYPE_FORWARD = "-Y"  # ... facing -Y (Blender's front view looks along +Y at its face)
 
 
 def _pxr():
@@ -61,13 +85,70 @@ def from_usd_frame(points: np.ndarray, dim: int) -> np.ndarray:
     return world[..., :dim]
 
 
-def facing_from_orientations(quat: np.ndarray, dim: int) -> dict:
+def axis_name(axis: str, what: str) -> str:
+    """``axis`` ("X", "-y", "+Z", ...) as one of :data:`AXES`' names; a ValueError naming
+    ``what`` and the value otherwise."""
+    name = str(axis).strip().upper().lstrip("+") if isinstance(axis, str) else None
+    if name not in AXES:
+        raise ValueError(f"{what} must be one of {', '.join(AXES)} (an axis of the prototype's own "
+                         f"coordinates), got {axis!r}")
+    return name
+
+
+def prototype_axes(up: str = PROTOTYPE_UP, forward: str = PROTOTYPE_FORWARD) -> np.ndarray:
+    """(4,) quaternion (real, i, j, k) turning a prototype with these up and forward axes
+    into the stage frame's upright, +X facing pose (up -> +Y, forward -> +X); a ValueError
+    when either is not an axis or they are not perpendicular."""
+    up, forward = axis_name(up, "prototype_up"), axis_name(forward, "prototype_forward")
+    u, f = np.array(AXES[up]), np.array(AXES[forward])
+    if abs(float(u @ f)) > 0.5:
+        raise ValueError(f"prototype_up and prototype_forward must be perpendicular axes, got up {up!r} and "
+                         f"forward {forward!r}")
+    rows = np.array([f, u, np.cross(f, u)])  # the rotation taking f, u, f x u to X, Y, Z
+    return _quaternion_from_matrix(rows)
+
+
+def _quaternion_from_matrix(m: np.ndarray) -> np.ndarray:
+    """(real, i, j, k) of a proper rotation matrix (Shepperd's method)."""
+    tr = np.trace(m)
+    k = int(np.argmax([tr, m[0, 0], m[1, 1], m[2, 2]]))
+    if k == 0:
+        w = np.sqrt(1 + tr) / 2
+        q = [w, (m[2, 1] - m[1, 2]) / (4 * w), (m[0, 2] - m[2, 0]) / (4 * w), (m[1, 0] - m[0, 1]) / (4 * w)]
+    else:
+        i, j, l = (k - 1, k % 3, (k + 1) % 3)
+        r = np.sqrt(1 + m[i, i] - m[j, j] - m[l, l]) / 2
+        q = np.zeros(4)
+        q[0] = (m[l, j] - m[j, l]) / (4 * r)
+        q[1 + i] = r
+        q[1 + j] = (m[j, i] + m[i, j]) / (4 * r)
+        q[1 + l] = (m[l, i] + m[i, l]) / (4 * r)
+    q = np.asarray(q, float)
+    return q / np.linalg.norm(q)
+
+
+def quaternion_product(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """(..., 4) a · b of quaternions (real, i, j, k): b's rotation first, then a's."""
+    aw, ax, ay, az = (a[..., k] for k in range(4))
+    bw, bx, by, bz = (b[..., k] for k in range(4))
+    return np.stack([aw * bw - ax * bx - ay * by - az * bz, aw * bx + ax * bw + ay * bz - az * by,
+                     aw * by - ax * bz + ay * bw + az * bx, aw * bz + ax * by - ay * bx + az * bw], axis=-1)
+
+
+def rotate(quat: np.ndarray, v) -> np.ndarray:
+    """(..., 3) ``v`` turned by quaternions (..., 4) stored as USD stores them (i, j, k, real)."""
+    q, w = quat[..., :3], quat[..., 3:]
+    v = np.broadcast_to(np.asarray(v, float), q.shape)
+    t = 2 * np.cross(q, v)
+    return v + w * t + np.cross(q, t)
+
+
+def facing_from_orientations(quat: np.ndarray, dim: int, forward: str = "X") -> dict:
     """The facing the instancer's orientations carry: (T, N, 4) quaternions as USD
     stores them (i, j, k, real) -> ``{"facing": yaw, "facing_pitch": pitch}`` (world
-    radians; the prototype's +X turned by each quaternion, back in the z-up frame)."""
-    x, y, z, w = (quat[..., k] for k in range(4))
-    forward = np.stack([1 - 2 * (y * y + z * z), 2 * (x * y + w * z), 2 * (x * z - w * y)], axis=-1)
-    world = from_usd_frame(forward, 3)
+    radians; the prototype's ``forward`` axis turned by each quaternion, back in the z-up
+    frame)."""
+    world = from_usd_frame(rotate(quat, AXES[axis_name(forward, "prototype_forward")]), 3)
     out = {"facing": np.arctan2(world[..., 1], world[..., 0])}
     if dim == 3:
         out["facing_pitch"] = np.arctan2(world[..., 2], np.linalg.norm(world[..., :2], axis=-1))
@@ -92,6 +173,43 @@ def orientations(heading: np.ndarray, pitch: np.ndarray) -> np.ndarray:
     cy, sy = np.cos(heading / 2), np.sin(heading / 2)
     cp, sp = np.cos(pitch / 2), np.sin(pitch / 2)
     return np.stack([cy * cp, sy * sp, sy * cp, cy * sp], axis=-1)
+
+
+def capsule_mesh(radius: float, height: float, up, forward, segments: int = 12, rings: int = 4
+                 ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """A capsule ``height`` tall (at least 2 × ``radius``) standing on the origin along the
+    ``up`` vector: (points (V, 3), face vertex counts, face vertex indices), faces wound
+    counter-clockwise seen from outside. ``forward`` fixes where its seam lies."""
+    up, forward = np.asarray(up, float), np.asarray(forward, float)
+    side = np.cross(forward, up)
+    r = float(radius)
+    h = max(float(height), 2 * r)
+    theta = np.linspace(0.0, np.pi / 2, rings + 1)[1:]  # cap rings, from the equator to the pole
+    # the profile (distance from the axis, height), bottom pole excluded, top pole excluded
+    low = [(r * np.cos(a), r - r * np.sin(a)) for a in theta[::-1][1:]]
+    high = [(r * np.cos(a), h - r + r * np.sin(a)) for a in theta[:-1]]
+    profile = np.array(low + [(r, r), (r, h - r)] + high)
+    phi = np.linspace(0.0, 2 * np.pi, segments, endpoint=False)
+    around = np.cos(phi)[:, None] * forward + np.sin(phi)[:, None] * side  # (S, 3)
+    ring_pts = profile[:, 0, None, None] * around[None] + profile[:, 1, None, None] * up  # (R, S, 3)
+    points = np.concatenate([[0 * up], ring_pts.reshape(-1, 3), [h * up]])
+    n_rings = len(profile)
+    ring = lambda i, j: 1 + i * segments + (j % segments)  # noqa: E731
+    faces = [[0, ring(0, j + 1), ring(0, j)] for j in range(segments)]
+    faces += [[ring(i, j), ring(i, j + 1), ring(i + 1, j + 1), ring(i + 1, j)]
+              for i in range(n_rings - 1) for j in range(segments)]
+    top = len(points) - 1
+    faces += [[ring(n_rings - 1, j), ring(n_rings - 1, j + 1), top] for j in range(segments)]
+    # wind each face outward: its normal away from the axis (or along the axis at the poles)
+    out = []
+    for f in faces:
+        a, b, c = points[f[0]], points[f[1]], points[f[2]]
+        centre = points[f].mean(axis=0)
+        axis_point = up * (centre @ up)
+        away = centre - axis_point if np.linalg.norm(centre - axis_point) > 1e-9 * r else centre - up * h / 2
+        out.append(f if np.cross(b - a, c - a) @ away > 0 else f[::-1])
+    counts = np.array([len(f) for f in out], np.int32)
+    return points, counts, np.array([i for f in out for i in f], np.int32)
 
 
 def _set_extent(prim, UsdGeom, time=None) -> None:
@@ -150,14 +268,49 @@ def _obstacles(stage, scene_dict: dict, UsdGeom, Gf, rate: float) -> None:
             op.Set(Gf.Vec3d(*np.asarray(centre, float).tolist()))
 
 
-def write(traj: Trajectories, path: Path) -> None:
+def _locomotion_primvars(loco: Locomotion) -> dict:
+    """name -> ((T, N) values, USD type name) of the locomotion primvars (no NaN: −1 phase
+    and 0 contacts for agents that are not walkers)."""
+    walker = loco.walker[None, :]
+    return {"distance": (loco.distance.astype(np.float32), "FloatArray"),
+            "gait_phase": (np.where(walker, np.mod(loco.gait_phase.astype(np.float32), np.float32(1.0)), -1.0)
+                           .astype(np.float32), "FloatArray"),
+            "gait_state": (loco.gait_state.astype(np.int32), "IntArray"),
+            "turn_rate": (loco.turn_rate.astype(np.float32), "FloatArray"),
+            "contact_left": (loco.contact_left.astype(np.int32), "IntArray"),
+            "contact_right": (loco.contact_right.astype(np.int32), "IntArray")}
+
+
+def write(traj: Trajectories, path: Path, locomotion: LocomotionParams | None = None,
+          prototype_up: str = PROTOTYPE_UP, prototype_forward: str = PROTOTYPE_FORWARD) -> None:
+    """Write ``traj`` to the USD file ``path``, atomically (see the module docstring).
+
+    Parameters
+    ----------
+    traj : Trajectories
+    path : Path
+        ``.usd`` / ``.usdc`` (binary) or ``.usda`` (text).
+    locomotion : LocomotionParams, optional
+        Parameters of the locomotion primvars (the documented defaults when None).
+    prototype_up, prototype_forward : str
+        The prototypes' up and forward axes in their own coordinates, each one of ``X``,
+        ``Y``, ``Z``, ``-X``, ``-Y``, ``-Z`` and perpendicular to each other: ``Z`` and
+        ``-Y`` (a Blender character) by default; ``Y`` and ``Z`` for a character modelled
+        Y up facing +Z (Maya, Houdini, Unity).
+    """
+    axes = prototype_axes(prototype_up, prototype_forward)
+    up, forward = axis_name(prototype_up, "prototype_up"), axis_name(prototype_forward, "prototype_forward")
     Gf, Sdf, Usd, UsdGeom, Vt = _pxr()
     rate = stage_rate(traj)
     codes = np.arange(traj.n_frames) * traj.dt * rate  # the time code of each frame
     pos = to_usd_frame(traj.positions).astype(np.float32)
     act = traj.active_mask
+    loco = derive_locomotion(traj, locomotion)
+    channels = _locomotion_primvars(loco)
     # Vt.QuathArray.FromNumpy takes (i, j, k, real)
-    quat = orientations(traj.facing, traj.facing_pitch)[..., [1, 2, 3, 0]].astype(np.float16)
+    orient = quaternion_product(orientations(traj.facing, traj.facing_pitch), axes)[..., [1, 2, 3, 0]]
+    quat = orient.astype(np.float16)
+    orient = orient.astype(np.float32)
     ids = np.asarray(traj.ids, np.int64)
     width = (2 * traj.radius).astype(np.float32)
     groups = list(dict.fromkeys(traj.group.tolist()))
@@ -173,10 +326,17 @@ def write(traj: Trajectories, path: Path) -> None:
             stage.SetFramesPerSecond(rate)
             stage.SetStartTimeCode(0)
             stage.SetEndTimeCode(float(np.ceil(codes[-1] - 1e-9)))
-            stage.SetMetadata("customLayerData", {"crowdmotion": metadata_json(traj), "crowdmotion_dim": traj.dim})
+            stage.SetMetadata("customLayerData", {
+                "crowdmotion": metadata_json(traj, loco), "crowdmotion_dim": traj.dim,
+                "crowdmotion_prototype_up": up, "crowdmotion_prototype_forward": forward,
+                "crowdmotion_axes": f"stage Y-up in metres: world (x east, y north, z up) is USD (x, z, -y); "
+                                    f"prototypes are modelled {up} up, facing {forward}: the instancer's "
+                                    f"orientations (and the points' orient) stand them on +Y facing their "
+                                    f"agent's way"})
             world = UsdGeom.Xform.Define(stage, "/World")
             stage.SetDefaultPrim(world.GetPrim())
             points = UsdGeom.Points.Define(stage, "/World/Agents")
+            points.CreatePurposeAttr(UsdGeom.Tokens.guide)  # a guide to instance on, not rendered
             points.CreateIdsAttr(Vt.Int64Array.FromNumpy(ids))
             p_attr, w_attr = points.CreatePointsAttr(), points.CreateWidthsAttr()
             inst = UsdGeom.PointInstancer.Define(stage, "/World/Crowd")
@@ -186,19 +346,23 @@ def write(traj: Trajectories, path: Path) -> None:
             from pxr import Tf
 
             for k, g in enumerate(groups):  # a prototype per group, named after it
-                cap = UsdGeom.Capsule.Define(stage, f"/World/Crowd/Prototypes/{Tf.MakeValidIdentifier(str(g))}_{k}")
+                name = f"/World/Crowd/Prototypes/{Tf.MakeValidIdentifier(str(g))}_{k}"
                 r = float(traj.radius[traj.group == g].max())
-                cap.CreateRadiusAttr(r)
-                if traj.dim == 2:  # a walker standing on the point
-                    cap.CreateHeightAttr(max(1.7 - 2 * r, 0.1))
-                    cap.CreateAxisAttr("Y")
-                    cap.AddTranslateOp().Set(Gf.Vec3d(0.0, 0.85, 0.0))
+                if traj.dim == 2:  # a walker standing on the point: a mesh with no transform of its own
+                    proto = UsdGeom.Mesh.Define(stage, name)
+                    verts, counts, indices = capsule_mesh(r, 1.7, AXES[up], AXES[forward])
+                    proto.CreatePointsAttr(Vt.Vec3fArray.FromNumpy(verts.astype(np.float32)))
+                    proto.CreateFaceVertexCountsAttr(Vt.IntArray.FromNumpy(counts))
+                    proto.CreateFaceVertexIndicesAttr(Vt.IntArray.FromNumpy(indices))
+                    proto.CreateSubdivisionSchemeAttr(UsdGeom.Tokens.none)
                 else:  # a flyer centred on the point, its body along its forward axis
-                    cap.CreateHeightAttr(2 * r)
-                    cap.CreateAxisAttr("X")
-                _set_extent(cap.GetPrim(), UsdGeom)
-                cap.GetPrim().SetCustomDataByKey("crowdmotion:group", str(g))
-                targets.append(cap.GetPath())
+                    proto = UsdGeom.Capsule.Define(stage, name)
+                    proto.CreateRadiusAttr(r)
+                    proto.CreateHeightAttr(2 * r)
+                    proto.CreateAxisAttr(forward[-1])
+                _set_extent(proto.GetPrim(), UsdGeom)
+                proto.GetPrim().SetCustomDataByKey("crowdmotion:group", str(g))
+                targets.append(proto.GetPath())
             inst.CreatePrototypesRel().SetTargets(targets)
             ip_attr, io_attr, iv_attr = inst.CreatePositionsAttr(), inst.CreateOrientationsAttr(), \
                 inst.CreateInvisibleIdsAttr()
@@ -214,7 +378,14 @@ def write(traj: Trajectories, path: Path) -> None:
             primvars.CreatePrimvar("group", Sdf.ValueTypeNames.IntArray, UsdGeom.Tokens.vertex).Set(
                 Vt.IntArray.FromNumpy(proto_index))
             speed = np.nan_to_num(traj.speed).astype(np.float32)
-            speed_var = primvars.CreatePrimvar("speed", Sdf.ValueTypeNames.FloatArray, UsdGeom.Tokens.vertex)
+            channels = {"speed": (speed, "FloatArray"), **channels}
+            # per point and per instance: speed, the locomotion channels; orient on the points
+            varying = []
+            for api in (primvars, UsdGeom.PrimvarsAPI(inst)):
+                for name, (values, kind) in channels.items():
+                    var = api.CreatePrimvar(name, getattr(Sdf.ValueTypeNames, kind), UsdGeom.Tokens.vertex)
+                    varying.append((var, values, getattr(Vt, kind)))
+            orient_var = primvars.CreatePrimvar("orient", Sdf.ValueTypeNames.QuatfArray, UsdGeom.Tokens.vertex)
             pe_attr, ie_attr = points.CreateExtentAttr(), inst.CreateExtentAttr()
             for f in range(traj.n_frames):
                 tc = Usd.TimeCode(float(codes[f]))
@@ -222,7 +393,9 @@ def write(traj: Trajectories, path: Path) -> None:
                 w_attr.Set(Vt.FloatArray.FromNumpy(np.where(act[f], width, 0.0).astype(np.float32)), tc)
                 ip_attr.Set(Vt.Vec3fArray.FromNumpy(pos[f]), tc)
                 pv_attr.Set(Vt.Vec3fArray.FromNumpy(vel[f]), tc)
-                speed_var.Set(Vt.FloatArray.FromNumpy(speed[f]), tc)
+                for var, values, array in varying:
+                    var.Set(array.FromNumpy(values[f]), tc)
+                orient_var.Set(Vt.QuatfArray.FromNumpy(orient[f]), tc)
                 iv_vel.Set(Vt.Vec3fArray.FromNumpy(vel[f]), tc)
                 io_attr.Set(Vt.QuathArray.FromNumpy(quat[f]), tc)
                 iv_attr.Set(Vt.Int64Array.FromNumpy(ids[~act[f]]), tc)
@@ -270,6 +443,34 @@ def read(path: Path) -> Trajectories:
     facing = {}
     if inst and inst.GetOrientationsAttr().GetTimeSamples():
         facing = facing_from_orientations(np.array([np.asarray(inst.GetOrientationsAttr().Get(c), float)
-                                                    for c in codes]), dim)
+                                                    for c in codes]), dim,
+                                          layer_data.get("crowdmotion_prototype_forward", "X"))
     return Trajectories(pos, dt, ids=ids, group=group, radius=radius,
                         active=None if active.all() else active, metadata=meta, **facing)
+
+
+def read_locomotion(path: Path) -> Locomotion:
+    """The locomotion primvars of ``/World/Agents`` in a file written by :func:`write`."""
+    from crowdmotion.locomotion import LocomotionParams
+
+    _, _, Usd, UsdGeom, _ = _pxr()
+    stage = Usd.Stage.Open(str(path))
+    if stage is None:
+        raise ValueError(f"{path} is not a readable USD file")
+    points = UsdGeom.Points(stage.GetPrimAtPath("/World/Agents"))
+    api = UsdGeom.PrimvarsAPI(points)
+    names = ("distance", "gait_phase", "gait_state", "turn_rate", "contact_left", "contact_right")
+    missing = [n for n in names if not api.HasPrimvar(n)]
+    if not points or missing:
+        raise ValueError(f"{path} has no locomotion primvars {missing} on /World/Agents (not written by crowdmotion)")
+    codes = points.GetPointsAttr().GetTimeSamples()
+    grid = {n: np.array([np.asarray(api.GetPrimvar(n).Get(c)) for c in codes]) for n in names}
+    meta = json.loads((stage.GetMetadata("customLayerData") or {}).get("crowdmotion", "{}")).get("locomotion") or {}
+    traj = read(path)
+    kinds = meta.get("kinds") or {}
+    kind = np.array([kinds.get(str(g), "walker") for g in traj.group], dtype=object)
+    walker = (kind == "walker")[None, :]
+    params = LocomotionParams(**meta["params"]) if meta.get("params") else LocomotionParams()
+    return Locomotion(grid["distance"].astype(float), np.where(walker, grid["gait_phase"], np.nan),
+                      grid["gait_state"].astype(np.int8), grid["turn_rate"].astype(float),
+                      grid["contact_left"] == 1, grid["contact_right"] == 1, kind, params)

@@ -1,7 +1,9 @@
 """A self-contained HTML player for any run: one file, no CDN, works offline.
 
 Play / pause / scrub, speed, trails, group colours, each agent's facing (a tick from the
-body's centre, :attr:`Trajectories.facing`), obstacles (moving ones move), a 2D top view
+body's centre, :attr:`Trajectories.facing`), its gait (a ring round the body coloured by
+its locomotion state, and a dot beside it for each foot on the ground, left and right of
+the facing: :mod:`crowdmotion.locomotion`), obstacles (moving ones move), a 2D top view
 and a 3D orbit view (drag to turn, wheel to zoom), frame counter. The data are
 embedded as base64 float32 arrays; the page draws on a canvas with plain JavaScript.
 Opening the file with ``#selftest`` makes the page play a few frames by itself, compare
@@ -20,8 +22,12 @@ import numpy as np
 from matplotlib.colors import to_hex
 
 from crowdmotion.io.atomic import atomic_path
+from crowdmotion.locomotion import STATES, locomotion
 from crowdmotion.render.colours import group_colours
 from crowdmotion.trajectories import Trajectories
+
+STATE_COLOURS = {"idle": "#9e9e9e", "walk": "#2e7d32", "run": "#e65100", "turn": "#6a1b9a", "move": "#1565c0"}
+
 
 def _b64(a: np.ndarray) -> str:
     return base64.b64encode(np.ascontiguousarray(a).tobytes()).decode("ascii")
@@ -34,12 +40,17 @@ def player_data(traj: Trajectories, max_frames: int = 3000) -> dict:
     yaw, pitch = traj.facing[frames], traj.facing_pitch[frames]
     facing = np.stack([np.cos(pitch) * np.cos(yaw), np.cos(pitch) * np.sin(yaw), np.sin(pitch)], axis=-1)
     names = list(dict.fromkeys(traj.group.tolist()))
-    colours = group_colours(names)  # as in the pictures: a group called "red" is red
+    colours = group_colours(names)
+    loco = locomotion(traj)  # on the run's own frames, then picked as the positions are
+    # one byte per agent and frame: the state (bits 0-2), left foot down (bit 3), right (bit 4)
+    gait = (loco.gait_state[frames].astype(np.uint8) | (loco.contact_left[frames].astype(np.uint8) << 3)
+            | (loco.contact_right[frames].astype(np.uint8) << 4))  # as in the pictures: a group called "red" is red
     return {
         "frames": int(len(frames)), "agents": int(traj.n_agents), "dim": int(traj.dim),
         "times": (frames * traj.dt).round(6).tolist(),
         "positions": _b64(pos), "active": _b64(traj.active_mask[frames].astype(np.uint8)),
         "facing": _b64(facing.astype(np.float32)),
+        "gait": _b64(gait), "states": [{"name": n, "colour": STATE_COLOURS[n]} for n in STATES],
         "radius": np.asarray(traj.radius, float).round(4).tolist(),
         "group": [names.index(g) for g in traj.group.tolist()],
         "groups": [{"name": str(n), "colour": to_hex(colours[n])} for n in names],
@@ -78,6 +89,7 @@ pre#selftest{display:none}
 <option>2</option><option>4</option><option>8</option></select></label>
 <label><input id="trails" type="checkbox" checked> trails</label>
 <label><input id="facing" type="checkbox" checked> facing</label>
+<label><input id="gait" type="checkbox"> gait</label>
 <label>view <select id="view"><option value="top">2D top</option><option value="orbit">3D orbit</option></select></label>
 <span id="legend"></span>
 </div>
@@ -93,13 +105,16 @@ const D = __DATA__;
 function decode(b64, Type){ const s = atob(b64); const u = new Uint8Array(s.length);
   for (let i = 0; i < s.length; i++) u[i] = s.charCodeAt(i); return new Type(u.buffer); }
 const P = decode(D.positions, Float32Array), A = decode(D.active, Uint8Array), F = decode(D.facing, Float32Array);
+const G = decode(D.gait, Uint8Array);
 const N = D.agents, T = D.frames, DIM = D.dim;
 const cv = document.getElementById("c"), ctx = cv.getContext("2d");
 const scrub = document.getElementById("scrub"), counter = document.getElementById("counter");
 const playBtn = document.getElementById("play");
 scrub.max = T - 1;
 document.getElementById("legend").innerHTML = D.groups.map(g =>
-  `<span><i style="background:${g.colour}"></i>${g.name.replace(/</g, "&lt;")}</span>`).join("");
+  `<span><i style="background:${g.colour}"></i>${g.name.replace(/</g, "&lt;")}</span>`).join("")
+  + `<span id="gaitlegend" style="display:none">` + D.states.map(s =>
+  `<span><i style="background:none;border:2px solid ${s.colour};box-sizing:border-box"></i>${s.name}</span>`).join("") + `</span>`;
 let frame = 0, playing = false, last = null, clock = 0, yaw = -0.6, pitch = 0.9, zoom = 1.0;
 // scene extent
 let lo = [Infinity, Infinity, 0], hi = [-Infinity, -Infinity, 0];
@@ -158,6 +173,17 @@ function draw(){ const view = document.getElementById("view").value; const pr = 
       const p = pos(frame, a), o = (frame * N + a) * 3, e = pr.f([p[0] + 1.6 * r * F[o], p[1] + 1.6 * r * F[o + 1], p[2] + 1.6 * r * F[o + 2]]);
       ctx.moveTo(q[0], q[1]); ctx.lineTo(e[0], e[1]); }
     ctx.stroke(); ctx.lineWidth = 1; }
+  const gaitOn = document.getElementById("gait").checked;
+  document.getElementById("gaitlegend").style.display = gaitOn ? "inline" : "none";
+  if (gaitOn) { ctx.lineWidth = 2;
+    for (const [a, q] of order) { const r = D.radius[a], px = r * pr.s * q[2]; if (px < 2) continue;
+      const g = G[frame * N + a]; ctx.strokeStyle = D.states[g & 7].colour; ctx.beginPath();
+      ctx.arc(q[0], q[1], px + 1.5, 0, 2 * Math.PI); ctx.stroke();
+      const p = pos(frame, a), o = (frame * N + a) * 3, fx = F[o], fy = F[o + 1];
+      for (const [bit, side] of [[8, 1], [16, -1]]) { if (!(g & bit)) continue;  // left of the facing is +90°
+        const e = pr.f([p[0] - side * 0.6 * r * fy, p[1] + side * 0.6 * r * fx, p[2]]);
+        ctx.fillStyle = "#111"; ctx.beginPath(); ctx.arc(e[0], e[1], Math.max(1, 0.15 * px), 0, 2 * Math.PI); ctx.fill(); } }
+    ctx.lineWidth = 1; }
   counter.textContent = `frame ${frame + 1} / ${T}   t = ${t.toFixed(2)} s`; scrub.value = frame; }
 function tick(now){ if (!playing) return; if (last !== null) { clock += (now - last) / 1000 * parseFloat(document.getElementById("speed").value); }
   last = now; const end = D.times[T - 1]; if (clock > end) clock = 0;
@@ -166,7 +192,7 @@ function tick(now){ if (!playing) return; if (last !== null) { clock += (now - l
 function setPlaying(on){ playing = on; playBtn.textContent = on ? "Pause" : "Play"; last = null; clock = D.times[frame]; if (on) requestAnimationFrame(tick); }
 playBtn.onclick = () => setPlaying(!playing);
 scrub.oninput = () => { frame = parseInt(scrub.value); clock = D.times[frame]; draw(); };
-for (const id of ["trails", "facing", "view", "speed"]) document.getElementById(id).onchange = draw;
+for (const id of ["trails", "facing", "gait", "view", "speed"]) document.getElementById(id).onchange = draw;
 let drag = null; cv.onmousedown = e => drag = [e.clientX, e.clientY]; window.onmouseup = () => drag = null;
 cv.onmousemove = e => { if (!drag || document.getElementById("view").value !== "orbit") return;
   yaw += (e.clientX - drag[0]) * 0.01; pitch = Math.min(1.5, Math.max(0.05, pitch + (e.clientY - drag[1]) * 0.01)); drag = [e.clientX, e.clientY]; draw(); };
@@ -180,7 +206,11 @@ if (location.hash === "#selftest") {
   for (let k = 0; k < steps; k++) { frame = Math.min(T - 1, frame + 1); draw(); }
   const second = snap(); let diff = 0; for (let i = 0; i < first.length; i++) if (first[i] !== second[i]) diff++;
   document.getElementById("view").value = "orbit"; draw(); document.getElementById("view").value = "top"; draw();
-  document.getElementById("selftest").textContent = JSON.stringify({ changed_pixels: diff, frame: frame, frames: T, errors: errors });
+  const plain = snap(); document.getElementById("gait").checked = true; draw(); const withGait = snap();
+  let gaitDiff = 0; for (let i = 0; i < plain.length; i++) if (plain[i] !== withGait[i]) gaitDiff++;
+  document.getElementById("gait").checked = false; draw();
+  document.getElementById("selftest").textContent = JSON.stringify({ changed_pixels: diff, gait_pixels: gaitDiff,
+    frame: frame, frames: T, errors: errors });
 }
 </script></body></html>
 """
