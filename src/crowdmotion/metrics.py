@@ -146,6 +146,8 @@ def obstacle_penetrations(
         b = traj.positions[f_idx + 1, a_idx] - off[f_idx + 1]
         lo, hi = ob.bounds()
         near = np.all((np.minimum(a, b) - radius[:, None] <= hi) & (np.maximum(a, b) + radius[:, None] >= lo), axis=1)
+        if ob.is_timed:  # an obstacle added or removed while running: the intervals it stood in
+            near &= (times[f_idx + 1] > ob.present[0]) & (times[f_idx] < ob.present[1])
         sel = np.flatnonzero(near)
         if len(sel) == 0:
             continue

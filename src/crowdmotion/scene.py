@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import copy
 from dataclasses import dataclass
 from typing import Sequence, Union
 
@@ -44,10 +45,32 @@ class KeyframePath:
 
 
 class Obstacle:
-    """Base class of obstacle shapes. ``path`` makes the shape move (see KeyframePath)."""
+    """Base class of obstacle shapes. ``path`` makes the shape move (see KeyframePath);
+    ``present`` is the time window [start, end) during which it stands (always, unless a
+    stepping simulator added or removed it while running: see :meth:`during`)."""
 
     path: KeyframePath | None = None
     dim: int = 0
+    present: tuple[float, float] = (-np.inf, np.inf)
+
+    @property
+    def is_timed(self) -> bool:
+        """Whether the obstacle stands for part of the time only."""
+        return self.present != (-np.inf, np.inf)
+
+    def present_at(self, t: float | np.ndarray) -> np.ndarray:
+        """Whether the obstacle stands at time(s) ``t`` (start <= t < end)."""
+        t = np.asarray(t, dtype=float)
+        return (t >= self.present[0]) & (t < self.present[1])
+
+    def during(self, start: float = -np.inf, end: float = np.inf) -> "Obstacle":
+        """A copy of the obstacle that stands from ``start`` until ``end`` (seconds)."""
+        start, end = float(start), float(end)
+        if np.isnan(start) or np.isnan(end) or end <= start:
+            raise ValueError(f"an obstacle's time window must be start < end, got [{start}, {end})")
+        twin = copy.copy(self)
+        twin.present = (start, end)
+        return twin
 
     @property
     def center(self) -> np.ndarray:  # pragma: no cover - overridden
@@ -265,11 +288,17 @@ class Scene:
 
     @property
     def static_obstacles(self) -> list[Obstacle]:
-        return [o for o in self.obstacles if not o.is_moving]
+        """Obstacles that neither move nor come and go."""
+        return [o for o in self.obstacles if not o.is_moving and not o.is_timed]
 
     @property
     def moving_obstacles(self) -> list[Obstacle]:
         return [o for o in self.obstacles if o.is_moving]
+
+    def at_time(self, t: float) -> "Scene":
+        """The scene as it stands at time ``t``: the obstacles present then, each for good."""
+        return Scene((self.lower, self.upper), [o if not o.is_timed else o.during() for o in self.obstacles
+                                                if not o.is_timed or o.present_at(t)])
 
     def contains(self, points) -> np.ndarray:
         """Whether each point lies inside the bounds."""
@@ -280,8 +309,9 @@ class Scene:
         """Signed distance from each point to the nearest obstacle at time ``t``."""
         p = as_points(points, self.dim)
         d = self.static_obstacle_distance(p)
-        for ob in self.moving_obstacles:
-            d = np.minimum(d, ob.signed_distance(p - ob.offset(t)))
+        for ob in self.obstacles:
+            if (ob.is_moving or ob.is_timed) and ob.present_at(t):
+                d = np.minimum(d, ob.signed_distance(p - ob.offset(t)))
         return d
 
     def static_obstacle_distance(self, points) -> np.ndarray:
@@ -324,6 +354,8 @@ class Scene:
                 d = {"shape": "polygon", "vertices": ob.vertices.tolist()}
             if ob.path is not None:
                 d["path"] = {"times": ob.path.times.tolist(), "positions": ob.path.positions.tolist()}
+            if ob.is_timed:  # JSON has no infinity: an open end is null
+                d["present"] = [float(x) if np.isfinite(x) else None for x in ob.present]
             obs.append(d)
         return {"bounds": [self.lower.tolist(), self.upper.tolist()], "obstacles": obs}
 
@@ -345,6 +377,9 @@ class Scene:
                 obs.append(Polygon(d["vertices"], path=path))
             else:
                 raise ValueError(f"unknown obstacle shape {shape!r}")
+            if d.get("present") is not None:
+                lo, hi = d["present"]
+                obs[-1] = obs[-1].during(-np.inf if lo is None else lo, np.inf if hi is None else hi)
         return cls(bounds=data["bounds"], obstacles=obs)
 
     def __repr__(self) -> str:

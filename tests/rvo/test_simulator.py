@@ -158,3 +158,89 @@ def test_an_agent_that_left_cannot_be_given_a_goal():
     sim.remove_agents([1])
     with pytest.raises(ValueError, match="set_goals: agent 1 has left the simulation"):
         sim.set_goals([1], [5, 5])
+
+
+# ---- the live API: obstacles that come and go --------------------------------------------------
+def _room_with_door():
+    """A 20 × 10 m room; a wall at x 9-11 with a 2 m doorway at y 4-6."""
+    return cm.Scene(bounds=([0, 0], [20, 10]), obstacles=[cm.Box([9, 0], [11, 4]), cm.Box([9, 6], [11, 10])])
+
+
+def test_a_door_opened_at_20_s_lets_the_crowd_through_and_the_audit_knows_it_stood_before():
+    scene = _room_with_door()
+    sim = rvo.Simulator(scene, rng=np.random.default_rng(1))
+    door = sim.add_obstacle(cm.Box([9.5, 4], [10.5, 6]))  # the doorway is shut
+    starts = np.array([[1.0 + 1.0 * (k % 6), 1.0 + 1.3 * (k // 6)] for k in range(36)])
+    sim.add_agents(starts, [18, 5], radius=0.25)
+    frames, present = [sim.positions.copy()], [sim.present.copy()]
+    while sim.time < 20.0 - 1e-9:
+        sim.step()
+        frames.append(sim.positions.copy())
+        present.append(sim.present.copy())
+    assert (sim.positions[:, 0] < 9.5).all() and not sim.arrived.any(), "nobody got through the shut door"
+    sim.remove_obstacle(door)
+    while (sim.active & ~sim.arrived).any() and sim.time < 120:
+        sim.step()
+        frames.append(sim.positions.copy())
+        present.append(sim.present.copy())
+    assert sim.arrived.all(), "the whole crowd went through once the door was open"
+    assert len(scene.obstacles) == 2 and len(sim.scene.obstacles) == 3, "the user's scene is untouched"
+    assert sim.scene.obstacles[door].present == (0.0, 20.0)
+    traj = cm.Trajectories(np.array(frames), sim.dt, radius=sim.params["radius"], active=np.array(present))
+    report = collision_audit(traj, sim.scene)
+    assert report.agent_agent == 0 and report.agent_obstacle == 0, report.events[:3]
+    # the same paths against a door that never opened cross it: the audit does look
+    shut = cm.Scene(bounds=([0, 0], [20, 10]), obstacles=[*scene.obstacles, cm.Box([9.5, 4], [10.5, 6])])
+    assert collision_audit(traj, shut).agent_obstacle > 0
+
+
+def test_an_obstacle_dropped_on_an_agent_is_refused_and_nothing_changes():
+    sim = rvo.Simulator(_room_with_door())
+    sim.add_agents([[5, 5]], [18, 5])
+    with pytest.raises(ValueError, match=r"add_obstacle: agent 0 at \[5.0, 5.0\] would stand inside"):
+        sim.add_obstacle(cm.Circle([5.3, 5], 0.5))
+    assert len(sim.scene.obstacles) == 2
+    with pytest.raises(ValueError, match="remove_obstacle: no obstacle 7"):
+        sim.remove_obstacle(7)
+    with pytest.raises(ValueError, match="add_obstacle: a Circle, Box or Polygon is needed"):
+        sim.add_obstacle("wall")
+
+
+def test_a_wall_put_across_the_way_sends_the_agents_round_it():
+    sim = rvo.Simulator(cm.Scene(bounds=([0, 0], [20, 10])))
+    sim.add_agents([[2, 5]], [18, 5])
+    for _ in range(8):
+        sim.step()
+    wall = sim.add_obstacle(cm.Box([9, 2], [10, 8]))
+    frames = [sim.positions.copy()]
+    while sim.active.any() and sim.time < 60:
+        sim.step()
+        frames.append(sim.positions.copy())
+    assert sim.arrived[0]
+    assert sim.scene.obstacles[wall].present == (2.0, np.inf)
+    path = np.array(frames)[:, 0]
+    assert np.abs(path[:, 1] - 5).max() > 3.0, "it walked round the wall's end"
+    sim.remove_obstacle(wall)
+    with pytest.raises(ValueError, match="is not in the scene now"):
+        sim.remove_obstacle(wall)
+
+
+def test_a_scene_with_an_obstacle_that_came_and_went_round_trips_through_its_dict():
+    scene = cm.Scene(bounds=([0, 0], [10, 10]), obstacles=[cm.Box([1, 1], [2, 2]).during(3.0, 7.5),
+                                                             cm.Circle([5, 5], 1).during(2.0)])
+    again = cm.Scene.from_dict(scene.to_dict())
+    assert [o.present for o in again.obstacles] == [(3.0, 7.5), (2.0, np.inf)]
+    assert again.obstacle_distance([[1.5, 1.5]], 5.0)[0] < 0 and again.obstacle_distance([[1.5, 1.5]], 8.0)[0] > 0
+    assert scene.static_obstacles == [] and len(scene.at_time(5.0).static_obstacles) == 2
+
+
+def test_an_obstacle_over_an_agents_goal_is_refused_and_the_agents_walk_on():
+    sim = rvo.Simulator(_room_with_door())
+    sim.add_agents([[2, 5]], [[18, 5]])
+    sim.step()
+    with pytest.raises(ValueError, match="add_obstacle: .* cannot go in: .*no cell free of obstacles"):
+        sim.add_obstacle(cm.Box([17, 4], [19, 6]))
+    assert len(sim.scene.obstacles) == 2
+    while sim.active.any() and sim.time < 60:
+        sim.step()
+    assert sim.arrived[0]

@@ -103,6 +103,11 @@ class DensitySlowing:
         self.density = np.zeros(0)
         self._fresh = np.zeros(0, dtype=bool)
 
+    def refloor(self, scene: Scene) -> None:
+        """Measure the walkable floor again (obstacles were added or removed)."""
+        if self.sensing:
+            self.floor = FloorShare(scene)
+
     def grow(self, n: int) -> None:
         """Make room for ``n`` new agents (their density is sensed afresh on their first step)."""
         self.density = np.concatenate([self.density, np.zeros(n)])

@@ -19,7 +19,7 @@ from crowdmotion._contact import grid_for
 from crowdmotion.obstacle_primitives import ObstacleSet
 from crowdmotion.rvo.params import MAX_NEIGHBORS, MAX_SAMPLES
 from crowdmotion.rvo.personality import PARAM_KEYS, params_for_vectors, sample_personalities
-from crowdmotion.scene import Scene
+from crowdmotion.scene import Obstacle, Scene
 
 BRISK = 3.0  # an agent breaking a stand-off (yielding, detouring) changes velocity this much faster
 FOLLOW_FULL_DENSITY = 2.0  # persons/m² sensed ahead from which following is anticipated in full
@@ -145,7 +145,9 @@ class Simulator:
             raise ValueError(f"replan_s must be a positive number of seconds, got {replan_s!r}")
         self.congestion = float(congestion)
         self.replan_steps = max(1, int(round(replan_s / time_step)))
-        self.scene = scene
+        self.scene = scene  # with every obstacle ever in it, each with the time it stood (for the audit)
+        self._now = scene   # the obstacles standing now
+        self._scene_owned = False
         self.dt = float(time_step)
         self.guidance = guidance
         self.remove_on_arrival = bool(remove_on_arrival)
@@ -313,6 +315,7 @@ class Simulator:
                 goal = np.tile(goal, (len(ids), 1))
             if goal.shape != (len(ids), 2):
                 raise ValueError(f"goals must be (2,) or ({len(ids)}, 2), got shape {goal.shape}")
+        self._ensure_fields()
         field = self._region_index(goal, goal_region)
         self._targets = [(t, held[~np.isin(held, ids)]) for t, held in self._targets]
         self._targets = [(t, held) for t, held in self._targets if len(held)]
@@ -331,6 +334,66 @@ class Simulator:
         self.velocities[ids] = 0.0
         self.deadlock.forget(ids)
         self._targets = [(t, held[~np.isin(held, ids)]) for t, held in self._targets]
+
+    def add_obstacle(self, obstacle: Obstacle) -> int:
+        """Put an obstacle into the scene now (the live API: a door that closes, a barrier);
+        returns its index in ``scene.obstacles``. A ValueError, changing nothing, if it is
+        not a 2D shape, any agent still walking stands within its radius of it, or it
+        covers an agent's goal."""
+        if not isinstance(obstacle, Obstacle):
+            raise ValueError(f"add_obstacle: a Circle, Box or Polygon is needed, got {obstacle!r}")
+        if obstacle.dim != 2 or obstacle.is_timed:
+            raise ValueError(f"add_obstacle: a 2D obstacle that stands from now on is needed, got {obstacle!r}")
+        live = np.flatnonzero(self.active)
+        clear = Scene((self.scene.lower, self.scene.upper), [obstacle]).obstacle_distance(
+            self.positions[live], self.time) - self.params["radius"][live]
+        if len(live) and clear.min() < 0:
+            k = int(np.argmin(clear))
+            raise ValueError(f"add_obstacle: agent {int(live[k])} at {np.round(self.positions[live[k]], 3).tolist()} "
+                             f"would stand inside {obstacle!r} (penetration {-clear[k]:.3f} m)")
+        scene = self._own_scene()
+        scene.obstacles.append(obstacle.during(self._clock(), np.inf))
+        self._obstacles_changed()
+        try:
+            self._ensure_fields()  # a goal it covers, or a way it closes for good, shows here
+        except ValueError as exc:
+            scene.obstacles.pop()
+            self._obstacles_changed()
+            raise ValueError(f"add_obstacle: {obstacle!r} cannot go in: {exc}") from None
+        return len(scene.obstacles) - 1
+
+    def remove_obstacle(self, index: int) -> None:
+        """Take obstacle ``index`` of ``scene.obstacles`` out of the scene now (the live API:
+        a door that opens). ``scene`` keeps it, with the time it stood, for the audit."""
+        obs = self.scene.obstacles
+        if isinstance(index, bool) or not isinstance(index, (int, np.integer)) or not 0 <= index < len(obs):
+            raise ValueError(f"remove_obstacle: no obstacle {index!r} (indices run from 0 to {len(obs) - 1})")
+        now = self._clock()
+        if not obs[index].present_at(now):
+            raise ValueError(f"remove_obstacle: obstacle {index} is not in the scene now")
+        scene = self._own_scene()
+        scene.obstacles[index] = obs[index].during(obs[index].present[0], now)
+        self._obstacles_changed()
+
+    def _clock(self) -> float:
+        """The time now as frames count it (steps × dt), so windows match ``Trajectories.times``."""
+        return self.steps * self.dt
+
+    def _own_scene(self) -> Scene:
+        """The simulator's own copy of the scene (the caller's is never changed)."""
+        if not self._scene_owned:
+            self.scene = Scene((self.scene.lower, self.scene.upper), list(self.scene.obstacles))
+            self._scene_owned = True
+        return self.scene
+
+    def _obstacles_changed(self) -> None:
+        """Rebuild what the obstacles standing now shape: primitives, guidance fields, floor."""
+        now = self.scene.at_time(self._clock())
+        self._now = now
+        self.obstacles = ObstacleSet(now)
+        self.density_slowing.refloor(now)
+        self._fields_stale = True
+        self._fields = None
 
     def _agent_ids(self, agents, what: str) -> np.ndarray:
         """``agents`` as unique int ids of agents still in the simulation (ValueError otherwise)."""
@@ -355,7 +418,7 @@ class Simulator:
         if key in self._region_keys:
             return self._region_keys.index(key)
         if solve and self._fields is not None and not self._fields_stale:  # a bad goal raises here
-            more = distance_fields(self.scene, [region], float(self.params["radius"].max()), self._fields.cell)
+            more = distance_fields(self._now, [region], float(self.params["radius"].max()), self._fields.cell)
             self._exact = np.concatenate([self._exact, more.dist])
             self._fields.dist = np.concatenate([self._fields.dist, more.dist])
             self._fields.goal_cells.extend(more.goal_cells)
@@ -371,7 +434,7 @@ class Simulator:
             i = int(bad[0])
             raise ValueError(f"agent {self.n_agents + i} at {pos[i].tolist()} (radius {rad[i]}) does not fit inside "
                              f"the scene bounds {self.scene.lower.tolist()}-{self.scene.upper.tolist()}")
-        clear = self.scene.obstacle_distance(pos, self.time) - rad
+        clear = self._now.obstacle_distance(pos, self.time) - rad
         bad = np.flatnonzero(clear < 0)
         if len(bad):
             i = int(bad[0])
@@ -394,14 +457,14 @@ class Simulator:
     def _use_field(self) -> bool:
         if self.guidance == "field":
             return True
-        return self.guidance == "auto" and bool(self.scene.static_obstacles)
+        return self.guidance == "auto" and bool(self._now.static_obstacles)
 
     def _ensure_fields(self) -> None:
         if not self._fields_stale:
             return
         self._fields = None
         if self._use_field() and self.n_agents:
-            self._fields = distance_fields(self.scene, self._goal_regions, float(self.params["radius"].max()),
+            self._fields = distance_fields(self._now, self._goal_regions, float(self.params["radius"].max()),
                                            self.field_cell)
             self._exact = self._fields.dist
             self._router = CongestionRouter(self._fields, self.congestion)
