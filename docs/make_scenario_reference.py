@@ -26,7 +26,7 @@ SECTIONS = [
     ("Top level", [S.ScenarioSpec]),
     ("[scene]", [S.SceneSpec, S.CircleSpec, S.SphereSpec, S.BoxSpec, S.PolygonSpec, S.PathSpec]),
     ("[[groups]]", [S.GroupSpec, S.PointRegion, S.PointsRegion, S.RectRegion, S.DiscRegion, S.MovingRegion,
-                    S.RingRegion, S.AntipodalRegion]),
+                    S.RingRegion, S.AntipodalRegion, S.EnterSpec]),
     ("Group attributes (a group's `attributes` table: rvo and formation; mdp and pso take none)",
      [R.RVOAttributes, F.FormationAttributes]),
     ("Formation templates (a group's `formation` table)", [F.BlockTemplate, F.WedgeTemplate, F.CircleTemplate,

@@ -190,13 +190,15 @@ def arrival(traj: Trajectories, goal_reached) -> tuple[np.ndarray, np.ndarray]:
     """Per agent: whether it reached its goal, and the time it first did (NaN if never).
 
     ``goal_reached(frame_positions) -> (N,) bool`` tells who is at the goal in a frame.
-    An agent that despawns counts as arrived at the frame it was last active.
+    An agent that despawns counts as arrived at the frame it was last active (one that
+    was never active, or is still active at the end, does not).
     """
     at = np.stack([np.asarray(goal_reached(p), dtype=bool) for p in traj.positions])
     if traj.active is not None:
-        left = (~traj.active).any(axis=0)
-        last = traj.active.sum(axis=0) - 1
-        at[np.clip(last[left], 0, None), np.flatnonzero(left)] = True
+        act = traj.active
+        left = act.any(axis=0) & ~act[-1]
+        last = len(act) - 1 - np.argmax(act[::-1], axis=0)  # the last frame each agent was active
+        at[last[left], np.flatnonzero(left)] = True
     arrived = at.any(axis=0)
     first = np.where(arrived, np.argmax(at, axis=0) * traj.dt, np.nan)
     return arrived, first

@@ -35,7 +35,7 @@ METHODS = ("mdp", "rvo", "pso", "formation")
 ATTRIBUTES: dict[str, type[BaseModel] | None] = {"mdp": None, "rvo": RVOAttributes, "pso": None,
                                                  "formation": FormationAttributes}
 # [[groups]] fields only one method reads
-GROUP_FIELD_METHOD = {"personality": "rvo", "formation": "formation"}
+GROUP_FIELD_METHOD = {"personality": "rvo", "formation": "formation", "enter": "rvo"}
 
 
 class _Model(BaseModel):
@@ -243,6 +243,27 @@ RegionSpec = Annotated[Union[PointRegion, PointsRegion, RectRegion, DiscRegion, 
                              AntipodalRegion], Field(discriminator="shape")]
 
 
+class EnterSpec(_Model):
+    """When the group's agents enter, instead of all at t = 0 (crowdmotion.journeys).
+
+    rate : float        persons per second, the first at ``start``
+    start : float       seconds (with rate; default 0)
+    times : list        seconds, one per agent (instead of rate and start)
+    """
+
+    rate: PosFloat | None = None
+    start: Annotated[float, Field(ge=0, allow_inf_nan=False)] = 0.0
+    times: list[Annotated[float, Field(ge=0, allow_inf_nan=False)]] | None = None
+
+    @model_validator(mode="after")
+    def _one_way(self):
+        if (self.rate is None) == (self.times is None):
+            raise ValueError("give either rate (persons/s, with an optional start) or times (one per agent)")
+        if self.times is not None and "start" in self.model_fields_set:
+            raise ValueError("start goes with rate; times are absolute seconds")
+        return self
+
+
 class GroupSpec(_Model):
     """A named set of agents: how many, where they start, where they go, their bodies.
 
@@ -257,6 +278,9 @@ class GroupSpec(_Model):
     personality : str   rvo: an OCEAN pole name (O+, O-, C+, C-, E+, E-, A+, A-, N+, N-),
                         a 5-vector of traits in [-1, 1], or a distribution table
     formation : table   formation: the group's template (see "Formation templates")
+    enter : table       rvo: agents enter over time: {rate = persons/s, start = s} or
+                        {times = [s, ...]} (one per agent); each enters at a free point of
+                        the spawn region, waiting while there is no room
     attributes : table  method-specific extras (Python: Group.attributes), checked against the
                         method's own list (see "Group attributes"): rvo: pref_speed_range,
                         max_neighbors, neighbor_dist, samples, safety; formation: reassign,
@@ -272,6 +296,7 @@ class GroupSpec(_Model):
     pref_speed: Speed = 1.3
     personality: str | list[float] | dict[str, Any] | None = None
     formation: TemplateSpec | None = None
+    enter: EnterSpec | None = None
     attributes: dict[str, Any] = {}
 
     @field_validator("personality")
@@ -549,6 +574,8 @@ def _attributes(g: GroupSpec) -> dict:
         out["personality"] = g.personality
     if g.formation is not None:
         out["formation"] = g.formation
+    if g.enter is not None:
+        out["enter"] = g.enter.model_dump(exclude_none=True, exclude_unset=True)
     return out
 
 

@@ -6,6 +6,7 @@ import numpy as np
 from crowdmotion.progress import step_bar
 
 from crowdmotion import metrics
+from crowdmotion.journeys import entry_report, entry_times
 from crowdmotion.rvo.params import RVOParams
 from crowdmotion.rvo.simulation import RVORun, build_simulator, run
 
@@ -24,7 +25,10 @@ def check_scenario(scene, groups, params: RVOParams) -> None:
         check_goal_clear(scene, k, g)
         check_inside(scene, k, g, "spawn")
         check_inside(scene, k, g, "goal")
-        check_spawn_capacity(scene, k, g, params.spawn_gap)
+        if "enter" in g.attributes:  # entering over time, its agents need not all fit at once
+            entry_times(g.attributes["enter"], g.count, f"{where(k, g)}: enter")
+        else:
+            check_spawn_capacity(scene, k, g, params.spawn_gap)
     sim = build_simulator(scene, groups, params, np.random.default_rng(0))
     try:
         sim.preferred_velocities()  # builds the guidance fields the first step would
@@ -62,8 +66,11 @@ def run_scenario(scene, groups, params: RVOParams, rng, progress: bool = True):
     arrived = sim.arrived
     summary = metrics.summary(traj, scene)
     summary["arrival_rate"] = float(arrived.mean())
-    summary["mean_time_to_goal_s"] = float(np.nanmean(sim.arrival_time)) if arrived.any() else None
-    summary["time_to_goal_by_group_s"] = metrics.time_to_goal_by_group(traj, sim.arrival_time)
+    taken = sim.arrival_time - sim.entry_time  # from entering (t = 0 for those there from the start)
+    summary["mean_time_to_goal_s"] = float(np.nanmean(taken)) if arrived.any() else None
+    summary["time_to_goal_by_group_s"] = metrics.time_to_goal_by_group(traj, taken)
+    if any("enter" in g.attributes for g in groups):
+        summary["entry"] = entry_report(traj.group, sim.enter_at, sim.entry_time)
     stats = sim.stats
     steps = max(stats["agent_steps"], 1)
     summary.update({

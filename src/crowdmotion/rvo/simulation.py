@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from typing import Callable, Sequence
 
 import numpy as np
@@ -10,6 +10,7 @@ import numpy as np
 from crowdmotion import __version__
 from crowdmotion.checks import where
 from crowdmotion.groups import Disc, Group, MovingTarget, Points, Rect
+from crowdmotion.journeys import entry_times
 from crowdmotion.placement import spawn_positions
 from crowdmotion.rvo.params import RVOParams
 from crowdmotion.rvo.personality import PARAM_KEYS, sample_personalities
@@ -71,7 +72,10 @@ def build_simulator(scene: Scene, groups: Sequence[Group], params: RVOParams, rn
     for k, g in enumerate(groups):
         if g.dim != 2:
             raise ValueError(f"{where(k, g)}: the RVO method is 2D, the group is {g.dim}D")
-        starts = spawn_positions(scene, g, placed, placed_r, params.spawn_gap, rng)
+        enter = g.attributes.get("enter")
+        due = None if enter is None else entry_times(enter, g.count, f"{where(k, g)}: enter")
+        # a group entering over time takes its places one by one: they need not all fit at once
+        starts = spawn_positions(scene, g, placed, placed_r, params.spawn_gap, rng, overlap=enter is not None)
         goals = goal_points(g, starts, params.goal_assignment, rng)
         persona = g.attributes.get("personality")
         try:
@@ -80,12 +84,28 @@ def build_simulator(scene: Scene, groups: Sequence[Group], params: RVOParams, rn
             else:
                 kw = {"personality": sample_personalities(persona, g.count, rng, f"groups.{k}.personality")}
             sim.add_agents(starts, goals, radius=g.radius, max_speed=g.max_speed,
-                           pref_speed=preferred_speeds(g, rng), goal_region=g.goal, **kw)
+                           pref_speed=preferred_speeds(g, rng), goal_region=g.goal, enter_at=due, **kw)
         except ValueError as exc:
             raise ValueError(f"{where(k, g)}: {exc}") from None
-        placed = np.vstack([placed, starts])
-        placed_r = np.append(placed_r, np.full(len(starts), g.radius))
+        if enter is None:
+            placed = np.vstack([placed, starts])
+            placed_r = np.append(placed_r, np.full(len(starts), g.radius))
     return sim
+
+
+def retry_entries(sim: Simulator, scene: Scene, groups: Sequence[Group], params: RVOParams,
+                  rng: np.random.Generator) -> None:
+    """Agents due to enter whose place is taken try a fresh point of their group's spawn
+    region at the next step (a listed spawn point is kept)."""
+    due = sim.waiting & (sim.enter_at <= sim.time + 1e-9)
+    if not due.any():
+        return
+    for k, g in enumerate(groups):
+        ids = np.flatnonzero(due & (sim.group == k))
+        if len(ids) and not isinstance(g.spawn, Points):
+            pts = spawn_positions(scene, replace(g, count=len(ids)), np.zeros((0, 2)), np.zeros(0),
+                                  params.spawn_gap, rng, overlap=True)
+            sim.set_entry_points(ids, pts)
 
 
 @dataclass
@@ -104,8 +124,11 @@ def run(scene: Scene, groups: Sequence[Group], params: RVOParams, rng: np.random
     present = [sim.present.copy()]
     partial = False
     try:
-        while sim.steps < params.max_steps and (sim.active & ~sim.arrived).any():
+        entering = any("enter" in g.attributes for g in groups)
+        while sim.steps < params.max_steps and ((sim.active & ~sim.arrived).any() or sim.waiting.any()):
             sim.step()
+            if entering:
+                retry_entries(sim, scene, groups, params, rng)
             frames.append(sim.positions.copy())
             present.append(sim.present.copy())
             if progress is not None and sim.steps % 10 == 0:

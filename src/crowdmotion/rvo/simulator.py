@@ -26,6 +26,8 @@ FOLLOW_FULL_DENSITY = 2.0  # persons/m² sensed ahead from which following is an
 ESCAPE_HEADINGS = 32  # headings an agent in a moving obstacle's way tries after the safety pass
 # used when neither a value nor a personality is given: the neutral set of Table 4's
 # O pair (mid-way between O+ and O−), rounded
+ENTRY_GAP_M = 0.05  # clearance an entering agent needs round its body
+ENTRY_NEIGHBOURS = 8  # bodies nearest its place an entering agent is checked against
 DEFAULTS = {"max_neighbors": 10, "neighbor_dist": 10.0, "samples": 50, "safety": 5.0}
 
 
@@ -164,6 +166,8 @@ class Simulator:
         self.goals = np.zeros(n0)
         self.active = np.zeros(0, dtype=bool)
         self.arrival_time = np.zeros(0)
+        self.enter_at = np.zeros(0)     # when each agent is due to enter, seconds
+        self.entry_time = np.zeros(0)   # when it entered (NaN while it waits off-scene)
         self.group = np.zeros(0, dtype=np.int64)     # the add_agents call that added each agent
         self.field_of = np.zeros(0, dtype=np.int64)  # each agent's goal region (its guidance field)
         self.params = {k: np.zeros(0, dtype=np.int64 if k in ("max_neighbors", "samples") else float)
@@ -203,7 +207,7 @@ class Simulator:
 
     def add_agents(self, positions, goals, radius=0.25, max_speed=1.5, pref_speed=1.3,
                    neighbor_dist=None, max_neighbors=None, samples=None, safety=None,
-                   personality=None, goal_region=None) -> np.ndarray:
+                   personality=None, goal_region=None, enter_at=None) -> np.ndarray:
         """Add agents; every parameter is a scalar or one value per agent.
 
         Parameters
@@ -220,6 +224,10 @@ class Simulator:
             must not be given as well).
         goal_region : the group's goal region, used to build the guidance field (default:
             the goal points).
+        enter_at : when each agent is due to enter, seconds (default: now). Until then,
+            and after it while someone stands on its start position, it waits off-scene
+            (``waiting``): not drawn, not avoided, not stepped; it enters at the end of the
+            first step after which its place is free (see :meth:`set_entry_points`).
 
         Returns
         -------
@@ -266,14 +274,18 @@ class Simulator:
             "safety": _per_agent(given["safety"], n, "safety", strict=False),
             "radius": rad, "max_speed": vmax, "pref_speed": vpref,
         }
-        self._check_placement(pos, rad)
+        due = np.full(n, self.time) if enter_at is None else _per_agent(enter_at, n, "enter_at", strict=False)
+        later = np.full(n, enter_at is not None)  # given times: every one enters through _admit, when free
+        self._check_placement(pos, rad, ~later)
         start = self.n_agents
         ids = np.arange(start, start + n)
         self.positions = np.concatenate([self.positions, pos])
         self.velocities = np.concatenate([self.velocities, np.zeros((n, 2))])
         self.goals = np.concatenate([self.goals, goal])
-        self.active = np.concatenate([self.active, np.ones(n, dtype=bool)])
+        self.active = np.concatenate([self.active, ~later])
         self.arrival_time = np.concatenate([self.arrival_time, np.full(n, np.nan)])
+        self.enter_at = np.concatenate([self.enter_at, due])
+        self.entry_time = np.concatenate([self.entry_time, np.where(later, np.nan, self.time)])
         self.personality = np.concatenate([self.personality, psi])
         for k, v in per.items():
             self.params[k] = np.concatenate([self.params[k], v])
@@ -285,6 +297,7 @@ class Simulator:
         if target is not None:
             self._targets.append((target, ids))
         self._fields_stale = True
+        self._admit()
         return ids
 
     def set_goals(self, agents, goals, goal_region=None) -> None:
@@ -330,10 +343,65 @@ class Simulator:
         """Take agents out of the simulation now (the live API): they stop, nobody avoids
         them any more, and they count as not arrived. Their rows stay in the arrays."""
         ids = self._agent_ids(agents, "remove_agents")
+        self.enter_at[ids[self.waiting[ids]]] = np.inf  # one still waiting never comes in
         self.active[ids] = False
         self.velocities[ids] = 0.0
         self.deadlock.forget(ids)
         self._targets = [(t, held[~np.isin(held, ids)]) for t, held in self._targets]
+
+    @property
+    def waiting(self) -> np.ndarray:
+        """(N,) agents not yet in the scene: not due yet, or due but with no room where
+        they enter."""
+        return np.isnan(self.entry_time) & np.isfinite(self.enter_at)
+
+    def set_entry_points(self, agents, points) -> None:
+        """Where waiting agents will enter (a fresh free spot of an entrance, say): (2,)
+        or one point each, inside the bounds and clear of static obstacles."""
+        raw = np.atleast_1d(np.asarray(agents))
+        if raw.ndim != 1 or (raw.size and not np.issubdtype(raw.dtype, np.integer)):
+            raise ValueError(f"set_entry_points: agents must be a list of agent ids (integers), got {agents!r}")
+        ids = raw.astype(np.int64)
+        bad = ids[(ids < 0) | (ids >= self.n_agents)]
+        if len(bad):
+            raise ValueError(f"set_entry_points: no agent {int(bad[0])} (ids run from 0 to {self.n_agents - 1})")
+        entered = ids[~self.waiting[ids]]
+        if len(entered):
+            raise ValueError(f"set_entry_points: agent {int(entered[0])} has entered already")
+        pts = finite_array(points, "points")
+        pts = np.tile(pts, (len(ids), 1)) if pts.shape == (2,) else pts
+        if pts.shape != (len(ids), 2):
+            raise ValueError(f"points must be (2,) or ({len(ids)}, 2), got shape {pts.shape}")
+        self._check_placement(pts, self.params["radius"][ids], np.zeros(len(ids), dtype=bool))
+        self.positions[ids] = pts
+
+    def _admit(self) -> None:
+        """Let in the waiting agents that are due and whose place is free: nobody (still
+        in, or let in before them this step, earliest due first) within their bodies plus
+        ENTRY_GAP_M, and no obstacle standing there now."""
+        due = np.flatnonzero(self.waiting & (self.enter_at <= self.time + 1e-9))
+        if not len(due):
+            return
+        due = due[np.argsort(self.enter_at[due], kind="stable")]
+        rad = self.params["radius"]
+        pos = self.positions[due]
+        ok = self._now.obstacle_distance(pos, self.time) >= rad[due]
+        live = np.flatnonzero(self.active)
+        if len(live):  # the gap to the ENTRY_NEIGHBOURS nearest bodies still in
+            d, j = cKDTree(self.positions[live]).query(pos, k=min(ENTRY_NEIGHBOURS, len(live)))
+            d, j = d.reshape(len(due), -1), j.reshape(len(due), -1)
+            ok &= (d - rad[live][j] - rad[due][:, None]).min(axis=1) >= ENTRY_GAP_M
+        cand = np.flatnonzero(ok)
+        if len(cand) > 1:  # among themselves: the earlier due goes first
+            pairs = cKDTree(pos[cand]).query_pairs(2 * rad[due].max() + ENTRY_GAP_M, output_type="ndarray")
+            for a, b in pairs[np.argsort(pairs.max(axis=1))]:
+                ia, ib = cand[a], cand[b]
+                if ok[ia] and ok[ib] and np.linalg.norm(pos[a] - pos[b]) < rad[due[a]] + rad[due[b]] + ENTRY_GAP_M:
+                    ok[max(ia, ib)] = False
+        now = due[ok]
+        self.active[now] = True
+        self.velocities[now] = 0.0
+        self.entry_time[now] = self.time
 
     def add_obstacle(self, obstacle: Obstacle) -> int:
         """Put an obstacle into the scene now (the live API: a door that closes, a barrier);
@@ -404,7 +472,7 @@ class Simulator:
         bad = ids[(ids < 0) | (ids >= self.n_agents)]
         if len(bad):
             raise ValueError(f"{what}: no agent {int(bad[0])} (ids run from 0 to {self.n_agents - 1})")
-        gone = ids[~self.active[ids]]
+        gone = ids[~self.active[ids] & ~self.waiting[ids]]
         if len(gone):
             raise ValueError(f"{what}: agent {int(gone[0])} has left the simulation")
         return ids
@@ -426,8 +494,9 @@ class Simulator:
         self._region_keys.append(key)
         return len(self._goal_regions) - 1
 
-    def _check_placement(self, pos: np.ndarray, rad: np.ndarray) -> None:
-        """Refuse agents that start inside an obstacle, outside the bounds or overlapping another."""
+    def _check_placement(self, pos: np.ndarray, rad: np.ndarray, now: np.ndarray | None = None) -> None:
+        """Refuse agents that start inside an obstacle, outside the bounds or (those
+        entering ``now``, default all) overlapping another."""
         inside = np.minimum(pos - self.scene.lower, self.scene.upper - pos).min(axis=1) - rad
         bad = np.flatnonzero(inside < 0)
         if len(bad):
@@ -441,9 +510,12 @@ class Simulator:
             raise ValueError(f"agent {self.n_agents + i} at {pos[i].tolist()} starts inside an obstacle "
                              f"(penetration {-clear[i]:.3f} m)")
         live = np.flatnonzero(self.active)
-        allpos = np.concatenate([self.positions[live], pos])
-        allrad = np.concatenate([self.params["radius"][live], rad])
-        ids = np.concatenate([live, self.n_agents + np.arange(len(pos))])
+        now = np.ones(len(pos), dtype=bool) if now is None else now
+        if not now.any():
+            return
+        allpos = np.concatenate([self.positions[live], pos[now]])
+        allrad = np.concatenate([self.params["radius"][live], rad[now]])
+        ids = np.concatenate([live, self.n_agents + np.flatnonzero(now)])
         pairs = cKDTree(allpos).query_pairs(2 * allrad.max(), output_type="ndarray")
         if len(pairs):
             d = np.linalg.norm(allpos[pairs[:, 0]] - allpos[pairs[:, 1]], axis=1)
@@ -505,6 +577,7 @@ class Simulator:
         if n == 0 or not self.active.any():
             self.time += self.dt
             self.steps += 1
+            self._admit()
             return
         prims = self.obstacles.at(self.time, self.dt)
         wanted, aim = self._guidance(prims)
@@ -548,6 +621,7 @@ class Simulator:
         self.stats["yields"] += dl.update(self.positions, wanted, new, p["pref_speed"], p["radius"],
                                           p["neighbor_dist"], self.active, self.dt, self.goals)
         self._arrivals()
+        self._admit()
 
     def _comfort_reach(self) -> np.ndarray:
         """(N,) the change of velocity (m/s) each agent makes comfortably this step: the
