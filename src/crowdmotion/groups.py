@@ -22,6 +22,10 @@ class Region:
     def contains(self, points) -> np.ndarray:  # pragma: no cover - overridden
         raise NotImplementedError
 
+    def nearest(self, points) -> np.ndarray:  # pragma: no cover - overridden
+        """(N, D) the point of the region nearest each of ``points``."""
+        raise NotImplementedError
+
     def sample(self, count: int, rng: np.random.Generator) -> np.ndarray:  # pragma: no cover
         """``count`` points drawn uniformly inside the region, shape (count, dim)."""
         raise NotImplementedError
@@ -50,6 +54,11 @@ class Points(Region):
             raise ValueError(f"Points holds {len(self.points)} positions but {count} agents need one each")
         return self.points[:count].copy()
 
+    def nearest(self, points):
+        p = np.asarray(points, dtype=float)
+        d = np.linalg.norm(p[:, None, :] - self.points[None], axis=-1)
+        return self.points[np.argmin(d, axis=1)]
+
     def __repr__(self):
         return f"Points({self.points.tolist()})"
 
@@ -76,6 +85,9 @@ class Rect(Region):
 
     def sample(self, count, rng):
         return rng.uniform(self.lower, self.upper, size=(count, self.dim))
+
+    def nearest(self, points):
+        return np.clip(np.asarray(points, dtype=float), self.lower, self.upper)
 
     def __repr__(self):
         return f"Rect({self.lower.tolist()}, {self.upper.tolist()})"
@@ -106,6 +118,11 @@ class Disc(Region):
         d /= np.linalg.norm(d, axis=1, keepdims=True)
         r = self.radius * rng.uniform(size=(count, 1)) ** (1.0 / self.dim)
         return self._center + d * r
+
+    def nearest(self, points):
+        off = np.asarray(points, dtype=float) - self._center
+        d = np.linalg.norm(off, axis=-1, keepdims=True)
+        return self._center + off * np.minimum(1.0, self.radius / np.maximum(d, 1e-300))
 
     def __repr__(self):
         return f"Disc({self._center.tolist()}, {self.radius})"

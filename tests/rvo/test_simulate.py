@@ -150,3 +150,28 @@ def test_a_groups_own_samples_obey_the_rvo_bound_in_the_python_api_too():
     group = cm.Group("g", 4, spawn=cm.Rect([1, 1], [4, 4]), goal=cm.Points([[9, 9]]), attributes={"samples": 1e8})
     with pytest.raises(ValueError, match="group 'g'.*samples must be > 0 whole and at most 10000"):
         rvo.simulate(cm.Scene(bounds=([0, 0], [10, 10])), [group])
+
+
+def _two_exit_hall(assignment: str):
+    """A hall (y 6-20) whose wall at y 5-6 has a 2 m exit at x 4-6 and another at x 34-36;
+    40 people stand near the left exit; the safe area is the strip below the wall."""
+    scene = cm.Scene(bounds=([0, 0], [40, 20]), obstacles=[
+        cm.Box([0, 5], [4, 6]), cm.Box([6, 5], [34, 6]), cm.Box([36, 5], [40, 6])])
+    group = cm.Group("evacuees", 40, cm.Rect([1, 7], [14, 12]), cm.Rect([0.5, 0.5], [39.5, 4.0]), radius=0.25)
+    return rvo.run(scene, [group], rvo.RVOParams(goal_assignment=assignment, max_steps=1200), np.random.default_rng(4))
+
+
+def test_evacuees_that_arrive_anywhere_in_the_safe_area_take_the_nearest_exit_and_are_out_sooner():
+    near, spread = _two_exit_hall("nearest"), _two_exit_hall("sample")
+    for r in (near, spread):
+        assert r.simulator.arrived.all()
+    crossed_right = lambda r: (r.trajectories.positions[..., 0] > 30).any(axis=0)  # noqa: E731
+    assert not crossed_right(near).any(), "nobody walked to the far exit"
+    assert near.simulator.arrival_time.max() < spread.simulator.arrival_time.max()
+    assert (near.simulator.positions[:, 1] <= 4.0 + 0.5 + 1e-9).all(), "each arrived at the edge of the safe area"
+
+
+def test_arrive_anywhere_needs_a_rect_or_disc_goal_region():
+    sim = rvo.Simulator(cm.Scene(bounds=([0, 0], [10, 10])))
+    with pytest.raises(ValueError, match="arrive_anywhere needs a Rect or Disc goal_region"):
+        sim.add_agents([[1, 1]], [5, 5], arrive_anywhere=True)

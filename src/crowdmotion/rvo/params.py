@@ -35,8 +35,11 @@ class RVOParams(BaseModel):
     remove_on_arrival : bool  agents leave once within arrival_radius of their goal
     arrival_radius : float   metres
     goal_assignment : str    how region goals become points: "sample" (uniform in the goal
-                             region) or "shift" (start + goal centre − spawn centre,
-                             clamped into the region: everyone walks straight across)
+                             region), "shift" (start + goal centre − spawn centre,
+                             clamped into the region: everyone walks straight across) or
+                             "nearest" (no point: each agent heads for the region's
+                             nearest point, round walls along the guidance field, and
+                             arrives anywhere in it: evacuees take the nearest exit)
     spawn_gap : float        extra clearance, metres, between agents sampled in a region
     keep_right_deg : float   degrees an agent turns v_pref right for an oncoming agent
                              ahead (0 = off); rvo.deadlock, a documented addition
@@ -71,7 +74,7 @@ class RVOParams(BaseModel):
     field_cell: PosFloat | None = None
     remove_on_arrival: bool = True
     arrival_radius: PosFloat = 0.5
-    goal_assignment: Literal["sample", "shift"] = "sample"
+    goal_assignment: Literal["sample", "shift", "nearest"] = "sample"
     spawn_gap: NonNegative = 0.05
     keep_right_deg: Annotated[float, Field(ge=0, lt=90, allow_inf_nan=False)] = 15.0
     patience: PosFloat = 2.0

@@ -31,6 +31,8 @@ def goal_points(group: Group, starts: np.ndarray, assignment: str, rng: np.rando
             return np.tile(goal.points[0], (group.count, 1))
         raise ValueError(f"group {group.name!r} goal: {len(goal.points)} points for {group.count} agents "
                          "(give one point, or one per agent)")
+    if assignment == "nearest":
+        return goal.nearest(starts)
     if assignment == "shift":
         pts = starts + (goal.center - group.spawn.center)
         if isinstance(goal, Rect):
@@ -83,8 +85,10 @@ def build_simulator(scene: Scene, groups: Sequence[Group], params: RVOParams, rn
                 kw = {key: g.attributes.get(key, getattr(params, key)) for key in PARAM_KEYS}
             else:
                 kw = {"personality": sample_personalities(persona, g.count, rng, f"groups.{k}.personality")}
+            anywhere = params.goal_assignment == "nearest" and isinstance(g.goal, (Rect, Disc))
             sim.add_agents(starts, goals, radius=g.radius, max_speed=g.max_speed,
-                           pref_speed=preferred_speeds(g, rng), goal_region=g.goal, enter_at=due, **kw)
+                           pref_speed=preferred_speeds(g, rng), goal_region=g.goal, enter_at=due,
+                           arrive_anywhere=anywhere, **kw)
         except ValueError as exc:
             raise ValueError(f"{where(k, g)}: {exc}") from None
         if enter is None:

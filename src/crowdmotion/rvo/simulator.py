@@ -7,7 +7,7 @@ from scipy.spatial import cKDTree
 
 from crowdmotion._rng import step_key
 from crowdmotion.geometry import finite_array, require_finite_agents
-from crowdmotion.groups import MovingTarget
+from crowdmotion.groups import Disc, MovingTarget, Rect
 from crowdmotion.rvo import _kernels as K
 from crowdmotion.rvo.congestion import CongestionRouter
 from crowdmotion.rvo.deadlock import KEEP_RIGHT_LOOK_S, Deadlock, contact_arrivals
@@ -167,6 +167,7 @@ class Simulator:
         self.active = np.zeros(0, dtype=bool)
         self.arrival_time = np.zeros(0)
         self.enter_at = np.zeros(0)     # when each agent is due to enter, seconds
+        self.anywhere = np.zeros(0, dtype=bool)  # arrives anywhere in its goal region (its goal: the nearest point)
         self.entry_time = np.zeros(0)   # when it entered (NaN while it waits off-scene)
         self.group = np.zeros(0, dtype=np.int64)     # the add_agents call that added each agent
         self.field_of = np.zeros(0, dtype=np.int64)  # each agent's goal region (its guidance field)
@@ -207,7 +208,7 @@ class Simulator:
 
     def add_agents(self, positions, goals, radius=0.25, max_speed=1.5, pref_speed=1.3,
                    neighbor_dist=None, max_neighbors=None, samples=None, safety=None,
-                   personality=None, goal_region=None, enter_at=None) -> np.ndarray:
+                   personality=None, goal_region=None, enter_at=None, arrive_anywhere=False) -> np.ndarray:
         """Add agents; every parameter is a scalar or one value per agent.
 
         Parameters
@@ -224,6 +225,10 @@ class Simulator:
             must not be given as well).
         goal_region : the group's goal region, used to build the guidance field (default:
             the goal points).
+        arrive_anywhere : head for the nearest point of ``goal_region`` (a Rect or Disc;
+            along the guidance field where walls are in the way) and arrive anywhere in
+            it, instead of at the given goal points (an evacuee reaching safety, a
+            walker entering a square).
         enter_at : when each agent is due to enter, seconds (default: now). Until then,
             and after it while someone stands on its start position, it waits off-scene
             (``waiting``): not drawn, not avoided, not stepped; it enters at the end of the
@@ -248,6 +253,11 @@ class Simulator:
                 goal = np.tile(goal, (n, 1))
             if goal.shape != (n, 2):
                 raise ValueError(f"goals must be (2,) or ({n}, 2), got shape {goal.shape}")
+        anywhere = bool(arrive_anywhere)
+        if anywhere and not isinstance(goal_region, (Rect, Disc)):
+            raise ValueError(f"arrive_anywhere needs a Rect or Disc goal_region, got {goal_region!r}")
+        if anywhere:
+            goal = goal_region.nearest(pos)
         rad = _per_agent(radius, n, "radius")
         vmax = _per_agent(max_speed, n, "max_speed")
         vpref = _per_agent(pref_speed, n, "pref_speed")
@@ -285,6 +295,7 @@ class Simulator:
         self.active = np.concatenate([self.active, ~later])
         self.arrival_time = np.concatenate([self.arrival_time, np.full(n, np.nan)])
         self.enter_at = np.concatenate([self.enter_at, due])
+        self.anywhere = np.concatenate([self.anywhere, np.full(n, anywhere)])
         self.entry_time = np.concatenate([self.entry_time, np.where(later, np.nan, self.time)])
         self.personality = np.concatenate([self.personality, psi])
         for k, v in per.items():
@@ -300,7 +311,7 @@ class Simulator:
         self._admit()
         return ids
 
-    def set_goals(self, agents, goals, goal_region=None) -> None:
+    def set_goals(self, agents, goals, goal_region=None, arrive_anywhere: bool = False) -> None:
         """Send agents to new goals from the next step on (the live API).
 
         Parameters
@@ -310,6 +321,8 @@ class Simulator:
             they all chase.
         goal_region : the region the goals lie in, for the guidance field (default: the
             goal points). A region given before, or the same points, reuses its field.
+        arrive_anywhere : head for the region's nearest point and arrive anywhere in it
+            (see :meth:`add_agents`).
 
         The new goal's guidance field (with field guidance) is solved here, so a goal
         that cannot be used (inside a wall, off the grid) raises ValueError and every
@@ -329,12 +342,15 @@ class Simulator:
             if goal.shape != (len(ids), 2):
                 raise ValueError(f"goals must be (2,) or ({len(ids)}, 2), got shape {goal.shape}")
         self._ensure_fields()
+        if arrive_anywhere and not isinstance(goal_region, (Rect, Disc)):
+            raise ValueError(f"arrive_anywhere needs a Rect or Disc goal_region, got {goal_region!r}")
         field = self._region_index(goal, goal_region)
         self._targets = [(t, held[~np.isin(held, ids)]) for t, held in self._targets]
         self._targets = [(t, held) for t, held in self._targets if len(held)]
         if target is not None:
             self._targets.append((target, ids))
-        self.goals[ids] = goal
+        self.goals[ids] = goal_region.nearest(self.positions[ids]) if arrive_anywhere else goal
+        self.anywhere[ids] = bool(arrive_anywhere)
         self.field_of[ids] = field
         self.arrival_time[ids] = np.nan
         self.deadlock.forget(ids)
@@ -348,6 +364,15 @@ class Simulator:
         self.velocities[ids] = 0.0
         self.deadlock.forget(ids)
         self._targets = [(t, held[~np.isin(held, ids)]) for t, held in self._targets]
+
+    def _nearest_goals(self) -> None:
+        """Agents that arrive anywhere in their goal region head for its nearest point."""
+        walking = self.anywhere & self.active
+        if not walking.any():
+            return
+        for k in np.unique(self.field_of[walking]):
+            ids = np.flatnonzero(walking & (self.field_of == k))
+            self.goals[ids] = self._goal_regions[k].nearest(self.positions[ids])
 
     @property
     def waiting(self) -> np.ndarray:
@@ -558,6 +583,7 @@ class Simulator:
         self._replan()
         for target, ids in self._targets:
             self.goals[ids] = target.at(self.time)
+        self._nearest_goals()
         v, aim = preferred_velocities(self.positions, self.goals, self.params["pref_speed"], self.active, self.dt,
                                       self._fields, self.field_of, prims, self.params["radius"])
         v[~self.active] = 0.0
