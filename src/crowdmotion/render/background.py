@@ -26,12 +26,30 @@ import os
 import signal
 import sys
 import threading
+import time
 import traceback
 from collections.abc import Callable
 from multiprocessing.connection import Connection, Pipe
 from pathlib import Path
 
 from crowdmotion._precompile import can_fork, cores, fork, stop_children
+
+
+GROUP_GONE_S = 2.0  # how long a stopped child's helpers get to be gone after SIGKILL
+
+
+def _end_group(pgid: int) -> None:
+    """SIGKILL what is left of process group ``pgid`` and wait (up to GROUP_GONE_S) until
+    it is gone, so no helper of a stopped picture child writes a file after its parent
+    has removed the run's files."""
+    deadline = time.monotonic() + GROUP_GONE_S
+    try:
+        os.killpg(pgid, signal.SIGKILL)
+        while time.monotonic() < deadline:
+            time.sleep(0.01)
+            os.killpg(pgid, 0)  # ProcessLookupError once the last member is reaped
+    except OSError:
+        pass
 
 
 def _leave(signum, frame) -> None:
@@ -144,6 +162,7 @@ class PictureProcess:
         if pid == 0:  # the child: never returns
             code = 0
             try:
+                os.setpgid(0, 0)  # its own process group, with the helpers it forks: stopped as one
                 ours.close()
                 _serve(theirs)
             except BaseException:  # noqa: BLE001
@@ -201,6 +220,7 @@ class PictureProcess:
         self._conn.close()
         if not self._done:
             stop_children([self.pid], signal.SIGTERM)
+            _end_group(self.pid)  # helpers it had forked, left behind if it was killed
             return
         try:
             os.waitpid(self.pid, 0)
