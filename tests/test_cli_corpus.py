@@ -310,6 +310,8 @@ def test_a_full_disk_while_exporting_names_the_file_not_its_temporary_twin(run_f
     ["export", "RUNDIR", "--to", "usda", "-o", "OUT/t.usda", "--prototype-up", "W"],
     ["export", "RUNDIR", "--to", "usda", "-o", "OUT/t.usda", "--prototype-up", "Y", "--prototype-forward=-Y"],
     ["export", "RUNDIR", "--to", "csv", "-o", "OUT/t.csv", "--prototype-up", "Y"],
+    ["blender-addon", "-o", "OUT/no_such_folder"],
+    ["blender-addon", "-o", "SCENE"],
     ["report", "OUT/nothing"],
     ["view", "SCENE"],
     ["demo", "--only", "no_such_scene"],

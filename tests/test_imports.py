@@ -13,6 +13,8 @@ from pathlib import Path
 import crowdmotion
 
 SRC = Path(crowdmotion.__file__).parent
+# the Blender add-on's sources: shipped inside the package, but they run in Blender (bpy), not here
+ADDON = SRC / "blender" / "crowdmotion_blender"
 # modules the low-level ones (crowdmotion._*, the methods' _kernels) must never import
 ABOVE = ("crowdmotion.cli", "crowdmotion.scenario")
 
@@ -21,6 +23,8 @@ def _modules() -> dict[str, Path]:
     """Every module of the package by dotted name (packages by their own name)."""
     out = {}
     for path in sorted(SRC.rglob("*.py")):
+        if ADDON in path.parents:
+            continue
         parts = path.relative_to(SRC.parent).with_suffix("").parts
         name = ".".join(parts[:-1] if parts[-1] == "__init__" else parts)
         out[name] = path

@@ -510,6 +510,15 @@ def _at_fps(traj, fps: float, interpolation: str = "b-spline"):
                             max_speed=np.zeros(traj.n_agents))  # never faster than its own fastest step
 
 
+def cmd_blender_addon(args) -> int:
+    from crowdmotion.blender import write_addon
+
+    dest = write_addon(Path(args.dest))
+    print(f"wrote {dest}: in Blender (4.2 or later), Edit > Preferences > Add-ons > Install from Disk, pick it, "
+          f"then File > Import > crowdmotion run (.usd)")
+    return 0
+
+
 def cmd_render(args) -> int:
     from crowdmotion.outputs import adding_to_run
     from crowdmotion.render import plot_paths
@@ -800,6 +809,12 @@ def build_parser() -> argparse.ArgumentParser:
                    help="usd: the way your characters face in their own coordinates (default -Y, Blender's; "
                         "Z for Maya, Houdini, Unity); write a negative axis with '=': --prototype-forward=-X")
     p.set_defaults(func=cmd_export)
+
+    p = sub.add_parser("blender-addon", help="write the Blender add-on (crowdmotion_blender.zip) that imports a "
+                                             "run's USD as walking characters")
+    p.add_argument("-o", "--dest", default=".",
+                   help="an existing folder to write crowdmotion_blender.zip into (default: the current folder)")
+    p.set_defaults(func=cmd_blender_addon)
 
     p = sub.add_parser("render", help="animation (MP4/GIF), density map and paths of a run")
     p.add_argument("output", help="a run's output folder (or a trajectories file)")

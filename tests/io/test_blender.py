@@ -71,3 +71,96 @@ def test_a_blender_character_stands_upright_facing_its_way_by_both_routes_and_th
             yaw = np.arctan2(forward[:, 1], forward[:, 0])
             off = np.degrees(np.abs(np.angle(np.exp(1j * (yaw - tr.facing[f])))))
             assert off.max() < 2.0, (route, off)  # facing its way
+
+
+def _contact_spells(contact: np.ndarray):
+    """(agent, first frame, end frame) of each spell a foot is down."""
+    for i in range(contact.shape[1]):
+        edges = np.flatnonzero(np.diff(np.r_[0, contact[:, i].astype(np.int8), 0]))
+        yield from ((i, a, b) for a, b in zip(edges[::2], edges[1::2]))
+
+
+def foot_slide(feet: np.ndarray, loco) -> np.ndarray:
+    """Per contact spell of either foot (crowdmotion's contacts): how far, in metres, the
+    posed ankle moves on the ground from where it was at the spell's first frame."""
+    out = []
+    for side, contact in enumerate((loco.contact_left, loco.contact_right)):
+        for i, a, b in _contact_spells(np.asarray(contact)[: len(feet)]):
+            p = feet[a:b, i, side, :2]
+            out.append(np.linalg.norm(p - p[0], axis=1).max())
+    return np.array(out)
+
+
+@pytest.mark.slow
+def test_the_addon_walks_each_character_at_its_own_pace_where_the_trajectories_say(tmp_path):
+    from crowdmotion.blender import write_addon
+    from crowdmotion.io import read_locomotion
+
+    fps = 30.0  # not Blender's default 24: the add-on sets the scene's rate from the file
+    t = np.arange(0, 301) / fps
+    pos = np.zeros((301, 4, 2))
+    pos[:, 0] = np.stack([1 + 0.8 * t, np.full_like(t, 2.0)], axis=1)  # slow, east
+    pos[:, 1] = np.stack([np.full_like(t, 6.0), 1 + 1.6 * t], axis=1)  # brisk, north
+    pos[:, 2] = [9.0, 4.0]  # stands
+    arc = np.minimum(t, 6.0)  # round a circle, then stops
+    pos[:, 3] = np.stack([4 + 3 * np.cos(arc / 3), 8 + 3 * np.sin(arc / 3)], axis=1)
+    tr = Trajectories(pos, 1 / fps, radius=[0.25] * 4, group=["a", "a", "b", "c"])
+    path = tr.save(tmp_path / "run.usdc")
+    loco = read_locomotion(path)
+    addon = write_addon(tmp_path)
+    (tmp_path / "user").mkdir()
+    times = [0.5, 5.0, 9.5]
+    done = subprocess.run([BLENDER_PYTHON, str(pathlib.Path(__file__).with_name("blender_addon_check.py")),
+                           str(addon), str(path), str(tmp_path), "--times", ",".join(map(str, times)),
+                           "--feet", f"0:{tr.n_frames}", "--render"],
+                          capture_output=True, text=True, timeout=600,
+                          env={**os.environ, "BLENDER_USER_RESOURCES": str(tmp_path / "user")})
+    line = next((x for x in done.stdout.splitlines() if x.startswith("CROWDMOTION_JSON ")), None)
+    assert line, done.stderr[-3000:]
+    got = json.loads(line.split(" ", 1)[1])
+    assert got["result"] == ["FINISHED"] and got["agents"] == 4
+    assert got["fps"] == fps and got["frame_start"] == 0 and got["frame_end"] == tr.n_frames - 1
+    for frame in got["frames"]:
+        f = int(round(frame["t"] * fps))
+        rigs = frame["rigs"]
+        roots = np.array([r["root"] for r in rigs])
+        np.testing.assert_allclose(roots[:, :2], tr.positions[f], atol=0.01)  # where the trajectories say
+        np.testing.assert_allclose(roots[:, 2], 0.0, atol=0.01)  # on the ground
+        up = np.array([r["up"] for r in rigs])
+        assert np.degrees(np.arccos(np.clip(up[:, 2], -1, 1))).max() < 1.0  # upright
+        fwd = np.array([r["forward"] for r in rigs])
+        off = np.degrees(np.abs(np.angle(np.exp(1j * (np.arctan2(fwd[:, 1], fwd[:, 0]) - tr.facing[f])))))
+        assert off.max() < 2.0, off  # facing its way
+        assert rigs[2]["idle"] and not rigs[0]["idle"] and not rigs[1]["idle"]  # the standing one stands
+    assert got["frames"][-1]["rigs"][3]["idle"]  # the one that stopped stands too
+
+    feet = np.load(tmp_path / "feet.npy").astype(float)
+    # cycles played: left heel strikes (the ankle coming down to the ground) per second
+    low = feet[:, :, 0, 2] < 0.095
+    strikes = (low[1:] & ~low[:-1]).sum(axis=0) / (tr.n_frames / fps)
+    wraps = (np.diff(loco.gait_phase, axis=0) < -0.5).sum(axis=0) / (tr.n_frames / fps)  # the phase's own rate
+    assert strikes[1] > 1.25 * strikes[0] > 0, strikes  # the brisk one steps faster
+    np.testing.assert_allclose(strikes[:2], wraps[:2], atol=0.15)
+    assert np.ptp(feet[:, 2, :, :2], axis=0).max() < 1e-4  # the standing one does not shuffle
+
+    slide = foot_slide(feet, loco) * 100
+    straight = foot_slide(feet[:, :2], type(loco)(**{k: (getattr(loco, k)[:, :2] if k.startswith("contact") else
+                                                         getattr(loco, k)) for k in ("distance", "gait_phase",
+                                                         "gait_state", "turn_rate", "contact_left", "contact_right",
+                                                         "kind", "params")})) * 100
+    print(f"foot slide per contact (cm), all four: median {np.median(slide):.2f}, p95 {np.percentile(slide, 95):.2f}, "
+          f"max {slide.max():.2f} over {slide.size} contacts; the two straight walkers: median "
+          f"{np.median(straight):.2f}, p95 {np.percentile(straight, 95):.2f}; stage times (s): {got['times']}")
+    assert np.percentile(straight, 95) <= 1.0  # a planted foot stays put on a straight path
+    # on the circle the body turns over a planted foot a hip's width (0.1 m) to the side: 0.1 m x the
+    # turn of a stance (1/3 rad/s x 0.7 s) is the most it may slide, plus that 1 cm
+    assert np.percentile(slide, 95) <= 0.1 * (1 / 3) * 0.75 * 100 + 1.0
+
+    import imageio.v3 as iio
+
+    crowd, empty = (iio.imread(tmp_path / f"{n}.png").astype(float)[..., :3] for n in ("crowd", "empty"))
+    h, w = crowd.shape[:2]
+    for x0, y0, x1, y1 in got["render"]["boxes"]:  # camera-view boxes, y up from the bottom
+        box = (slice(int((1 - y1) * h), int(np.ceil((1 - y0) * h))), slice(int(x0 * w), int(np.ceil(x1 * w))))
+        assert np.abs(crowd[box] - empty[box]).max() > 30, (x0, y0)  # each character is drawn
+    assert got["render"]["pointclouds"] == []  # no guide spheres

@@ -30,6 +30,9 @@ faces the agent's facing. The stage stays Y-up; only the prototypes' frame is ch
   axis and, in 3D, raised by its ``facing_pitch``; its up axis to the stage's up) and
   ``invisibleIds`` for inactive agents, and the same ``speed`` and locomotion primvars
   per instance;
+- ``userProperties:crowdmotion:fps``, ``:prototype_up``, ``:prototype_forward`` on
+  ``/World`` itself: the stage's rate and prototype axes again, where Blender's importer
+  reads them (as custom properties of the World object; the add-on uses them);
 - ``Obstacles`` — cylinders, spheres, cubes and flat polygon meshes for the scene's static
   obstacles (moving ones at their start place, with their path as ``translate`` samples
   at t × rate; a box's translate comes before its scale in ``xformOpOrder``).
@@ -335,6 +338,12 @@ def write(traj: Trajectories, path: Path, locomotion: LocomotionParams | None = 
                                     f"agent's way"})
             world = UsdGeom.Xform.Define(stage, "/World")
             stage.SetDefaultPrim(world.GetPrim())
+            # the same facts as user properties: Blender's importer makes them custom properties
+            # of the World object, where the add-on (with no USD library of its own) reads them
+            for key, value, kind in (("fps", float(rate), "Double"), ("prototype_up", up, "String"),
+                                     ("prototype_forward", forward, "String")):
+                world.GetPrim().CreateAttribute(f"userProperties:crowdmotion:{key}", getattr(Sdf.ValueTypeNames, kind),
+                                                custom=True).Set(value)
             points = UsdGeom.Points.Define(stage, "/World/Agents")
             points.CreatePurposeAttr(UsdGeom.Tokens.guide)  # a guide to instance on, not rendered
             points.CreateIdsAttr(Vt.Int64Array.FromNumpy(ids))
