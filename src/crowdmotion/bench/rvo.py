@@ -356,8 +356,9 @@ def _step_times(make, steps: int, threads: int) -> np.ndarray:
 
 def threads_table(steps: int, stand_steps: int) -> list[str]:
     """The 1000-agent open circle and the first ``stand_steps`` steps of the stand
-    evacuation on one thread and on all of numba's, with nothing else running and with
-    one core kept busy by another process (a Python busy loop), interleaved."""
+    evacuation on one thread and on all of numba's, alone and beside a process keeping
+    one core busy (a Python busy loop). Other processes on the machine count as well:
+    the table gives the free cores measured before each run (``_threads.FreeCores``)."""
     cap = numba.get_num_threads()
     p, g = lattice(1000, np.random.default_rng(1), "circle")
 
@@ -371,9 +372,10 @@ def threads_table(steps: int, stand_steps: int) -> list[str]:
     def stand():
         return stand_simulator(2000)[0]
 
-    rows = ["| scene | other load | threads | median step | p99 step | p99 / median | longest step | wall |",
-            "|---|---|---|---|---|---|---|---|"]
-    for load in ("none", "one core busy"):
+    rows = ["| scene | our busy loop beside | cores free of others' work before | threads | median step | p99 step "
+            "| p99 / median | longest step | wall |",
+            "|---|---|---|---|---|---|---|---|---|"]
+    for load in ("none", "one core"):
         busy = None
         if load != "none":
             busy = multiprocessing.get_context("spawn").Process(target=_busy_loop, daemon=True)
@@ -383,10 +385,11 @@ def threads_table(steps: int, stand_steps: int) -> list[str]:
             for name, make, n in (("circle, 1,000 agents", circle, steps), ("stand evacuation, 2,000", stand,
                                                                             stand_steps)):
                 for threads in sorted({1, cap}):
+                    free = _threads._free_cores.cores() if _threads._free_cores else float("nan")
                     t = _step_times(make, n, threads) * 1e3
                     med, p99 = np.median(t), np.percentile(t, 99)
-                    rows.append(f"| {name} ({n} steps) | {load} | {threads} | {med:.2f} ms | {p99:.2f} ms "
-                                f"| {p99 / med:.1f}x | {t.max():.1f} ms | {t.sum() / 1e3:.2f} s |")
+                    rows.append(f"| {name} ({n} steps) | {load} | {free:.1f} | {threads} | {med:.2f} ms "
+                                f"| {p99:.2f} ms | {p99 / med:.1f}x | {t.max():.1f} ms | {t.sum() / 1e3:.2f} s |")
                     print(rows[-1], flush=True)
         finally:
             if busy is not None:
