@@ -327,7 +327,7 @@ def stand_table(counts, jupedsim_max: int) -> list[str]:
             print(rows[-1], flush=True)
         if count > jupedsim_max:
             rows.append(f"| {count:,} | JuPedSim (CSM) | {JUPEDSIM_DT} s | not run (--jupedsim-max {jupedsim_max}: "
-                        "at 2,000 people it takes about 7 minutes) | | | | | | |")
+                        "at 2,000 people it takes many minutes) | | | | | | |")
     return rows
 
 
@@ -406,7 +406,7 @@ def main(argv=None) -> None:
     ap.add_argument("--stand", type=int, nargs="*", default=[2000, 500],
                     help="people in the stand evacuation, whole runs (none: skip it)")
     ap.add_argument("--jupedsim-max", type=int, default=500,
-                    help="JuPedSim runs the stand evacuation up to this many people (2,000 take it ~7 minutes)")
+                    help="JuPedSim runs the stand evacuation up to this many people (2,000 take it over 10 minutes)")
     ap.add_argument("--threads-check", action="store_true",
                     help="also step on 1 thread and on all, idle and with one core kept busy")
     ap.add_argument("--threads-steps", type=int, nargs=2, default=[300, 300], metavar=("CIRCLE", "STAND"),
