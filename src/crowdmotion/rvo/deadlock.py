@@ -42,6 +42,7 @@ And for goals shared by a crowd when arrivals stay (``remove_on_arrival = False`
 from __future__ import annotations
 
 import numpy as np
+from numba import njit
 from scipy.spatial import cKDTree
 
 from crowdmotion.rvo._kernels import held_up_time
@@ -106,18 +107,10 @@ class Deadlock:
     def yielding_velocities(self, pos, wanted, pref_speed, radius, active) -> np.ndarray:
         """v_pref with yielding agents' replaced by a step back and to the right of the one
         they yield to, and gridlocked agents' turned right by ``DETOUR_TURN``."""
-        d = np.flatnonzero(self.detour & (self.yield_to < 0) & active)
-        y = np.flatnonzero((self.yield_to >= 0) & active)
-        if len(d) == 0 and len(y) == 0:
+        out = np.empty_like(wanted)
+        if not _yielding_velocities(pos, wanted, pref_speed, radius, active, self.yield_to, self.detour,
+                                    _DETOUR_CS[0], _DETOUR_CS[1], _YIELD_CS[0], _YIELD_CS[1], out):
             return wanted
-        out = wanted.copy()
-        out[d] = _turn_right(wanted[d], DETOUR_TURN)
-        if len(y) == 0:
-            return out
-        j = self.yield_to[y]
-        away = _turn_right(_unit(pos[y] - pos[j]), YIELD_TURN)
-        in_way = _blocks(pos, wanted, radius, j, y)  # still on the other's line: back off, else wait
-        out[y] = np.where(in_way[:, None], away * pref_speed[y, None], 0.0)
         return out
 
     def breaking(self) -> np.ndarray:
@@ -132,6 +125,24 @@ class Deadlock:
         ``sight`` is each agent's neighbour distance D: how far ahead a blocker counts;
         ``goals`` (N, 2) where each agent is going (detours need them).
         """
+        cand = np.empty(len(pos), dtype=np.int64)
+        n_cand = _settle(wanted, chosen, pos, pref_speed, active, dt, self.patience, self.stuck, self.yield_to,
+                         self.yield_left, self.still, self.detour, cand)
+        if n_cand == 0:
+            return 0
+        cand = cand[:n_cand]
+        live = np.flatnonzero(active)
+        # the blocker is among an agent's nearest neighbours within its D
+        d, k = cKDTree(pos[live]).query(pos[cand], k=min(BLOCKER_CANDIDATES + 1, len(live)),
+                                        distance_upper_bound=float(sight.max()))
+        d, k = np.atleast_2d(d).reshape(len(cand), -1), np.atleast_2d(k).reshape(len(cand), -1)
+        return _new_yields(cand, d, np.ascontiguousarray(k, dtype=np.int64), live, pos, wanted, radius, sight,
+                           goals if goals is not None else pos, goals is not None, self.patience, self.stuck,
+                           self.yield_to, self.yield_left, self.still, self.detour)
+
+    def update_numpy(self, pos, wanted, chosen, pref_speed, radius, sight, active, dt, goals=None) -> int:
+        """:meth:`update` as numpy array operations: the rules as written, the reference
+        the compiled :meth:`update` is tested against."""
         held_up_time(wanted, chosen, pref_speed, active, self.yield_to, SLOW, dt, self.stuck)
         # yields end once the other has walked past, is gone, or after YIELD_MAX_S
         y = np.flatnonzero(self.yield_to >= 0)
@@ -210,3 +221,153 @@ def contact_arrivals(pos, goals, dist, radius, waiting, arrived) -> np.ndarray:
     same = np.all(goals[j] == goals[i], axis=1)
     out[i[touching & same & (dist[j] < dist[i])]] = True
     return out
+
+
+# ---- the rules compiled: one pass over the agents instead of dozens of array operations -------------
+_DETOUR_CS = (float(np.cos(DETOUR_TURN)), float(np.sin(DETOUR_TURN)))
+_YIELD_CS = (float(np.cos(YIELD_TURN)), float(np.sin(YIELD_TURN)))
+_HASH = 2654435761  # Deadlock.priority's multiplier
+
+
+@njit(inline="always")
+def _unit2(x, y):
+    """(x, y) / its length, or (0, 0): ``_unit`` for one vector."""
+    n = np.sqrt(x * x + y * y)
+    if n > 0.0:
+        return x / n, y / n
+    return 0.0, 0.0
+
+
+@njit(inline="always")
+def _blocks2(pos, wanted, radius, i, j, within):
+    """``_blocks`` for one pair: j in i's way."""
+    dx, dy = pos[j, 0] - pos[i, 0], pos[j, 1] - pos[i, 1]
+    ux, uy = _unit2(wanted[i, 0], wanted[i, 1])
+    ahead = dx * ux + dy * uy
+    lateral = abs(ux * dy - uy * dx)
+    reach = radius[i] + radius[j]
+    return ahead > 0.0 and ahead < reach + within and lateral < reach + 0.1
+
+
+@njit(inline="always")
+def _priority(i):
+    return (np.uint64(i) * np.uint64(_HASH)) & np.uint64(0xFFFFFFFF)
+
+
+@njit(cache=True)
+def _yielding_velocities(pos, wanted, pref_speed, radius, active, yield_to, detour, dc, ds, yc, ys, out):
+    """:meth:`Deadlock.yielding_velocities` into ``out``; False (``out`` untouched) if
+    nobody yields or detours."""
+    n = pos.shape[0]
+    anyone = False
+    for i in range(n):
+        if active[i] and (yield_to[i] >= 0 or detour[i]):
+            anyone = True
+            break
+    if not anyone:
+        return False
+    for i in range(n):
+        wx, wy = wanted[i, 0], wanted[i, 1]
+        out[i, 0], out[i, 1] = wx, wy
+        if not active[i]:
+            continue
+        j = yield_to[i]
+        if j < 0:
+            if detour[i]:
+                out[i, 0], out[i, 1] = wx * dc + wy * ds, -wx * ds + wy * dc
+            continue
+        ax, ay = _unit2(pos[i, 0] - pos[j, 0], pos[i, 1] - pos[j, 1])
+        if _blocks2(pos, wanted, radius, j, i, np.inf):  # still on the other's line: back off, else wait
+            out[i, 0] = (ax * yc + ay * ys) * pref_speed[i]
+            out[i, 1] = (-ax * ys + ay * yc) * pref_speed[i]
+        else:
+            out[i, 0], out[i, 1] = 0.0, 0.0
+    return True
+
+
+@njit(cache=True)
+def _settle(wanted, chosen, pos, pref_speed, active, dt, patience, stuck, yield_to, yield_left, still, detour,
+            cand):
+    """The first part of :meth:`Deadlock.update`, in place: held-up time, ends of yields,
+    standing time and ends of detours; writes the agents held up for the patience (the
+    candidates to yield) into ``cand`` and returns how many."""
+    held_up_time(wanted, chosen, pref_speed, active, yield_to, SLOW, dt, stuck)
+    n = pos.shape[0]
+    for i in range(n):  # yields end once the other has walked past, is gone, or after YIELD_MAX_S
+        j = yield_to[i]
+        if j < 0:
+            continue
+        yield_left[i] -= dt
+        ux, uy = _unit2(wanted[j, 0], wanted[j, 1])
+        past = (pos[i, 0] - pos[j, 0]) * ux + (pos[i, 1] - pos[j, 1]) * uy <= 0.0
+        if past or not active[j] or not active[i] or yield_left[i] <= 0.0:
+            yield_to[i] = -1
+    half = patience / 2
+    n_cand = 0
+    for i in range(n):
+        cx, cy = chosen[i, 0], chosen[i, 1]
+        if active[i] and np.sqrt(cx * cx + cy * cy) < STILL * pref_speed[i]:
+            still[i] = still[i] + dt
+        else:
+            still[i] = 0.0
+        if detour[i] and not stuck[i] >= half:  # walking again: back on its way
+            detour[i] = False
+        if stuck[i] >= patience:
+            cand[n_cand] = i
+            n_cand += 1
+    return n_cand
+
+
+@njit(cache=True)
+def _new_yields(cand, d, k, live, pos, wanted, radius, sight, goals, use_goals, patience, stuck, yield_to,
+                yield_left, still, detour):
+    """The second part of :meth:`Deadlock.update`: of the candidates' nearest neighbours
+    (``d``, ``k`` as cKDTree's query gives them, rows of ``live``), detours round gridlocks
+    and new yields, each yielder to its nearest blocker. All decisions read the state from
+    before any of them; returns how many yields began."""
+    half = patience / 2
+    n_c, m = k.shape
+    pick = np.empty(n_c, dtype=np.int64)
+    for r in range(n_c):
+        i = cand[r]
+        pick[r] = -1
+        best_gap = np.inf
+        fx, fy = _unit2(wanted[i, 0], wanted[i, 1])
+        gix, giy = _unit2(goals[i, 0] - pos[i, 0], goals[i, 1] - pos[i, 1])
+        for c in range(m):
+            if not np.isfinite(d[r, c]):
+                continue
+            j = live[k[r, c]]
+            if i == j:
+                continue
+            if not ((stuck[j] >= half) or (yield_to[j] >= 0)):
+                continue
+            if not _blocks2(pos, wanted, radius, i, j, sight[i]):
+                continue
+            ox, oy = _unit2(wanted[j, 0], wanted[j, 1])
+            facing = fx * ox + fy * oy
+            if use_goals:
+                # rule 3, a gridlock: both standing (not creeping, as a queue does) for
+                # DETOUR_STILL_S, the blocker crossing our way from the side and bound
+                # elsewhere (not one converging on the same door): walk round to the right
+                gjx, gjy = _unit2(goals[j, 0] - pos[j, 0], goals[j, 1] - pos[j, 1])
+                bound = gix * gjx + giy * gjy
+                if (still[i] >= DETOUR_STILL_S and still[j] >= DETOUR_STILL_S and abs(facing) < 0.5
+                        and bound < 0.5):
+                    detour[i] = True
+            if not (facing < -0.5 and _blocks2(pos, wanted, radius, j, i, sight[j]) and _priority(j) > _priority(i)):
+                continue
+            dx, dy = pos[j, 0] - pos[i, 0], pos[j, 1] - pos[i, 1]
+            gap = np.sqrt(dx * dx + dy * dy) - radius[i] - radius[j]
+            if gap < best_gap:  # each yielder steps aside from its nearest blocker (the first of equals)
+                best_gap = gap
+                pick[r] = j
+    count = 0
+    for r in range(n_c):
+        if pick[r] >= 0:
+            i = cand[r]
+            yield_to[i] = pick[r]
+            yield_left[i] = YIELD_MAX_S
+            stuck[i] = 0.0
+            count += 1
+    return count
