@@ -42,7 +42,16 @@ def resample_checked(traj: Trajectories, fps: float, kind: str, scene: Scene | N
                               f"times; a rate that is a whole multiple of {1 / traj.dt:.4g} fps keeps every step",
                               stacklevel=2)
         return linear
-    smooth = resample(traj, fps, kind)
+    return keep_clean(resample(traj, fps, kind), linear, traj, scene, max_speed, kind)
+
+
+def keep_clean(smooth: Trajectories, linear: Trajectories, traj: Trajectories, scene: Scene | None,
+               max_speed: np.ndarray | None, kind: str, warn: bool = True) -> Trajectories:
+    """``smooth`` (any smoothing of ``traj`` at ``linear``'s frame rate, ``linear`` its
+    straight moves), with every step of an agent's path where ``smooth`` brings bodies
+    together or outruns ``max_speed`` falling back to the straight move, eased in and out
+    (see :func:`resample_checked`, which calls this). ``kind`` names the smoothing in the
+    metadata and the warning (``warn``) that says how many steps fell back."""
     seg = np.minimum(np.floor(smooth.times / traj.dt + 1e-9).astype(int), traj.n_frames - 2)  # segment of a frame
     straight = np.zeros((traj.n_frames - 1, traj.n_agents), dtype=bool)
     if max_speed is not None:  # intervals that outrun the agent: both ends' segments
@@ -79,8 +88,8 @@ def resample_checked(traj: Trajectories, fps: float, kind: str, scene: Scene | N
         straight[:] = True
         out = mixed()
     n = int(straight.sum())
-    if n:
+    if n and warn:
         warnings.warn(f"{kind} smoothing would have brought bodies together or past their max speed on "
                       f"{n} of {straight.size} path segments: those keep straight moves", stacklevel=2)
-    out.metadata["resampled"] = {**out.metadata["resampled"], "straight_segments": n, "segments": straight.size}
+    out.metadata["resampled"] = {**out.metadata.get("resampled", {}), "kind": kind, "straight_segments": n, "segments": straight.size}
     return out

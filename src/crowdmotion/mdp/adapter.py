@@ -52,10 +52,10 @@ def expected_steps(groups, params: MDPParams) -> int:
 
 
 def step_seconds(groups, params: MDPParams) -> float:
-    """Simulated seconds per step: a cell at the slowest group's preferred speed."""
-    from crowdmotion.mdp.simulation import cell_size_for
+    """Simulated seconds per step (``simulation.step_time``)."""
+    from crowdmotion.mdp.simulation import cell_size_for, step_time
 
-    return cell_size_for(groups, params) / min(g.pref_speed for g in groups)
+    return step_time(groups, params, cell_size_for(groups, params), groups[0].dim)
 
 
 def expected_frames(groups, params: MDPParams) -> int:

@@ -15,8 +15,9 @@ from crowdmotion.mdp.grid import GridMap, mark_obstacle, max_radius, min_cell_si
 from crowdmotion.mdp.solvers import solve, value_iteration
 from crowdmotion.mdp.trajectory import Walker
 from crowdmotion.scene import Scene
-from crowdmotion.smoothing import resample_checked
-from crowdmotion.trajectories import Trajectories
+from crowdmotion.path_relaxation import relax
+from crowdmotion.smoothing import keep_clean, resample_checked
+from crowdmotion.trajectories import Trajectories, resample
 
 
 @dataclass
@@ -42,6 +43,17 @@ def cell_size_for(groups: Sequence[Group], params: MDPParams) -> float:
             f"needs cell > sqrt(2) x diameter = {need:.4f} m"
         )
     return float(params.cell_size)
+
+
+def step_time(groups: Sequence[Group], params: MDPParams, cell: float, dim: int) -> float:
+    """Seconds per step of Algorithm 3: a cell at the slowest group's preferred speed (the
+    paper's time base, one cell per step), and with ``speed_limited_steps`` at least long
+    enough that the longest move, √dim cells (a diagonal: eq. (1)'s reward −√2, −√3), stays
+    within every group's max_speed. All agents step together, so one time serves all."""
+    dt = cell / min(g.pref_speed for g in groups)
+    if params.speed_limited_steps:
+        dt = max(dt, cell * np.sqrt(dim) / min(g.max_speed for g in groups))
+    return float(dt)
 
 
 def region_cells(grid: GridMap, region, what: str) -> np.ndarray:
@@ -146,8 +158,7 @@ def run(scene: Scene, groups: Sequence[Group], params: MDPParams, rng: np.random
         m = np.zeros(grid.shape, dtype=bool)
         m[tuple(gc.T)] = True
         masks.append(m)
-    speed = min(g.pref_speed for g in groups)
-    dt = cell / speed
+    dt = step_time(groups, params, cell, grid.dim)
     r_cells = max(g.radius for g in groups) / cell
     walker = Walker(grid.occupancy, starts, masks, field_of, params.corner_cutting, min(r_cells, max_radius(1.0)))
     moving = scene.moving_obstacles
@@ -212,10 +223,26 @@ def run(scene: Scene, groups: Sequence[Group], params: MDPParams, rng: np.random
                   "steps": int(len(cells) - 1), "unreachable_agents": unreachable.tolist(), "partial": partial,
                   "scene": scene.to_dict()},
     )
-    if params.smoothing is not None:
-        traj = resample_checked(traj, params.fps, params.smoothing, scene,
-                                np.concatenate([np.full(g.count, g.max_speed) for g in groups]))
+    max_speed = np.concatenate([np.full(g.count, g.max_speed) for g in groups])
+    if params.smoothing == "relaxed":
+        traj = relaxed(traj, params, scene, max_speed)
+    elif params.smoothing is not None:
+        traj = resample_checked(traj, params.fps, params.smoothing, scene, max_speed)
     return MDPRun(traj, grid, values, goal_cells, unreachable, field_of)
+
+
+def relaxed(traj: Trajectories, params: MDPParams, scene: Scene, max_speed: np.ndarray) -> Trajectories:
+    """The run's paths at ``params.fps``, relaxed (``crowdmotion.path_relaxation``: smoothed
+    over ``smoothing_window`` seconds, bodies kept apart and out of the obstacles), then
+    audited in continuous time: a step where they still touch, or outrun ``max_speed``,
+    keeps the plan's straight move (``crowdmotion.smoothing.keep_clean``)."""
+    linear = resample(traj, params.fps, "linear")
+    if traj.n_frames < 2:
+        return linear
+    pos = relax(linear.positions, linear.active_mask, traj.radius, linear.dt, scene, params.smoothing_window)
+    smooth = Trajectories(pos, linear.dt, ids=linear.ids, group=linear.group, radius=linear.radius,
+                          active=linear.active, metadata={**linear.metadata})
+    return keep_clean(smooth, linear, traj, scene, max_speed, "relaxed", warn=False)
 
 
 def free_goal_values(occupancy: np.ndarray, goal_cells: list[np.ndarray], taken: np.ndarray, values: np.ndarray,
