@@ -12,6 +12,7 @@ from crowdmotion.scene import Scene
 from crowdmotion.trajectories import Trajectories, resample
 
 MAX_ROUNDS = 50
+FIXED_PER_ROUND = 100_000  # overlaps listed (and their steps made straight) per audit round
 
 
 def resample_checked(traj: Trajectories, fps: float, kind: str, scene: Scene | None,
@@ -54,11 +55,20 @@ def keep_clean(smooth: Trajectories, linear: Trajectories, traj: Trajectories, s
     metadata and the warning (``warn``) that says how many steps fell back."""
     seg = np.minimum(np.floor(smooth.times / traj.dt + 1e-9).astype(int), traj.n_frames - 2)  # segment of a frame
     straight = np.zeros((traj.n_frames - 1, traj.n_agents), dtype=bool)
-    if max_speed is not None:  # intervals that outrun the agent: both ends' segments
-        step = np.linalg.norm(np.diff(smooth.positions, axis=0), axis=-1) / smooth.dt
-        raw = np.linalg.norm(np.diff(traj.positions, axis=0), axis=-1).max(axis=0) / traj.dt
-        f, i = np.nonzero(step > np.maximum(max_speed, raw)[None, :] + 1e-9)
+    limit = None
+    if max_speed is not None:  # never faster than the agent's max_speed, or its own fastest step
+        limit = np.maximum(max_speed, np.linalg.norm(np.diff(traj.positions, axis=0), axis=-1).max(axis=0) / traj.dt)
+
+    def outrun(tr: Trajectories) -> bool:
+        """Flag both ends' segments of every interval that outruns the agent's limit."""
+        if limit is None:
+            return False
+        step = np.linalg.norm(np.diff(tr.positions, axis=0), axis=-1) / tr.dt
+        f, i = np.nonzero(step > limit[None, :] + 1e-9)
         straight[seg[f], i] = straight[seg[f + 1], i] = True
+        return len(f) > 0
+
+    outrun(smooth)
     base = collision_audit(linear, scene)
 
     u = np.clip(smooth.times / traj.dt - seg, 0.0, 1.0)[:, None]
@@ -77,8 +87,9 @@ def keep_clean(smooth: Trajectories, linear: Trajectories, traj: Trajectories, s
 
     for _ in range(MAX_ROUNDS):
         out = mixed()
-        rep = collision_audit(out, scene)
-        if rep.agent_agent <= base.agent_agent and rep.agent_obstacle <= base.agent_obstacle:
+        rep = collision_audit(out, scene, max_events=FIXED_PER_ROUND)
+        fast = outrun(out)  # easing between two paths adds their gap's change to the speed
+        if rep.agent_agent <= base.agent_agent and rep.agent_obstacle <= base.agent_obstacle and not fast:
             break
         for e in rep.events:  # the interval frame -> frame + 1 of each overlap, both agents
             who = (e.a, e.b) if e.kind == "agent-agent" else (e.a,)
