@@ -52,10 +52,10 @@ def expected_steps(groups, params: MDPParams) -> int:
 
 
 def step_seconds(groups, params: MDPParams) -> float:
-    """Simulated seconds per step (``simulation.step_time``)."""
+    """Simulated seconds per step at most (``simulation.step_time`` with diagonal moves)."""
     from crowdmotion.mdp.simulation import cell_size_for, step_time
 
-    return step_time(groups, params, cell_size_for(groups, params), groups[0].dim)
+    return step_time(groups, params, cell_size_for(groups, params), float(np.sqrt(groups[0].dim)))
 
 
 def expected_frames(groups, params: MDPParams) -> int:

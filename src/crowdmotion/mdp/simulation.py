@@ -45,14 +45,15 @@ def cell_size_for(groups: Sequence[Group], params: MDPParams) -> float:
     return float(params.cell_size)
 
 
-def step_time(groups: Sequence[Group], params: MDPParams, cell: float, dim: int) -> float:
+def step_time(groups: Sequence[Group], params: MDPParams, cell: float, longest: float) -> float:
     """Seconds per step of Algorithm 3: a cell at the slowest group's preferred speed (the
     paper's time base, one cell per step), and with ``speed_limited_steps`` at least long
-    enough that the longest move, √dim cells (a diagonal: eq. (1)'s reward −√2, −√3), stays
-    within every group's max_speed. All agents step together, so one time serves all."""
+    enough that the longest move, ``longest`` cells (a diagonal, √2 or √3: the length in
+    the paper's reward −1, −√2, −√3), stays within every group's max_speed. All agents
+    step together, so one time serves all."""
     dt = cell / min(g.pref_speed for g in groups)
     if params.speed_limited_steps:
-        dt = max(dt, cell * np.sqrt(dim) / min(g.max_speed for g in groups))
+        dt = max(dt, cell * longest / min(g.max_speed for g in groups))
     return float(dt)
 
 
@@ -158,7 +159,7 @@ def run(scene: Scene, groups: Sequence[Group], params: MDPParams, rng: np.random
         m = np.zeros(grid.shape, dtype=bool)
         m[tuple(gc.T)] = True
         masks.append(m)
-    dt = step_time(groups, params, cell, grid.dim)
+    dt = step_time(groups, params, cell, np.sqrt(grid.dim))  # moving obstacles are placed at step * dt
     r_cells = max(g.radius for g in groups) / cell
     walker = Walker(grid.occupancy, starts, masks, field_of, params.corner_cutting, min(r_cells, max_radius(1.0)))
     moving = scene.moving_obstacles
@@ -213,6 +214,12 @@ def run(scene: Scene, groups: Sequence[Group], params: MDPParams, rng: np.random
     cells = np.concatenate(cells_out)
     active = np.concatenate(active_out)
     positions = grid.centers(cells)
+    stretch = not moving and params.smoothing == "relaxed" and params.speed_limited_steps
+    if stretch:  # the relaxed paths' own top speed sets the time base (relaxed, below)
+        dt = step_time(groups, params, cell, 1.0)
+    elif not moving and len(cells) > 1:  # the longest move actually made sets the step time
+        made = np.abs(np.diff(cells, axis=0)).sum(axis=-1)[active[1:] & active[:-1]]
+        dt = step_time(groups, params, cell, float(np.sqrt(made.max())) if made.size else 1.0)
     start_values = values[(field_of, *starts.T)] if values is not None else np.zeros(len(starts))
     unreachable = np.flatnonzero(~np.isfinite(start_values))
     radius = np.concatenate([np.full(g.count, g.radius) for g in groups])
@@ -225,24 +232,54 @@ def run(scene: Scene, groups: Sequence[Group], params: MDPParams, rng: np.random
     )
     max_speed = np.concatenate([np.full(g.count, g.max_speed) for g in groups])
     if params.smoothing == "relaxed":
-        traj = relaxed(traj, params, scene, max_speed)
+        traj = relaxed(traj, params, scene, max_speed, stretch)
     elif params.smoothing is not None:
         traj = resample_checked(traj, params.fps, params.smoothing, scene, max_speed)
     return MDPRun(traj, grid, values, goal_cells, unreachable, field_of)
 
 
-def relaxed(traj: Trajectories, params: MDPParams, scene: Scene, max_speed: np.ndarray) -> Trajectories:
+def relaxed(traj: Trajectories, params: MDPParams, scene: Scene, max_speed: np.ndarray,
+            stretch: bool = False) -> Trajectories:
     """The run's paths at ``params.fps``, relaxed (``crowdmotion.path_relaxation``: smoothed
     over ``smoothing_window`` seconds, bodies kept apart and out of the obstacles), then
     audited in continuous time: a step where they still touch, or outrun ``max_speed``,
-    keeps the plan's straight move (``crowdmotion.smoothing.keep_clean``)."""
+    keeps the plan's straight move (``crowdmotion.smoothing.keep_clean``).
+
+    ``stretch`` (static scenes with ``speed_limited_steps``): the run steps a cell per
+    cell / pref_speed, and where the relaxed paths still run faster than an agent's
+    max_speed (a run of diagonal moves: √2 cells a step), the whole run is slowed by that
+    factor: every path and all their timings are kept, so the run stays as clear as it was,
+    and no agent pays for a diagonal it did not make by going slower on its straight moves."""
     linear = resample(traj, params.fps, "linear")
     if traj.n_frames < 2:
         return linear
     pos = relax(linear.positions, linear.active_mask, traj.radius, linear.dt, scene, params.smoothing_window)
     smooth = Trajectories(pos, linear.dt, ids=linear.ids, group=linear.group, radius=linear.radius,
                           active=linear.active, metadata={**linear.metadata})
-    return keep_clean(smooth, linear, traj, scene, max_speed, "relaxed", warn=False)
+    out = keep_clean(smooth, linear, traj, scene, max_speed, "relaxed", warn=False)
+    if not stretch or out.n_frames < 2:
+        return out
+    ok = out.active_mask[:-1] & out.active_mask[1:]
+    ratio = float(np.max(np.where(ok, out.speed[:-1] / max_speed[None, :], 0.0)))
+    if ratio <= 1.0:
+        return out
+    return slowed(out, ratio)
+
+
+def slowed(traj: Trajectories, factor: float) -> Trajectories:
+    """``traj`` played ``factor`` times slower at its own frame rate: the frames at
+    t / factor, linearly between the old ones (an agent is active at a new frame when it is
+    at both old frames around it)."""
+    n = int(np.floor((traj.n_frames - 1) * factor + 1e-9)) + 1
+    u = np.arange(n) / factor
+    k = np.minimum(np.floor(u).astype(int), traj.n_frames - 2)
+    s = (u - k)[:, None, None]
+    pos = traj.positions[k] * (1 - s) + traj.positions[k + 1] * s
+    active = None
+    if traj.active is not None:
+        active = traj.active[k] & traj.active[np.minimum(np.ceil(u - 1e-9).astype(int), traj.n_frames - 1)]
+    meta = {**traj.metadata, "slowed_by": factor}
+    return Trajectories(pos, traj.dt, ids=traj.ids, group=traj.group, radius=traj.radius, active=active, metadata=meta)
 
 
 def free_goal_values(occupancy: np.ndarray, goal_cells: list[np.ndarray], taken: np.ndarray, values: np.ndarray,
