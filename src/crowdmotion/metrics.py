@@ -65,21 +65,22 @@ def _interval_mask(traj: Trajectories) -> np.ndarray:
     return a[:-1] & a[1:]
 
 
-def agent_overlaps(traj: Trajectories, tolerance: float = 0.0,
-                   max_events: int = MAX_EVENTS) -> tuple[int, float, list[CollisionEvent]]:
+def agent_overlaps(traj: Trajectories, tolerance: float = 0.0, max_events: int = MAX_EVENTS,
+                   intervals: np.ndarray | None = None) -> tuple[int, float, list[CollisionEvent]]:
     """Agent pairs closer than the sum of their radii at any time, frames linearly joined.
 
     Candidate pairs per interval come from a cKDTree at the interval's first frame with
     search radius 2*max radius + 2*max displacement, so no pair can be missed; each
     candidate is then solved exactly (closest approach of two linear motions).
     An overlap counts when it exceeds ``tolerance`` metres; the ``max_events`` deepest of
-    each interval's are listed (up to that many in all).
+    each interval's are listed (up to that many in all). ``intervals`` ((T-1,) bool): check
+    only those intervals frame f -> f + 1 (default all).
     """
     pos = traj.positions
     inside = _interval_mask(traj)
     rmax = float(traj.radius.max()) if traj.n_agents else 0.0
     count, worst, events = 0, 0.0, []
-    for f in range(traj.n_frames - 1):
+    for f in (range(traj.n_frames - 1) if intervals is None else np.flatnonzero(intervals)):
         idx = np.flatnonzero(inside[f])
         if len(idx) < 2:
             continue
@@ -127,7 +128,8 @@ def _segment_clearance(ob: Obstacle, a: np.ndarray, b: np.ndarray) -> tuple[np.n
 
 
 def obstacle_penetrations(
-    traj: Trajectories, scene: Scene, tolerance: float = 0.0, max_events: int = MAX_EVENTS
+    traj: Trajectories, scene: Scene, tolerance: float = 0.0, max_events: int = MAX_EVENTS,
+    intervals: np.ndarray | None = None,
 ) -> tuple[int, float, list[CollisionEvent]]:
     """Agent bodies entering obstacles at any time, frames (and obstacle keys) linearly joined.
 
@@ -136,6 +138,8 @@ def obstacle_penetrations(
     spheres and boxes, and exact in 2D for polygons (shapely).
     """
     inside = _interval_mask(traj)
+    if intervals is not None:
+        inside = inside & np.asarray(intervals, dtype=bool)[:, None]
     times = traj.times
     f_idx, a_idx = np.nonzero(inside)
     if len(f_idx) == 0:
@@ -168,16 +172,18 @@ def obstacle_penetrations(
 
 
 def collision_audit(traj: Trajectories, scene: Scene | None = None, tolerance: float = 0.0,
-                    max_events: int = MAX_EVENTS) -> CollisionReport:
+                    max_events: int = MAX_EVENTS, intervals: np.ndarray | None = None) -> CollisionReport:
     """Continuous-time check of agent–agent overlaps and agent–obstacle penetrations.
 
     Positions between frames are linear interpolations. Returns counts of overlapping
     (pair, interval)s, the worst penetration depth of each kind and up to
     ``max_events`` events of each kind (where and when). ``tolerance`` (metres) ignores
-    overlaps no deeper than it.
+    overlaps no deeper than it. ``intervals`` ((T-1,) bool): audit only those intervals
+    frame f -> f + 1 (default all).
     """
-    aa, worst_aa, ev_aa = agent_overlaps(traj, tolerance, max_events)
-    ao, worst_ao, ev_ao = (0, 0.0, []) if scene is None else obstacle_penetrations(traj, scene, tolerance, max_events)
+    aa, worst_aa, ev_aa = agent_overlaps(traj, tolerance, max_events, intervals)
+    ao, worst_ao, ev_ao = ((0, 0.0, []) if scene is None
+                           else obstacle_penetrations(traj, scene, tolerance, max_events, intervals))
     return CollisionReport(aa, ao, worst_aa, worst_ao, ev_aa + ev_ao)
 
 
