@@ -88,19 +88,20 @@ def separate(X, active, radius, margin, h, sweeps):
         cell = np.empty(k, np.int64)
         items = np.empty(k, np.int64)
         for _ in range(sweeps):
+            hf = h + 0.0  # this frame's cell (a name of its own: ``h *= ...`` in a prange body is a reduction)
             lox, loy, hix, hiy = np.inf, np.inf, -np.inf, -np.inf
             for a in range(k):
                 i = idx[a]
                 lox, hix = min(lox, X[f, i, 0]), max(hix, X[f, i, 0])
                 loy, hiy = min(loy, X[f, i, 1]), max(hiy, X[f, i, 1])
-            nx, ny = int((hix - lox) / h) + 1, int((hiy - loy) / h) + 1
+            nx, ny = int((hix - lox) / hf) + 1, int((hiy - loy) / hf) + 1
             while nx * ny > 4 * k + 16:  # a sparse frame: fewer, wider cells
-                h *= 1.5
-                nx, ny = int((hix - lox) / h) + 1, int((hiy - loy) / h) + 1
+                hf = hf * 1.5
+                nx, ny = int((hix - lox) / hf) + 1, int((hiy - loy) / hf) + 1
             start = np.zeros(nx * ny + 1, np.int64)
             for a in range(k):
                 i = idx[a]
-                cell[a] = min(int((X[f, i, 0] - lox) / h), nx - 1) * ny + min(int((X[f, i, 1] - loy) / h), ny - 1)
+                cell[a] = min(int((X[f, i, 0] - lox) / hf), nx - 1) * ny + min(int((X[f, i, 1] - loy) / hf), ny - 1)
                 start[cell[a] + 1] += 1
             for c in range(nx * ny):
                 start[c + 1] += start[c]
@@ -258,11 +259,12 @@ def obstacle_arrays(scene: Scene | None, times: np.ndarray):
 
 def relax(positions: np.ndarray, active: np.ndarray, radius: np.ndarray, dt: float, scene: Scene | None,
           window_s: float = 1.0, iterations: int = 40, weight: float = 0.5, margin: float = 0.01,
-          sweeps: int = 4) -> np.ndarray:
+          sweeps: int = 4, passes: int = PASSES) -> np.ndarray:
     """Relaxed paths (module docstring): ``positions`` (T, N, D) at ``dt`` seconds, each
     agent active over one run of frames (``active``), smoothed over ``window_s`` seconds
-    by ``iterations`` rounds of averaging (each moving a frame ``weight`` of the way) and
-    pushing bodies apart and out of obstacles to ``margin`` metres. Returns a new array."""
+    by ``iterations`` rounds of averaging (``passes`` box passes, each round moving a frame
+    ``weight`` of the way) and pushing bodies apart and out of obstacles to ``margin``
+    metres. Returns a new array."""
     X = np.array(positions, dtype=np.float64)
     act = np.ascontiguousarray(active, dtype=np.bool_)
     T, N, D = X.shape
@@ -271,12 +273,12 @@ def relax(positions: np.ndarray, active: np.ndarray, radius: np.ndarray, dt: flo
     alive = act.any(axis=0)
     first = np.where(alive, np.argmax(act, axis=0), 0).astype(np.int64)
     last = np.where(alive, T - 1 - np.argmax(act[::-1], axis=0), -1).astype(np.int64)
-    half = max(1, int(round(window_s / dt / (2 * PASSES))))  # three boxes of 2w+1 frames span the window
+    half = max(1, int(round(window_s / dt / (2 * passes))))  # ``passes`` boxes of 2w+1 frames span the window
     radius = np.asarray(radius, dtype=np.float64)
     h = float(2 * radius.max() + margin) if N else 1.0
     obstacles = obstacle_arrays(scene, np.arange(T) * dt)
     for _ in range(iterations):
-        smooth_toward_average(X, first, last, half, PASSES, weight)
+        smooth_toward_average(X, first, last, half, passes, weight)
         if len(obstacles[0]):
             push_out_of_obstacles(X, act, radius, margin, *obstacles)
         separate(X, act, radius, margin, h, sweeps)
