@@ -76,7 +76,7 @@ def test_export_to_every_format_and_bad_requests(tmp_path, capsys):
     from crowdmotion import Trajectories
 
     path = tmp_path / "s.toml"
-    path.write_text(GOOD)
+    path.write_text(GOOD.replace("[mdp]", '[mdp]\nsmoothing = "none"'))  # a run at its own step rate
     out = tmp_path / "out"
     assert main(["run", str(path), "-o", str(out), "-q"]) == 0
     original = Trajectories.load(out / "trajectories.parquet")

@@ -65,19 +65,22 @@ def _interval_mask(traj: Trajectories) -> np.ndarray:
     return a[:-1] & a[1:]
 
 
-def agent_overlaps(traj: Trajectories, tolerance: float = 0.0) -> tuple[int, float, list[CollisionEvent]]:
+def agent_overlaps(traj: Trajectories, tolerance: float = 0.0, max_events: int = MAX_EVENTS,
+                   intervals: np.ndarray | None = None) -> tuple[int, float, list[CollisionEvent]]:
     """Agent pairs closer than the sum of their radii at any time, frames linearly joined.
 
     Candidate pairs per interval come from a cKDTree at the interval's first frame with
     search radius 2*max radius + 2*max displacement, so no pair can be missed; each
     candidate is then solved exactly (closest approach of two linear motions).
-    An overlap counts when it exceeds ``tolerance`` metres.
+    An overlap counts when it exceeds ``tolerance`` metres; the ``max_events`` deepest of
+    each interval's are listed (up to that many in all). ``intervals`` ((T-1,) bool): check
+    only those intervals frame f -> f + 1 (default all).
     """
     pos = traj.positions
     inside = _interval_mask(traj)
     rmax = float(traj.radius.max()) if traj.n_agents else 0.0
     count, worst, events = 0, 0.0, []
-    for f in range(traj.n_frames - 1):
+    for f in (range(traj.n_frames - 1) if intervals is None else np.flatnonzero(intervals)):
         idx = np.flatnonzero(inside[f])
         if len(idx) < 2:
             continue
@@ -95,7 +98,7 @@ def agent_overlaps(traj: Trajectories, tolerance: float = 0.0) -> tuple[int, flo
             continue
         count += len(hit)
         worst = max(worst, float(pen[hit].max()))
-        for h in hit[np.argsort(-pen[hit])][: max(0, MAX_EVENTS - len(events))]:
+        for h in hit[np.argsort(-pen[hit])][: max(0, max_events - len(events))]:
             where = p0[i[h]] + t[h] * dp[i[h]]
             events.append(
                 CollisionEvent("agent-agent", f, (f + t[h]) * traj.dt, int(idx[i[h]]), int(idx[j[h]]),
@@ -125,7 +128,8 @@ def _segment_clearance(ob: Obstacle, a: np.ndarray, b: np.ndarray) -> tuple[np.n
 
 
 def obstacle_penetrations(
-    traj: Trajectories, scene: Scene, tolerance: float = 0.0
+    traj: Trajectories, scene: Scene, tolerance: float = 0.0, max_events: int = MAX_EVENTS,
+    intervals: np.ndarray | None = None,
 ) -> tuple[int, float, list[CollisionEvent]]:
     """Agent bodies entering obstacles at any time, frames (and obstacle keys) linearly joined.
 
@@ -134,6 +138,8 @@ def obstacle_penetrations(
     spheres and boxes, and exact in 2D for polygons (shapely).
     """
     inside = _interval_mask(traj)
+    if intervals is not None:
+        inside = inside & np.asarray(intervals, dtype=bool)[:, None]
     times = traj.times
     f_idx, a_idx = np.nonzero(inside)
     if len(f_idx) == 0:
@@ -158,7 +164,7 @@ def obstacle_penetrations(
             continue
         count += len(hit)
         worst = max(worst, float(pen[hit].max()))
-        for h in hit[np.argsort(-pen[hit])][: max(0, MAX_EVENTS - len(events))]:
+        for h in hit[np.argsort(-pen[hit])][: max(0, max_events - len(events))]:
             s = sel[h]
             f, i = int(f_idx[s]), int(a_idx[s])
             where = traj.positions[f, i] + t[h] * (traj.positions[f + 1, i] - traj.positions[f, i])
@@ -167,16 +173,19 @@ def obstacle_penetrations(
     return count, worst, events
 
 
-def collision_audit(traj: Trajectories, scene: Scene | None = None, tolerance: float = 0.0) -> CollisionReport:
+def collision_audit(traj: Trajectories, scene: Scene | None = None, tolerance: float = 0.0,
+                    max_events: int = MAX_EVENTS, intervals: np.ndarray | None = None) -> CollisionReport:
     """Continuous-time check of agent–agent overlaps and agent–obstacle penetrations.
 
     Positions between frames are linear interpolations. Returns counts of overlapping
     (pair, interval)s, the worst penetration depth of each kind and up to
-    ``MAX_EVENTS`` events (where and when). ``tolerance`` (metres) ignores overlaps
-    no deeper than it.
+    ``max_events`` events of each kind (where and when). ``tolerance`` (metres) ignores
+    overlaps no deeper than it. ``intervals`` ((T-1,) bool): audit only those intervals
+    frame f -> f + 1 (default all).
     """
-    aa, worst_aa, ev_aa = agent_overlaps(traj, tolerance)
-    ao, worst_ao, ev_ao = (0, 0.0, []) if scene is None else obstacle_penetrations(traj, scene, tolerance)
+    aa, worst_aa, ev_aa = agent_overlaps(traj, tolerance, max_events, intervals)
+    ao, worst_ao, ev_ao = ((0, 0.0, []) if scene is None
+                           else obstacle_penetrations(traj, scene, tolerance, max_events, intervals))
     return CollisionReport(aa, ao, worst_aa, worst_ao, ev_aa + ev_ao)
 
 

@@ -52,10 +52,10 @@ def expected_steps(groups, params: MDPParams) -> int:
 
 
 def step_seconds(groups, params: MDPParams) -> float:
-    """Simulated seconds per step: a cell at the slowest group's preferred speed."""
-    from crowdmotion.mdp.simulation import cell_size_for
+    """Simulated seconds per step at most (``simulation.step_time`` with diagonal moves)."""
+    from crowdmotion.mdp.simulation import cell_size_for, step_time
 
-    return cell_size_for(groups, params) / min(g.pref_speed for g in groups)
+    return step_time(groups, params, cell_size_for(groups, params), float(np.sqrt(groups[0].dim)))
 
 
 def expected_frames(groups, params: MDPParams) -> int:
@@ -84,6 +84,8 @@ def run_scenario(scene, groups, params: MDPParams, rng, progress: bool = True):
         "mean_final_path_distance_to_goal_m": float(np.mean(dist[np.isfinite(dist)])) if np.isfinite(dist).any() else None,
         "max_final_path_distance_to_goal_m": float(np.max(dist[np.isfinite(dist)])) if np.isfinite(dist).any() else None,
     })
+    if "relaxed" in traj.metadata:  # at fps, or at the run's own steps (a large run: simulation.RELAX_AT_FPS_MAX)
+        summary["relaxed"] = dict(traj.metadata["relaxed"])
     return traj, result, summary
 
 

@@ -5,7 +5,7 @@ from __future__ import annotations
 
 from typing import Annotated, Literal
 
-from pydantic import AliasChoices, BaseModel, ConfigDict, Field
+from pydantic import AliasChoices, BaseModel, ConfigDict, Field, field_validator
 
 from crowdmotion._validation import Positive
 
@@ -32,8 +32,16 @@ class MDPParams(BaseModel):
     stop_when_done : bool      end the run early once every agent has arrived (or is stuck)
     replan_every : int         with moving obstacles, re-solve the values every this many steps
     lookahead : int            ... marking the cells the obstacles cover this many steps ahead
-    smoothing : str | None     None (cell centres, one frame per step), "linear" or
-                               "catmull-rom" resampling to ``fps``; audited either way
+    speed_limited_steps : bool  a step lasts long enough that the longest move made (√2
+                               cells in 2D, √3 in 3D; planned for, with moving obstacles)
+                               stays within every group's max_speed; false: the paper's
+                               cell / pref_speed, whose diagonals run √2 (√3) × pref_speed
+    smoothing : str | None     "relaxed" (default): the paths relaxed at ``fps`` (smoothed
+                               over ``smoothing_window`` and kept apart, see
+                               ``crowdmotion.path_relaxation``); None or "none" (cell
+                               centres, one frame per step), "linear" or "catmull-rom"
+                               resampling to ``fps``; audited in continuous time either way
+    smoothing_window : float   seconds the "relaxed" paths are averaged over
     fps : float                frame rate of the smoothed output
     """
 
@@ -50,8 +58,16 @@ class MDPParams(BaseModel):
     stop_when_done: bool = True
     replan_every: Annotated[int, Field(gt=0)] = 4
     lookahead: Annotated[int, Field(ge=0)] = 4
-    smoothing: Literal["linear", "catmull-rom"] | None = None
+    speed_limited_steps: bool = True
+    smoothing: Literal["relaxed", "linear", "catmull-rom", "none"] | None = "relaxed"
+    smoothing_window: Annotated[float, Field(gt=0, le=60.0, allow_inf_nan=False)] = 1.0
     fps: Annotated[float, Field(gt=0, le=1000.0, allow_inf_nan=False)] = 24.0
+
+    @field_validator("smoothing")
+    @classmethod
+    def _none(cls, v):
+        """``"none"``: a scenario file's way to say None (TOML has no null)."""
+        return None if v == "none" else v
 
 
 Params = MDPParams

@@ -15,8 +15,9 @@ from crowdmotion.mdp.grid import GridMap, mark_obstacle, max_radius, min_cell_si
 from crowdmotion.mdp.solvers import solve, value_iteration
 from crowdmotion.mdp.trajectory import Walker
 from crowdmotion.scene import Scene
-from crowdmotion.smoothing import resample_checked
-from crowdmotion.trajectories import Trajectories
+from crowdmotion.path_relaxation import relax
+from crowdmotion.smoothing import keep_clean, resample_checked
+from crowdmotion.trajectories import Trajectories, resample
 
 
 @dataclass
@@ -42,6 +43,18 @@ def cell_size_for(groups: Sequence[Group], params: MDPParams) -> float:
             f"needs cell > sqrt(2) x diameter = {need:.4f} m"
         )
     return float(params.cell_size)
+
+
+def step_time(groups: Sequence[Group], params: MDPParams, cell: float, longest: float) -> float:
+    """Seconds per step of Algorithm 3: a cell at the slowest group's preferred speed (the
+    paper's time base, one cell per step), and with ``speed_limited_steps`` at least long
+    enough that the longest move, ``longest`` cells (a diagonal, √2 or √3: the length in
+    the paper's reward −1, −√2, −√3), stays within every group's max_speed. All agents
+    step together, so one time serves all."""
+    dt = cell / min(g.pref_speed for g in groups)
+    if params.speed_limited_steps:
+        dt = max(dt, cell * longest / min(g.max_speed for g in groups))
+    return float(dt)
 
 
 def region_cells(grid: GridMap, region, what: str) -> np.ndarray:
@@ -146,8 +159,7 @@ def run(scene: Scene, groups: Sequence[Group], params: MDPParams, rng: np.random
         m = np.zeros(grid.shape, dtype=bool)
         m[tuple(gc.T)] = True
         masks.append(m)
-    speed = min(g.pref_speed for g in groups)
-    dt = cell / speed
+    dt = step_time(groups, params, cell, np.sqrt(grid.dim))  # moving obstacles are placed at step * dt
     r_cells = max(g.radius for g in groups) / cell
     walker = Walker(grid.occupancy, starts, masks, field_of, params.corner_cutting, min(r_cells, max_radius(1.0)))
     moving = scene.moving_obstacles
@@ -202,6 +214,12 @@ def run(scene: Scene, groups: Sequence[Group], params: MDPParams, rng: np.random
     cells = np.concatenate(cells_out)
     active = np.concatenate(active_out)
     positions = grid.centers(cells)
+    stretch = not moving and params.smoothing == "relaxed" and params.speed_limited_steps
+    if stretch:  # the relaxed paths' own top speed sets the time base (relaxed, below)
+        dt = step_time(groups, params, cell, 1.0)
+    elif not moving and len(cells) > 1:  # the longest move actually made sets the step time
+        made = np.abs(np.diff(cells, axis=0)).sum(axis=-1)[active[1:] & active[:-1]]
+        dt = step_time(groups, params, cell, float(np.sqrt(made.max())) if made.size else 1.0)
     start_values = values[(field_of, *starts.T)] if values is not None else np.zeros(len(starts))
     unreachable = np.flatnonzero(~np.isfinite(start_values))
     radius = np.concatenate([np.full(g.count, g.radius) for g in groups])
@@ -212,10 +230,77 @@ def run(scene: Scene, groups: Sequence[Group], params: MDPParams, rng: np.random
                   "steps": int(len(cells) - 1), "unreachable_agents": unreachable.tolist(), "partial": partial,
                   "scene": scene.to_dict()},
     )
-    if params.smoothing is not None:
-        traj = resample_checked(traj, params.fps, params.smoothing, scene,
-                                np.concatenate([np.full(g.count, g.max_speed) for g in groups]))
+    max_speed = np.concatenate([np.full(g.count, g.max_speed) for g in groups])
+    if params.smoothing == "relaxed":
+        traj = relaxed(traj, params, scene, max_speed, stretch)
+    elif params.smoothing is not None:
+        traj = resample_checked(traj, params.fps, params.smoothing, scene, max_speed)
     return MDPRun(traj, grid, values, goal_cells, unreachable, field_of)
+
+
+# Relaxed paths cost about 40 rounds over every agent's every frame plus continuous audits
+# of them: 2,000 agents for 384 s at 24 fps (18 million agent-frames) took over 20 minutes.
+# A run with more agent-frames at ``fps`` than this is relaxed at its own steps instead (one
+# frame per step, STEP_RATE_ITERATIONS rounds over a window of three steps) and written at
+# that rate: its players and exports resample it along the B-spline of its frames.
+RELAX_AT_FPS_MAX = 1_000_000
+STEP_RATE_ITERATIONS = 10
+
+
+def relaxed(traj: Trajectories, params: MDPParams, scene: Scene, max_speed: np.ndarray,
+            stretch: bool = False) -> Trajectories:
+    """The run's paths at ``params.fps``, relaxed (``crowdmotion.path_relaxation``: smoothed
+    over ``smoothing_window`` seconds, bodies kept apart and out of the obstacles), then
+    audited in continuous time: a step where they still touch, or outrun ``max_speed``,
+    keeps the plan's straight move (``crowdmotion.smoothing.keep_clean``).
+
+    ``stretch`` (static scenes with ``speed_limited_steps``): the run steps a cell per
+    cell / pref_speed, and where the relaxed paths still run faster than an agent's
+    max_speed (a run of diagonal moves: √2 cells a step), the whole run is slowed by that
+    factor: every path and all their timings are kept, so the run stays as clear as it was,
+    and no agent pays for a diagonal it did not make by going slower on its straight moves."""
+    at_fps = traj.n_agents * (int((traj.n_frames - 1) * traj.dt * params.fps) + 1)  # agent-frames at fps
+    by_steps = at_fps > RELAX_AT_FPS_MAX
+    linear = traj if by_steps else resample(traj, params.fps, "linear")
+    if traj.n_frames < 2:
+        return linear
+    if by_steps:  # a run this large is relaxed (and kept) at its own steps: minutes saved, see RELAX_AT_FPS_MAX
+        pos = relax(traj.positions, traj.active_mask, traj.radius, traj.dt, scene, params.smoothing_window,
+                    iterations=STEP_RATE_ITERATIONS, passes=1)
+    else:
+        pos = relax(linear.positions, linear.active_mask, traj.radius, linear.dt, scene, params.smoothing_window)
+    smooth = Trajectories(pos, linear.dt, ids=linear.ids, group=linear.group, radius=linear.radius,
+                          active=linear.active, metadata={**linear.metadata})
+    out = keep_clean(smooth, linear, traj, scene, max_speed, "relaxed", warn=False)
+    out.metadata["relaxed"] = {"at": "steps" if by_steps else "fps", "fps": 1.0 / linear.dt,
+                               "agent_frames_at_fps": at_fps, "limit": RELAX_AT_FPS_MAX}
+    if not stretch or out.n_frames < 2:
+        return out
+    ok = out.active_mask[:-1] & out.active_mask[1:]
+    ratio = float(np.max(np.where(ok, out.speed[:-1] / max_speed[None, :], 0.0)))
+    if ratio <= 1.0:
+        return out
+    if by_steps:  # one frame a step: the same frames, each step lasting longer (new frames between them would cut corners)
+        return Trajectories(out.positions, out.dt * ratio, ids=out.ids, group=out.group, radius=out.radius,
+                            active=out.active, metadata={**out.metadata, "slowed_by": ratio,
+                                                         "relaxed": {**out.metadata["relaxed"], "fps": 1.0 / (out.dt * ratio)}})
+    return slowed(out, ratio)
+
+
+def slowed(traj: Trajectories, factor: float) -> Trajectories:
+    """``traj`` played ``factor`` times slower at its own frame rate: the frames at
+    t / factor, linearly between the old ones (an agent is active at a new frame when it is
+    at both old frames around it)."""
+    n = int(np.floor((traj.n_frames - 1) * factor + 1e-9)) + 1
+    u = np.arange(n) / factor
+    k = np.minimum(np.floor(u).astype(int), traj.n_frames - 2)
+    s = (u - k)[:, None, None]
+    pos = traj.positions[k] * (1 - s) + traj.positions[k + 1] * s
+    active = None
+    if traj.active is not None:
+        active = traj.active[k] & traj.active[np.minimum(np.ceil(u - 1e-9).astype(int), traj.n_frames - 1)]
+    meta = {**traj.metadata, "slowed_by": factor}
+    return Trajectories(pos, traj.dt, ids=traj.ids, group=traj.group, radius=traj.radius, active=active, metadata=meta)
 
 
 def free_goal_values(occupancy: np.ndarray, goal_cells: list[np.ndarray], taken: np.ndarray, values: np.ndarray,

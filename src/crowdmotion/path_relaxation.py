@@ -1,0 +1,285 @@
+"""Collision-aware smoothing of a run's paths at the frame rate a character plays them
+(our term, not a paper's: ``MDPParams.smoothing = "relaxed"``).
+
+A grid method's path is a string of cell centres, one per step: it zig-zags between the
+8 (26) move directions, stops and starts, and turns by 45° at a cell centre. A spline
+through the centres rounds each corner a little, but a spline smooth enough for a
+character (acceleration, turn rate and wobble of a walk) leaves the cell centres by up to
+half a cell, and with it the plan's clearance from the other agents and the walls. Here
+the paths are *relaxed* instead, in space-time and all agents at once:
+
+1. the plan at the output rate (straight moves between the step's cell centres: every
+   frame clear, as the plan is);
+2. repeat ``iterations`` times: move every frame of every agent part of the way to its
+   moving average over ``window_s`` seconds (three passes of a box window, which is a
+   quadratic B-spline kernel; the window shrinks near an agent's first and last frame,
+   which stay where the plan has them), then push apart, frame by frame, every two
+   bodies nearer than their radii and ``margin`` and push every body out of the
+   obstacles it comes nearer than its radius and ``margin`` (at that frame's time, so
+   moving obstacles count where they are).
+
+Each round starts from frames that are (nearly) clear and moves them a little, so the
+pushes stay small and the paths converge to smooth ones that keep their distance; no
+agent is ever stopped or turned back (there is no time order to deadlock in). What is
+left is checked in continuous time by the caller (:func:`crowdmotion.smoothing.keep_clean`):
+any frame interval still overlapping falls back to the plan's straight move there.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from numba import njit, prange
+
+from crowdmotion.scene import Box, Polygon, Scene, _Round
+
+PASSES = 3  # box passes of the moving average: a quadratic B-spline kernel (C¹ weights)
+
+
+@njit(cache=True, parallel=True)
+def smooth_toward_average(X, first, last, half, passes, weight):
+    """Move each frame of each agent ``weight`` of the way to its moving average over
+    frames f - w .. f + w, taken ``passes`` times over, where w = min(``half``, f - first[i],
+    last[i] - f): the window shrinks to nothing at an agent's first and last frame, which
+    keep their place. Frames outside first[i] .. last[i] are left as they are."""
+    T, N, D = X.shape
+    for i in prange(N):
+        a, b = first[i], last[i]
+        if b - a < 2:
+            continue
+        m = b - a + 1
+        cur = np.empty((m, D))
+        buf = np.empty((m + 1, D))
+        for f in range(m):
+            for d in range(D):
+                cur[f, d] = X[a + f, i, d]
+        for _ in range(passes):
+            for d in range(D):
+                buf[0, d] = 0.0
+            for f in range(m):
+                for d in range(D):
+                    buf[f + 1, d] = buf[f, d] + cur[f, d]
+            for f in range(m):
+                w = min(half, f, m - 1 - f)
+                for d in range(D):
+                    cur[f, d] = (buf[f + w + 1, d] - buf[f - w, d]) / (2 * w + 1)
+        for f in range(m):
+            for d in range(D):
+                X[a + f, i, d] += weight * (cur[f, d] - X[a + f, i, d])
+
+
+@njit(cache=True, parallel=True)
+def separate(X, active, radius, margin, h, sweeps):
+    """Push apart, in each frame, every two active bodies nearer than r_i + r_j + ``margin``
+    (each by half the shortfall, along the line between them; Jacobi sweeps over a
+    uniform grid of cell ``h`` ≥ the largest r_i + r_j + margin on the first two axes).
+    Returns the number of pushes made."""
+    T, N, D = X.shape
+    pushes = np.zeros(T, np.int64)
+    for f in prange(T):
+        idx = np.empty(N, np.int64)
+        k = 0
+        for i in range(N):
+            if active[f, i]:
+                idx[k] = i
+                k += 1
+        if k < 2:
+            continue
+        push = np.zeros((N, D))
+        cell = np.empty(k, np.int64)
+        items = np.empty(k, np.int64)
+        for _ in range(sweeps):
+            hf = h + 0.0  # this frame's cell (a name of its own: ``h *= ...`` in a prange body is a reduction)
+            lox, loy, hix, hiy = np.inf, np.inf, -np.inf, -np.inf
+            for a in range(k):
+                i = idx[a]
+                lox, hix = min(lox, X[f, i, 0]), max(hix, X[f, i, 0])
+                loy, hiy = min(loy, X[f, i, 1]), max(hiy, X[f, i, 1])
+            nx, ny = int((hix - lox) / hf) + 1, int((hiy - loy) / hf) + 1
+            while nx * ny > 4 * k + 16:  # a sparse frame: fewer, wider cells
+                hf = hf * 1.5
+                nx, ny = int((hix - lox) / hf) + 1, int((hiy - loy) / hf) + 1
+            start = np.zeros(nx * ny + 1, np.int64)
+            for a in range(k):
+                i = idx[a]
+                cell[a] = min(int((X[f, i, 0] - lox) / hf), nx - 1) * ny + min(int((X[f, i, 1] - loy) / hf), ny - 1)
+                start[cell[a] + 1] += 1
+            for c in range(nx * ny):
+                start[c + 1] += start[c]
+            fill = start[:-1].copy()
+            for a in range(k):
+                items[fill[cell[a]]] = idx[a]
+                fill[cell[a]] += 1
+            touched = 0
+            for a in range(k):
+                i = idx[a]
+                cx, cy = cell[a] // ny, cell[a] % ny
+                for gx in range(max(cx - 1, 0), min(cx + 2, nx)):
+                    for gy in range(max(cy - 1, 0), min(cy + 2, ny)):
+                        c = gx * ny + gy
+                        for s in range(start[c], start[c + 1]):
+                            j = items[s]
+                            if j <= i:
+                                continue
+                            d2 = 0.0
+                            for d in range(D):
+                                d2 += (X[f, j, d] - X[f, i, d]) ** 2
+                            need = radius[i] + radius[j] + margin
+                            if d2 >= need * need or d2 == 0.0:
+                                continue
+                            dist = np.sqrt(d2)
+                            corr = 0.5 * (need - dist) / dist
+                            for d in range(D):
+                                u = (X[f, j, d] - X[f, i, d]) * corr
+                                push[i, d] -= u
+                                push[j, d] += u
+                            touched += 1
+            if touched == 0:
+                break
+            pushes[f] += touched
+            for a in range(k):
+                i = idx[a]
+                for d in range(D):
+                    X[f, i, d] += push[i, d]
+                    push[i, d] = 0.0
+    return pushes.sum()
+
+
+@njit(cache=True)
+def _polygon_distance(px, py, vx, vy, n):
+    """Signed distance from (px, py) to the polygon of the first ``n`` vertices (negative
+    inside), and the unit vector that points out of it at the nearest boundary point."""
+    best = np.inf
+    gx, gy = 0.0, 0.0
+    inside = False
+    for k in range(n):
+        ax, ay = vx[k], vy[k]
+        bx, by = vx[(k + 1) % n], vy[(k + 1) % n]
+        ex, ey = bx - ax, by - ay
+        l2 = ex * ex + ey * ey
+        t = 0.0 if l2 <= 0.0 else min(max(((px - ax) * ex + (py - ay) * ey) / l2, 0.0), 1.0)
+        qx, qy = px - ax - t * ex, py - ay - t * ey
+        d = np.sqrt(qx * qx + qy * qy)
+        if d < best:
+            best = d
+            gx, gy = (qx / d, qy / d) if d > 0 else (0.0, 0.0)
+        if (ay > py) != (by > py) and px < ax + (py - ay) * ex / (by - ay):
+            inside = not inside
+    if inside:
+        return -best, -gx, -gy
+    return best, gx, gy
+
+
+@njit(cache=True, parallel=True)
+def push_out_of_obstacles(X, active, radius, margin, kind, lower, upper, offsets, poly_x, poly_y, poly_n):
+    """Move each active body that comes nearer than its radius + ``margin`` to an obstacle
+    straight out of it, to that distance. Obstacle k: ``kind`` 0 round (centre ``lower[k]``,
+    radius ``upper[k, 0]``), 1 box (``lower[k]`` .. ``upper[k]``), 2 polygon (2D: vertices
+    ``poly_x[k], poly_y[k]``, ``poly_n[k]`` of them), each displaced by ``offsets[k, f]``
+    at frame f. Returns the number of pushes."""
+    T, N, D = X.shape
+    count = np.zeros(T, np.int64)
+    g = np.empty((T, D))
+    for f in prange(T):
+        for i in range(N):
+            if not active[f, i]:
+                continue
+            need = radius[i] + margin
+            for o in range(kind.shape[0]):
+                sd = np.inf
+                if kind[o] == 0:
+                    r2 = 0.0
+                    for d in range(D):
+                        g[f, d] = X[f, i, d] - lower[o, d] - offsets[o, f, d]
+                        r2 += g[f, d] ** 2
+                    r = np.sqrt(r2)
+                    sd = r - upper[o, 0]
+                    if sd < need:
+                        for d in range(D):
+                            g[f, d] = g[f, d] / r if r > 0 else (1.0 if d == 0 else 0.0)
+                elif kind[o] == 1:
+                    out2 = 0.0
+                    inmax = -np.inf
+                    inaxis = 0
+                    insign = 1.0
+                    for d in range(D):
+                        c = 0.5 * (lower[o, d] + upper[o, d]) + offsets[o, f, d]
+                        half = 0.5 * (upper[o, d] - lower[o, d])
+                        q = X[f, i, d] - c
+                        e = abs(q) - half
+                        if e > 0:
+                            out2 += e * e
+                        if e > inmax:
+                            inmax, inaxis, insign = e, d, (1.0 if q >= 0 else -1.0)
+                        g[f, d] = (e if e > 0 else 0.0) * (1.0 if q >= 0 else -1.0)
+                    if out2 > 0:
+                        sd = np.sqrt(out2)
+                        if sd < need:
+                            for d in range(D):
+                                g[f, d] /= sd
+                    else:
+                        sd = inmax
+                        for d in range(D):
+                            g[f, d] = insign if d == inaxis else 0.0
+                else:
+                    sd, gx, gy = _polygon_distance(X[f, i, 0] - offsets[o, f, 0], X[f, i, 1] - offsets[o, f, 1],
+                                                   poly_x[o], poly_y[o], poly_n[o])
+                    g[f, 0], g[f, 1] = gx, gy
+                if sd < need:
+                    for d in range(D):
+                        X[f, i, d] += g[f, d] * (need - sd)
+                    count[f] += 1
+    return count.sum()
+
+
+def obstacle_arrays(scene: Scene | None, times: np.ndarray):
+    """The scene's obstacles as :func:`push_out_of_obstacles` reads them, placed at ``times``."""
+    obs = [] if scene is None else list(scene.obstacles)
+    dim = 2 if scene is None else scene.dim
+    k = len(obs)
+    vmax = max([len(o.vertices) for o in obs if isinstance(o, Polygon)] + [1])
+    kind = np.zeros(k, np.int64)
+    lower, upper = np.zeros((k, dim)), np.zeros((k, dim))
+    offsets = np.zeros((k, len(times), dim))
+    px, py, pn = np.zeros((k, vmax)), np.zeros((k, vmax)), np.zeros(k, np.int64)
+    for o, ob in enumerate(obs):
+        if ob.is_moving:
+            offsets[o] = ob.offset(times)
+        if isinstance(ob, _Round):
+            kind[o], lower[o], upper[o, 0] = 0, ob.center, ob.radius
+        elif isinstance(ob, Box):
+            kind[o], lower[o], upper[o] = 1, ob.lower, ob.upper
+        elif isinstance(ob, Polygon):
+            v = ob.vertices
+            kind[o], pn[o] = 2, len(v)
+            px[o, :len(v)], py[o, :len(v)] = v[:, 0], v[:, 1]
+        else:  # pragma: no cover - the scene knows no other shape
+            raise TypeError(f"no distance for {ob!r}")
+    return kind, lower, upper, offsets, px, py, pn
+
+
+def relax(positions: np.ndarray, active: np.ndarray, radius: np.ndarray, dt: float, scene: Scene | None,
+          window_s: float = 1.0, iterations: int = 40, weight: float = 0.5, margin: float = 0.01,
+          sweeps: int = 4, passes: int = PASSES) -> np.ndarray:
+    """Relaxed paths (module docstring): ``positions`` (T, N, D) at ``dt`` seconds, each
+    agent active over one run of frames (``active``), smoothed over ``window_s`` seconds
+    by ``iterations`` rounds of averaging (``passes`` box passes, each round moving a frame
+    ``weight`` of the way) and pushing bodies apart and out of obstacles to ``margin``
+    metres. Returns a new array."""
+    X = np.array(positions, dtype=np.float64)
+    act = np.ascontiguousarray(active, dtype=np.bool_)
+    T, N, D = X.shape
+    if T < 3 or N == 0:
+        return X
+    alive = act.any(axis=0)
+    first = np.where(alive, np.argmax(act, axis=0), 0).astype(np.int64)
+    last = np.where(alive, T - 1 - np.argmax(act[::-1], axis=0), -1).astype(np.int64)
+    half = max(1, int(round(window_s / dt / (2 * passes))))  # ``passes`` boxes of 2w+1 frames span the window
+    radius = np.asarray(radius, dtype=np.float64)
+    h = float(2 * radius.max() + margin) if N else 1.0
+    obstacles = obstacle_arrays(scene, np.arange(T) * dt)
+    for _ in range(iterations):
+        smooth_toward_average(X, first, last, half, passes, weight)
+        if len(obstacles[0]):
+            push_out_of_obstacles(X, act, radius, margin, *obstacles)
+        separate(X, act, radius, margin, h, sweeps)
+    return X

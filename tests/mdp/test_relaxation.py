@@ -1,0 +1,75 @@
+"""MDP output a character can play: steps that keep max_speed on diagonals, relaxed paths."""
+
+import numpy as np
+import pytest
+
+import crowdmotion as cm
+from crowdmotion import mdp
+from crowdmotion.mdp.simulation import run
+from crowdmotion.metrics import collision_audit
+from crowdmotion.path_relaxation import relax
+
+
+def _diagonal_run(dim, **params):
+    """One agent on an open floor (volume) whose goal lies on the grid's diagonal."""
+    hi = [12.0] * dim
+    scene = cm.Scene([[0.0] * dim, hi])
+    group = cm.Group("a", 1, spawn=cm.Points([[0.5] * dim]), goal=cm.Points([[11.5] * dim]), radius=0.3,
+                     pref_speed=1.0, max_speed=1.0)
+    return run(scene, [group], mdp.MDPParams(smoothing=None, **params), np.random.default_rng(0))
+
+
+@pytest.mark.parametrize("dim", [2, 3])
+def test_diagonal_moves_never_exceed_max_speed(dim):
+    res = _diagonal_run(dim)
+    tr = res.trajectories
+    cell = res.grid.cell_size
+    steps = np.linalg.norm(np.diff(tr.positions[:, 0], axis=0), axis=-1)
+    assert np.isclose(steps.max(), np.sqrt(dim) * cell)  # it does walk the diagonal
+    # a diagonal of sqrt(dim) cells in one step of sqrt(dim) * cell / max_speed seconds
+    assert tr.dt == pytest.approx(np.sqrt(dim) * cell / 1.0)
+    assert tr.speed.max() <= 1.0 + 1e-9
+    # the paper's time base (a cell per step at pref_speed) runs diagonals sqrt(dim) times faster
+    paper = _diagonal_run(dim, speed_limited_steps=False).trajectories
+    assert paper.dt == pytest.approx(cell)
+    assert paper.speed.max() == pytest.approx(np.sqrt(dim))
+
+
+def test_a_straight_uniform_walk_is_its_own_relaxation():
+    t = np.arange(100)[:, None] / 24.0
+    pos = np.concatenate([t * 1.2, 0.0 * t + 3.0], axis=1)[:, None, :]
+    out = relax(pos, np.ones((100, 1), bool), np.array([0.3]), 1 / 24.0, None)
+    np.testing.assert_allclose(out, pos, atol=1e-12)
+
+
+def test_relaxing_a_zigzag_straightens_it_and_keeps_its_ends():
+    # NE, SE, NE, SE ... one 0.8 m cell per 0.8 s step, sampled at 24 fps: a sawtooth of
+    # amplitude 0.8 m about y = 0.4 (its mean line)
+    steps = 40
+    cells = np.stack([np.arange(steps + 1) * 0.8, (np.arange(steps + 1) % 2) * 0.8], axis=1)
+    frames = np.concatenate([cells[k] + (cells[k + 1] - cells[k]) * (np.arange(19) / 19.2)[:, None]
+                             for k in range(steps)] + [cells[-1:]])
+    out = relax(frames[:, None, :], np.ones((len(frames), 1), bool), np.array([0.3]), 1 / 24.0, None)[:, 0]
+    np.testing.assert_allclose(out[[0, -1]], frames[[0, -1]])
+    middle = out[len(out) // 4: -len(out) // 4]
+    assert np.abs(middle[:, 1] - 0.4).max() < 0.02  # within 2 cm of the mean line (was 40 cm off)
+
+
+def test_relaxed_bodies_keep_apart_and_out_of_obstacles():
+    # two agents pass each other 0.65 m apart (radius 0.3) on zigzags round a pillar
+    scene = cm.Scene([[0.0, 0.0], [20.0, 10.0]], [cm.Circle([10.0, 5.0], 1.0)])
+    groups = [cm.Group("east", 6, spawn=cm.Rect([1.0, 3.0], [3.0, 7.0]), goal=cm.Rect([17.0, 3.0], [19.0, 7.0]),
+                       radius=0.3),
+              cm.Group("west", 6, spawn=cm.Rect([17.0, 3.0], [19.0, 7.0]), goal=cm.Rect([1.0, 3.0], [3.0, 7.0]),
+                       radius=0.3)]
+    res = run(scene, groups, mdp.MDPParams(remove_on_arrival=True), np.random.default_rng(1))
+    tr = res.trajectories
+    assert tr.dt == pytest.approx(1 / 24)
+    assert collision_audit(tr, scene).clean
+    assert np.nanmax(tr.speed[:-1][tr.active_mask[:-1] & tr.active_mask[1:]]) <= 1.5 + 1e-9
+
+
+@pytest.mark.parametrize("value", [float("nan"), -1.0, 0.0])
+def test_smoothing_window_must_be_a_positive_number_of_seconds(value):
+    with pytest.raises(ValueError, match="smoothing_window"):
+        mdp.MDPParams(smoothing_window=value)
