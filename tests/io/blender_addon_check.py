@@ -2,12 +2,13 @@
 its zip, import a run with it, and print as JSON what the characters do.
 
     python tests/io/blender_addon_check.py ADDON.zip FILE.usdc OUT_DIR [--times T1,T2,T3]
-        [--feet FIRST:LAST] [--render]
+        [--feet FIRST:LAST] [--play FIRST:LAST] [--render]
 
 Prints the add-on's stage times; at each time, each character's root, up and forward
 axes, whether it shows its idle pose; with --feet, each character's ankles (world, m) on
 every frame of FIRST:LAST, into OUT_DIR/feet.npy (frames, agents, 2 feet, 3) with the
-frame and evaluation time; with --render, a small Cycles frame of the characters and one
+frame and evaluation time; with --play, the median and largest seconds of a frame change
+(``scene.frame_set`` alone) over frames FIRST:LAST played in order; with --render, a small Cycles frame of the characters and one
 of the same scene without them (OUT_DIR/crowd.png, empty.png) and each character's box on
 screen. tests/io/test_blender.py runs it with CROWDMOTION_BLENDER_PYTHON (and the
 environment variable BLENDER_USER_RESOURCES set to a temporary folder, so the add-on is
@@ -98,6 +99,7 @@ def main() -> dict:
     ap.add_argument("out")
     ap.add_argument("--times", default="")
     ap.add_argument("--feet", default="")
+    ap.add_argument("--play", default="")
     ap.add_argument("--render", action="store_true")
     ap.add_argument("--focus", default="", help="X,Y,R: frame the characters within R m of (X, Y)")
     ap.add_argument("--size", default="320,180", help="render width,height in pixels")
@@ -134,6 +136,14 @@ def main() -> dict:
         t0 = time.perf_counter()
         scene.frame_set(first + 1)
         out["frame_change_s"] = time.perf_counter() - t0
+    if args.play:
+        first, last = map(int, args.play.split(":"))
+        spent = []
+        for f in range(first, last):
+            t0 = time.perf_counter()
+            scene.frame_set(f)
+            spent.append(time.perf_counter() - t0)
+        out["play_s"] = {"median": float(np.median(spent)), "max": float(np.max(spent))}
     if args.render:
         scene.frame_set(int(round(float(args.times.split(",")[-1] or 0) * out["fps"])))
         focus = [float(v) for v in args.focus.split(",")] if args.focus else None
