@@ -113,3 +113,19 @@ def test_validate_refuses_a_bad_enter_table_naming_the_group(old, new, message):
         text = text.replace("[rvo]\nmax_steps = 1200", "")
     with pytest.raises(ScenarioError, match=message):
         parse_scenario(text)
+
+
+def test_a_waiting_agent_can_be_given_another_entrance_but_one_that_entered_cannot():
+    sim = rvo.Simulator(cm.Scene(bounds=([0, 0], [20, 10])), remove_on_arrival=False)
+    sim.add_agents([[2, 5]], [2, 5])  # stands on the first entrance for good
+    late = sim.add_agents([[2, 5]], [18, 5], enter_at=0.5)[0]
+    sim.step()
+    sim.step()
+    assert sim.waiting[late]
+    sim.set_entry_points([late], [2, 8])
+    sim.step()
+    assert not sim.waiting[late] and sim.entry_time[late] == pytest.approx(0.75)
+    with pytest.raises(ValueError, match=f"set_entry_points: agent {late} has entered already"):
+        sim.set_entry_points([late], [2, 2])
+    with pytest.raises(ValueError, match="set_entry_points: no agent 9"):
+        sim.set_entry_points([9], [2, 2])

@@ -383,13 +383,7 @@ class Simulator:
     def set_entry_points(self, agents, points) -> None:
         """Where waiting agents will enter (a fresh free spot of an entrance, say): (2,)
         or one point each, inside the bounds and clear of static obstacles."""
-        raw = np.atleast_1d(np.asarray(agents))
-        if raw.ndim != 1 or (raw.size and not np.issubdtype(raw.dtype, np.integer)):
-            raise ValueError(f"set_entry_points: agents must be a list of agent ids (integers), got {agents!r}")
-        ids = raw.astype(np.int64)
-        bad = ids[(ids < 0) | (ids >= self.n_agents)]
-        if len(bad):
-            raise ValueError(f"set_entry_points: no agent {int(bad[0])} (ids run from 0 to {self.n_agents - 1})")
+        ids = self._known_ids(agents, "set_entry_points")
         entered = ids[~self.waiting[ids]]
         if len(entered):
             raise ValueError(f"set_entry_points: agent {int(entered[0])} has entered already")
@@ -489,17 +483,23 @@ class Simulator:
         self._fields = None
 
     def _agent_ids(self, agents, what: str) -> np.ndarray:
-        """``agents`` as unique int ids of agents still in the simulation (ValueError otherwise)."""
-        raw = np.atleast_1d(np.asarray(agents))
-        if raw.ndim != 1 or (raw.size and not np.issubdtype(raw.dtype, np.integer)):
-            raise ValueError(f"{what}: agents must be a list of agent ids (integers), got {agents!r}")
-        ids = np.unique(raw.astype(np.int64))
-        bad = ids[(ids < 0) | (ids >= self.n_agents)]
-        if len(bad):
-            raise ValueError(f"{what}: no agent {int(bad[0])} (ids run from 0 to {self.n_agents - 1})")
+        """``agents`` as unique int ids of agents still in the simulation or waiting to
+        enter (ValueError otherwise)."""
+        ids = np.unique(self._known_ids(agents, what))
         gone = ids[~self.active[ids] & ~self.waiting[ids]]
         if len(gone):
             raise ValueError(f"{what}: agent {int(gone[0])} has left the simulation")
+        return ids
+
+    def _known_ids(self, agents, what: str) -> np.ndarray:
+        """``agents`` as int ids of agents the simulator has (ValueError naming ``what`` otherwise)."""
+        raw = np.atleast_1d(np.asarray(agents))
+        if raw.ndim != 1 or (raw.size and not np.issubdtype(raw.dtype, np.integer)):
+            raise ValueError(f"{what}: agents must be a list of agent ids (integers), got {agents!r}")
+        ids = raw.astype(np.int64)
+        bad = ids[(ids < 0) | (ids >= self.n_agents)]
+        if len(bad):
+            raise ValueError(f"{what}: no agent {int(bad[0])} (ids run from 0 to {self.n_agents - 1})")
         return ids
 
     def _region_index(self, goal: np.ndarray, goal_region, solve: bool = True) -> int:
