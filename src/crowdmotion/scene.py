@@ -64,10 +64,11 @@ class Obstacle:
         return (t >= self.present[0]) & (t < self.present[1])
 
     def during(self, start: float = -np.inf, end: float = np.inf) -> "Obstacle":
-        """A copy of the obstacle that stands from ``start`` until ``end`` (seconds)."""
+        """A copy of the obstacle that stands from ``start`` until ``end`` (seconds; an
+        empty window, end = start, is an obstacle taken out as soon as it was put in)."""
         start, end = float(start), float(end)
-        if np.isnan(start) or np.isnan(end) or end <= start:
-            raise ValueError(f"an obstacle's time window must be start < end, got [{start}, {end})")
+        if np.isnan(start) or np.isnan(end) or end < start:
+            raise ValueError(f"an obstacle's time window must be start <= end, got [{start}, {end})")
         twin = copy.copy(self)
         twin.present = (start, end)
         return twin

@@ -244,3 +244,16 @@ def test_an_obstacle_over_an_agents_goal_is_refused_and_the_agents_walk_on():
     while sim.active.any() and sim.time < 60:
         sim.step()
     assert sim.arrived[0]
+
+
+def test_an_obstacle_taken_out_in_the_step_it_was_put_in_never_stood():
+    sim = rvo.Simulator(_room_with_door())
+    sim.add_agents([[2, 5]], [18, 5])
+    sim.step()
+    door = sim.add_obstacle(cm.Box([9.5, 4], [10.5, 6]))
+    sim.remove_obstacle(door)
+    assert sim.scene.obstacles[door].present == (0.25, 0.25)
+    assert not sim.scene.obstacles[door].present_at(0.25)
+    while sim.active.any() and sim.time < 60:
+        sim.step()
+    assert sim.arrived[0]
