@@ -1,0 +1,82 @@
+"""How a frame change in Blender grows with the add-on's characters.
+
+A frame change evaluates every character's root path, NLA strips and skinned body, so its
+cost should grow with the characters, not with their square (2000 agents is a built-in
+scene). This imports runs of N agents walking east in rows (a tenth stand, a seventh leave
+halfway) with the add-on into the real ``bpy`` module and plays them, printing the median
+and longest ``scene.frame_set`` and the median per character, with its ratio to the
+smallest run's (about 1 when linear; quadratic would be N / N_smallest)::
+
+    python benchmarks/blender_addon_play.py --python /path/to/bpyenv/bin/python --sizes 50 500 2000
+
+``--python`` is a Python with the ``bpy`` package (default: ``CROWDMOTION_BLENDER_PYTHON``).
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import subprocess
+import tempfile
+from pathlib import Path
+
+import numpy as np
+
+from crowdmotion import Trajectories
+from crowdmotion.blender import write_addon
+
+CHECK = Path(__file__).resolve().parents[1] / "tests" / "io" / "blender_addon_check.py"
+
+
+def play(blender_python: str, folder: Path, n: int, frames: int = 96, fps: float = 24.0) -> dict:
+    """Import a run of ``n`` agents with the add-on and play it: the check's stage times and
+    frame-change seconds (``play_s``: median and max)."""
+    rng = np.random.default_rng(n)
+    t = np.arange(frames) / fps
+    speed = rng.uniform(0.6, 1.8, n) * (rng.random(n) > 0.1)  # a tenth stand
+    start = np.stack([rng.uniform(0, 5, n), np.arange(n) * 0.8], axis=1)
+    pos = start[None] + speed[None, :, None] * t[:, None, None] * np.array([1.0, 0.0])
+    active = np.ones((frames, n), bool)
+    active[frames // 2:, ::7] = False  # a seventh leave halfway (hidden from then on)
+    tr = Trajectories(pos, 1 / fps, radius=[0.25] * n, group=[("a", "b", "c")[i % 3] for i in range(n)], active=active)
+    folder = folder / f"n{n}"
+    (folder / "user").mkdir(parents=True)
+    path = tr.save(folder / "run.usdc")
+    addon = write_addon(folder)
+    done = subprocess.run([blender_python, str(CHECK), str(addon), str(path), str(folder), "--play", f"1:{frames}"],
+                          capture_output=True, text=True, timeout=1800,
+                          env={**os.environ, "BLENDER_USER_RESOURCES": str(folder / "user")})
+    line = next((x for x in done.stdout.splitlines() if x.startswith("CROWDMOTION_JSON ")), None)
+    if line is None:
+        raise SystemExit(f"the bpy check printed no result:\n{done.stderr[-3000:]}")
+    got = json.loads(line.split(" ", 1)[1])
+    if got["result"] != ["FINISHED"] or got["agents"] != n:
+        raise SystemExit(f"the import did not finish with {n} agents: {got}")
+    return got
+
+
+def main(argv=None) -> None:
+    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    ap.add_argument("--python", default=os.environ.get("CROWDMOTION_BLENDER_PYTHON"),
+                    help="a Python with bpy (default: $CROWDMOTION_BLENDER_PYTHON)")
+    ap.add_argument("--sizes", type=int, nargs="+", default=[50, 500])
+    args = ap.parse_args(argv)
+    if not args.python:
+        ap.error("name a Python with bpy: --python or CROWDMOTION_BLENDER_PYTHON")
+    if any(n < 1 for n in args.sizes):
+        ap.error("--sizes must be positive")
+    print("| characters | frame change, median | longest | per character | per character / smallest run's |")
+    print("|---|---|---|---|---|")
+    base = None
+    with tempfile.TemporaryDirectory() as tmp:
+        for n in sorted(args.sizes):
+            s = play(args.python, Path(tmp), n)["play_s"]
+            per = s["median"] / n
+            base = per if base is None else base
+            print(f"| {n:,} | {s['median']:.3f} s | {s['max']:.3f} s | {per * 1e3:.3f} ms | {per / base:.2f} |",
+                  flush=True)
+
+
+if __name__ == "__main__":
+    main()
