@@ -242,17 +242,7 @@ class Simulator:
         if pos.ndim != 2 or pos.shape[1] != 2 or len(pos) == 0:
             raise ValueError(f"positions must be a non-empty (N, 2) array, got shape {pos.shape}")
         n = len(pos)
-        target = goals if isinstance(goals, MovingTarget) else None
-        if target is not None:
-            if target.dim != 2:
-                raise ValueError("goals: a 2D moving target is needed")
-            goal = np.tile(target.at(self.time), (n, 1))
-        else:
-            goal = finite_array(goals, "goals")
-            if goal.shape == (2,):
-                goal = np.tile(goal, (n, 1))
-            if goal.shape != (n, 2):
-                raise ValueError(f"goals must be (2,) or ({n}, 2), got shape {goal.shape}")
+        goal, target = self._goal_points(goals, n)
         anywhere = bool(arrive_anywhere)
         if anywhere and not isinstance(goal_region, (Rect, Disc)):
             raise ValueError(f"arrive_anywhere needs a Rect or Disc goal_region, got {goal_region!r}")
@@ -330,23 +320,12 @@ class Simulator:
         stand-off state (yielding, detours) is cleared.
         """
         ids = self._agent_ids(agents, "set_goals")
-        target = goals if isinstance(goals, MovingTarget) else None
-        if target is not None:
-            if target.dim != 2:
-                raise ValueError("goals: a 2D moving target is needed")
-            goal = np.tile(target.at(self.time), (len(ids), 1))
-        else:
-            goal = finite_array(goals, "goals")
-            if goal.shape == (2,):
-                goal = np.tile(goal, (len(ids), 1))
-            if goal.shape != (len(ids), 2):
-                raise ValueError(f"goals must be (2,) or ({len(ids)}, 2), got shape {goal.shape}")
+        goal, target = self._goal_points(goals, len(ids))
         self._ensure_fields()
         if arrive_anywhere and not isinstance(goal_region, (Rect, Disc)):
             raise ValueError(f"arrive_anywhere needs a Rect or Disc goal_region, got {goal_region!r}")
         field = self._region_index(goal, goal_region)
-        self._targets = [(t, held[~np.isin(held, ids)]) for t, held in self._targets]
-        self._targets = [(t, held) for t, held in self._targets if len(held)]
+        self._release_targets(ids)
         if target is not None:
             self._targets.append((target, ids))
         self.goals[ids] = goal_region.nearest(self.positions[ids]) if arrive_anywhere else goal
@@ -363,7 +342,26 @@ class Simulator:
         self.active[ids] = False
         self.velocities[ids] = 0.0
         self.deadlock.forget(ids)
+        self._release_targets(ids)
+
+    def _goal_points(self, goals, n: int) -> tuple[np.ndarray, MovingTarget | None]:
+        """``goals`` ((2,), (n, 2) or a MovingTarget) as (n, 2) points now, and the target
+        (None for points); ValueError naming the shape otherwise."""
+        if isinstance(goals, MovingTarget):
+            if goals.dim != 2:
+                raise ValueError("goals: a 2D moving target is needed")
+            return np.tile(goals.at(self.time), (n, 1)), goals
+        goal = finite_array(goals, "goals")
+        if goal.shape == (2,):
+            goal = np.tile(goal, (n, 1))
+        if goal.shape != (n, 2):
+            raise ValueError(f"goals must be (2,) or ({n}, 2), got shape {goal.shape}")
+        return goal, None
+
+    def _release_targets(self, ids: np.ndarray) -> None:
+        """Agents ``ids`` no longer chase the moving targets they did."""
         self._targets = [(t, held[~np.isin(held, ids)]) for t, held in self._targets]
+        self._targets = [(t, held) for t, held in self._targets if len(held)]
 
     def _nearest_goals(self) -> None:
         """Agents that arrive anywhere in their goal region head for its nearest point."""
@@ -432,8 +430,8 @@ class Simulator:
         if obstacle.dim != 2 or obstacle.is_timed:
             raise ValueError(f"add_obstacle: a 2D obstacle that stands from now on is needed, got {obstacle!r}")
         live = np.flatnonzero(self.active)
-        clear = Scene((self.scene.lower, self.scene.upper), [obstacle]).obstacle_distance(
-            self.positions[live], self.time) - self.params["radius"][live]
+        clear = obstacle.signed_distance(self.positions[live] - obstacle.offset(self.time)) \
+            - self.params["radius"][live]
         if len(live) and clear.min() < 0:
             k = int(np.argmin(clear))
             raise ValueError(f"add_obstacle: agent {int(live[k])} at {np.round(self.positions[live[k]], 3).tolist()} "
@@ -479,8 +477,7 @@ class Simulator:
         self._now = now
         self.obstacles = ObstacleSet(now)
         self.density_slowing.refloor(now)
-        self._fields_stale = True
-        self._fields = None
+        self._fields_stale = True  # rebuilt (for the obstacles standing now) when next needed
 
     def _agent_ids(self, agents, what: str) -> np.ndarray:
         """``agents`` as unique int ids of agents still in the simulation or waiting to
