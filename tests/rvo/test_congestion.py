@@ -37,3 +37,75 @@ def test_congestion_zero_keeps_the_exact_field():
     router = CongestionRouter(f, 0.0)
     assert not router.enabled
     assert router.resolve(np.array([[5.0, 5.0]]), f.dist) is f.dist
+
+
+def _stream(y0: float, y1: float, vx: float):
+    """Positions and velocities of a stream walking along x at ``vx`` between y0 and y1."""
+    pos = np.stack(np.meshgrid(np.linspace(10, 20, 15), np.linspace(y0, y1, 3)), -1).reshape(-1, 2)
+    return pos, np.tile([vx, 0.0], (len(pos), 1))
+
+
+def test_an_agent_is_led_along_the_side_its_own_stream_walks_on():
+    # two equally dense streams share a corridor: west-bound in the north half, east-bound
+    # in the south half; for an agent bound east, density alone cannot tell the halves
+    # apart, the oncoming flux makes the north half dearer
+    scene = cm.Scene(bounds=([0, 0], [30, 4]))
+    f = distance_fields(scene, [Rect([29, 0.5], [29.8, 3.5])], 0.25, 0.25)
+    north, vn = _stream(2.375, 3.375, -1.0)  # cell centres mirrored across the corridor's middle
+    south, vs = _stream(0.625, 1.625, 1.0)
+    pos, vel = np.vstack([north, south]), np.vstack([vn, vs])
+    row, s_col, n_col = int(12 / 0.25), 4, 11  # x = 12 m, inside both streams; cells mirrored (y 1.125, 2.875 m)
+    density_only = CongestionRouter(f, 1.0, 0.0).resolve(pos, f.dist, vel)[0]
+    counter = CongestionRouter(f, 1.0, 20.0).resolve(pos, f.dist, vel)[0]
+    assert abs(density_only[row, n_col] - density_only[row, s_col]) < 0.05
+    assert counter[row, n_col] - counter[row, s_col] > 1.0
+    with_it = CongestionRouter(f, 1.0, 20.0).resolve(north, f.dist, -vn)[0]  # a stream going our way
+    np.testing.assert_allclose(with_it, CongestionRouter(f, 1.0, 0.0).resolve(north, f.dist)[0], rtol=0.01)
+
+
+def test_a_stream_crossing_at_right_angles_costs_nothing_extra():
+    f = _fields()
+    pos = np.stack(np.meshgrid(np.linspace(2, 6, 9), np.linspace(2, 8, 9)), -1).reshape(-1, 2)
+    vel = np.tile([0.0, 1.0], (len(pos), 1))
+    assert CongestionRouter(f, 1.0, 20.0).graph.unit.shape[1] == 2
+    router = CongestionRouter(f, 1.0, 20.0)
+    fwd, back = router.against(pos, vel)
+    horizontal = router.graph.unit[:, 1] == 0
+    assert np.all(fwd[horizontal] == 0) and np.all(back[horizontal] == 0)
+    assert fwd[~horizontal].max() > 0 or back[~horizontal].max() > 0
+
+
+def test_the_directed_field_with_no_flux_is_the_undirected_one():
+    f = _fields()
+    router = CongestionRouter(f, 1.0, 20.0)
+    crowd = np.array([[4.0, 4.0], [4.5, 4.2], [12.0, 1.0]])
+    still = router.resolve(crowd, f.dist, np.zeros_like(crowd))
+    np.testing.assert_allclose(still, CongestionRouter(f, 1.0, 0.0).resolve(crowd, f.dist), atol=1e-9)
+
+
+def _bot_counterflow(counterflow: float):
+    """60 walkers from each end of the FZJ BOT-360 corridor (3.6 m × 8 m, 1.6 m entrances),
+    half of each stream leaving by each side of the far gap."""
+    from crowdmotion import empirical as E
+    from crowdmotion.cases import Setup
+
+    groups = []
+    for name, spawn, gx in (("east", Rect([-2.7, -1.9], [4.7, 5.5]), (17.4, 20.4)),
+                            ("west", Rect([21.3, -1.9], [28.7, 5.5]), (5.6, 8.6))):
+        groups.append(E._walkers(f"{name} south", 30, spawn, Rect([gx[0], -3.7], [gx[1], -2.5])))
+        groups.append(E._walkers(f"{name} north", 30, spawn, Rect([gx[0], 6.1], [gx[1], 7.3])))
+    return Setup(E.bot_corridor(1.6), groups, E._params("rvo", max_steps=1200, counterflow=counterflow))
+
+
+def test_two_streams_in_a_corridor_form_lanes_and_pass():
+    from crowdmotion import empirical as E
+    from crowdmotion.cases import simulate
+
+    for seed in (0, 1):
+        lanes = simulate("rvo", _bot_counterflow(20.0), seed)
+        mixed = simulate("rvo", _bot_counterflow(0.0), seed)
+        assert lanes.summary["arrival_rate"] == 1.0 and lanes.summary["agent_agent_overlaps"] == 0
+        _, v, order, shuffled = E.bot_measures(lanes.traj, np.random.default_rng(0))
+        _, v_mixed, order_mixed, _ = E.bot_measures(mixed.traj, np.random.default_rng(0))
+        assert order >= 1.4 * shuffled, "the streams walk in lanes"
+        assert order > order_mixed + 0.2 and v > v_mixed + 0.2, "lanes are what lets them pass"

@@ -8,6 +8,22 @@ about a metre). Every ``replan_s`` seconds the field is re-solved on the same
 8-connected grid as the exact field (corner cutting off) by scipy's Dijkstra, from all
 goal cells at once; agents then aim along it exactly as before. With ``congestion = 0``
 the field is the exact distance, unchanged.
+
+Walking against the crowd's flow (``counterflow > 0``, default 20) costs more on top:
+continuum crowds take the speed a crowd allows in a direction from the flow there, so
+that a cell where everyone walks towards you is slow to cross in your direction and fast
+in theirs. Here a move in direction n̂ costs, per metre,
+
+    1 + congestion · ρ + counterflow · max(0, −J · n̂)
+
+with J the crowd's flux (Σ of the agents' velocities per m², smoothed as ρ is; persons
+per metre per second). In a corridor where two streams meet, each agent's field then
+leads along the side its own stream already walks on, every agent going that way
+strengthens that side's flux, and the streams sort themselves into lanes (Treuille et
+al. show this instability forming lanes in counterflow). The field is no longer the
+same in both directions, so it is solved on the directed graph. A flow in one direction
+only (a queue, a bottleneck, everyone to one exit) costs nothing extra, and neither does
+a crossing at right angles: J · n̂ = 0.
 """
 
 from __future__ import annotations
@@ -49,46 +65,77 @@ class GridGraph:
             dst.append(node[i + dx, j + dy])
             length.append(np.full(len(i), np.hypot(dx, dy) * cell))
         self.src, self.dst, self.length = np.concatenate(src), np.concatenate(dst), np.concatenate(length)
+        step = np.stack(np.unravel_index(self.cell_index[self.dst], shape), axis=1) - \
+            np.stack(np.unravel_index(self.cell_index[self.src], shape), axis=1)
+        self.unit = step / np.linalg.norm(step, axis=1)[:, None]  # (E, 2) direction src -> dst
 
-    def distances(self, goal_cells: list, shape: tuple, cost: np.ndarray | None = None) -> np.ndarray:
+    def distances(self, goal_cells: list, shape: tuple, cost: np.ndarray | None = None,
+                  against: tuple[np.ndarray, np.ndarray] | None = None) -> np.ndarray:
         """(F, nx, ny) least cost from every cell to each field's goal cells (inf where none
         leads); an edge costs its length times the mean ``cost`` of its two cells (per free
-        cell, default 1)."""
+        cell, default 1). With ``against`` = (extra cost per metre walking each edge src
+        -> dst, and dst -> src), the graph is directed: the cost is that of walking from a
+        cell towards the goal."""
         w = self.length if cost is None else self.length * 0.5 * (cost[self.src] + cost[self.dst])
         n = len(self.cell_index)
-        graph = csr_matrix((w, (self.src, self.dst)), shape=(n, n))
+        directed = against is not None
+        if directed:
+            # Dijkstra runs outward from the goal cells, so the edge an agent walks a -> b is b -> a
+            weights = np.concatenate([w + self.length * against[0], w + self.length * against[1]])
+            graph = csr_matrix((weights, (np.concatenate([self.dst, self.src]), np.concatenate([self.src, self.dst]))),
+                               shape=(n, n))
+        else:
+            graph = csr_matrix((w, (self.src, self.dst)), shape=(n, n))
         out = np.full((len(goal_cells),) + tuple(shape), np.inf)
         for k, goals in enumerate(goal_cells):
             goals = np.asarray(goals, dtype=np.int64).reshape(-1, 2)
-            d = dijkstra(graph, directed=False, indices=self.node[goals[:, 0], goals[:, 1]], min_only=True)
+            d = dijkstra(graph, directed=directed, indices=self.node[goals[:, 0], goals[:, 1]], min_only=True)
             out[k].ravel()[self.cell_index] = d
         return out
 
 
 class CongestionRouter:
-    """Re-solves a :class:`DistanceFields` with density-weighted cell costs."""
+    """Re-solves a :class:`DistanceFields` with density-weighted cell costs, and costs for
+    walking against the crowd's flux."""
 
-    def __init__(self, fields: DistanceFields, congestion: float):
+    def __init__(self, fields: DistanceFields, congestion: float, counterflow: float = 0.0):
         self.fields = fields
         self.congestion = float(congestion)
+        self.counterflow = float(counterflow)
         free = ~fields.blocked
-        self.enabled = self.congestion > 0 and free.size <= MAX_CELLS
+        self.enabled = (self.congestion > 0 or self.counterflow > 0) and free.size <= MAX_CELLS
         if self.enabled:
             self.graph = GridGraph(free, fields.cell)
 
-    def density(self, positions: np.ndarray) -> np.ndarray:
-        """(nx, ny) agents per m² on the field grid, smoothed over ~SMOOTH_M metres."""
+    def density(self, positions: np.ndarray, weights: np.ndarray | None = None) -> np.ndarray:
+        """(nx, ny) agents per m² on the field grid, smoothed over ~SMOOTH_M metres; with
+        ``weights``, the smoothed sum of each agent's weight per m² instead (its velocity
+        along an axis gives the flux)."""
         f = self.fields
         shape = f.blocked.shape
         idx = np.floor((positions - f.origin) / f.cell).astype(np.int64)
         inside = np.all((idx >= 0) & (idx < np.array(shape)), axis=1)
         counts = np.zeros(shape)
-        np.add.at(counts, (idx[inside, 0], idx[inside, 1]), 1.0)
+        np.add.at(counts, (idx[inside, 0], idx[inside, 1]), 1.0 if weights is None else weights[inside])
         return gaussian_filter(counts / f.cell ** 2, SMOOTH_M / f.cell, mode="constant")
 
-    def resolve(self, positions: np.ndarray, exact: np.ndarray) -> np.ndarray:
-        """New (F, nx, ny) fields: the weighted distance to each field's goal cells."""
+    def against(self, positions: np.ndarray, velocities: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Extra cost per metre of walking each edge of the graph src -> dst and dst -> src:
+        ``counterflow`` × the flux coming the other way, max(0, ∓J · n̂), J taken at the
+        edge's middle (the mean of its two cells)."""
+        g = self.graph
+        jx = self.density(positions, velocities[:, 0]).ravel()[g.cell_index]
+        jy = self.density(positions, velocities[:, 1]).ravel()[g.cell_index]
+        along = 0.5 * ((jx[g.src] + jx[g.dst]) * g.unit[:, 0] + (jy[g.src] + jy[g.dst]) * g.unit[:, 1])
+        return self.counterflow * np.maximum(-along, 0.0), self.counterflow * np.maximum(along, 0.0)
+
+    def resolve(self, positions: np.ndarray, exact: np.ndarray, velocities: np.ndarray | None = None) -> np.ndarray:
+        """New (F, nx, ny) fields: the weighted distance to each field's goal cells, from
+        where the agents are (and, with ``counterflow``, how they walk: ``velocities``)."""
         if not self.enabled or len(positions) == 0:
             return exact
         cost = 1.0 + self.congestion * self.density(positions).ravel()[self.graph.cell_index]
-        return self.graph.distances(self.fields.goal_cells, self.fields.blocked.shape, cost)
+        against = None
+        if self.counterflow > 0 and velocities is not None:
+            against = self.against(positions, velocities)
+        return self.graph.distances(self.fields.goal_cells, self.fields.blocked.shape, cost, against)

@@ -48,6 +48,9 @@ class RVOParams(BaseModel):
     congestion : float       field guidance cost per metre 1 + congestion × density
                              (agents/m²), so crowds use a corridor's width (0 = exact
                              distances only); rvo.congestion, a documented addition
+    counterflow : float      extra field cost per metre walked against the crowd's flux,
+                             × the flux (persons/m/s), so opposing streams form lanes
+                             (0 = density alone); rvo.congestion, a documented addition
     replan_s : float         seconds between re-solves of the congestion-aware field
     density_slowing : bool   cap v_pref at Weidmann's speed for the density sensed ahead,
                              so crowds slow with density (rvo.density, a documented addition)
@@ -79,6 +82,7 @@ class RVOParams(BaseModel):
     keep_right_deg: Annotated[float, Field(ge=0, lt=90, allow_inf_nan=False)] = 15.0
     patience: PosFloat = 2.0
     congestion: NonNegative = 1.0
+    counterflow: NonNegative = 20.0
     replan_s: PosFloat = 2.0
     density_slowing: bool = True
     follow: Annotated[float, Field(ge=0, le=1, allow_inf_nan=False)] = 0.5

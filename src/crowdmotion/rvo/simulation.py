@@ -66,7 +66,7 @@ def build_simulator(scene: Scene, groups: Sequence[Group], params: RVOParams, rn
     sim = Simulator(scene, params.time_step, guidance=params.guidance, remove_on_arrival=params.remove_on_arrival,
                     arrival_radius=params.arrival_radius, field_cell=params.field_cell, dominant=params.dominant,
                     rng=rng, keep_right_deg=params.keep_right_deg, patience=params.patience,
-                    congestion=params.congestion, replan_s=params.replan_s,
+                    congestion=params.congestion, counterflow=params.counterflow, replan_s=params.replan_s,
                     density_slowing=params.density_slowing, follow=params.follow,
                     lane_choice=params.lane_choice, comfort_accel=params.comfort_accel)
     placed = np.zeros((0, 2))

@@ -95,6 +95,12 @@ class Simulator:
         (agents/m²) per metre, and the field is re-solved every ``replan_s`` seconds, so a
         crowd spreads over a corridor's width (:mod:`crowdmotion.rvo.congestion`); 0 = the
         exact distance field only.
+    counterflow : float
+        With the congestion-aware field, walking a metre against the crowd's flux J
+        (persons per metre per second, the smoothed sum of the agents' velocities per m²)
+        costs ``counterflow × J`` metres more, so each stream's field leads along the side
+        its own stream walks on and opposing streams form lanes
+        (:mod:`crowdmotion.rvo.congestion`); 0 = density alone.
     replan_s : float
         Seconds between two re-solves of the congestion-aware field.
     density_slowing : bool
@@ -126,7 +132,7 @@ class Simulator:
                  rng: np.random.Generator | None = None, keep_right_deg: float = 15.0,
                  patience: float = 2.0, congestion: float = 1.0, replan_s: float = 2.0,
                  density_slowing: bool = True, follow: float = 0.5, lane_choice: bool = True,
-                 comfort_accel: float = 0.8):
+                 comfort_accel: float = 0.8, counterflow: float = 20.0):
         if not isinstance(scene, Scene):
             raise TypeError(f"scene must be a crowdmotion.Scene, got {scene!r}")
         if not (np.isfinite(time_step) and time_step > 0):
@@ -143,9 +149,12 @@ class Simulator:
             raise ValueError(f"patience must be a positive number of seconds, got {patience!r}")
         if not (np.isfinite(congestion) and congestion >= 0):
             raise ValueError(f"congestion must be a number >= 0, got {congestion!r}")
+        if not (isinstance(counterflow, (int, float)) and np.isfinite(counterflow) and counterflow >= 0):
+            raise ValueError(f"counterflow must be a number >= 0, got {counterflow!r}")
         if not (np.isfinite(replan_s) and replan_s > 0):
             raise ValueError(f"replan_s must be a positive number of seconds, got {replan_s!r}")
         self.congestion = float(congestion)
+        self.counterflow = float(counterflow)
         self.replan_steps = max(1, int(round(replan_s / time_step)))
         self.scene = scene  # with every obstacle ever in it, each with the time it stood (for the audit)
         self._now = scene   # the obstacles standing now
@@ -561,14 +570,14 @@ class Simulator:
             self._fields = distance_fields(self._now, self._goal_regions, float(self.params["radius"].max()),
                                            self.field_cell)
             self._exact = self._fields.dist
-            self._router = CongestionRouter(self._fields, self.congestion)
+            self._router = CongestionRouter(self._fields, self.congestion, self.counterflow)
         self._fields_stale = False
 
     def _replan(self) -> None:
         """Re-solve the congestion-aware field from where the agents are now."""
         if self._router is None or not self._router.enabled or self.steps % self.replan_steps:
             return
-        self._fields.dist = self._router.resolve(self.positions[self.active], self._exact)
+        self._fields.dist = self._router.resolve(self.positions[self.active], self._exact, self.velocities[self.active])
 
     def preferred_velocities(self) -> np.ndarray:
         """(N, 2) v_pref of every agent now (zero for agents that left)."""
