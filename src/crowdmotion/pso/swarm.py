@@ -315,7 +315,9 @@ def relaxed(traj: Trajectories, fps: float | None, window_s: float, scene: Scene
     the paths are relaxed as MDP's are (:func:`crowdmotion.path_relaxation.relaxed_trajectories`:
     every frame averaged over ``window_s`` seconds, bodies pushed apart and out of the
     obstacles, audited in continuous time, a step that would still touch or outrun
-    ``max_speed`` keeping its straight move). The first and last frames stay where they are."""
+    ``max_speed`` keeping its straight move). The first and last frames stay where they
+    are, but for the pushes that keep bodies ``RELAX_MARGIN`` apart (a gathered swarm packs
+    closer than that: its last frames move by a few centimetres)."""
     from crowdmotion.path_relaxation import relaxed_trajectories
 
     limit = np.zeros(traj.n_agents) if max_speed is None else np.broadcast_to(
