@@ -42,7 +42,7 @@ def row(path, smooth: bool) -> str:
     kept = s["smoothing"].get("straight_segments")
     straight = "-" if kept is None else f"{kept} / {s['smoothing']['segments']}"
     return (f"| {path.stem} | {s['smoothing']['kind']} | {acc['p95']:.2f} | {turn['p95']:.2f} | "
-            f"{100 * dev['p95']:.1f} | {s['max_speed_mps']:.2f} / {top:g} | "
+            f"{100 * dev['p95']:.1f} | {s['max_speed_mps']:.3f} / {top:g} | "
             f"{s['agent_agent_overlaps']} / {s['agent_obstacle_penetrations']} | {100 * s['arrival_rate']:.0f} % | "
             f"{'-' if t_goal is None else f'{t_goal:.1f}'} | {straight} | {wall:.1f} |")
 
