@@ -63,6 +63,14 @@ def test_builtin_scene_is_clean_gathers_and_opens_in_the_readers(name, tmp_path)
     elif result.scenario.method == "pso":  # every group gathers (threshold or the group arrival rule)
         assert s["arrival_rate"] == 1.0, s
         assert all(s["groups_gathered"].values()), s["groups_gathered"]
+        # the relaxed paths (pso.smoothing) fly without twitching at 24 fps, within every group's max speed
+        top = np.array([g.max_speed for g in result.scenario.groups])[result.extras.swarm_run.swarm]
+        assert (traj.speed[:-1] <= top + 1e-9).all(), s["max_speed_mps"]
+        rm = s["root_motion"]
+        assert rm["acceleration_mps2"]["p95"] <= 2.0, rm
+        assert rm["turn_rate_rad_s"]["p95"] <= 2.0, rm
+        assert rm["deviation_from_1s_average_m"]["p95"] <= 0.08, rm
+        assert s["smoothing"]["straight_segments"] == 0, s["smoothing"]
     else:  # formation: every group reaches its target area and recovers its shape
         assert s["all_recovered"], s["formation"]
         for name, g in s["formation"].items():

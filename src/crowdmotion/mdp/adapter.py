@@ -84,7 +84,7 @@ def run_scenario(scene, groups, params: MDPParams, rng, progress: bool = True):
         "mean_final_path_distance_to_goal_m": float(np.mean(dist[np.isfinite(dist)])) if np.isfinite(dist).any() else None,
         "max_final_path_distance_to_goal_m": float(np.max(dist[np.isfinite(dist)])) if np.isfinite(dist).any() else None,
     })
-    if "relaxed" in traj.metadata:  # at fps, or at the run's own steps (a large run: simulation.RELAX_AT_FPS_MAX)
+    if "relaxed" in traj.metadata:  # at fps, or at the run's own steps (a large run: path_relaxation.RELAX_AT_FPS_MAX)
         summary["relaxed"] = dict(traj.metadata["relaxed"])
     return traj, result, summary
 

@@ -15,9 +15,9 @@ from crowdmotion.mdp.grid import GridMap, mark_obstacle, max_radius, min_cell_si
 from crowdmotion.mdp.solvers import solve, value_iteration
 from crowdmotion.mdp.trajectory import Walker
 from crowdmotion.scene import Scene
-from crowdmotion.path_relaxation import relax
-from crowdmotion.smoothing import keep_clean, resample_checked
-from crowdmotion.trajectories import Trajectories, resample
+from crowdmotion.path_relaxation import RELAX_AT_FPS_MAX, STEP_RATE_ITERATIONS, relaxed_trajectories  # noqa: F401
+from crowdmotion.smoothing import resample_checked
+from crowdmotion.trajectories import Trajectories
 
 
 @dataclass
@@ -238,42 +238,22 @@ def run(scene: Scene, groups: Sequence[Group], params: MDPParams, rng: np.random
     return MDPRun(traj, grid, values, goal_cells, unreachable, field_of)
 
 
-# Relaxed paths cost about 40 rounds over every agent's every frame plus continuous audits
-# of them: 2,000 agents for 384 s at 24 fps (18 million agent-frames) took over 20 minutes.
-# A run with more agent-frames at ``fps`` than this is relaxed at its own steps instead (one
-# frame per step, STEP_RATE_ITERATIONS rounds over a window of three steps) and written at
-# that rate: its players and exports resample it along the B-spline of its frames.
-RELAX_AT_FPS_MAX = 1_000_000
-STEP_RATE_ITERATIONS = 10
-
-
 def relaxed(traj: Trajectories, params: MDPParams, scene: Scene, max_speed: np.ndarray,
             stretch: bool = False) -> Trajectories:
     """The run's paths at ``params.fps``, relaxed (``crowdmotion.path_relaxation``: smoothed
     over ``smoothing_window`` seconds, bodies kept apart and out of the obstacles), then
     audited in continuous time: a step where they still touch, or outrun ``max_speed``,
-    keeps the plan's straight move (``crowdmotion.smoothing.keep_clean``).
+    keeps the plan's straight move (``crowdmotion.smoothing.keep_clean``); a run with more
+    than ``RELAX_AT_FPS_MAX`` agent-frames at ``fps`` is relaxed at its own steps
+    (:func:`crowdmotion.path_relaxation.relaxed_trajectories`).
 
     ``stretch`` (static scenes with ``speed_limited_steps``): the run steps a cell per
     cell / pref_speed, and where the relaxed paths still run faster than an agent's
     max_speed (a run of diagonal moves: √2 cells a step), the whole run is slowed by that
     factor: every path and all their timings are kept, so the run stays as clear as it was,
     and no agent pays for a diagonal it did not make by going slower on its straight moves."""
-    at_fps = traj.n_agents * (int((traj.n_frames - 1) * traj.dt * params.fps) + 1)  # agent-frames at fps
-    by_steps = at_fps > RELAX_AT_FPS_MAX
-    linear = traj if by_steps else resample(traj, params.fps, "linear")
-    if traj.n_frames < 2:
-        return linear
-    if by_steps:  # a run this large is relaxed (and kept) at its own steps: minutes saved, see RELAX_AT_FPS_MAX
-        pos = relax(traj.positions, traj.active_mask, traj.radius, traj.dt, scene, params.smoothing_window,
-                    iterations=STEP_RATE_ITERATIONS, passes=1)
-    else:
-        pos = relax(linear.positions, linear.active_mask, traj.radius, linear.dt, scene, params.smoothing_window)
-    smooth = Trajectories(pos, linear.dt, ids=linear.ids, group=linear.group, radius=linear.radius,
-                          active=linear.active, metadata={**linear.metadata})
-    out = keep_clean(smooth, linear, traj, scene, max_speed, "relaxed", warn=False)
-    out.metadata["relaxed"] = {"at": "steps" if by_steps else "fps", "fps": 1.0 / linear.dt,
-                               "agent_frames_at_fps": at_fps, "limit": RELAX_AT_FPS_MAX}
+    out = relaxed_trajectories(traj, params.fps, params.smoothing_window, scene, max_speed)
+    by_steps = out.metadata.get("relaxed", {}).get("at") == "steps"
     if not stretch or out.n_frames < 2:
         return out
     ok = out.active_mask[:-1] & out.active_mask[1:]

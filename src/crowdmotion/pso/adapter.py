@@ -139,9 +139,22 @@ def run_scenario(scene, groups, params: PSOParams, rng, progress: bool = True):
         "groups_gathered": {n: bool(sr.stopped[names == n].all()) for n in result.group_names},
         "rules": dict(sr.stats),
         "generated_obstacles": len(result.scene.obstacles) - len(scene.obstacles),
+        "smoothing": smoothing_report(traj, params),
         "groups": metrics.group_report(traj),
     })
     return traj, result, summary
+
+
+def smoothing_report(traj, params: PSOParams) -> dict:
+    """How the paths were smoothed: ``kind`` ("relaxed" or "linear"), the window, and for
+    relaxed paths where (at ``fps`` or the iterations) and how many path steps (between two
+    iterates) the continuous audit made keep their straight move."""
+    out = {"kind": params.smoothing}
+    if params.smoothing == "relaxed":
+        done = traj.metadata.get("resampled", {})
+        out.update({"window_s": params.smoothing_window, **traj.metadata.get("relaxed", {}),
+                    "straight_segments": done.get("straight_segments"), "segments": done.get("segments")})
+    return out
 
 
 def write_plots(scene, result: PSORun, out, which, title: str = "") -> list:

@@ -61,6 +61,12 @@ class PSOParams(_Model):
     threshold : float         a particle this close to its target stops
     iteration_time : float    seconds per iteration (the path's time base)
     fps : float | None        output frame rate (None: one frame per iteration)
+    smoothing : str           "relaxed" (default): the paths relaxed at ``fps`` for smooth
+                              root motion (smoothed over ``smoothing_window`` and kept apart,
+                              see ``crowdmotion.path_relaxation``; audited in continuous time,
+                              a step that would touch keeps its straight move); "linear": the
+                              iterates themselves, straight moves between them (the paper's)
+    smoothing_window : float  seconds the "relaxed" paths are averaged over
     avoid_obstacles : bool    the redirect rule, eqs. (4)–(5), against obstacles
     detection : float         obstacle detection range: clearance, metres
     avoid_agents : bool       the same rule against other particles, nearest-to-target first
@@ -90,6 +96,8 @@ class PSOParams(_Model):
     threshold: PosFloat = 0.5
     iteration_time: Annotated[float, Field(gt=0, le=MAX_ITERATION_TIME_S, allow_inf_nan=False)] = 0.25
     fps: Annotated[float, Field(gt=0, le=MAX_FPS, allow_inf_nan=False)] | None = 24.0
+    smoothing: Literal["relaxed", "linear"] = "relaxed"
+    smoothing_window: Annotated[float, Field(gt=0, le=60.0, allow_inf_nan=False)] = 1.5
     avoid_obstacles: bool = True
     detection: NonNeg = 1.0
     avoid_agents: bool = True

@@ -19,8 +19,9 @@ from crowdmotion.trajectories import Trajectories
 
 @dataclass
 class PSORun:
-    """``trajectories`` (resampled to ``params.fps``), the raw ``swarm_run`` (one frame per
-    iteration), and the ``scene`` that was used (generated obstacles included)."""
+    """``trajectories`` (at ``params.fps``, relaxed or straight between the iterates as
+    ``params.smoothing`` says), the raw ``swarm_run`` (one frame per iteration), and the
+    ``scene`` that was used (generated obstacles included)."""
 
     trajectories: Trajectories
     swarm_run: SwarmRun
@@ -90,7 +91,8 @@ def run(scene: Scene, groups: Sequence[Group], params: PSOParams | None = None,
                                    params.iteration_time)
     result = drive(swarm, schedule, lambda t: np.array([_target(g, t) for g in groups]), moving, progress)
     names = [g.name for g in groups]
-    return PSORun(result.trajectories(names, params.fps), result, used, names)
+    max_speed = np.array([g.max_speed for g in groups])[result.swarm]
+    return PSORun(result.trajectories(names, params.fps, max_speed=max_speed), result, used, names)
 
 
 def simulate(scene: Scene, groups: Sequence[Group], params: PSOParams | None = None,
