@@ -3,7 +3,9 @@
 Each obstacle spreads a field of range r round itself: at a cell centre x at distance d
 from its surface the magnitude is f = 1 − d/r for 0 < d < r (1 inside the obstacle, 0 from
 r on) and the direction is (x − c)/‖x − c‖, away from the obstacle's centre c (the paper's
-choice: it adds a tangential push round wide obstacles). Fields of several obstacles add
+choice: it adds a tangential push round wide obstacles); for a box, c is the nearest point
+of its core, the box shrunk by r on every side (the centre of a box up to 2r across; beside
+a long wall the push is square to it, see ``_core_point``). Fields of several obstacles add
 as vectors; ``strength`` keeps the largest magnitude, which decides whether a vertex is
 "in a field". Static obstacles are painted once; moving ones are repainted every step
 over the cells they touch only (their old and new footprints).
@@ -14,7 +16,7 @@ from __future__ import annotations
 import numpy as np
 
 from crowdmotion.obstacle_primitives import check_supported
-from crowdmotion.scene import Obstacle, Scene
+from crowdmotion.scene import Box, Obstacle, Scene
 
 
 def radial_field(points: np.ndarray, center: np.ndarray, distance: np.ndarray, reach: float):
@@ -36,6 +38,21 @@ def disc_field(points: np.ndarray, centers: np.ndarray, radii: np.ndarray, reach
         vec += v
         f = np.maximum(f, fi)
     return vec, f
+
+
+def _core_point(ob: Obstacle, x: np.ndarray, lo: np.ndarray, hi: np.ndarray, reach: float) -> np.ndarray:
+    """The point of an obstacle's core that the field at ``x`` (k, 2) points away from: a
+    disc's (or polygon's) centre, as the paper has it; for a box the nearest point of the
+    box shrunk by the field's range on every side (at most to its middle). A box no
+    larger than twice the range has its centre as its core, as before; a long wall's core
+    is a segment, so beside it the push is square to the wall. (Away from a wall's centre,
+    a column beside a long wall was pushed along it: in a 2 m corridor built of two large
+    boxes the push at the corner pointed back down the corridor, stronger than the
+    attraction, and the formation of RiMEA 6 stood at the corner.)"""
+    if not isinstance(ob, Box):
+        return np.broadcast_to(ob.center[:2], x.shape)
+    shrink = np.minimum(reach, 0.5 * (hi - lo))
+    return np.clip(x, lo + shrink, hi - shrink)
 
 
 class PotentialField:
@@ -74,7 +91,9 @@ class PotentialField:
         ii, jj = np.meshgrid(np.arange(si.start, si.stop), np.arange(sj.start, sj.stop), indexing="ij")
         x = self.origin + (np.stack([ii, jj], axis=-1).reshape(-1, 2) + 0.5) * self.cell
         if len(x):
-            v, f = radial_field(x, ob.center[:2] + offset, ob.signed_distance(x - offset), self.reach)
+            lo, hi = ob.bounds()
+            v, f = radial_field(x, _core_point(ob, x - offset, lo[:2], hi[:2], self.reach) + offset,
+                                ob.signed_distance(x - offset), self.reach)
             vec[si, sj] += v.reshape(ii.shape + (2,))
             strength[si, sj] = np.maximum(strength[si, sj], f.reshape(ii.shape))
         return si, sj
