@@ -348,7 +348,7 @@ class Simulator:
             handles = np.flatnonzero(fmag > 0)
         g.handles = len(handles)
         drift = u.mean(axis=0) if u.ndim == 2 else u
-        turn = self._turn(g, drift)  # the rest shape turns to the direction of travel
+        turn = self._turn(g, drift, V, centroid)  # the rest shape turns to the direction of travel
         moved = centroid + (V - centroid) @ _rotation(turn).T + dt * u
         if in_area:  # recovery: back to the rest shape, facing the way it arrived, on the goal
             slot = g.rest_shape() + g.goal_center
@@ -533,15 +533,36 @@ class Simulator:
         g.heading = square if off(square, fit) <= ARRIVAL_TURN_MAX else fit
         g.facing_offset = min(g.symmetry, key=lambda s: off(g.heading + s, travelled))
 
-    def _turn(self, g: FormationGroup, drift: np.ndarray) -> float:
+    def _turn(self, g: FormationGroup, drift: np.ndarray, V: np.ndarray, centroid: np.ndarray) -> float:
         """Turn the group's rest heading toward its direction of travel, at most
-        pref_speed / extent radians per second; returns the turn made this step."""
+        pref_speed / extent radians per second; returns the rigid turn the mesh makes
+        this step (about its centroid).
+
+        Confined (walls): a turn that would swing the rest shape's slots into a static
+        obstacle is not made; a mesh whose rest shape does not fit where it stands (a
+        column rounding a corridor's corner) bends by its vertices' own routes, and its
+        heading follows the mesh's own orientation (the best-fit turn) without turning
+        the mesh rigidly."""
         if not np.any(drift):
             return 0.0
         want = float(np.arctan2(drift[1], drift[0]))  # the template's front (its +x) leads
         delta = (want - g.heading + np.pi) % (2 * np.pi) - np.pi
         limit = g.pref_speed / max(g.extent, 1.0) * self.dt
         turn = float(np.clip(delta, -limit, limit))
+        if self.scene.static_obstacles and turn != 0.0:
+            need = g.radius + VERTEX_CLEARANCE
+            rest = g.mesh.rest - g.mesh.rest.mean(axis=0)
+            short = lambda h: float(np.maximum(need - self.scene.static_obstacle_distance(  # noqa: E731
+                rest @ _rotation(h - g.heading0).T + centroid), 0.0).sum())
+            now = short(g.heading)
+            if now > 1e-9:  # the rest shape does not fit here: follow the mesh's own orientation
+                b = V - centroid
+                fit = g.heading0 + float(np.arctan2(np.sum(rest[:, 0] * b[:, 1] - rest[:, 1] * b[:, 0]),
+                                                    np.sum(rest[:, 0] * b[:, 0] + rest[:, 1] * b[:, 1])))
+                g.heading += float(np.clip(wrap(fit - g.heading), -limit, limit))
+                return 0.0
+            if short(g.heading + turn) > 1e-9:  # turning would swing slots into a wall
+                return 0.0
         g.heading += turn
         return turn
 
