@@ -549,7 +549,7 @@ class Simulator:
         delta = (want - g.heading + np.pi) % (2 * np.pi) - np.pi
         limit = g.pref_speed / max(g.extent, 1.0) * self.dt
         turn = float(np.clip(delta, -limit, limit))
-        if self.scene.static_obstacles and turn != 0.0:
+        if self.scene.static_obstacles and turn != 0.0 and not g.cars:  # cars keep their own kinematics
             need = g.radius + VERTEX_CLEARANCE
             rest = g.mesh.rest - g.mesh.rest.mean(axis=0)
             short = lambda h: float(np.maximum(need - self.scene.static_obstacle_distance(  # noqa: E731
