@@ -542,7 +542,10 @@ class Simulator:
         obstacle is not made; a mesh whose rest shape does not fit where it stands (a
         column rounding a corridor's corner) bends by its vertices' own routes, and its
         heading follows the mesh's own orientation (the best-fit turn) without turning
-        the mesh rigidly."""
+        the mesh rigidly, but only toward the direction of travel and no further: a
+        block split round a planter has a best fit that points nowhere (it swung the
+        heading 28° off the travel, and a vertex that the turned rest shape pulled aside
+        was still 10 m from its place on arrival)."""
         if not np.any(drift):
             return 0.0
         want = float(np.arctan2(drift[1], drift[0]))  # the template's front (its +x) leads
@@ -559,7 +562,9 @@ class Simulator:
                 b = V - centroid
                 fit = g.heading0 + float(np.arctan2(np.sum(rest[:, 0] * b[:, 1] - rest[:, 1] * b[:, 0]),
                                                     np.sum(rest[:, 0] * b[:, 0] + rest[:, 1] * b[:, 1])))
-                g.heading += float(np.clip(wrap(fit - g.heading), -limit, limit))
+                step = float(np.clip(wrap(fit - g.heading), -limit, limit))
+                if step * delta > 0:  # toward the way it travels, and no further than that
+                    g.heading += float(np.clip(step, -abs(delta), abs(delta)))
                 return 0.0
             if short(g.heading + turn) > 1e-9:  # turning would swing slots into a wall
                 return 0.0
