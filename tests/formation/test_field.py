@@ -42,13 +42,26 @@ def test_a_corridor_of_two_large_boxes_pushes_across_it_not_back_along_it():
     assert abs(vec[0, 1]) < 1e-9 and abs(vec[1, 0]) < 1e-9
 
 
+def test_the_bounds_push_square_into_the_scene_as_a_long_wall_does():
+    # RiMEA 6's first leg has the bounds (y = 0) for its outer wall: without their push the
+    # upper wall's field alone pressed a column's files against them
+    scene = Scene(((0, 0), (22, 22)), [Box((0, 2), (10, 12)), Box((12, 0), (22, 12))])
+    vec, f = PotentialField(scene, reach=2.0, cell=0.25).sample(np.array([[5.1, 0.6], [5.1, 1.4], [0.1, 21.9]]))
+    assert f[0] == pytest.approx(1 - 0.625 / 2) and vec[0] == pytest.approx([0.0, (1 - 0.625 / 2) - (1 - 1.375 / 2)])
+    assert vec[1, 1] == pytest.approx(-vec[0, 1])  # the corridor's middle line is the field's balance
+    assert vec[2] == pytest.approx([1 - 0.125 / 2, -(1 - 0.125 / 2)])  # a corner: both sides
+    _, f = PotentialField(scene, reach=2.0, cell=0.25, bounds=False).sample(np.array([[5.1, 0.6]]))
+    assert f[0] == pytest.approx(1 - 1.375 / 2)  # the upper wall's alone
+
+
 def test_moving_obstacle_repaints_only_the_cells_it_touches():
     mover = Circle((5, 5), 1.0, path=([0.0, 10.0], [(5, 5), (45, 5)]))
     scene = Scene(((0, 0), (50, 10)), [Circle((40, 8), 1.0), mover])
     field = PotentialField(scene, reach=1.5, cell=0.25)
     for t in (0.0, 3.0, 7.5):
         field.update(t)
-        fresh = PotentialField(Scene(scene.bounds, [Circle(mover.path.at(t), 1.0)]), reach=1.5, cell=0.25)
+        fresh = PotentialField(Scene(scene.bounds, [Circle(mover.path.at(t), 1.0)]), reach=1.5, cell=0.25,
+                               bounds=False)
         assert np.array_equal(field.dynamic_f, fresh.static_f)
         assert np.allclose(field.dynamic_vec, fresh.static_vec)
     # each update clears and paints two small windows, far fewer than the grid's cells

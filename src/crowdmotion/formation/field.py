@@ -56,9 +56,10 @@ def _core_point(ob: Obstacle, x: np.ndarray, lo: np.ndarray, hi: np.ndarray, rea
 
 
 class PotentialField:
-    """The field of a scene's obstacles on a grid of ``cell`` metres; ``reach`` is r."""
+    """The field of a scene's obstacles on a grid of ``cell`` metres; ``reach`` is r. The
+    scene's bounds push as walls do (``bounds=False``: the obstacles' field alone)."""
 
-    def __init__(self, scene: Scene, reach: float, cell: float):
+    def __init__(self, scene: Scene, reach: float, cell: float, bounds: bool = True):
         check_supported(scene, "formation", "the guiding-mesh method")
         self.reach, self.cell = float(reach), float(cell)
         self.origin = scene.lower.astype(float)
@@ -76,6 +77,8 @@ class PotentialField:
         for ob in scene.obstacles:
             if not ob.is_moving:
                 self._paint(ob, np.zeros(2), self.static_vec, self.static_f)
+        if bounds:
+            self._paint_bounds(scene.lower.astype(float)[:2], scene.upper.astype(float)[:2])
         self.cells_updated = 0
 
     def _window(self, ob: Obstacle, offset: np.ndarray) -> tuple[slice, slice]:
@@ -97,6 +100,18 @@ class PotentialField:
             vec[si, sj] += v.reshape(ii.shape + (2,))
             strength[si, sj] = np.maximum(strength[si, sj], f.reshape(ii.shape))
         return si, sj
+
+    def _paint_bounds(self, lower: np.ndarray, upper: np.ndarray) -> None:
+        """The scene's bounds are walls: each side spreads the field of a long box wall
+        beside it (f = 1 − d/r at distance d, pointing square into the scene), so a
+        corridor whose one side is the bounds is pushed from both sides."""
+        centres = self.origin + (np.indices(self.shape).transpose(1, 2, 0) + 0.5) * self.cell
+        for axis in range(2):
+            for edge, inward in ((lower[axis], 1.0), (upper[axis], -1.0)):
+                d = np.abs(centres[..., axis] - edge)
+                f = np.clip(1.0 - d / self.reach, 0.0, 1.0)
+                self.static_vec[..., axis] += inward * f
+                self.static_f[:] = np.maximum(self.static_f, f)
 
     def update(self, t: float) -> None:
         """Repaint the moving obstacles at time ``t``: their previous cells are cleared and
