@@ -47,6 +47,20 @@ def test_full_suite(case, method):
     assert v.passed and v.clean, f"{case}/{method}: {v.criterion}: measured {v.measured}"
 
 
+@pytest.mark.parametrize("seed", [0, 1])
+def test_a_column_rounds_rimea_6s_corner_and_re_forms_beyond_it(seed):
+    # a 10 x 2 column, ranks 0.8 m apart, in RiMEA 6's 2 m corridor: it stood at the inner
+    # corner, pushed back down the corridor by the walls' field (away from each big box's
+    # centre), until a box's field pointed away from its core (crowdmotion.formation.field)
+    c = next(c for c in verify.CASES if c.name == "rimea_6_column")
+    scene, groups = c.build("formation")["corner"].scene, c.build("formation")["corner"].groups
+    assert groups[0].count == 20 and scene.obstacle_distance(np.array([[11.0, 6.0]]), 0.0)[0] == pytest.approx(1.0)
+    v = verify.run_case(c, "formation", seed=seed)
+    assert v.clean, v
+    assert v.passed, v.measured
+    assert v.measured.startswith("20 of 20 out")
+
+
 @pytest.mark.parametrize("seed", [2, 6])
 def test_rvo2_blocks_crossing_clears_with_the_seeds_that_once_locked_it(seed):
     # seeds 2 and 6 locked the four streams in the central crossing for good (24 % and 0 %

@@ -130,6 +130,40 @@ def _judge_rimea_6(out: dict[str, Outcome]) -> tuple[str, str, bool]:
             bool(_arrived(r) == 1.0 and pen == 0))
 
 
+# RiMEA 6 for a formation: a column of 20 as 10 ranks of 2, ranks 0.8 m apart (files 0.8 m
+# apart too: 2 abreast of radius 0.25 m span 1.3 m of the 2 m corridor). The corridor is
+# RiMEA 6's: 2 m wide, turning left, legs of 12 m along the outer wall. The 7.3 m deep column
+# does not fit RiMEA's 6 m start area; it starts in the first 8.3 m of the first leg (the
+# 10 m before the corner hold it, so no leg is lengthened). A column recovers its rest shape
+# in a target area, which the 2 m leg cannot hold: the second leg opens into a 22 x 10 m
+# exit area beyond its end (y = 12), where the goal lies.
+RIMEA_6_LEG_END = 12.0  # y of the second leg's open end
+RIMEA_6_CORNER = 2.0  # y past which a soldier has rounded the inner corner into the second leg
+
+
+def _rimea_6_column(method: str) -> dict[str, Setup]:
+    scene = Scene(bounds=([0, 0], [22, 22]), obstacles=[Box([0, 2], [10, 12]), Box([12, 0], [22, 12])])
+    g = Group("column", 20, spawn=Rect([0.3, 0.3], [8.3, 1.7]), goal=Rect([9, 14], [13, 20]), radius=RADIUS,
+              max_speed=1.5, pref_speed=SPEED,
+              attributes={**_formation(method, "block", rows=10, cols=2, spacing=0.8), "heading_deg": 0.0})
+    return {"corner": Setup(scene, [g], _params(method))}
+
+
+def _judge_rimea_6_column(out: dict[str, Outcome]) -> tuple[str, str, bool]:
+    r = out["corner"]
+    rounded = crossing_times(r.traj, 1, RIMEA_6_CORNER)
+    gone = crossing_times(r.traj, 1, RIMEA_6_LEG_END)
+    n_out = int(np.isfinite(gone).sum())
+    criterion = "all 20 out past the second leg's end, recovered within 30 s of the last rounding the corner"
+    if not np.isfinite(rounded).all():
+        return criterion, f"{int(np.isfinite(rounded).sum())} of 20 round the corner, {n_out} out", False
+    corner = float(rounded.max())
+    rec = r.summary["formation"]["column"]["recovered_s"]
+    measured = (f"{n_out} of 20 out, the last round the corner at {corner:.0f} s, "
+                + (f"recovered at {rec:.0f} s ({rec - corner:.0f} s after)" if rec is not None else "never recovered"))
+    return criterion, measured, bool(n_out == 20 and rec is not None and rec - corner <= 30.0)
+
+
 # ---- RiMEA 7: walking speeds drawn from Weidmann's age groups ---------------------------------
 WEIDMANN = {"under 30": (0.58, 1.61), "30 to 50": (1.41, 1.54), "over 50": (0.68, 1.41),
             "limited mobility": (0.46, 0.76)}  # m/s on the flat, RiMEA Table 1
@@ -364,6 +398,9 @@ CASES: list[Case] = [
     Case("rimea_6_corner", "RiMEA test 6",
          "20 persons round a left corner of a 2 m corridor without passing through its walls",
          ("rvo", "mdp", "formation"), _rimea_6, _judge_rimea_6, quick=True),
+    Case("rimea_6_column", "RiMEA test 6, a formation",
+         "a 10 x 2 column (ranks 0.8 m apart) rounds the left corner of RiMEA 6's 2 m corridor and re-forms beyond it",
+         ("formation",), _rimea_6_column, _judge_rimea_6_column, quick=True),
     Case("corridor_two_corners", "a U-shaped corridor, two 90° corners",
          "a 10 x 2 column (or 20 walkers) follows a 4 m corridor round two 90° corners, back the way it came",
          ("formation", "rvo", "mdp"), _corridor_two_corners, _judge_corridor, quick=True),

@@ -3,7 +3,9 @@
 Each obstacle spreads a field of range r round itself: at a cell centre x at distance d
 from its surface the magnitude is f = 1 − d/r for 0 < d < r (1 inside the obstacle, 0 from
 r on) and the direction is (x − c)/‖x − c‖, away from the obstacle's centre c (the paper's
-choice: it adds a tangential push round wide obstacles). Fields of several obstacles add
+choice: it adds a tangential push round wide obstacles); for a box, c is the nearest point
+of its core, the box shrunk by r on every side (the centre of a box up to 2r across; beside
+a long wall the push is square to it, see ``_core_point``). Fields of several obstacles add
 as vectors; ``strength`` keeps the largest magnitude, which decides whether a vertex is
 "in a field". Static obstacles are painted once; moving ones are repainted every step
 over the cells they touch only (their old and new footprints).
@@ -14,7 +16,7 @@ from __future__ import annotations
 import numpy as np
 
 from crowdmotion.obstacle_primitives import check_supported
-from crowdmotion.scene import Obstacle, Scene
+from crowdmotion.scene import Box, Obstacle, Scene
 
 
 def radial_field(points: np.ndarray, center: np.ndarray, distance: np.ndarray, reach: float):
@@ -38,10 +40,26 @@ def disc_field(points: np.ndarray, centers: np.ndarray, radii: np.ndarray, reach
     return vec, f
 
 
-class PotentialField:
-    """The field of a scene's obstacles on a grid of ``cell`` metres; ``reach`` is r."""
+def _core_point(ob: Obstacle, x: np.ndarray, lo: np.ndarray, hi: np.ndarray, reach: float) -> np.ndarray:
+    """The point of an obstacle's core that the field at ``x`` (k, 2) points away from: a
+    disc's (or polygon's) centre, as the paper has it; for a box the nearest point of the
+    box shrunk by the field's range on every side (at most to its middle). A box no
+    larger than twice the range has its centre as its core, as before; a long wall's core
+    is a segment, so beside it the push is square to the wall. (Away from a wall's centre,
+    a column beside a long wall was pushed along it: in a 2 m corridor built of two large
+    boxes the push at the corner pointed back down the corridor, stronger than the
+    attraction, and the formation of RiMEA 6 stood at the corner.)"""
+    if not isinstance(ob, Box):
+        return np.broadcast_to(ob.center[:2], x.shape)
+    shrink = np.minimum(reach, 0.5 * (hi - lo))
+    return np.clip(x, lo + shrink, hi - shrink)
 
-    def __init__(self, scene: Scene, reach: float, cell: float):
+
+class PotentialField:
+    """The field of a scene's obstacles on a grid of ``cell`` metres; ``reach`` is r. The
+    scene's bounds push as walls do (``bounds=False``: the obstacles' field alone)."""
+
+    def __init__(self, scene: Scene, reach: float, cell: float, bounds: bool = True):
         check_supported(scene, "formation", "the guiding-mesh method")
         self.reach, self.cell = float(reach), float(cell)
         self.origin = scene.lower.astype(float)
@@ -59,6 +77,8 @@ class PotentialField:
         for ob in scene.obstacles:
             if not ob.is_moving:
                 self._paint(ob, np.zeros(2), self.static_vec, self.static_f)
+        if bounds:
+            self._paint_bounds(scene.lower.astype(float)[:2], scene.upper.astype(float)[:2])
         self.cells_updated = 0
 
     def _window(self, ob: Obstacle, offset: np.ndarray) -> tuple[slice, slice]:
@@ -74,10 +94,24 @@ class PotentialField:
         ii, jj = np.meshgrid(np.arange(si.start, si.stop), np.arange(sj.start, sj.stop), indexing="ij")
         x = self.origin + (np.stack([ii, jj], axis=-1).reshape(-1, 2) + 0.5) * self.cell
         if len(x):
-            v, f = radial_field(x, ob.center[:2] + offset, ob.signed_distance(x - offset), self.reach)
+            lo, hi = ob.bounds()
+            v, f = radial_field(x, _core_point(ob, x - offset, lo[:2], hi[:2], self.reach) + offset,
+                                ob.signed_distance(x - offset), self.reach)
             vec[si, sj] += v.reshape(ii.shape + (2,))
             strength[si, sj] = np.maximum(strength[si, sj], f.reshape(ii.shape))
         return si, sj
+
+    def _paint_bounds(self, lower: np.ndarray, upper: np.ndarray) -> None:
+        """The scene's bounds are walls: each side spreads the field of a long box wall
+        beside it (f = 1 − d/r at distance d, pointing square into the scene), so a
+        corridor whose one side is the bounds is pushed from both sides."""
+        centres = self.origin + (np.indices(self.shape).transpose(1, 2, 0) + 0.5) * self.cell
+        for axis in range(2):
+            for edge, inward in ((lower[axis], 1.0), (upper[axis], -1.0)):
+                d = np.abs(centres[..., axis] - edge)
+                f = np.clip(1.0 - d / self.reach, 0.0, 1.0)
+                self.static_vec[..., axis] += inward * f
+                self.static_f[:] = np.maximum(self.static_f, f)
 
     def update(self, t: float) -> None:
         """Repaint the moving obstacles at time ``t``: their previous cells are cleared and

@@ -348,7 +348,7 @@ class Simulator:
             handles = np.flatnonzero(fmag > 0)
         g.handles = len(handles)
         drift = u.mean(axis=0) if u.ndim == 2 else u
-        turn = self._turn(g, drift)  # the rest shape turns to the direction of travel
+        turn = self._turn(g, drift, V, centroid)  # the rest shape turns to the direction of travel
         moved = centroid + (V - centroid) @ _rotation(turn).T + dt * u
         if in_area:  # recovery: back to the rest shape, facing the way it arrived, on the goal
             slot = g.rest_shape() + g.goal_center
@@ -533,15 +533,41 @@ class Simulator:
         g.heading = square if off(square, fit) <= ARRIVAL_TURN_MAX else fit
         g.facing_offset = min(g.symmetry, key=lambda s: off(g.heading + s, travelled))
 
-    def _turn(self, g: FormationGroup, drift: np.ndarray) -> float:
+    def _turn(self, g: FormationGroup, drift: np.ndarray, V: np.ndarray, centroid: np.ndarray) -> float:
         """Turn the group's rest heading toward its direction of travel, at most
-        pref_speed / extent radians per second; returns the turn made this step."""
+        pref_speed / extent radians per second; returns the rigid turn the mesh makes
+        this step (about its centroid).
+
+        Confined (walls): a turn that would swing the rest shape's slots into a static
+        obstacle is not made; a mesh whose rest shape does not fit where it stands (a
+        column rounding a corridor's corner) bends by its vertices' own routes, and its
+        heading follows the mesh's own orientation (the best-fit turn) without turning
+        the mesh rigidly, but only toward the direction of travel and no further: a
+        block split round a planter has a best fit that points nowhere (it swung the
+        heading 28° off the travel, and a vertex that the turned rest shape pulled aside
+        was still 10 m from its place on arrival)."""
         if not np.any(drift):
             return 0.0
         want = float(np.arctan2(drift[1], drift[0]))  # the template's front (its +x) leads
         delta = (want - g.heading + np.pi) % (2 * np.pi) - np.pi
         limit = g.pref_speed / max(g.extent, 1.0) * self.dt
         turn = float(np.clip(delta, -limit, limit))
+        if self.scene.static_obstacles and turn != 0.0 and not g.cars:  # cars keep their own kinematics
+            need = g.radius + VERTEX_CLEARANCE
+            rest = g.mesh.rest - g.mesh.rest.mean(axis=0)
+            short = lambda h: float(np.maximum(need - self.scene.static_obstacle_distance(  # noqa: E731
+                rest @ _rotation(h - g.heading0).T + centroid), 0.0).sum())
+            now = short(g.heading)
+            if now > 1e-9:  # the rest shape does not fit here: follow the mesh's own orientation
+                b = V - centroid
+                fit = g.heading0 + float(np.arctan2(np.sum(rest[:, 0] * b[:, 1] - rest[:, 1] * b[:, 0]),
+                                                    np.sum(rest[:, 0] * b[:, 0] + rest[:, 1] * b[:, 1])))
+                step = float(np.clip(wrap(fit - g.heading), -limit, limit))
+                if step * delta > 0:  # toward the way it travels, and no further than that
+                    g.heading += float(np.clip(step, -abs(delta), abs(delta)))
+                return 0.0
+            if short(g.heading + turn) > 1e-9:  # turning would swing slots into a wall
+                return 0.0
         g.heading += turn
         return turn
 
@@ -752,12 +778,14 @@ class Simulator:
 
     def _settle(self, g: FormationGroup) -> None:
         """A recovered group has settled once its vertices stand on their places and its
-        agents on their vertices (within SETTLED_M). Without comfortable motion both hold
-        as it recovers; with it the last centimetres are walked at a comfortable pace,
-        and a run goes on until they are (at most SETTLE_WAIT_S after recovery)."""
+        agents on their vertices (within SETTLED_M); a run goes on until they do (at most
+        SETTLE_WAIT_S after recovery). With comfortable motion the last centimetres are
+        walked at a comfortable pace; cars recover with their vertices up to
+        ``occupy_distance`` off their places (in ``formation_traffic`` 0.35 m, the last
+        frame's Kabsch RMS 0.1 m) and stand on them a few steps later."""
         slot = g.rest_shape() + g.goal_center
         on = self.positions[g.span] - g.vertices[g.guide.assignment]
-        if not g.comfortable(self.params) or self.time - g.recovered_at >= SETTLE_WAIT_S or \
+        if self.time - g.recovered_at >= SETTLE_WAIT_S or \
                 max(np.abs(g.vertices - slot).max(), np.abs(on).max()) < SETTLED_M:
             g.settled_at = self.time
 
