@@ -67,8 +67,8 @@ def test_a_stream_crossing_at_right_angles_costs_nothing_extra():
     f = _fields()
     pos = np.stack(np.meshgrid(np.linspace(2, 6, 9), np.linspace(2, 8, 9)), -1).reshape(-1, 2)
     vel = np.tile([0.0, 1.0], (len(pos), 1))
-    assert CongestionRouter(f, 1.0, 20.0).graph.unit.shape[1] == 2
     router = CongestionRouter(f, 1.0, 20.0)
+    assert router.graph.unit.shape[1] == 2
     fwd, back = router.against(pos, vel)
     horizontal = router.graph.unit[:, 1] == 0
     assert np.all(fwd[horizontal] == 0) and np.all(back[horizontal] == 0)

@@ -7,7 +7,7 @@ costs ``1 + congestion × ρ`` per metre, ρ the density there (agents/m², smoo
 about a metre). Every ``replan_s`` seconds the field is re-solved on the same
 8-connected grid as the exact field (corner cutting off) by scipy's Dijkstra, from all
 goal cells at once; agents then aim along it exactly as before. With ``congestion = 0``
-the field is the exact distance, unchanged.
+and ``counterflow = 0`` the field is the exact distance, unchanged.
 
 Walking against the crowd's flow (``counterflow > 0``, default 20) costs more on top:
 continuum crowds take the speed a crowd allows in a direction from the flow there, so

@@ -46,8 +46,9 @@ class RVOParams(BaseModel):
     patience : float         seconds two agents may hold each other up before the one
                              of lower priority yields (rvo.deadlock)
     congestion : float       field guidance cost per metre 1 + congestion × density
-                             (agents/m²), so crowds use a corridor's width (0 = exact
-                             distances only); rvo.congestion, a documented addition
+                             (agents/m²), so crowds use a corridor's width (0 = no
+                             density cost; with counterflow = 0 too, exact distances
+                             only); rvo.congestion, a documented addition
     counterflow : float      extra field cost per metre walked against the crowd's flux,
                              × the flux (persons/m/s), so opposing streams form lanes
                              (0 = density alone); rvo.congestion, a documented addition

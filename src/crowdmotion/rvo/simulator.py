@@ -93,8 +93,8 @@ class Simulator:
     congestion : float
         With field guidance, walking through a cell costs ``1 + congestion × density``
         (agents/m²) per metre, and the field is re-solved every ``replan_s`` seconds, so a
-        crowd spreads over a corridor's width (:mod:`crowdmotion.rvo.congestion`); 0 = the
-        exact distance field only.
+        crowd spreads over a corridor's width (:mod:`crowdmotion.rvo.congestion`); 0 = no
+        density cost (with ``counterflow = 0`` too, the exact distance field only).
     counterflow : float
         With the congestion-aware field, walking a metre against the crowd's flux J
         (persons per metre per second, the smoothed sum of the agents' velocities per m²)
