@@ -33,8 +33,7 @@ def test_quick_cases_pass_with_a_clean_audit(case, method):
 
 
 #: cases that fail today, kept in verify as they are (docs/verification.md says why)
-FAILING = {("steersuite_bottleneck_squeeze", "rvo"):
-           "1000 agents to one point, removed within 0.5 m of it: about 10 % arrive in 1000 s"}
+FAILING: dict[tuple[str, str], str] = {}
 
 
 @pytest.mark.slow

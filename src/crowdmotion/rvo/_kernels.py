@@ -107,7 +107,7 @@ def _obstacle_time(px, py, cx_, cy_, r, circ_c, circ_r, circ_v, near_c, n_near_c
 def choose_velocities(pos, vel, vpref, aim_dist, radius, vmax, max_nb, nb_dist, samples, safety, active,
                       cell_start, items, origin_x, origin_y, h, nx, ny,
                       circ_c, circ_r, circ_v, seg_a, seg_b, seg_v, dt, key,
-                      out_vel, out_forced, keep_right, look_s, follow, comfort):
+                      out_vel, out_forced, keep_right, look_s, follow, comfort, goals, leave_r):
     """Sampling RVO for every active agent at once (simultaneous, order-independent).
 
     For agent i the candidates are v_pref, the current velocity, standing still and
@@ -130,6 +130,12 @@ def choose_velocities(pos, vel, vpref, aim_dist, radius, vmax, max_nb, nb_dist, 
     ``COMFORT_WEIGHT`` per m/s beyond it on top of eq. (3)'s penalty. The candidates then
     also hold the comfortable change towards v_pref and ``RING`` comfortable changes all
     round the current velocity.
+
+    Leaving on arrival (a documented addition): an agent removed once within
+    ``leave_r[i]`` of its goal ``goals[i]`` (``leave_r[i]`` ≤ 0: it stays) ignores a
+    collision with a neighbour that a candidate would meet only after bringing it within
+    that distance: it will have left by then. A contact within the step still counts. Without this, a neighbour standing beyond the goal makes eq. (3) choose
+    to creep or stand instead of stepping in (w/tc exceeds the deviation within w metres).
 
     Keep right (a documented addition to the paper, ``keep_right`` radians, 0 = off): an
     agent that meets an oncoming neighbour — one among its M nearest whose v_pref points
@@ -157,7 +163,26 @@ def choose_velocities(pos, vel, vpref, aim_dist, radius, vmax, max_nb, nb_dist, 
             _choose_one(i, pos, vel, vpref, aim_dist, radius, vmax, max_nb, nb_dist, samples, safety, active,
                         cell_start, items, origin_x, origin_y, h, nx, ny, circ_c, circ_r, circ_v, seg_a, seg_b,
                         seg_v, dt, key, out_vel, out_forced, idx, d2, rel, near_c, near_s, keep_right, look_s,
-                        follow, comfort)
+                        follow, comfort, goals, leave_r)
+
+
+LEAVE_LOOK_S = 1.0  # an agent counts on leaving at its goal when it would get there within this many seconds
+
+
+@njit(inline="always")
+def _entry_time(ex, ey, vx, vy, r):
+    """First time t ≥ 0 at which (ex, ey) + (vx, vy) t lies within r of the origin, or INF."""
+    c = ex * ex + ey * ey - r * r
+    if c <= 0.0:
+        return 0.0
+    b = ex * vx + ey * vy
+    if b >= 0.0:
+        return INF
+    a = vx * vx + vy * vy
+    disc = b * b - a * c
+    if disc < 0.0:
+        return INF
+    return (-b - np.sqrt(disc)) / a
 
 
 @njit(inline="always")
@@ -191,7 +216,7 @@ def _kept_right(i, k, idx, pos, vpref, radius, wx, wy, keep_right, look_s):
 def _choose_one(i, pos, vel, vpref, aim_dist, radius, vmax, max_nb, nb_dist, samples, safety, active,
                 cell_start, items, origin_x, origin_y, h, nx, ny, circ_c, circ_r, circ_v, seg_a, seg_b,
                 seg_v, dt, key, out_vel, out_forced, idx, d2, rel, near_c, near_s, keep_right, look_s, follow,
-                comfort):
+                comfort, goals, leave_r):
     """One agent's choice for :func:`choose_velocities`, with caller-owned scratch arrays."""
     n_circ = circ_c.shape[0]
     n_seg = seg_a.shape[0]
@@ -305,6 +330,13 @@ def _choose_one(i, pos, vel, vpref, aim_dist, radius, vmax, max_nb, nb_dist, sam
         if t_obs < INF and sp > 0.0 and t_obs * sp > aim_dist[i]:
             tc = INF
         limit = -1.0 if best_pen == INF else w_i / max(best_pen - dev, 1e-300)
+        gone = INF  # when the candidate brings the agent within leave_r of its goal: it leaves
+        if leave_r[i] > 0.0:
+            gone = _entry_time(px - goals[i, 0], py - goals[i, 1], cx_, cy_, leave_r[i])
+            if gone < dt:
+                gone = dt  # it leaves at the end of the step
+            elif gone > LEAVE_LOOK_S:
+                gone = INF  # too far off to count on
         for q in range(k):
             vrx = rel[q, 5] * cx_ + rel[q, 3]
             vry = rel[q, 5] * cy_ + rel[q, 4]
@@ -320,6 +352,8 @@ def _choose_one(i, pos, vel, vpref, aim_dist, radius, vmax, max_nb, nb_dist, sam
             if disc <= 0.0:
                 continue
             tt = (-b - np.sqrt(disc)) / a
+            if tt >= gone:
+                continue  # it will have left before that collision
             if tt < tc:
                 tc = tt
                 if tc < limit:

@@ -633,7 +633,8 @@ class Simulator:
                             self.active, *grid, prims.circ_c, prims.circ_r, prims.circ_v, prims.seg_a, prims.seg_b,
                             prims.seg_v, self.dt, key, new, forced, dl.keep_right, KEEP_RIGHT_LOOK_S,
                             self.follow * np.minimum(self.density / FOLLOW_FULL_DENSITY, 1.0),
-                            self._comfort_reach())
+                            self._comfort_reach(), self.goals,
+                            np.full(n, self.arrival_radius if self.remove_on_arrival else 0.0))
         # safety: of two agents that would touch during the step, the one with the lower
         # (random, per step) priority stands still instead, until none would
         # agents a moving obstacle bears down on go first: standing still is no refuge for them
