@@ -335,7 +335,8 @@ class Journeys:
             q.start(self.time, w.positions[q.members[0]], freed is not None)
 
     # ---- choices and places -------------------------------------------------------------
-    def _option_region(self, st):
+    def region_of(self, st):
+        """The region agents at stage ``st`` (goto, queue or leave) are sent to."""
         return self.queues[self._queue_of[st.key]].region if isinstance(st, Queue) else st.area
 
     def _choose(self, ids: np.ndarray, st: Choose, sid: int, w: Walkers) -> np.ndarray:
@@ -344,7 +345,7 @@ class Journeys:
             u = uniforms(self.key, ids, DRAW_CHOICE + sid)
             return np.minimum(np.searchsorted(np.cumsum(st.weights), u, side="right"), len(st.among) - 1)
         pos = w.positions[ids]
-        dist = np.column_stack([w.walking_distance(pos, self._option_region(o)) for o in st.among])
+        dist = np.column_stack([w.walking_distance(pos, self.region_of(o)) for o in st.among])
         if st.by == "nearest":
             return np.argmin(dist, axis=1)
         walk = dist / self.pref_speed[ids, None]
@@ -359,8 +360,10 @@ class Journeys:
         return picks
 
     def _free_points(self, ids: np.ndarray, area, sid: int, w: Walkers) -> np.ndarray:
-        """A point of ``area`` for each agent, a body and FREE_POINT_GAP_M clear of the
-        points others hold there and of obstacles (the clearest tried, if none is)."""
+        """A point of ``area`` for each agent: of FREE_POINT_TRIES drawn, the nearest it
+        that is a body and FREE_POINT_GAP_M clear of the points others hold there and of
+        obstacles (the clearest, if none is): on the near side of a fountain in it."""
+        pos = w.positions[ids]
         m = FREE_POINT_TRIES
         draws = np.stack([uniforms(self.key, ids, DRAW_FREE_POINT + (sid * m + k) * 2) for k in range(m)], axis=1)
         draws2 = np.stack([uniforms(self.key, ids, DRAW_FREE_POINT + (sid * m + k) * 2 + 1) for k in range(m)], axis=1)
@@ -379,7 +382,9 @@ class Journeys:
             apart = np.full(m, np.inf) if not len(others) else \
                 np.linalg.norm(cand[k][:, None] - others[None], axis=-1).min(axis=1) - 2 * self.radius.max()
             fits = (room[k] >= rad) & (apart >= FREE_POINT_GAP_M)
-            best = int(np.argmax(fits)) if fits.any() else int(np.argmax(np.minimum(room[k] - rad, apart)))
+            near = np.linalg.norm(cand[k] - pos[k], axis=1)  # the nearest that fits: on the near side
+            best = int(np.argmin(np.where(fits, near, np.inf))) if fits.any() else \
+                int(np.argmax(np.minimum(room[k] - rad, apart)))
             out[k] = cand[k, best]
             held[int(a)] = out[k]
             self.holder[a] = id(area)
@@ -420,6 +425,6 @@ class Journeys:
         for name, times in self.exits.items():
             t = np.sort(np.array(times))
             flow = (len(t) - 1) / (t[-1] - t[0]) if len(t) > 1 and t[-1] > t[0] else None
-            exits[name] = {"left": len(t), "flow_per_s": flow, "first_s": float(t[0]), "evacuation_time_s": float(t[-1])}
+            exits[name] = {"left": len(t), "flow_per_s": None if flow is None else float(flow), "first_s": float(t[0]), "evacuation_time_s": float(t[-1])}
         return {"stages": stages, "queues": {q.stage.name: q.report() for q in self.queues}, "exits": exits,
                 "finished": int((self.on_route & self.done).sum()), "on_route": int(self.on_route.sum())}

@@ -163,12 +163,13 @@ class Queue:
     """Queue at ``head`` and be served there one at a time, first come first served, at
     ``rate`` persons per second. The line forms behind the head, one place every
     ``spacing`` metres: along ``direction`` (a vector from the head), or along the
-    polyline ``line`` (its first point the head; beyond its end it goes on straight).
+    polyline ``line`` (its first point the head, ``head`` then None or that point;
+    beyond its end it goes on straight).
     Service starts once the first in line stands within one spacing of the head.
 
     capacity : persons/s, for ``choose by least_crowded`` (default ``rate``)."""
 
-    head: np.ndarray
+    head: np.ndarray | None
     rate: float
     direction: np.ndarray | None = None
     line: np.ndarray | None = None
@@ -178,6 +179,8 @@ class Queue:
     kind = "queue"
 
     def __post_init__(self):
+        if self.head is None and self.line is not None:
+            self.head = np.asarray(self.line, dtype=float)[0]
         self.head = finite_array(self.head, "queue.head").ravel()
         if self.head.shape != (2,):
             raise ValueError(f"queue.head must be a 2D point, got {self.head.tolist()}")
