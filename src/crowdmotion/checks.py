@@ -9,7 +9,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from crowdmotion.groups import Disc, Group, MovingTarget, Points, Rect
+from crowdmotion.groups import Disc, Group, MovingTarget, Points, Rect, describe_region  # noqa: F401 (re-exported)
 from crowdmotion.scene import Box, Polygon, Scene
 
 # random sequential placement of discs jams at 54.7 % of the area (Feder 1980); ask for
@@ -24,19 +24,6 @@ def where(k: int, group: Group) -> str:
 
 def _fmt(v) -> str:
     return "[" + ", ".join(f"{x:g}" for x in np.asarray(v, float).ravel()) + "]"
-
-
-def describe_region(region) -> str:
-    """A spawn/goal region as the scenario file writes it."""
-    if isinstance(region, Rect):
-        return f"rect {_fmt(region.lower)}-{_fmt(region.upper)}"
-    if isinstance(region, Disc):
-        return f"disc centre {_fmt(region.center)} radius {region.radius:g}"
-    if isinstance(region, Points):
-        return f"point {_fmt(region.points[0])}" if len(region.points) == 1 else f"{len(region.points)} points"
-    if isinstance(region, MovingTarget):
-        return f"moving target ({len(region.times)} keyframes)"
-    return repr(region)
 
 
 def describe_obstacle(scene: Scene, index: int) -> str:

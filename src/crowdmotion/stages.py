@@ -20,7 +20,7 @@ import numpy as np
 
 from crowdmotion._rng import uniforms
 from crowdmotion.geometry import finite_array
-from crowdmotion.groups import Disc, Points, Rect
+from crowdmotion.groups import Disc, Points, Rect, describe_region
 
 SPECIFIC_FLOW = 1.3  # persons per metre of opening per second: an area's capacity by default
 QUEUE_SPACING_M = 0.65  # metres between two places in a queue
@@ -62,8 +62,6 @@ def _name(value, default: str) -> str:
 
 def describe(area) -> str:
     """An area as a scenario file writes it, for names and messages."""
-    from crowdmotion.checks import describe_region
-
     return describe_region(area)
 
 
