@@ -27,6 +27,8 @@ SECTIONS = [
     ("[scene]", [S.SceneSpec, S.CircleSpec, S.SphereSpec, S.BoxSpec, S.PolygonSpec, S.PathSpec]),
     ("[[groups]]", [S.GroupSpec, S.PointRegion, S.PointsRegion, S.RectRegion, S.DiscRegion, S.MovingRegion,
                     S.RingRegion, S.AntipodalRegion, S.EnterSpec]),
+    ("Route stages (a group's `[[groups.route]]` tables, in order; see docs/journeys.md)",
+     [S.GotoStageSpec, S.WaitStageSpec, S.WaitTimeSpec, S.QueueStageSpec, S.ChooseStageSpec, S.LeaveStageSpec]),
     ("Group attributes (a group's `attributes` table: rvo and formation; mdp and pso take none)",
      [R.RVOAttributes, F.FormationAttributes]),
     ("Formation templates (a group's `formation` table)", [F.BlockTemplate, F.WedgeTemplate, F.CircleTemplate,
@@ -153,10 +155,20 @@ GOALS = {
     "antipodal": '{ shape = "antipodal", center = [20, 10] }',
 }
 METHODS = ("mdp", "rvo", "pso", "formation")
+EXIT = '{ shape = "rect", lower = [38, 8], upper = [40, 12] }'
+ROUTES = {  # one route per stage kind, each ending at an exit
+    "goto": f'route = [{{ kind = "goto", area = {GOALS["disc"]} }}, {{ kind = "leave", area = {EXIT} }}]',
+    "wait": f'route = [{{ kind = "wait", time = 2 }}, {{ kind = "leave", area = {EXIT} }}]',
+    "queue": 'route = [{ kind = "queue", head = [30, 10], direction = [-1, 0], rate = 1 }, '
+             f'{{ kind = "leave", area = {EXIT} }}]',
+    "choose": f'route = [{{ kind = "choose", by = "nearest", among = [{{ kind = "leave", area = {EXIT} }}, '
+              '{ kind = "leave", area = { shape = "rect", lower = [38, 0], upper = [40, 4] } }] }]',
+    "leave": f'route = [{{ kind = "leave", area = {EXIT} }}]',
+}
 
 
 def _accepts(method: str, dim: int = 2, obstacle: str = "", spawn: str = SPAWNS["rect"],
-             goal: str = GOALS["point"]) -> bool:
+             goal: str = GOALS["point"], route: str = "") -> bool:
     """Whether loading (which runs the method's own checks) accepts such a scenario."""
     bounds = "[[0, 0], [40, 20]]" if dim == 2 else "[[0, 0, 0], [40, 20, 20]]"
     if dim == 3:
@@ -165,7 +177,7 @@ def _accepts(method: str, dim: int = 2, obstacle: str = "", spawn: str = SPAWNS[
     group_extra = 'formation = { kind = "block", rows = 2, cols = 2, spacing = 1.2 }' \
         if method == "formation" and '"points"' not in spawn else ""
     text = PROBE.format(method=method, bounds=bounds, obstacle=obstacle, spawn=spawn, goal=goal,
-                        extra=group_extra)
+                        extra=group_extra + "\n" + route)
     try:
         with warnings.catch_warnings():  # e.g. PSO's speed note: accepted is accepted
             warnings.simplefilter("ignore")
@@ -187,6 +199,8 @@ def support() -> str:
         sp = SPAWNS["ring"] if name == "antipodal" else SPAWNS["rect"]
         rows.append(f"| goal `{name}` | " + " | ".join(mark[_accepts(m, spawn=sp, goal=g)] for m in METHODS) + " |")
     rows.append("| 3D scene | " + " | ".join(mark[_accepts(m, 3)] for m in METHODS) + " |")
+    for name, route in ROUTES.items():
+        rows.append(f"| route stage `{name}` | " + " | ".join(mark[_accepts(m, route=route)] for m in METHODS) + " |")
     return "\n".join(rows) + "\n"
 
 

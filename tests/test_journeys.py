@@ -129,3 +129,202 @@ def test_a_waiting_agent_can_be_given_another_entrance_but_one_that_entered_cann
         sim.set_entry_points([late], [2, 2])
     with pytest.raises(ValueError, match="set_entry_points: no agent 9"):
         sim.set_entry_points([9], [2, 2])
+
+
+# ---- routes: go to, wait, queue, choose, leave -------------------------------------------
+GATE = """
+name = "gate"
+method = "rvo"
+seed = 1
+
+[scene]
+bounds = [[0.0, 0.0], [40.0, 20.0]]
+
+[[groups]]
+name = "riders"
+count = 30
+spawn = { shape = "rect", lower = [1.0, 2.0], upper = [8.0, 18.0] }
+
+[[groups.route]]
+kind = "queue"
+name = "gate"
+head = [30.0, 10.0]
+direction = [-1.0, 0.0]
+rate = 0.5
+
+[[groups.route]]
+kind = "leave"
+name = "east"
+area = { shape = "rect", lower = [39.0, 8.0], upper = [40.0, 12.0] }
+
+[rvo]
+max_steps = 800
+"""
+
+
+def _audited(result):
+    summary = result.summary
+    assert summary["agent_agent_overlaps"] == 0 and summary["agent_obstacle_penetrations"] == 0
+    return result
+
+
+def test_a_queue_of_30_is_served_in_order_at_half_a_person_per_second():
+    result = _audited(run_scenario(parse_scenario(GATE), progress=False))
+    queue = result.extras.journeys.queues[0]
+    agents, joined, released = (np.array(x) for x in zip(*queue.served))
+    assert len(agents) == 30 and sorted(agents.tolist()) == list(range(30))
+    assert np.all(np.diff(joined) >= 0), "first come (to the end of the line), first served"
+    gaps = np.diff(released)
+    assert gaps.min() >= 2.0 - 1e-9, "never faster than 0.5 per second"
+    full = gaps[len(gaps) // 3:]  # once the line has formed
+    assert np.allclose(full, 2.0), full
+    report = result.summary["journeys"]
+    assert report["queues"]["gate"]["served"] == 30 and max(report["queues"]["gate"]["length_per_s"]) >= 20
+    assert report["exits"]["east"]["left"] == 30 and result.summary["arrival_rate"] == 1.0
+    # the line forms behind the head, along -x, a place every 0.65 m: 25 in line reach back 16 m
+    traj, journeys = result.trajectories, result.extras.journeys
+    in_line = (journeys.reached[:, 0][None] <= traj.times[:, None] + 1e-9) & (traj.stage == 0)
+    frame = int(np.argmax(in_line.sum(axis=1)))
+    pos = traj.positions[frame, in_line[frame]]
+    off = np.abs(pos[:, 1] - 10.0)  # RVO bodies shuffling up a place sway a little
+    assert len(pos) >= 20 and off.max() < 1.0 and np.median(off) < 0.3
+    assert pos[:, 0].max() < 30.5 and 30.0 - pos[:, 0].min() == pytest.approx(0.65 * (len(pos) - 1), abs=1.0)
+
+
+FOUNTAIN = """
+name = "fountain"
+method = "rvo"
+seed = 3
+
+[scene]
+bounds = [[0.0, 0.0], [30.0, 20.0]]
+obstacles = [{ shape = "circle", center = [15.0, 10.0], radius = 1.0 }]
+
+[[groups]]
+name = "strollers"
+count = 12
+spawn = { shape = "rect", lower = [1.0, 5.0], upper = [5.0, 15.0] }
+
+[[groups.route]]
+kind = "goto"
+name = "fountain"
+area = { shape = "disc", center = [15.0, 10.0], radius = 3.0 }
+arrive = "free_point"
+
+[[groups.route]]
+kind = "wait"
+time = 5.0
+
+[[groups.route]]
+kind = "leave"
+name = "east gate"
+area = { shape = "rect", lower = [29.0, 8.0], upper = [30.0, 12.0] }
+
+[rvo]
+max_steps = 600
+"""
+
+
+def test_agents_wait_5_s_at_the_fountain_then_leave():
+    result = _audited(run_scenario(parse_scenario(FOUNTAIN), progress=False))
+    traj, journeys = result.trajectories, result.extras.journeys
+    assert np.allclose(journeys.until[:, 1] - journeys.since[:, 1], 5.0)
+    for a in range(traj.n_agents):  # goto, then wait, then leave, in that order
+        seen = traj.stage[:, a][traj.stage[:, a] >= 0]
+        assert seen[0] == 0 and np.all(np.diff(seen) >= 0) and seen[-1] == 2
+        waiting = np.flatnonzero(traj.stage[:, a] == 1)
+        assert len(waiting) >= 19
+        # they stay by the fountain while they wait (stepping aside for those passing, as RVO walkers do)
+        assert np.linalg.norm(traj.positions[waiting, a] - [15.0, 10.0], axis=1).max() <= 3.0 + 1.5
+    rows = {r["name"]: r for r in result.summary["journeys"]["stages"]["strollers"]}
+    assert rows["wait 5 s"]["reached"] == 12 and rows["wait 5 s"]["mean_time_s"] == 5.0
+    assert result.summary["journeys"]["exits"]["east gate"]["left"] == 12
+    assert traj.metadata["stages"]["strollers"][1] == {"id": 1, "path": "route[1]", "kind": "wait", "name": "wait 5 s"}
+
+
+TWO_EXITS = """
+name = "two exits"
+method = "rvo"
+seed = 4
+
+[scene]
+bounds = [[0.0, 0.0], [40.0, 12.0]]
+
+[[groups]]
+name = "evacuees"
+count = 40
+spawn = { shape = "rect", lower = [12.0, 1.0], upper = [28.0, 11.0] }
+
+[[groups.route]]
+kind = "choose"
+by = "nearest"
+among = [
+  { kind = "leave", name = "west", area = { shape = "rect", lower = [0.0, 5.0], upper = [0.5, 7.0] } },
+  { kind = "leave", name = "east", area = { shape = "rect", lower = [39.5, 5.0], upper = [40.0, 7.0] } },
+]
+
+[rvo]
+max_steps = 800
+"""
+
+
+def _exit_taken(traj) -> np.ndarray:
+    """The last stage id each agent was seen in."""
+    last = np.array([traj.stage[:, a][traj.stage[:, a] >= 0][-1] for a in range(traj.n_agents)])
+    return last
+
+
+def test_choose_nearest_exit_each_agent_leaves_by_the_nearer_exit():
+    result = _audited(run_scenario(parse_scenario(TWO_EXITS), progress=False))
+    traj = result.trajectories
+    taken = _exit_taken(traj)  # stage ids: 0 choose, 1 west, 2 east
+    nearer_east = traj.positions[0, :, 0] > 20.0
+    assert np.array_equal(taken == 2, nearer_east)
+    exits = result.summary["journeys"]["exits"]
+    assert exits["west"]["left"] + exits["east"]["left"] == 40 and result.summary["arrival_rate"] == 1.0
+    assert exits["east"]["flow_per_s"] > 0 and exits["east"]["evacuation_time_s"] <= traj.times[-1]
+
+
+def test_least_crowded_sends_some_to_the_farther_exit_when_one_is_swamped():
+    text = TWO_EXITS.replace('lower = [12.0, 1.0], upper = [28.0, 11.0]', 'lower = [1.0, 1.0], upper = [9.0, 11.0]')
+    text = text.replace('name = "west", area', 'name = "west", capacity = 0.5, area')
+    nearest = run_scenario(parse_scenario(text), progress=False)
+    assert (_exit_taken(nearest.trajectories) == 2).sum() == 0, "all are nearer the west exit"
+    crowded = _audited(run_scenario(parse_scenario(text.replace('by = "nearest"', 'by = "least_crowded"')),
+                                    progress=False))
+    east = int((_exit_taken(crowded.trajectories) == 2).sum())
+    assert 0 < east < 40, east
+    assert crowded.summary["journeys"]["exits"]["east"]["left"] == east
+
+
+def test_validate_refuses_a_queue_stage_for_a_pso_group():
+    text = GATE.replace('method = "rvo"', 'method = "pso"').replace("[rvo]\nmax_steps = 800", "")
+    with pytest.raises(ScenarioError, match=r"groups.0.route.0 \(group 'riders'\): a 'queue' stage, but method "
+                                            r"'pso' follows no route stages yet; method 'rvo' follows every stage"):
+        parse_scenario(text)
+
+
+@pytest.mark.parametrize("old,new,message", [
+    ("rate = 0.5", "rate = 0.0", r"groups.0.route.0.rate \(group 'riders'\): Input should be greater than 0"),
+    ("rate = 0.5", "rate = 0.5\nspacing = 0.3", r"route.0 \(queue 'gate'\): spacing 0.3 m is less than a body"),
+    ("direction = [-1.0, 0.0]", "direction = [1.0, 0.0]", r"route.0 \(queue 'gate'\): place 16 in line at \[40.4, 10\] "
+                                                          "lies outside scene.bounds"),
+    ('kind = "leave"\nname = "east"', 'kind = "wait"\ntime = { uniform = [5.0, 2.0] }\n[[groups.route]]\nkind = "leave"\nname = "east"',
+     r"groups.0.route.1.time.uniform \(group 'riders'\): low 5 exceeds high 2"),
+])
+def test_validate_names_the_stage_of_a_bad_route(old, new, message):
+    with pytest.raises(ScenarioError, match=message):
+        parse_scenario(GATE.replace(old, new))
+
+
+def test_a_group_without_a_route_runs_as_before():
+    rng = np.random.default_rng(5)
+    scene = cm.Scene(bounds=([0, 0], [20, 10]))
+    groups = [cm.Group("walkers", 5, cm.groups.Rect([1, 1], [4, 9]), cm.groups.Rect([17, 1], [19, 9]))]
+    sim = rvo.simulation.build_simulator(scene, groups, rvo.RVOParams(), rng)
+    state = rng.bit_generator.state
+    assert rvo.simulation.build_journeys(sim, scene, groups, rng) is None
+    assert rng.bit_generator.state == state, "no draw taken: the run's random numbers are the same"
+    result = run_scenario(parse_scenario(STREAM), progress=False)
+    assert result.trajectories.stage is None and "journeys" not in result.summary
+    assert "stages" not in result.trajectories.metadata

@@ -9,7 +9,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from crowdmotion.groups import Disc, Group, MovingTarget, Points, Rect
+from crowdmotion.groups import Disc, Group, MovingTarget, Points, Rect, describe_region  # noqa: F401 (re-exported)
 from crowdmotion.scene import Box, Polygon, Scene
 
 # random sequential placement of discs jams at 54.7 % of the area (Feder 1980); ask for
@@ -24,19 +24,6 @@ def where(k: int, group: Group) -> str:
 
 def _fmt(v) -> str:
     return "[" + ", ".join(f"{x:g}" for x in np.asarray(v, float).ravel()) + "]"
-
-
-def describe_region(region) -> str:
-    """A spawn/goal region as the scenario file writes it."""
-    if isinstance(region, Rect):
-        return f"rect {_fmt(region.lower)}-{_fmt(region.upper)}"
-    if isinstance(region, Disc):
-        return f"disc centre {_fmt(region.center)} radius {region.radius:g}"
-    if isinstance(region, Points):
-        return f"point {_fmt(region.points[0])}" if len(region.points) == 1 else f"{len(region.points)} points"
-    if isinstance(region, MovingTarget):
-        return f"moving target ({len(region.times)} keyframes)"
-    return repr(region)
 
 
 def describe_obstacle(scene: Scene, index: int) -> str:
@@ -273,3 +260,37 @@ def _blocker(scene: Scene, p: np.ndarray) -> str:
             best, name = d, describe_obstacle(scene, i)
     walls = float(np.minimum(p - scene.lower, scene.upper - p).min())
     return name if best <= walls else "the walls of scene.bounds"
+
+
+def check_route_places(scene: Scene, k: int, group: Group) -> None:
+    """Refuse a route (``group.attributes["route"]``) whose areas reach outside the scene
+    or have no spot a body fits in, or whose queue places (as many as the group has
+    agents) leave the scene or stand in obstacles, or lie closer than a body apart. The
+    stage is named: ``group 'riders' (groups.0) route.1 (queue 'gate'): ...``."""
+    from dataclasses import replace
+
+    from crowdmotion.stages import Queue, flat_stages
+
+    for path, st, _ in flat_stages(group.attributes.get("route") or []):
+        at = f"{where(k, group)} {path.replace('[', '.').replace(']', '')} ({st.kind} {st.name!r})"
+        area = getattr(st, "area", None)
+        if area is not None:
+            probe = replace(group, goal=area)
+            try:
+                check_inside(scene, k, probe, "goal")
+                check_goal_clear(scene, k, probe)
+            except ValueError as exc:
+                raise ValueError(str(exc).replace(f"{where(k, group)} goal:", f"{at} area:")) from None
+        if isinstance(st, Queue):
+            if st.spacing < 2 * group.radius:
+                raise ValueError(f"{at}: spacing {st.spacing:g} m is less than a body ({2 * group.radius:g} m, "
+                                 f"twice the radius): people in line would overlap")
+            slots = st.slots(group.count)
+            clear = _clearance(scene, slots)
+            bad = np.flatnonzero(clear < group.radius)
+            if len(bad):
+                i = int(bad[0])
+                raise ValueError(f"{at}: place {i} in line at {_fmt(slots[i])} {_why_unfit(scene, slots[i], clear[i])}"
+                                 f": a line of {group.count} (the group's count) needs room for a body of radius "
+                                 f"{group.radius:g} m every {st.spacing:g} m; give the queue a line that turns "
+                                 f"(line = [[x, y], ...]) or more room")

@@ -152,6 +152,22 @@ class MovingTarget:
 Goal = Union[Rect, Disc, Points, MovingTarget]
 
 
+def describe_region(region) -> str:
+    """A spawn/goal region as the scenario file writes it (``rect [0, 4]-[1, 6]``)."""
+    def fmt(v) -> str:
+        return "[" + ", ".join(f"{x:g}" for x in np.asarray(v, float).ravel()) + "]"
+
+    if isinstance(region, Rect):
+        return f"rect {fmt(region.lower)}-{fmt(region.upper)}"
+    if isinstance(region, Disc):
+        return f"disc centre {fmt(region.center)} radius {region.radius:g}"
+    if isinstance(region, Points):
+        return f"point {fmt(region.points[0])}" if len(region.points) == 1 else f"{len(region.points)} points"
+    if isinstance(region, MovingTarget):
+        return f"moving target ({len(region.times)} keyframes)"
+    return repr(region)
+
+
 def as_region(value, what: str) -> Region | MovingTarget:
     """A Region (or MovingTarget) from a Region, or from a bare point (a one-point Region)."""
     if isinstance(value, (Region, MovingTarget)):

@@ -1,4 +1,5 @@
-"""Journeys: when the agents of a group enter the scene (sources), shared by the methods.
+"""Journeys, shared by the methods: when the agents of a group enter the scene (sources),
+and where each agent on a route is (its stage, and the events that move it on).
 
 A group may enter over time instead of all at once: at a rate, or at listed times. In a
 scenario file::
@@ -16,11 +17,26 @@ of the spawn region; when its time comes it enters there if no one stands within
 of it, else it waits off-scene (not drawn, not avoided) and tries a fresh point of the
 region at each step until there is room. The delay (entry time less the time it was due)
 is reported per group. Without ``enter`` every agent starts at t = 0, as before.
+
+A group may also follow a *route* of stages (:mod:`crowdmotion.stages`): go to an area,
+wait, queue, choose among next stages, leave. :class:`Journeys` is the state machine that
+walks the agents along their routes: after each step of a method it reads who has
+arrived where and the time, and gives the agents whose stage changed their new goals
+through the method's own goal API (``set_goals``, as :class:`crowdmotion.rvo.Simulator`
+has it). Work per step is a few array operations over the agents, and Python only for
+the agents whose stage changes.
 """
 
 from __future__ import annotations
 
+from typing import Protocol
+
 import numpy as np
+
+from crowdmotion._rng import uniforms
+from crowdmotion.groups import Disc, Points, Rect
+from crowdmotion.queues import ServiceQueue
+from crowdmotion.stages import Choose, GoTo, Leave, Queue, Wait, check_route, flat_stages
 
 ENTER_KEYS = ("rate", "start", "times")
 
@@ -76,3 +92,339 @@ def entry_report(names: np.ndarray, due: np.ndarray, entered: np.ndarray) -> dic
                           "mean_delay_s": float(delay.mean()) if ok.any() else None,
                           "max_delay_s": float(delay.max()) if ok.any() else None}
     return out
+
+
+# ---- routes ---------------------------------------------------------------------------
+FREE_POINT_TRIES = 32   # candidate points an agent tries for a free point of an area
+FREE_POINT_GAP_M = 0.1  # clearance between two bodies standing at free points
+DRAW_CHOICE, DRAW_FREE_POINT = 1 << 20, 1 << 21  # draw numbers (per stage id) of each kind
+
+
+class Walkers(Protocol):
+    """What :class:`Journeys` reads from and asks of a stepping method (the RVO simulator
+    has all of it): where its agents are, who is in the scene, who has reached its goal,
+    the time, and goals to set."""
+
+    positions: np.ndarray
+    active: np.ndarray
+    time: float
+
+    @property
+    def arrived(self) -> np.ndarray: ...
+
+    def set_goals(self, agents, goals, goal_region=None, arrive_anywhere: bool = False,
+                  leave: bool | None = None) -> None: ...
+
+    def walking_distance(self, points, region) -> np.ndarray: ...
+
+
+class Journeys:
+    """Where each agent on a route is, and the goals that move it on.
+
+    Parameters
+    ----------
+    routes : list
+        Per group, its route (a list of stages) or None.
+    group_of : (N,) int
+        Each agent's group (an index into ``routes``).
+    spawns : list
+        Per group, its spawn region: where an agent whose route starts with a wait stands.
+    radius, pref_speed : (N,) float
+        Bodies (free points keep them apart) and walking speeds (least-crowded choices
+        weigh walking times).
+    key : int
+        The run's key for its draws (waiting times, weighted choices, free points):
+        the same key gives the same draws, agent by agent (:mod:`crowdmotion._rng`).
+    clearance : callable, optional
+        ``clearance(points)`` -> metres to the nearest obstacle or wall, so that free
+        points leave room for a body.
+
+    Attributes
+    ----------
+    stage : (N,) int
+        Each agent's stage id now (:func:`crowdmotion.stages.flat_stages`), -1 off route
+        or before it enters.
+    """
+
+    def __init__(self, routes, group_of, spawns, radius, pref_speed, key, clearance=None):
+        self.routes = [None if r is None else check_route(r, f"groups.{g}.route") for g, r in enumerate(routes)]
+        self.flat = [[] if r is None else flat_stages(r) for r in self.routes]
+        self.group_of = np.asarray(group_of, dtype=np.int64)
+        n = len(self.group_of)
+        self.spawns = list(spawns)
+        self.radius = np.asarray(radius, dtype=float)
+        self.pref_speed = np.asarray(pref_speed, dtype=float)
+        self.key = np.uint64(key)
+        self.clearance = clearance
+        self.on_route = np.array([self.routes[g] is not None for g in self.group_of], dtype=bool)
+        self.stage = np.full(n, -1, dtype=np.int64)
+        self.top = np.full(n, -1, dtype=np.int64)
+        self.begun = np.zeros(n, dtype=bool)
+        self.done = np.zeros(n, dtype=bool)
+        self.expect = np.zeros(n, dtype=bool)       # walking to a stage's place: arriving moves it on
+        self.wait_until = np.full(n, np.inf)
+        self.finished_at = np.full(n, np.nan)      # when each agent left or reached its route's end
+        width = max([len(f) for f in self.flat] + [1])
+        self.since = np.full((n, width), np.nan)    # when each agent began each stage
+        self.reached = np.full((n, width), np.nan)  # when it reached the stage's place (joined, left)
+        self.until = np.full((n, width), np.nan)    # when it moved on
+        self.top_id = [[sid for sid, (_, _, i) in enumerate(f) if sid == 0 or f[sid - 1][2] != i] for f in self.flat]
+        # queues shared by every group that names the same one; places for all who may queue
+        self.queues: list[ServiceQueue] = []
+        self._queue_of: dict = {}
+        places: dict = {}
+        for g, f in enumerate(self.flat):
+            count = int(np.sum(self.group_of == g))
+            for _, st, _ in f:
+                if isinstance(st, Queue):
+                    places[st.key] = places.get(st.key, 0) + count
+        for g, f in enumerate(self.flat):
+            for _, st, _ in f:
+                if isinstance(st, Queue):
+                    if st.key not in self._queue_of:
+                        self._queue_of[st.key] = len(self.queues)
+                        self.queues.append(ServiceQueue(st, places[st.key]))
+        self.bound: dict[int, int] = {}             # id(goto/leave stage) -> agents bound there
+        self.held: dict[int, dict[int, np.ndarray]] = {}  # id(area) -> {agent: its free point}
+        self.holder = np.full(n, -1, dtype=np.int64)  # the id(area) whose free point each agent holds (-1: none)
+        self.exits: dict[str, list[float]] = {}
+        self.time = 0.0
+
+    # ---- what the method needs before it starts -------------------------------------
+    def regions(self) -> list:
+        """Every region agents may be sent to (areas, queue lines, spawns where routes
+        start with a wait), so the method can solve their guidance fields up front."""
+        out = []
+
+        def add(r):
+            if isinstance(r, (Rect, Disc, Points)) and all(x is not r for x in out):
+                out.append(r)
+
+        for g, f in enumerate(self.flat):
+            for _, st, _ in f:
+                add(st.area if isinstance(st, (GoTo, Leave)) else None)
+                if isinstance(st, Queue):
+                    add(self.queues[self._queue_of[st.key]].region)
+            if f and isinstance(f[0][1], Wait):
+                add(self.spawns[g])
+        return out
+
+    def busy(self, active: np.ndarray) -> bool:
+        """Whether an agent in the scene is still on its way along its route."""
+        return bool(np.any(self.on_route & self.begun & ~self.done & active))
+
+    def frame(self, present: np.ndarray) -> np.ndarray:
+        """(N,) int16 stage ids for a frame: -1 for agents not drawn in it."""
+        return np.where(present, self.stage, -1).astype(np.int16)
+
+    # ---- the step ---------------------------------------------------------------------
+    def update(self, w: Walkers, dt: float) -> None:
+        """Move agents on after a step of the method ``w``: those that entered begin
+        their routes, those that arrived, finished waiting or were served go on to their
+        next stage (new goals through ``w.set_goals``)."""
+        self.time = t = float(w.time)
+        new = self.on_route & ~self.begun & w.active
+        if new.any():
+            ids = np.flatnonzero(new)
+            self.begun[ids] = True
+            self._enter_top(ids, np.zeros(len(ids), dtype=np.int64), w)
+        arrived = self.expect & w.arrived
+        if arrived.any():
+            self._arrive(np.flatnonzero(arrived), w)
+        over = self.wait_until <= t + 1e-9
+        if over.any():
+            ids = np.flatnonzero(over)
+            self.wait_until[ids] = np.inf
+            self._next(ids, w)
+        for q in self.queues:
+            self._serve(q, w)
+            q.sample(t, dt)
+
+    def _enter_top(self, ids: np.ndarray, tops: np.ndarray, w: Walkers) -> None:
+        """Agents ``ids`` begin top-level stage ``tops`` of their routes (or finish)."""
+        for g in np.unique(self.group_of[ids]):
+            for i in np.unique(tops[self.group_of[ids] == g]):
+                sub = ids[(self.group_of[ids] == g) & (tops == i)]
+                self.top[sub] = i
+                if i >= len(self.routes[g]):  # the route is done: they stay where they are
+                    self.done[sub] = True
+                    self.finished_at[sub] = self.time
+                    continue
+                sid = self.top_id[g][i]
+                self._enter(sub, g, sid, w)
+
+    def _enter(self, ids: np.ndarray, g: int, sid: int, w: Walkers) -> None:
+        st = self.flat[g][sid][1]
+        t = self.time
+        self.stage[ids] = sid
+        self.since[ids, sid] = t
+        self.expect[ids] = False
+        if not isinstance(st, Wait):
+            self._release_points(ids)
+        pos = w.positions[ids]
+        if isinstance(st, Wait):
+            self.reached[ids, sid] = t
+            self.wait_until[ids] = t + st.durations(self.key, ids, sid)
+            if self.top[ids[0]] == 0:  # nothing before it: they wait where they entered
+                spawn = self.spawns[g]
+                w.set_goals(ids, pos, goal_region=spawn, arrive_anywhere=isinstance(spawn, (Rect, Disc)), leave=False)
+        elif isinstance(st, (GoTo, Leave)):
+            area = st.area
+            anywhere = isinstance(area, (Rect, Disc))
+            if isinstance(st, GoTo) and st.arrive == "free_point":
+                w.set_goals(ids, self._free_points(ids, area, sid, w), goal_region=area, leave=False)
+            else:
+                w.set_goals(ids, area.nearest(pos), goal_region=area, arrive_anywhere=anywhere,
+                            leave=isinstance(st, Leave))
+            self.bound[id(st)] = self.bound.get(id(st), 0) + len(ids)
+            self.expect[ids] = True
+        elif isinstance(st, Queue):
+            q = self.queues[self._queue_of[st.key]]
+            q.approach(ids)
+            w.set_goals(ids, q.tail, goal_region=q.region, leave=False)
+            self.expect[ids] = True
+        else:  # Choose: pick per agent, then begin the option picked
+            self.reached[ids, sid] = t
+            self.until[ids, sid] = t
+            picks = self._choose(ids, st, sid, w)
+            for j in np.unique(picks):
+                self._enter(ids[picks == j], g, sid + 1 + int(j), w)
+
+    def _arrive(self, ids: np.ndarray, w: Walkers) -> None:
+        """Agents that reached the place of their stage."""
+        t = self.time
+        self.expect[ids] = False
+        code = self.group_of[ids] * (self.since.shape[1] + 1) + self.stage[ids]
+        for c in np.unique(code):
+            sub = ids[code == c]
+            g, sid = int(self.group_of[sub[0]]), int(self.stage[sub[0]])
+            st = self.flat[g][sid][1]
+            if isinstance(st, Queue):  # at the end of the line: join it
+                q = self.queues[self._queue_of[st.key]]
+                joined, places = q.join(sub, w.positions[sub], t)
+                self.reached[joined, sid] = t
+                w.set_goals(joined, places, goal_region=q.region, leave=False)
+                if len(q.approaching):
+                    w.set_goals(q.approaching, q.tail, goal_region=q.region, leave=False)
+                continue
+            self.reached[sub, sid] = t
+            self.bound[id(st)] -= len(sub)
+            if isinstance(st, Leave):
+                self.until[sub, sid] = t
+                self.done[sub] = True
+                self.finished_at[sub] = t
+                self.exits.setdefault(st.name, []).extend([t] * len(sub))
+                self._release_points(sub)
+            else:
+                self._next(sub, w)
+
+    def _next(self, ids: np.ndarray, w: Walkers) -> None:
+        """Agents that finished their stage go on to the next top-level one."""
+        self.until[ids, self.stage[ids]] = self.time
+        self._enter_top(ids, self.top[ids] + 1, w)
+
+    def _serve(self, q: ServiceQueue, w: Walkers) -> None:
+        freed = q.release(self.time)
+        if freed is not None:
+            if q.members:  # the line moves up a place
+                w.set_goals(np.array(q.members), q.places(), goal_region=q.region, leave=False)
+            if len(q.approaching):
+                w.set_goals(q.approaching, q.tail, goal_region=q.region, leave=False)
+            self._next(np.array([freed]), w)
+        if q.members and not q.serving:
+            q.start(self.time, w.positions[q.members[0]], freed is not None)
+
+    # ---- choices and places -------------------------------------------------------------
+    def region_of(self, st):
+        """The region agents at stage ``st`` (goto, queue or leave) are sent to."""
+        return self.queues[self._queue_of[st.key]].region if isinstance(st, Queue) else st.area
+
+    def _choose(self, ids: np.ndarray, st: Choose, sid: int, w: Walkers) -> np.ndarray:
+        """(K,) the option each of ``ids`` takes."""
+        if st.by == "weights":
+            u = uniforms(self.key, ids, DRAW_CHOICE + sid)
+            return np.minimum(np.searchsorted(np.cumsum(st.weights), u, side="right"), len(st.among) - 1)
+        pos = w.positions[ids]
+        dist = np.column_stack([w.walking_distance(pos, self.region_of(o)) for o in st.among])
+        if st.by == "nearest":
+            return np.argmin(dist, axis=1)
+        walk = dist / self.pref_speed[ids, None]
+        cap = np.array([o.capacity for o in st.among])
+        bound = np.array([self.queues[self._queue_of[o.key]].bound if isinstance(o, Queue)
+                          else self.bound.get(id(o), 0) for o in st.among], dtype=float)
+        picks = np.empty(len(ids), dtype=np.int64)
+        for k in np.argsort(walk.min(axis=1), kind="stable"):  # the nearest choose first
+            j = int(np.argmin(walk[k] + bound / cap))
+            picks[k] = j
+            bound[j] += 1
+        return picks
+
+    def _free_points(self, ids: np.ndarray, area, sid: int, w: Walkers) -> np.ndarray:
+        """A point of ``area`` for each agent: of FREE_POINT_TRIES drawn, the nearest it
+        that is a body and FREE_POINT_GAP_M clear of the points others hold there and of
+        obstacles (the clearest, if none is): on the near side of a fountain in it."""
+        pos = w.positions[ids]
+        m = FREE_POINT_TRIES
+        draws = np.stack([uniforms(self.key, ids, DRAW_FREE_POINT + (sid * m + k) * 2) for k in range(m)], axis=1)
+        draws2 = np.stack([uniforms(self.key, ids, DRAW_FREE_POINT + (sid * m + k) * 2 + 1) for k in range(m)], axis=1)
+        if isinstance(area, Rect):
+            cand = area.lower + np.stack([draws, draws2], axis=-1) * (area.upper - area.lower)
+        else:
+            r, a = area.radius * np.sqrt(draws), 2 * np.pi * draws2
+            cand = area.center + np.stack([r * np.cos(a), r * np.sin(a)], axis=-1)
+        room = np.full(cand.shape[:2], np.inf) if self.clearance is None else \
+            self.clearance(cand.reshape(-1, 2)).reshape(cand.shape[:2])
+        held = self.held.setdefault(id(area), {})
+        out = np.empty((len(ids), 2))
+        for k, a in enumerate(ids):
+            rad = self.radius[a]
+            others = np.array(list(held.values())) if held else np.zeros((0, 2))
+            apart = np.full(m, np.inf) if not len(others) else \
+                np.linalg.norm(cand[k][:, None] - others[None], axis=-1).min(axis=1) - 2 * self.radius.max()
+            fits = (room[k] >= rad) & (apart >= FREE_POINT_GAP_M)
+            near = np.linalg.norm(cand[k] - pos[k], axis=1)  # the nearest that fits: on the near side
+            best = int(np.argmin(np.where(fits, near, np.inf))) if fits.any() else \
+                int(np.argmax(np.minimum(room[k] - rad, apart)))
+            out[k] = cand[k, best]
+            held[int(a)] = out[k]
+            self.holder[a] = id(area)
+        return out
+
+    def _release_points(self, ids: np.ndarray) -> None:
+        for a in ids[self.holder[ids] != -1]:
+            self.held[int(self.holder[a])].pop(int(a), None)
+            self.holder[a] = -1
+
+    # ---- what researchers measure -------------------------------------------------------
+    def stage_table(self, names) -> dict:
+        """Per group on a route: its stages by id (path in the route, kind, name)."""
+        return {str(names[g]): [{"id": sid, "path": path, "kind": st.kind, "name": st.name}
+                                for sid, (path, st, _) in enumerate(f)]
+                for g, f in enumerate(self.flat) if f}
+
+    def report(self, names) -> dict:
+        """For summary.json: per group and stage, the agents that reached it and the mean
+        and longest time spent in it (from beginning it to moving on, s); per queue, the
+        agents served, the waits in line and its length each second; per exit, the agents
+        that left by it, the flow (persons/s) and the evacuation time (the last left, s)."""
+        stages = {}
+        for g, f in enumerate(self.flat):
+            if not f:
+                continue
+            own = self.group_of == g
+            rows = []
+            for sid, (path, st, _) in enumerate(f):
+                spent = (self.until[own, sid] - self.since[own, sid])
+                spent = spent[np.isfinite(spent)]
+                rows.append({"id": sid, "path": path, "kind": st.kind, "name": st.name,
+                             "reached": int(np.isfinite(self.reached[own, sid]).sum()),
+                             "mean_time_s": float(spent.mean()) if len(spent) else None,
+                             "max_time_s": float(spent.max()) if len(spent) else None})
+            stages[str(names[g])] = rows
+        exits = {}
+        for name, times in self.exits.items():
+            t = np.sort(np.array(times))
+            flow = (len(t) - 1) / (t[-1] - t[0]) if len(t) > 1 and t[-1] > t[0] else None
+            exits[name] = {"left": len(t), "flow_per_s": None if flow is None else float(flow), "first_s": float(t[0]), "evacuation_time_s": float(t[-1])}
+        return {"stages": stages, "queues": {q.stage.name: q.report() for q in self.queues}, "exits": exits,
+                "finished": int((self.on_route & self.done).sum()), "on_route": int(self.on_route.sum())}

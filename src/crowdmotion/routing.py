@@ -40,6 +40,24 @@ class DistanceFields:
         return out
 
 
+    def nearby(self, field: int, points: np.ndarray, window: int = 2) -> np.ndarray:
+        """Metres to field ``field``'s goal from each point: the least of its value plus the
+        straight way to it over the cells within ``window`` cells (a point by a wall, whose
+        own cell a body does not fit in, reads its free neighbours); inf where none has one."""
+        shape = np.array(self.dist.shape[1:])
+        pts = np.asarray(points, float).reshape(-1, 2)
+        idx = np.floor((pts - self.origin) / self.cell).astype(np.int64)
+        out = np.full(len(idx), np.inf)
+        for dx in range(-window, window + 1):
+            for dy in range(-window, window + 1):
+                c = idx + [dx, dy]
+                inside = np.all((c >= 0) & (c < shape), axis=1)
+                d = np.full(len(idx), np.inf)
+                d[inside] = self.dist[field, c[inside, 0], c[inside, 1]]
+                centre = self.origin + (c + 0.5) * self.cell
+                out = np.minimum(out, d + np.linalg.norm(centre - pts, axis=1))
+        return out
+
     def reachable(self, field_of: np.ndarray, points: np.ndarray, window: int = 2) -> np.ndarray:
         """Whether some cell within ``window`` cells of each point has a finite distance
         to the point's goal (field ``field_of``)."""

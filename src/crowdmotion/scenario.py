@@ -18,7 +18,7 @@ import numpy as np
 from pydantic import BaseModel, ConfigDict, Field, ValidationError, field_validator, model_validator
 
 from crowdmotion import groups as G
-from crowdmotion._validation import Coordinate, Positive, error_lines, field_names, shown
+from crowdmotion._validation import Coordinate, NonNegative, Positive, error_lines, field_names, shown
 from crowdmotion.formation.params import FormationAttributes, FormationParams, TemplateSpec
 from crowdmotion.mdp.params import MDPParams
 from crowdmotion.pso.params import PSOParams
@@ -36,6 +36,9 @@ ATTRIBUTES: dict[str, type[BaseModel] | None] = {"mdp": None, "rvo": RVOAttribut
                                                  "formation": FormationAttributes}
 # [[groups]] fields only one method reads
 GROUP_FIELD_METHOD = {"personality": "rvo", "formation": "formation", "enter": "rvo"}
+# the route stages each method follows (issue 30: MDP go to / wait / leave, PSO go to /
+# leave and formation every stage but queue are planned, not built)
+ROUTE_SUPPORT = {"rvo": ("goto", "wait", "queue", "choose", "leave"), "mdp": (), "pso": (), "formation": ()}
 
 
 class _Model(BaseModel):
@@ -264,6 +267,150 @@ class EnterSpec(_Model):
         return self
 
 
+Point2 = Annotated[list[Coordinate], Field(min_length=2, max_length=2)]
+AreaSpec = Annotated[Union[PointRegion, PointsRegion, RectRegion, DiscRegion], Field(discriminator="shape")]
+StageName = Annotated[str, Field(min_length=1)]
+
+
+class WaitTimeSpec(_Model):
+    """A waiting time drawn per agent from the scenario's seed (a wait stage's ``time``).
+
+    uniform : list      [low, high] seconds, uniform in between
+    normal : list       [mean, sd] seconds, normal, clipped at 0
+    """
+
+    uniform: Annotated[list[NonNegative], Field(min_length=2, max_length=2)] | None = None
+    normal: Annotated[list[NonNegative], Field(min_length=2, max_length=2)] | None = None
+
+    @model_validator(mode="after")
+    def _one(self):
+        if (self.uniform is None) == (self.normal is None):
+            raise ValueError("give one of uniform = [low, high] or normal = [mean, sd]")
+        if self.uniform is not None and self.uniform[0] > self.uniform[1]:
+            raise ValueError(f"uniform: low {self.uniform[0]:g} exceeds high {self.uniform[1]:g}")
+        return self
+
+
+class GotoStageSpec(_Model):
+    """Route stage: walk to an area (crowdmotion.stages.GoTo).
+
+    kind : str          "goto"
+    area : table        a point, points, rect or disc region
+    arrive : str        "anywhere" (its nearest point, round walls) or "free_point" (a
+                        point of a rect or disc no one else bound there holds)
+    name : str          the stage's name in summary.json (default: kind and area)
+    capacity : float    persons/s it takes in, for choose by "least_crowded" (default 1.3
+                        persons/m/s times the area's widest side)
+    """
+
+    kind: Literal["goto"]
+    area: AreaSpec
+    arrive: Literal["anywhere", "free_point"] = "anywhere"
+    name: StageName | None = None
+    capacity: PosFloat | None = None
+
+
+class WaitStageSpec(_Model):
+    """Route stage: stand where the last stage left the agent (crowdmotion.stages.Wait).
+
+    kind : str          "wait"
+    time : float        seconds, or a table drawn per agent: {uniform = [low, high]} or
+                        {normal = [mean, sd]} (clipped at 0)
+    name : str          the stage's name in summary.json
+    """
+
+    kind: Literal["wait"]
+    time: NonNegative | WaitTimeSpec
+    name: StageName | None = None
+
+
+class QueueStageSpec(_Model):
+    """Route stage: queue and be served one at a time, first come first served
+    (crowdmotion.stages.Queue).
+
+    kind : str          "queue"
+    head : list         [x, y] where the first in line is served (with direction)
+    direction : list    [dx, dy] the way the line grows from the head
+    line : list         instead of head and direction: a polyline [[x, y], ...] from the
+                        head along which the line forms (straight on past its end)
+    rate : float        persons served per second
+    spacing : float     metres between two places in line
+    name : str          the queue's name in summary.json
+    capacity : float    persons/s, for choose by "least_crowded" (default: rate)
+    """
+
+    kind: Literal["queue"]
+    head: Point2 | None = None
+    direction: Point2 | None = None
+    line: Annotated[list[Point2], Field(min_length=2)] | None = None
+    rate: PosFloat
+    spacing: PosFloat = 0.65
+    name: StageName | None = None
+    capacity: PosFloat | None = None
+
+    @model_validator(mode="after")
+    def _where(self):
+        if self.line is None and (self.head is None or self.direction is None):
+            raise ValueError("give head and direction, or line (its first point the head)")
+        if self.line is not None and (self.head is not None or self.direction is not None):
+            raise ValueError("line replaces head and direction: give one or the other")
+        if self.direction is not None and self.direction == [0.0, 0.0]:
+            raise ValueError("direction must not be [0, 0]")
+        return self
+
+
+class LeaveStageSpec(_Model):
+    """Route stage: walk to an exit and leave the scene there (crowdmotion.stages.Leave).
+
+    kind : str          "leave"
+    area : table        a point, points, rect or disc region: arriving anywhere in it
+    name : str          the exit's name in summary.json (flow, evacuation time)
+    capacity : float    persons/s it passes, for choose by "least_crowded" (default 1.3
+                        persons/m/s times the area's widest side)
+    """
+
+    kind: Literal["leave"]
+    area: AreaSpec
+    name: StageName | None = None
+    capacity: PosFloat | None = None
+
+
+OptionSpec = Annotated[Union[GotoStageSpec, QueueStageSpec, LeaveStageSpec], Field(discriminator="kind")]
+
+
+class ChooseStageSpec(_Model):
+    """Route stage: go on with one of several stages, chosen per agent
+    (crowdmotion.stages.Choose).
+
+    kind : str          "choose"
+    by : str            "nearest" (walking distance round walls), "least_crowded" (walking
+                        time + agents already bound there / the stage's capacity) or
+                        "weights" (at random)
+    among : list        the stages to choose from: goto, queue or leave tables
+    weights : list      with by = "weights": one weight per stage of among
+    name : str          the stage's name in summary.json
+    """
+
+    kind: Literal["choose"]
+    by: Literal["nearest", "least_crowded", "weights"] = "nearest"
+    among: Annotated[list[OptionSpec], Field(min_length=2)]
+    weights: list[NonNegative] | None = None
+    name: StageName | None = None
+
+    @model_validator(mode="after")
+    def _weights(self):
+        if (self.by == "weights") != (self.weights is not None):
+            raise ValueError("weights go with by = \"weights\", and it needs them")
+        if self.weights is not None and (len(self.weights) != len(self.among) or sum(self.weights) <= 0):
+            raise ValueError(f"weights: give {len(self.among)} weights (one per stage of among), not all 0")
+        return self
+
+
+StageSpec = Annotated[Union[GotoStageSpec, WaitStageSpec, QueueStageSpec, ChooseStageSpec, LeaveStageSpec],
+                      Field(discriminator="kind")]
+ROUTE_STAGES = (GotoStageSpec, WaitStageSpec, QueueStageSpec, ChooseStageSpec, LeaveStageSpec, WaitTimeSpec)
+
+
 class GroupSpec(_Model):
     """A named set of agents: how many, where they start, where they go, their bodies.
 
@@ -271,7 +418,7 @@ class GroupSpec(_Model):
     count : int         number of agents
     spawn : table       where they start: a region table (point, points, rect, disc, ring)
     goal : table        where they go: a region table (point, points, rect, disc, moving,
-                        antipodal)
+                        antipodal); required unless the group has a route
     radius : float      body radius, metres (bounding circle / sphere)
     max_speed : float   metres per second
     pref_speed : float  preferred walking speed, metres per second (≤ max_speed)
@@ -281,6 +428,9 @@ class GroupSpec(_Model):
     enter : table       rvo: agents enter over time: {rate = persons/s, start = s} or
                         {times = [s, ...]} (one per agent); each enters at a free point of
                         the spawn region, waiting while there is no room
+    route : list        rvo: the stages the agents follow in order ([[groups.route]]
+                        tables: goto, wait, queue, choose, leave; see "Route stages");
+                        the goal may then be left out
     attributes : table  method-specific extras (Python: Group.attributes), checked against the
                         method's own list (see "Group attributes"): rvo: pref_speed_range,
                         max_neighbors, neighbor_dist, samples, safety; formation: reassign,
@@ -290,14 +440,28 @@ class GroupSpec(_Model):
     name: str = Field(min_length=1)
     count: Annotated[int, Field(gt=0, le=10_000_000)]
     spawn: RegionSpec
-    goal: RegionSpec
+    goal: RegionSpec | None = None
     radius: PosFloat = 0.25
     max_speed: Speed = 1.5
     pref_speed: Speed = 1.3
     personality: str | list[float] | dict[str, Any] | None = None
     formation: TemplateSpec | None = None
     enter: EnterSpec | None = None
+    route: Annotated[list[StageSpec], Field(min_length=1)] | None = None
     attributes: dict[str, Any] = {}
+
+    @model_validator(mode="after")
+    def _goal_or_route(self):
+        if self.goal is None and self.route is None:
+            raise ValueError("goal: is missing: give the group a goal, or a route of stages")
+        if self.route is not None:
+            last = len(self.route) - 1
+            for i, st in enumerate(self.route):
+                options = st.among if isinstance(st, ChooseStageSpec) else [st]
+                if i != last and any(isinstance(o, LeaveStageSpec) for o in options):
+                    raise ValueError(f"route.{i}: agents leave the scene at a leave stage, so it must be the "
+                                     f"route's last")
+        return self
 
     @field_validator("personality")
     @classmethod
@@ -398,6 +562,14 @@ class ScenarioSpec(_Model):
                 for c in coords:
                     if len(c) != dim:
                         raise ValueError(f"groups.{i}.{part}: coordinates {c} are not {dim}D like the scene")
+            for j, st in enumerate(g.route or []):
+                for k, o in enumerate(st.among if isinstance(st, ChooseStageSpec) else [st]):
+                    area = getattr(o, "area", None)
+                    coords = [getattr(area, a) for a in ("position", "lower", "upper", "center") if hasattr(area, a)]
+                    coords += list(getattr(area, "points", []))
+                    where = f"groups.{i}.route.{j}" + (f".among.{k}" if isinstance(st, ChooseStageSpec) else "")
+                    if any(len(c) != dim for c in coords):
+                        raise ValueError(f"{where}.area: coordinates are not {dim}D like the scene")
         return self
 
     @model_validator(mode="after")
@@ -503,7 +675,48 @@ def _method_lines(data: Any) -> list[str]:
         attrs = g.get("attributes")
         if isinstance(attrs, dict):
             lines += _attribute_lines(attrs, method, f"groups.{i}.attributes")
+        lines += _route_lines(g.get("route"), method, f"groups.{i}.route")
     return lines
+
+
+def _route_lines(route: Any, method: str, where: str) -> list[str]:
+    """A route's stages the scenario's method does not follow, each named."""
+    if not isinstance(route, list):
+        return []
+    takes = ROUTE_SUPPORT[method]
+    who = [m for m, kinds in ROUTE_SUPPORT.items() if kinds]
+    lines = []
+    for i, st in enumerate(route):
+        kind = st.get("kind") if isinstance(st, dict) else None
+        if kind in ROUTE_SUPPORT["rvo"] and kind not in takes:
+            why = "follows no route stages yet" if not takes else f"follows only {', '.join(takes)} stages"
+            lines.append(f"{where}.{i}: a {kind!r} stage, but method {method!r} {why}; method "
+                         + " and ".join(repr(m) for m in who) + " follows every stage kind (goto, wait, queue, "
+                         f"choose, leave)")
+    return lines
+
+
+# a union's branch in an error's place: groups.0.route.2.queue.rate -> groups.0.route.2.rate
+_STAGE_TAG = re.compile(r"\b((?:route|among)\.\d+)\.(?:goto|wait|queue|choose|leave)\b")
+_AREA_TAG = re.compile(r"\b(route\.\d+(?:\.among\.\d+)?\.area)\.(?:point|points|rect|disc)\b")
+_TIME_TAG = re.compile(r"\.time\.(?:constrained-float|function-after\[[^\]]*\])")
+# a check's own field at the head of its message: "groups.1: goal: is missing" -> "groups.1.goal: is missing"
+_OWN_PART = re.compile(r"^(groups\.\d+[\w.]*): (goal|route\.\d+|uniform|normal): ")
+
+
+def _route_error_lines(lines: list[str]) -> list[str]:
+    """Schema errors in a route in the file's own terms: no union branches in the
+    field's place, and only the branch of a wait's time that the file wrote (a number
+    or a table)."""
+    out = []
+    for line in lines:
+        if ".time.constrained-float" in line and "(got {" in line:
+            continue  # a table was written: the number branch's complaint is noise
+        if ".time.function-after" in line and "valid dictionary or instance of WaitTimeSpec" in line:
+            continue  # a number was written: likewise the table branch's
+        line = _TIME_TAG.sub(".time", _AREA_TAG.sub(r"\1", _STAGE_TAG.sub(r"\1", line)))
+        out.append(_OWN_PART.sub(r"\1.\2: ", line))
+    return out
 
 
 def _report(lines: list[str], source: str, data: Any = None) -> str:
@@ -532,7 +745,7 @@ def validate_spec(data: Any, source: str = "scenario") -> ScenarioSpec:
         lines = error_lines(exc, known=field_names(ScenarioSpec), hint=_unknown_key)
     except RecursionError:
         raise ScenarioError(f"{source}: tables or arrays nested too deeply to be a scenario") from None
-    lines += _method_lines(data)
+    lines = _route_error_lines(lines) + _method_lines(data)
     if lines:
         raise ScenarioError(_report(lines, source, data))
     return spec
@@ -566,6 +779,47 @@ def _region(spec) -> Any:
     if isinstance(spec, DiscRegion):
         return G.Disc(spec.center, spec.radius)
     return G.MovingTarget(spec.times, spec.positions)
+
+
+def _stage(spec):
+    """A route stage's spec as a :mod:`crowdmotion.stages` stage."""
+    from crowdmotion import stages as R
+
+    if isinstance(spec, GotoStageSpec):
+        return R.GoTo(_region(spec.area), spec.arrive, spec.name, spec.capacity)
+    if isinstance(spec, LeaveStageSpec):
+        return R.Leave(_region(spec.area), spec.name, spec.capacity)
+    if isinstance(spec, WaitStageSpec):
+        time = spec.time if not isinstance(spec.time, WaitTimeSpec) else spec.time.model_dump(exclude_none=True)
+        return R.Wait(time, spec.name)
+    if isinstance(spec, QueueStageSpec):
+        return R.Queue(spec.head, spec.rate, spec.direction, spec.line, spec.spacing, spec.name, spec.capacity)
+    return R.Choose([_stage(o) for o in spec.among], spec.by, spec.weights, spec.name)
+
+
+def route_stages(route: list) -> list:
+    """A group's route specs as stages; ValueError naming the stage (``route.2: ...``)."""
+    out = []
+    for i, st in enumerate(route):
+        try:
+            out.append(_stage(st))
+        except ValueError as exc:
+            raise ValueError(f"route.{i}: {exc}") from None
+    return out
+
+
+def _first_place(stages: list, spawn) -> Any:
+    """Where a route leads first (its group's goal for the checks and reports that read
+    one): the first area or queue head on it, else the spawn."""
+    from crowdmotion.stages import Choose, Queue
+
+    for st in stages:
+        st = st.among[0] if isinstance(st, Choose) else st
+        if isinstance(st, Queue):
+            return G.Points(st.head[None])
+        if hasattr(st, "area"):
+            return st.area
+    return spawn
 
 
 def _attributes(g: GroupSpec) -> dict:
@@ -666,9 +920,13 @@ def build(spec: ScenarioSpec, source: str = "scenario", max_memory: int | None =
     for i, g in enumerate(spec.groups):
         try:
             spawn = _spawn(g.spawn, g.count)
-            groups.append(G.Group(name=g.name, count=g.count, spawn=spawn, goal=_goal(g.goal, spawn),
+            attributes = _attributes(g)
+            if g.route is not None:
+                attributes["route"] = route_stages(g.route)
+            goal = _goal(g.goal, spawn) if g.goal is not None else _first_place(attributes["route"], spawn)
+            groups.append(G.Group(name=g.name, count=g.count, spawn=spawn, goal=goal,
                                   radius=g.radius, max_speed=g.max_speed, pref_speed=g.pref_speed,
-                                  attributes=_attributes(g)))
+                                  attributes=attributes))
         except ValueError as exc:
             raise ScenarioError(f"{source}: groups.{i}: {exc}") from None
     scenario = Scenario(spec, scene, groups)

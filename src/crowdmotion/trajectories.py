@@ -29,6 +29,9 @@ class Trajectories:
                                     (smooth, bounded turn rate, held while standing)
     facing_pitch : (T, N) float64   3D: the facing's angle above the x-y plane (derived
                                     from the motion when None); zeros in 2D
+    stage : (T, N) int16 or None    the stage of its route each agent is in per frame (its
+                                    stage id, :mod:`crowdmotion.stages`; -1 off route or
+                                    not in the scene); None when no agent follows a route
     """
 
     positions: np.ndarray
@@ -40,6 +43,7 @@ class Trajectories:
     metadata: dict[str, Any] = field(default_factory=dict)
     facing: np.ndarray | None = None
     facing_pitch: np.ndarray | None = None
+    stage: np.ndarray | None = None
 
     def __post_init__(self):
         p = np.asarray(self.positions, dtype=np.float64)
@@ -63,6 +67,13 @@ class Trajectories:
             self.active = np.asarray(self.active, dtype=bool)
             if self.active.shape != (t, n):
                 raise ValueError(f"Trajectories.active must have shape ({t}, {n}), got {self.active.shape}")
+        if self.stage is not None:
+            st = np.asarray(self.stage)
+            if st.shape != (t, n) or (st.size and not np.issubdtype(st.dtype, np.integer)):
+                raise ValueError(f"Trajectories.stage must be ({t}, {n}) integers, got {st.dtype} {st.shape}")
+            if st.size and (st.min() < -1 or st.max() > np.iinfo(np.int16).max):
+                raise ValueError("Trajectories.stage must hold stage ids >= 0, or -1 off route")
+            self.stage = st.astype(np.int16)
         for name in ("facing", "facing_pitch"):  # a method's own, checked here; else derived on first use
             arr = getattr(self, "_" + name)
             if arr is None:
@@ -176,6 +187,7 @@ class Trajectories:
             metadata=dict(self.metadata),
             facing=self.facing[f][:, a],
             facing_pitch=self.facing_pitch[f][:, a],
+            stage=None if self.stage is None else self.stage[f][:, a],
         )
 
     # ---- files -------------------------------------------------------------------
@@ -237,9 +249,12 @@ def resample(traj: Trajectories, fps: float, kind: str = "linear") -> Trajectori
         p0, p1, p2, p3 = C[k], C[k + 1], C[k + 2], C[k + 3]
         pos = ((1 - s) ** 3 * p0 + (3 * s**3 - 6 * s**2 + 4) * p1 + (-3 * s**3 + 3 * s**2 + 3 * s + 1) * p2
                + s**3 * p3) / 6.0
-    active = None
+    active = stage = None
+    held = np.minimum(np.ceil(u - 1e-9).astype(int), traj.n_frames - 1)  # the frame each new one ends in
     if traj.active is not None:
-        active = traj.active[np.minimum(np.ceil(u - 1e-9).astype(int), traj.n_frames - 1)]
+        active = traj.active[held]
+    if traj.stage is not None:
+        stage = traj.stage[held]
     meta = {**traj.metadata, "resampled": {"fps": fps, "kind": kind, "step_dt": traj.dt}}
     facing = None
     if traj.has_own_facing:  # turned through, the short way
@@ -249,7 +264,7 @@ def resample(traj: Trajectories, fps: float, kind: str = "linear") -> Trajectori
         yaw = np.unwrap(traj.facing, axis=0)
         facing = wrap(yaw[k] * (1 - s2) + yaw[np.minimum(k + 1, traj.n_frames - 1)] * s2)
     return Trajectories(pos, 1.0 / fps, ids=traj.ids, group=traj.group, radius=traj.radius, active=active,
-                        metadata=meta, facing=facing)
+                        metadata=meta, facing=facing, stage=stage)
 
 
 def _lazy_facing(name: str) -> property:

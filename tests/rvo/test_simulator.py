@@ -257,3 +257,20 @@ def test_an_obstacle_taken_out_in_the_step_it_was_put_in_never_stood():
     while sim.active.any() and sim.time < 60:
         sim.step()
     assert sim.arrived[0]
+
+
+def test_set_goals_keeps_each_goal_with_its_agent_whatever_the_order_of_ids():
+    sim = rvo.Simulator(cm.Scene(bounds=([0, 0], [20, 10])))
+    ids = sim.add_agents([[2, 2], [2, 5], [2, 8]], [18, 5])
+    sim.set_goals([ids[2], ids[0]], [[18, 9], [18, 1]])
+    assert sim.goals[ids].tolist() == [[18, 1], [18, 5], [18, 9]]
+
+
+def test_set_goals_can_make_an_agent_stay_at_or_leave_by_its_goal():
+    sim = rvo.Simulator(cm.Scene(bounds=([0, 0], [20, 10])))
+    stays, goes = sim.add_agents([[2, 3], [2, 7]], [4, 5])
+    sim.set_goals([stays], [4, 3], leave=False)
+    sim.set_goals([goes], [4, 7], leave=True)
+    for _ in range(20):
+        sim.step()
+    assert sim.arrived[[stays, goes]].all() and sim.active[stays] and not sim.active[goes]

@@ -1,5 +1,5 @@
 """Long-form table (frame, time, agent, group, x, y, z, radius, active, facing,
-facing_pitch, and the locomotion channels) <-> Trajectories."""
+facing_pitch, stage when agents follow routes, and the locomotion channels) <-> Trajectories."""
 
 from __future__ import annotations
 
@@ -20,7 +20,9 @@ def to_table(traj: Trajectories, loco: Locomotion | None = None) -> pa.Table:
     """One row per (frame, agent); 2D runs have no z or facing_pitch column (every column
     is numeric or text, so pandas, polars and DuckDB read the types right). ``facing`` is
     the way the agent faces, yaw in radians about the up axis from +x (``facing_pitch``:
-    above the ground plane), see :mod:`crowdmotion.facing`. Then the locomotion channels
+    above the ground plane), see :mod:`crowdmotion.facing`. ``stage`` (only when agents
+    follow routes) is each agent's stage id, -1 off route or absent (the ids are listed
+    in the metadata's ``stages``). Then the locomotion channels
     (``loco``, derived from ``traj`` with the default parameters when None; see
     :mod:`crowdmotion.locomotion`, single precision): ``distance`` (m), ``gait_phase`` (strides, [0, 1)),
     ``gait_state`` (text: idle, walk, run, turn, move), ``turn_rate`` (rad/s) and
@@ -45,6 +47,8 @@ def to_table(traj: Trajectories, loco: Locomotion | None = None) -> pa.Table:
     columns["facing"] = traj.facing.reshape(-1)
     if d == 3:
         columns["facing_pitch"] = traj.facing_pitch.reshape(-1)
+    if traj.stage is not None:  # runs with routes: each agent's stage id (-1 off route or absent)
+        columns["stage"] = traj.stage.reshape(-1).astype(np.int16)
     gait = None if loco.walker.all() else np.tile(loco.walker, t)  # the rows that have a gait
     # float32 (single precision: 8 µm in 100 m, 1e-7 of a stride) keeps a run's file small
     columns["distance"] = loco.distance.reshape(-1).astype(np.float32)
@@ -130,8 +134,12 @@ def from_table(table: pa.Table, metadata: dict | None = None) -> Trajectories:
         if name in table.column_names and table[name].null_count == 0:
             facing[name] = np.empty((t, n))
             facing[name][row, col] = table[name].to_numpy()
+    stage = None
+    if "stage" in table.column_names:
+        stage = np.full((t, n), -1, dtype=np.int16)
+        stage[row, col] = table["stage"].fill_null(-1).to_numpy().astype(np.int16)
     return Trajectories(pos, dt, ids=ids, group=group, radius=radius, active=active, metadata=metadata or {},
-                        **facing)
+                        stage=stage, **facing)
 
 
 def locomotion_from_table(table: pa.Table, metadata: dict | None = None) -> Locomotion:

@@ -13,7 +13,9 @@ that its own reader gets the groups, radii and metadata back, and the locomotion
 (:mod:`crowdmotion.locomotion`) in ``crowdmotion_locomotion(frame, id, distance,
 gait_phase, gait_state, turn_rate, contact_left, contact_right)``, one row per row of
 ``trajectory_data`` (phase and contacts NULL for agents that are not walkers; the state a
-code into ``crowdmotion_gait_states(code, name)``); JuPedSim and PedPy ignore them. 3D runs are projected onto the ground plane (x, y): the ``projection`` metadata
+code into ``crowdmotion_gait_states(code, name)``); for runs whose agents follow routes,
+each present agent's stage id per frame in ``crowdmotion_stages(frame, id, stage)`` (the
+ids named in the metadata's ``stages``); JuPedSim and PedPy ignore them. 3D runs are projected onto the ground plane (x, y): the ``projection`` metadata
 entry says so, and so does a ``UserWarning`` on writing. Drones stacked in z then stand
 1 µm apart on the ground: their Voronoi density there is meaningless.
 """
@@ -174,6 +176,12 @@ def write(traj: Trajectories, path: Path, locomotion: LocomotionParams | None = 
             cur.execute("CREATE INDEX crowdmotion_locomotion_idx ON crowdmotion_locomotion(frame, id)")
             cur.execute("CREATE TABLE crowdmotion_gait_states(code INTEGER NOT NULL PRIMARY KEY, name TEXT NOT NULL)")
             cur.executemany("INSERT INTO crowdmotion_gait_states VALUES(?, ?)", enumerate(STATES))
+            if traj.stage is not None:
+                cur.execute("CREATE TABLE crowdmotion_stages (frame INTEGER NOT NULL, id INTEGER NOT NULL, "
+                            "stage INTEGER NOT NULL)")
+                cur.executemany("INSERT INTO crowdmotion_stages VALUES(?, ?, ?)",
+                                zip(frame.tolist(), traj.ids[agent].tolist(), traj.stage[frame, agent].tolist()))
+                cur.execute("CREATE INDEX crowdmotion_stages_idx ON crowdmotion_stages(frame, id)")
             con.commit()
         finally:
             con.close()
@@ -192,6 +200,11 @@ def read(path: Path) -> Trajectories:
                 agents = con.execute("SELECT id, grp, radius FROM crowdmotion_agents").fetchall()
             except sqlite3.OperationalError:
                 agents = []
+            try:
+                stages = np.array(con.execute("SELECT frame, id, stage FROM crowdmotion_stages").fetchall(),
+                                  np.int64).reshape(-1, 3)
+            except sqlite3.OperationalError:  # a run without routes, or JuPedSim's own file
+                stages = None
         finally:
             con.close()
     except sqlite3.DatabaseError as exc:
@@ -217,8 +230,12 @@ def read(path: Path) -> Trajectories:
     group = np.array([extra.get(int(i), ("agents", 0.0))[0] for i in ids], dtype=object)
     radius = np.array([extra.get(int(i), ("agents", 0.0))[1] for i in ids], float)
     metadata = json.loads(meta["crowdmotion"]) if "crowdmotion" in meta else {}
+    stage = None
+    if stages is not None:  # frames without a row: the agent was absent there (-1)
+        stage = np.full((t, len(ids)), -1, dtype=np.int16)
+        stage[stages[:, 0] - f0, np.searchsorted(ids, stages[:, 1])] = stages[:, 2]
     return Trajectories(pos, 1.0 / float(meta["fps"]), ids=ids, group=group, radius=radius,
-                        active=None if active.all() else active, metadata=metadata, facing=facing)
+                        active=None if active.all() else active, metadata=metadata, facing=facing, stage=stage)
 
 
 def read_locomotion(path: Path) -> Locomotion:

@@ -8,7 +8,7 @@ from crowdmotion.progress import step_bar
 from crowdmotion import metrics
 from crowdmotion.journeys import entry_report
 from crowdmotion.rvo.params import RVOParams
-from crowdmotion.rvo.simulation import RVORun, build_simulator, run
+from crowdmotion.rvo.simulation import RVORun, build_journeys, build_simulator, run
 
 Params = RVOParams
 
@@ -17,8 +17,9 @@ def check_scenario(scene, groups, params: RVOParams) -> None:
     """Everything a run refuses, refused before it starts: a 3D scene, goals an agent
     cannot stand on, spawn regions too small, then the set-up itself (placement, personality,
     guidance fields) and goals the field says no agent can reach."""
-    from crowdmotion.checks import check_dimension, check_goal_clear, check_inside, check_spawn_capacity, \
-        describe_region, where
+    from crowdmotion.checks import check_dimension, check_goal_clear, check_inside, check_route_places, \
+        check_spawn_capacity, describe_region, where
+    from crowdmotion.stages import flat_stages
 
     check_dimension("rvo", scene, (2,), "use method = 'mdp' or 'pso' for 3D scenes")
     for k, g in enumerate(groups):
@@ -28,11 +29,23 @@ def check_scenario(scene, groups, params: RVOParams) -> None:
         # a group entering over time need not fit all at once (build_simulator checks its enter table)
         if "enter" not in g.attributes:
             check_spawn_capacity(scene, k, g, params.spawn_gap)
-    sim = build_simulator(scene, groups, params, np.random.default_rng(0))
+        check_route_places(scene, k, g)
+    rng = np.random.default_rng(0)
+    sim = build_simulator(scene, groups, params, rng)
+    journeys = build_journeys(sim, scene, groups, rng)
     try:
         sim.preferred_velocities()  # builds the guidance fields the first step would
     except ValueError as exc:
         raise ValueError(f"rvo guidance: {exc}") from None
+    if journeys is not None:  # every place on a route can be walked to from the spawn
+        for k, g in enumerate(groups):
+            starts = sim.positions[sim.group == k]
+            for path, st, _ in flat_stages(g.attributes.get("route") or []):
+                region = journeys.region_of(st) if st.kind in ("goto", "queue", "leave") else None
+                if region is not None and not np.isfinite(sim.walking_distance(starts, region)).any():
+                    raise ValueError(f"{where(k, g)} {path.replace('[', '.').replace(']', '')} ({st.kind} "
+                                     f"{st.name!r}): cannot be reached from the spawn {describe_region(g.spawn)}: "
+                                     f"obstacles close the way for a body of radius {g.radius:g} m")
     stranded = sim.unreachable()
     if stranded.any():
         i = int(np.flatnonzero(stranded)[0])
@@ -62,14 +75,20 @@ def run_scenario(scene, groups, params: RVOParams, rng, progress: bool = True):
     with step_bar(params.max_steps, "rvo steps", progress) as bar:
         result = run(scene, groups, params, rng, progress=bar.done)
     traj, sim = result.trajectories, result.simulator
-    arrived = sim.arrived
+    journeys = result.journeys
+    arrived, finished = sim.arrived, sim.arrival_time
+    if journeys is not None:  # an agent on a route arrives where its route ends (or it leaves)
+        arrived = np.where(journeys.on_route, journeys.done, arrived)
+        finished = np.where(journeys.on_route, journeys.finished_at, finished)
     summary = metrics.summary(traj, scene)
     summary["arrival_rate"] = float(arrived.mean())
-    taken = sim.arrival_time - sim.entry_time  # from entering (t = 0 for those there from the start)
+    taken = finished - sim.entry_time  # from entering (t = 0 for those there from the start)
     summary["mean_time_to_goal_s"] = float(np.nanmean(taken)) if arrived.any() else None
     summary["time_to_goal_by_group_s"] = metrics.time_to_goal_by_group(traj, taken)
     if any("enter" in g.attributes for g in groups):
         summary["entry"] = entry_report(traj.group, sim.enter_at, sim.entry_time)
+    if journeys is not None:
+        summary["journeys"] = journeys.report([g.name for g in groups])
     stats = sim.stats
     steps = max(stats["agent_steps"], 1)
     summary.update({

@@ -129,13 +129,20 @@ class CongestionRouter:
         along = 0.5 * ((jx[g.src] + jx[g.dst]) * g.unit[:, 0] + (jy[g.src] + jy[g.dst]) * g.unit[:, 1])
         return self.counterflow * np.maximum(-along, 0.0), self.counterflow * np.maximum(along, 0.0)
 
-    def resolve(self, positions: np.ndarray, exact: np.ndarray, velocities: np.ndarray | None = None) -> np.ndarray:
+    def resolve(self, positions: np.ndarray, exact: np.ndarray, velocities: np.ndarray | None = None,
+                fields: np.ndarray | None = None) -> np.ndarray:
         """New (F, nx, ny) fields: the weighted distance to each field's goal cells, from
-        where the agents are (and, with ``counterflow``, how they walk: ``velocities``)."""
+        where the agents are (and, with ``counterflow``, how they walk: ``velocities``).
+        With ``fields`` (indices), only those are re-solved; the others keep ``exact``."""
         if not self.enabled or len(positions) == 0:
             return exact
         cost = 1.0 + self.congestion * self.density(positions).ravel()[self.graph.cell_index]
         against = None
         if self.counterflow > 0 and velocities is not None:
             against = self.against(positions, velocities)
-        return self.graph.distances(self.fields.goal_cells, self.fields.blocked.shape, cost, against)
+        goal_cells = self.fields.goal_cells
+        if fields is None or len(fields) == len(goal_cells):
+            return self.graph.distances(goal_cells, self.fields.blocked.shape, cost, against)
+        out = exact.copy()
+        out[fields] = self.graph.distances([goal_cells[k] for k in fields], self.fields.blocked.shape, cost, against)
+        return out

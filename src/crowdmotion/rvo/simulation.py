@@ -10,7 +10,8 @@ import numpy as np
 from crowdmotion import __version__
 from crowdmotion.checks import where
 from crowdmotion.groups import Disc, Group, MovingTarget, Points, Rect
-from crowdmotion.journeys import entry_times
+from crowdmotion._rng import step_key
+from crowdmotion.journeys import Journeys, entry_times
 from crowdmotion.placement import spawn_positions
 from crowdmotion.rvo.params import RVOParams
 from crowdmotion.rvo.personality import PARAM_KEYS, sample_personalities
@@ -112,44 +113,76 @@ def retry_entries(sim: Simulator, scene: Scene, groups: Sequence[Group], params:
             sim.set_entry_points(ids, pts)
 
 
+def build_journeys(sim: Simulator, scene: Scene, groups: Sequence[Group],
+                   rng: np.random.Generator) -> Journeys | None:
+    """The state machine that walks the agents of groups with a ``route`` attribute
+    along it (None when no group has one: ``rng`` is then left untouched), with the
+    guidance fields of every stage made known to ``sim`` so they are solved once."""
+    routes = [g.attributes.get("route") for g in groups]
+    if all(r is None for r in routes):
+        return None
+
+    def clearance(points: np.ndarray) -> np.ndarray:
+        walls = np.minimum(points - scene.lower, scene.upper - points).min(axis=1)
+        return np.minimum(walls, scene.static_obstacle_distance(points))
+
+    journeys = Journeys(routes, sim.group, [g.spawn for g in groups], sim.params["radius"],
+                        sim.params["pref_speed"], step_key(rng), clearance)
+    sim.add_goal_regions(journeys.regions())
+    return journeys
+
+
 @dataclass
 class RVORun:
-    """A finished RVO run: the trajectories and the simulator in its final state."""
+    """A finished RVO run: the trajectories, the simulator in its final state, and the
+    route state machine (None without routes)."""
 
     trajectories: Trajectories
     simulator: Simulator
+    journeys: Journeys | None = None
 
 
 def run(scene: Scene, groups: Sequence[Group], params: RVOParams, rng: np.random.Generator,
         progress: Callable[[int], None] | None = None) -> RVORun:
     """Step until every agent has arrived (or ``max_steps``); frames are the steps."""
     sim = build_simulator(scene, groups, params, rng)
+    journeys = build_journeys(sim, scene, groups, rng)
+    if journeys is not None:
+        journeys.update(sim, params.time_step)
     frames = [sim.positions.copy()]
     present = [sim.present.copy()]
+    stages = [] if journeys is None else [journeys.frame(present[0])]
     partial = False
     try:
         entering = any("enter" in g.attributes for g in groups)
-        while sim.steps < params.max_steps and ((sim.active & ~sim.arrived).any() or sim.waiting.any()):
+        while sim.steps < params.max_steps and ((sim.active & ~sim.arrived).any() or sim.waiting.any()
+                                                or (journeys is not None and journeys.busy(sim.active))):
             sim.step()
             if entering:
                 retry_entries(sim, scene, groups, params, rng)
+            if journeys is not None:
+                journeys.update(sim, params.time_step)
+                stages.append(journeys.frame(sim.present))
             frames.append(sim.positions.copy())
             present.append(sim.present.copy())
             if progress is not None and sim.steps % 10 == 0:
                 progress(sim.steps)
     except KeyboardInterrupt:  # Ctrl-C: keep the frames so far, marked partial
         partial = True
-    n = min(len(frames), len(present))
+    n = min(len(frames), len(present), len(stages) if journeys is not None else len(frames))
     names = np.array([g.name for g in groups], dtype=object)
     active = np.array(present[:n])
+    metadata = {"method": "rvo", "params": params.model_dump(), "scene": scene.to_dict(), "version": __version__,
+                "steps": sim.steps, "stats": dict(sim.stats),
+                "personality": sim.personality.tolist(), "partial": partial}
+    if journeys is not None:
+        metadata["stages"] = journeys.stage_table(names)
     traj = Trajectories(
         np.array(frames[:n]), params.time_step, group=names[sim.group], radius=sim.params["radius"],
-        active=None if active.all() else active,
-        metadata={"method": "rvo", "params": params.model_dump(), "scene": scene.to_dict(), "version": __version__,
-                  "steps": sim.steps, "stats": dict(sim.stats),
-                  "personality": sim.personality.tolist(), "partial": partial},
+        active=None if active.all() else active, metadata=metadata,
+        stage=None if journeys is None else np.array(stages[:n]),
     )
-    return RVORun(traj, sim)
+    return RVORun(traj, sim, journeys)
 
 
 def simulate(scene: Scene, groups: Sequence[Group], params: RVOParams | None = None,

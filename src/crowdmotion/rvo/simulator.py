@@ -7,7 +7,7 @@ from scipy.spatial import cKDTree
 
 from crowdmotion._rng import step_key
 from crowdmotion.geometry import finite_array, require_finite_agents
-from crowdmotion.groups import Disc, MovingTarget, Rect
+from crowdmotion.groups import Disc, MovingTarget, Points, Rect
 from crowdmotion.rvo import _kernels as K
 from crowdmotion.rvo.congestion import CongestionRouter
 from crowdmotion.rvo.deadlock import KEEP_RIGHT_LOOK_S, Deadlock, contact_arrivals
@@ -177,6 +177,7 @@ class Simulator:
         self.arrival_time = np.zeros(0)
         self.enter_at = np.zeros(0)     # when each agent is due to enter, seconds
         self.anywhere = np.zeros(0, dtype=bool)  # arrives anywhere in its goal region (its goal: the nearest point)
+        self.leaves = np.zeros(0, dtype=bool)    # leaves the simulation on arrival (else stays there)
         self.entry_time = np.zeros(0)   # when it entered (NaN while it waits off-scene)
         self.group = np.zeros(0, dtype=np.int64)     # the add_agents call that added each agent
         self.field_of = np.zeros(0, dtype=np.int64)  # each agent's goal region (its guidance field)
@@ -188,6 +189,7 @@ class Simulator:
         self._targets: list[tuple[MovingTarget, np.ndarray]] = []
         self._goal_regions: list = []
         self._region_keys: list = []  # one per goal region, so a region given twice has one field
+        self._region_ids: dict[int, int] = {}  # id(region object) -> its index: no repr per call
         self._batches = 0
         self._fields: DistanceFields | None = None
         self._exact: np.ndarray | None = None  # the exact distances, while _fields holds the weighted ones
@@ -295,6 +297,7 @@ class Simulator:
         self.arrival_time = np.concatenate([self.arrival_time, np.full(n, np.nan)])
         self.enter_at = np.concatenate([self.enter_at, due])
         self.anywhere = np.concatenate([self.anywhere, np.full(n, anywhere)])
+        self.leaves = np.concatenate([self.leaves, np.full(n, self.remove_on_arrival)])
         self.entry_time = np.concatenate([self.entry_time, np.where(later, np.nan, self.time)])
         self.personality = np.concatenate([self.personality, psi])
         for k, v in per.items():
@@ -310,7 +313,8 @@ class Simulator:
         self._admit()
         return ids
 
-    def set_goals(self, agents, goals, goal_region=None, arrive_anywhere: bool = False) -> None:
+    def set_goals(self, agents, goals, goal_region=None, arrive_anywhere: bool = False,
+                  leave: bool | None = None) -> None:
         """Send agents to new goals from the next step on (the live API).
 
         Parameters
@@ -322,6 +326,8 @@ class Simulator:
             goal points). A region given before, or the same points, reuses its field.
         arrive_anywhere : head for the region's nearest point and arrive anywhere in it
             (see :meth:`add_agents`).
+        leave : whether they leave the simulation on arriving there (an exit) or stay
+            (a place on the way); None: as ``remove_on_arrival`` says.
 
         The new goal's guidance field (with field guidance) is solved here, so a goal
         that cannot be used (inside a wall, off the grid) raises ValueError and every
@@ -339,9 +345,37 @@ class Simulator:
             self._targets.append((target, ids))
         self.goals[ids] = goal_region.nearest(self.positions[ids]) if arrive_anywhere else goal
         self.anywhere[ids] = bool(arrive_anywhere)
+        self.leaves[ids] = self.remove_on_arrival if leave is None else bool(leave)
         self.field_of[ids] = field
         self.arrival_time[ids] = np.nan
         self.deadlock.forget(ids)
+
+    def add_goal_regions(self, regions) -> None:
+        """Make the guidance fields of ``regions`` (Rect, Disc or Points) known before the
+        first step, so that they are solved with the others, once, and a later
+        :meth:`set_goals` or :meth:`walking_distance` to one of them re-solves nothing
+        (a route's stages, say)."""
+        for region in regions:
+            if not isinstance(region, (Rect, Disc, Points)):
+                raise ValueError(f"add_goal_regions: a Rect, Disc or Points region is needed, got {region!r}")
+            known = len(self._goal_regions)
+            self._region_index(region.nearest(self.positions[:1]) if len(self.positions) else None, region,
+                               solve=False)
+            if len(self._goal_regions) > known:
+                self._fields_stale = True
+
+    def walking_distance(self, points, region) -> np.ndarray:
+        """(K,) metres from each of ``points`` to ``region`` (Rect, Disc or Points): along
+        the guidance field round the walls (the exact distances, not the congestion-weighted
+        ones), or the straight line without a field; inf where walls close the way."""
+        pts = finite_array(points, "points").reshape(-1, 2)
+        straight = np.linalg.norm(region.nearest(pts) - pts, axis=1)
+        self._ensure_fields()
+        if self._fields is None:
+            return straight
+        field = self._region_index(region.nearest(pts[:1]) if len(pts) else None, region)
+        exact = DistanceFields(self._exact, self._fields.origin, self._fields.cell, self._fields.blocked)
+        return exact.nearby(field, pts)
 
     def remove_agents(self, agents) -> None:
         """Take agents out of the simulation now (the live API): they stop, nobody avoids
@@ -490,8 +524,10 @@ class Simulator:
 
     def _agent_ids(self, agents, what: str) -> np.ndarray:
         """``agents`` as unique int ids of agents still in the simulation or waiting to
-        enter (ValueError otherwise)."""
-        ids = np.unique(self._known_ids(agents, what))
+        enter, in the order given (so per-agent goals stay with their agents; a repeat is
+        dropped), ValueError otherwise."""
+        raw = self._known_ids(agents, what)
+        ids = raw[np.sort(np.unique(raw, return_index=True)[1])]
         gone = ids[~self.active[ids] & ~self.waiting[ids]]
         if len(gone):
             raise ValueError(f"{what}: agent {int(gone[0])} has left the simulation")
@@ -512,10 +548,15 @@ class Simulator:
         """The index of the goal region (``goal_region``, or the goal points) among those
         known, adding it if it is new, and with ``solve`` its field once fields exist (new
         agents instead mark every field for a rebuild: they may be wider)."""
+        if goal_region is not None and id(goal_region) in self._region_ids:
+            return self._region_ids[id(goal_region)]
         region = goal_region if goal_region is not None else _points_region(goal)
         key = (type(region).__name__, repr(region))
         if key in self._region_keys:
-            return self._region_keys.index(key)
+            index = self._region_keys.index(key)
+            if goal_region is not None and self._goal_regions[index] is goal_region:
+                self._region_ids[id(goal_region)] = index
+            return index
         if solve and self._fields is not None and not self._fields_stale:  # a bad goal raises here
             more = distance_fields(self._now, [region], float(self.params["radius"].max()), self._fields.cell)
             self._exact = np.concatenate([self._exact, more.dist])
@@ -523,6 +564,8 @@ class Simulator:
             self._fields.goal_cells.extend(more.goal_cells)
         self._goal_regions.append(region)
         self._region_keys.append(key)
+        if goal_region is not None:  # held in _goal_regions, so its id stays its own
+            self._region_ids[id(goal_region)] = len(self._goal_regions) - 1
         return len(self._goal_regions) - 1
 
     def _check_placement(self, pos: np.ndarray, rad: np.ndarray, now: np.ndarray | None = None) -> None:
@@ -577,7 +620,9 @@ class Simulator:
         """Re-solve the congestion-aware field from where the agents are now."""
         if self._router is None or not self._router.enabled or self.steps % self.replan_steps:
             return
-        self._fields.dist = self._router.resolve(self.positions[self.active], self._exact, self.velocities[self.active])
+        used = np.unique(self.field_of[self.active])  # fields nobody walks now keep their exact values
+        self._fields.dist = self._router.resolve(self.positions[self.active], self._exact, self.velocities[self.active],
+                                                 used)
 
     def preferred_velocities(self) -> np.ndarray:
         """(N, 2) v_pref of every agent now (zero for agents that left)."""
@@ -699,15 +744,18 @@ class Simulator:
     def _arrivals(self) -> None:
         d = np.linalg.norm(self.goals - self.positions, axis=1)
         now = self.active & (d <= self.arrival_radius) & np.isnan(self.arrival_time)
-        if not self.remove_on_arrival:  # arrivals stay: the next arrive by touching them
+        stays = ~self.leaves
+        if stays.any():  # arrivals that stay: the next arrive by touching them
+            arrived = ~np.isnan(self.arrival_time) & (stays | self.active)  # not those that left
             touch = contact_arrivals(self.positions, self.goals, d, self.params["radius"],
-                                     self.active & np.isnan(self.arrival_time) & ~now, ~np.isnan(self.arrival_time))
+                                     self.active & np.isnan(self.arrival_time) & ~now & stays, arrived)
             self.stats["contact_arrivals"] += int(touch.sum())
             now |= touch
         self.arrival_time[now] = self.time
-        if self.remove_on_arrival:
-            self.active &= ~now
-            self.velocities[now] = 0.0
+        gone = now & self.leaves
+        if gone.any():
+            self.active &= ~gone
+            self.velocities[gone] = 0.0
 
     def unreachable(self) -> np.ndarray:
         """(N,) active agents the guidance field says cannot reach their goal: no cell of

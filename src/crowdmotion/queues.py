@@ -1,0 +1,108 @@
+"""A first-come-first-served queue while it runs: who is in line in what order, who is
+walking up to its end, and the service at its head (one at a time, at a rate)."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from crowdmotion.groups import Points
+from crowdmotion.stages import Queue
+
+REACH_SLACK_M = 0.1  # service starts once the first in line is within one spacing (and this) of the head
+
+
+class ServiceQueue:
+    """One queue of a run: its places, the agents in line (``members``, first the head,
+    in the order they joined) and those walking to its end (``approaching``).
+
+    Parameters
+    ----------
+    stage : Queue
+        Where it is and how fast it serves.
+    places : int
+        How many places in line it lays out (the most agents that may queue at once).
+    """
+
+    def __init__(self, stage: Queue, places: int):
+        self.stage = stage
+        self.slots = stage.slots(max(int(places), 1))
+        self.region = Points(self.slots)  # the guidance field of the whole line: solved once
+        self.members: list[int] = []
+        self.approaching = np.zeros(0, dtype=np.int64)
+        self.serving = False
+        self.service_end = -np.inf  # when the service under way ends (or the last ended), seconds
+        self.joined_at: dict[int, float] = {}
+        self.served: list[tuple[int, float, float]] = []  # (agent, joined, released), in service order
+        self.lengths: list[tuple[float, int]] = []       # (second, agents in line), sampled
+
+    @property
+    def tail(self) -> np.ndarray:
+        """The first free place: where an agent joining now stands."""
+        return self.slots[min(len(self.members), len(self.slots) - 1)]
+
+    @property
+    def bound(self) -> int:
+        """Agents in line or walking to it."""
+        return len(self.members) + len(self.approaching)
+
+    def approach(self, agents: np.ndarray) -> None:
+        """``agents`` walk to the end of the line (they join on arriving there)."""
+        self.approaching = np.concatenate([self.approaching, np.asarray(agents, dtype=np.int64)])
+
+    def join(self, agents: np.ndarray, positions: np.ndarray, time: float) -> np.ndarray:
+        """Approaching ``agents`` that reached the end join the line, nearest the end first
+        (ties by id); returns their places (K, 2) in that order, and ``agents`` reordered."""
+        agents = np.asarray(agents, dtype=np.int64)
+        order = np.lexsort((agents, np.linalg.norm(positions - self.tail, axis=1)))
+        agents = agents[order]
+        self.approaching = self.approaching[~np.isin(self.approaching, agents)]
+        start = len(self.members)
+        self.members.extend(int(a) for a in agents)
+        for a in agents:
+            self.joined_at[int(a)] = time
+        return agents, self.slots[np.minimum(np.arange(start, start + len(agents)), len(self.slots) - 1)]
+
+    def places(self) -> np.ndarray:
+        """(len(members), 2) each member's place in line now."""
+        return self.slots[np.minimum(np.arange(len(self.members)), len(self.slots) - 1)]
+
+    def release(self, time: float) -> int | None:
+        """The head whose service has ended by ``time``, now out of line (the others
+        move up a place), or None."""
+        if not (self.serving and time + 1e-9 >= self.service_end):
+            return None
+        released = self.members.pop(0)
+        self.served.append((released, self.joined_at.pop(released), time))
+        self.serving = False
+        return released
+
+    def start(self, time: float, head_position: np.ndarray, just_freed: bool) -> bool:
+        """Start serving the first in line if it stands within one spacing of the head
+        (``head_position``: where it stands): from the end of the last service when the
+        counter was freed this very step, so a full line passes ``rate`` persons per
+        second whatever the time step, else from ``time``."""
+        if self.serving or not self.members:
+            return False
+        if np.linalg.norm(head_position - self.stage.head) > self.stage.spacing + REACH_SLACK_M:
+            return False
+        begin = self.service_end if just_freed else time
+        self.service_end = begin + 1.0 / self.stage.rate
+        self.serving = True
+        return True
+
+    def sample(self, time: float, dt: float) -> None:
+        """Record the line's length at each whole second passed in the last step."""
+        for second in range(int(np.floor(time - dt + 1e-9)) + 1, int(np.floor(time + 1e-9)) + 1):
+            if second >= 0:
+                self.lengths.append((float(second), len(self.members)))
+
+    def report(self) -> dict:
+        """For summary.json: agents served, the mean and longest wait in line (joining
+        to release, s), the service interval (s) and the line's length each second."""
+        waits = np.array([r - j for _, j, r in self.served])
+        released = np.array([r for _, _, r in self.served])
+        return {"served": len(self.served), "still_in_line": len(self.members),
+                "mean_wait_s": float(waits.mean()) if len(waits) else None,
+                "max_wait_s": float(waits.max()) if len(waits) else None,
+                "mean_service_interval_s": float(np.diff(released).mean()) if len(released) > 1 else None,
+                "length_per_s": [n for _, n in self.lengths]}

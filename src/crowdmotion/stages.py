@@ -1,0 +1,306 @@
+"""Route stages as typed data shared by the methods: go to an area, wait, queue, choose
+among several next stages, leave at an exit.
+
+A route is a list of stages a group's agents follow in order (``Group(...,
+attributes={"route": [GoTo(Disc([20, 10], 3)), Wait(5.0), Leave(Rect(...))]})``, or a
+scenario's ``[[groups.route]]`` tables, see :mod:`crowdmotion.scenario`). The stages hold
+no state: :class:`crowdmotion.journeys.Journeys` walks agents along them.
+
+Each stage of a route has a number, its *stage id*, counted depth first: ``route[0]`` is
+0, and a ``choose`` is followed by its options (``route[1]`` = 1, ``route[1].among[0]`` =
+2, ...). Trajectories record the stage id of each agent per frame (-1 off route).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Union
+
+import numpy as np
+
+from crowdmotion._rng import uniforms
+from crowdmotion.geometry import finite_array
+from crowdmotion.groups import Disc, Points, Rect, describe_region
+
+SPECIFIC_FLOW = 1.3  # persons per metre of opening per second: an area's capacity by default
+QUEUE_SPACING_M = 0.65  # metres between two places in a queue
+ARRIVE = ("anywhere", "free_point")
+CHOOSE_BY = ("nearest", "least_crowded", "weights")
+DISTRIBUTIONS = ("uniform", "normal")
+
+
+def _area(area, what: str):
+    if not isinstance(area, (Rect, Disc, Points)) or area.dim != 2:
+        raise ValueError(f"{what} must be a 2D Rect, Disc or Points region, got {area!r}")
+    return area
+
+
+def _capacity(value, area, what: str) -> float:
+    """``value`` persons/s, or by default SPECIFIC_FLOW × the area's widest opening (a
+    Rect's longer side, a Disc's diameter; one person's width, 0.6 m, for points)."""
+    if value is None:
+        if isinstance(area, Rect):
+            width = float(np.max(area.upper - area.lower))
+        elif isinstance(area, Disc):
+            width = 2.0 * area.radius
+        else:
+            width = 0.6
+        return SPECIFIC_FLOW * max(width, 0.6)
+    v = float(value)
+    if not (np.isfinite(v) and v > 0):
+        raise ValueError(f"{what}.capacity must be > 0 persons per second, got {value!r}")
+    return v
+
+
+def _name(value, default: str) -> str:
+    if value is None:
+        return default
+    if not isinstance(value, str) or not value:
+        raise ValueError(f"a stage's name must be a non-empty string, got {value!r}")
+    return value
+
+
+def describe(area) -> str:
+    """An area as a scenario file writes it, for names and messages."""
+    return describe_region(area)
+
+
+@dataclass(eq=False)
+class GoTo:
+    """Walk to ``area``: arrive anywhere in it (``arrive = "anywhere"``, its nearest point
+    along the guidance field) or at a free point of it (``"free_point"``: a point no one
+    else bound there holds, at least a body apart; Rect or Disc areas).
+
+    capacity : persons/s the area takes in, for ``choose by least_crowded`` (default
+    SPECIFIC_FLOW × its widest opening)."""
+
+    area: Rect | Disc | Points
+    arrive: str = "anywhere"
+    name: str | None = None
+    capacity: float | None = None
+    kind = "goto"
+
+    def __post_init__(self):
+        self.area = _area(self.area, "goto.area")
+        if self.arrive not in ARRIVE:
+            raise ValueError(f"goto.arrive must be one of {', '.join(ARRIVE)}, got {self.arrive!r}")
+        if self.arrive == "free_point" and isinstance(self.area, Points):
+            raise ValueError("goto.arrive = 'free_point' needs a rect or disc area, not points")
+        self.capacity = _capacity(self.capacity, self.area, "goto")
+        self.name = _name(self.name, f"goto {describe(self.area)}")
+
+
+@dataclass(eq=False)
+class Leave:
+    """Walk to ``area`` and leave the scene on arriving anywhere in it (an exit).
+
+    capacity : persons/s the exit passes, for ``choose by least_crowded``."""
+
+    area: Rect | Disc | Points
+    name: str | None = None
+    capacity: float | None = None
+    kind = "leave"
+
+    def __post_init__(self):
+        self.area = _area(self.area, "leave.area")
+        self.capacity = _capacity(self.capacity, self.area, "leave")
+        self.name = _name(self.name, f"exit {describe(self.area)}")
+
+
+@dataclass(eq=False)
+class Wait:
+    """Stand where the last stage left the agent for ``time`` seconds: a number, or a
+    distribution drawn per agent from the run's seed: ``{"uniform": [low, high]}`` or
+    ``{"normal": [mean, sd]}`` (clipped at 0)."""
+
+    time: float | dict
+    name: str | None = None
+    kind = "wait"
+
+    def __post_init__(self):
+        t = self.time
+        if isinstance(t, dict):
+            if len(t) != 1 or next(iter(t)) not in DISTRIBUTIONS:
+                raise ValueError(f"wait.time must be seconds, {{uniform = [low, high]}} or {{normal = [mean, sd]}}, "
+                                 f"got {t!r}")
+            (law, args), = t.items()
+            try:
+                a, b = (float(x) for x in args)
+            except (TypeError, ValueError):
+                raise ValueError(f"wait.time.{law} must be two numbers, got {args!r}") from None
+            if not (np.isfinite(a) and np.isfinite(b)) or a < 0 or b < 0:
+                raise ValueError(f"wait.time.{law} must be two finite numbers >= 0, got {args!r}")
+            if law == "uniform" and b < a:
+                raise ValueError(f"wait.time.uniform: low {a:g} exceeds high {b:g}")
+            self.time = {law: (a, b)}
+            default = f"wait {law}({a:g}, {b:g}) s"
+        else:
+            if isinstance(t, bool) or not isinstance(t, (int, float, np.integer, np.floating)) \
+                    or not np.isfinite(t) or t < 0:
+                raise ValueError(f"wait.time must be a number of seconds >= 0, got {t!r}")
+            self.time = float(t)
+            default = f"wait {self.time:g} s"
+        self.name = _name(self.name, default)
+
+    def durations(self, key, agents: np.ndarray, draw: int) -> np.ndarray:
+        """(K,) seconds each of ``agents`` waits: the same for the same (key, agent, draw)."""
+        n = len(agents)
+        if not isinstance(self.time, dict):
+            return np.full(n, self.time)
+        (law, (a, b)), = self.time.items()
+        u1 = uniforms(key, agents, 2 * draw)
+        if law == "uniform":
+            return a + (b - a) * u1
+        u2 = uniforms(key, agents, 2 * draw + 1)
+        normal = np.sqrt(-2.0 * np.log1p(-u1)) * np.cos(2.0 * np.pi * u2)  # Box-Muller, u1 in [0, 1)
+        return np.maximum(a + b * normal, 0.0)
+
+
+@dataclass(eq=False)
+class Queue:
+    """Queue at ``head`` and be served there one at a time, first come first served, at
+    ``rate`` persons per second. The line forms behind the head, one place every
+    ``spacing`` metres: along ``direction`` (a vector from the head), or along the
+    polyline ``line`` (its first point the head, ``head`` then None or that point;
+    beyond its end it goes on straight).
+    Service starts once the first in line stands within one spacing of the head.
+
+    capacity : persons/s, for ``choose by least_crowded`` (default ``rate``)."""
+
+    head: np.ndarray | None
+    rate: float
+    direction: np.ndarray | None = None
+    line: np.ndarray | None = None
+    spacing: float = QUEUE_SPACING_M
+    name: str | None = None
+    capacity: float | None = None
+    kind = "queue"
+
+    def __post_init__(self):
+        if self.head is None and self.line is not None:
+            self.head = np.asarray(self.line, dtype=float)[0]
+        self.head = finite_array(self.head, "queue.head").ravel()
+        if self.head.shape != (2,):
+            raise ValueError(f"queue.head must be a 2D point, got {self.head.tolist()}")
+        r = self.rate
+        if isinstance(r, bool) or not isinstance(r, (int, float, np.integer, np.floating)) or not np.isfinite(r) \
+                or r <= 0:
+            raise ValueError(f"queue.rate must be > 0 persons per second, got {r!r}")
+        self.rate = float(r)
+        s = self.spacing
+        if isinstance(s, bool) or not isinstance(s, (int, float, np.integer, np.floating)) or not np.isfinite(s) \
+                or s <= 0:
+            raise ValueError(f"queue.spacing must be > 0 metres, got {s!r}")
+        self.spacing = float(s)
+        if (self.direction is None) == (self.line is None):
+            raise ValueError("queue: give either direction (from the head, the way the line grows) or line "
+                             "(a polyline from the head)")
+        if self.direction is not None:
+            d = finite_array(self.direction, "queue.direction").ravel()
+            if d.shape != (2,) or np.linalg.norm(d) == 0:
+                raise ValueError(f"queue.direction must be a non-zero 2D vector, got {d.tolist()}")
+            self.direction = d / np.linalg.norm(d)
+            self._line = np.stack([self.head, self.head + self.direction])
+        else:
+            line = finite_array(self.line, "queue.line")
+            if line.ndim != 2 or line.shape[1] != 2 or len(line) < 2:
+                raise ValueError(f"queue.line must be at least two [x, y] points, got shape {line.shape}")
+            if np.any(np.linalg.norm(np.diff(line, axis=0), axis=1) == 0):
+                raise ValueError("queue.line must not repeat a point")
+            self.line = line
+            self.head = line[0].copy()
+            self._line = line
+        self.capacity = self.rate if self.capacity is None else _capacity(self.capacity, None, "queue")
+        self.name = _name(self.name, f"queue at {describe(Points(self.head[None]))}")
+
+    def slots(self, count: int) -> np.ndarray:
+        """(count, 2) the places in line: 0 at the head, one every ``spacing`` metres."""
+        seg = np.diff(self._line, axis=0)
+        length = np.linalg.norm(seg, axis=1)
+        along = np.concatenate([[0.0], np.cumsum(length)])
+        s = np.arange(count) * self.spacing
+        k = np.clip(np.searchsorted(along, s, side="right") - 1, 0, len(seg) - 1)
+        return self._line[k] + seg[k] * ((s - along[k]) / length[k])[:, None]
+
+    @property
+    def key(self) -> tuple:
+        """Equal for queues at the same place served the same way (shared by groups)."""
+        return ("queue", tuple(self._line.ravel().round(9)), self.rate, self.spacing)
+
+
+Option = Union[GoTo, Queue, Leave]
+
+
+@dataclass(eq=False)
+class Choose:
+    """Go on with one of the stages ``among`` (go to, queue or leave), chosen per agent:
+    ``"nearest"`` (the least walking distance along the guidance field),
+    ``"least_crowded"`` (the least walking time plus the agents already bound there over
+    the stage's capacity, persons/s) or ``"weights"`` (at random, with ``weights``)."""
+
+    among: list
+    by: str = "nearest"
+    weights: list | None = None
+    name: str | None = None
+    kind = "choose"
+
+    def __post_init__(self):
+        self.among = list(self.among)
+        if len(self.among) < 2:
+            raise ValueError(f"choose.among must list at least two stages, got {len(self.among)}")
+        for j, s in enumerate(self.among):
+            if not isinstance(s, (GoTo, Queue, Leave)):
+                raise ValueError(f"choose.among.{j} must be a goto, queue or leave stage, got {s!r}")
+        if self.by not in CHOOSE_BY:
+            raise ValueError(f"choose.by must be one of {', '.join(CHOOSE_BY)}, got {self.by!r}")
+        if (self.by == "weights") != (self.weights is not None):
+            raise ValueError("choose: weights go with by = 'weights' (and it needs them)")
+        if self.weights is not None:
+            w = np.asarray(self.weights, dtype=float)
+            if w.shape != (len(self.among),) or not np.all(np.isfinite(w)) or np.any(w < 0) or w.sum() <= 0:
+                raise ValueError(f"choose.weights must be {len(self.among)} numbers >= 0, not all 0, "
+                                 f"got {self.weights!r}")
+            self.weights = (w / w.sum()).tolist()
+        self.name = _name(self.name, f"choose {self.by}")
+
+
+Stage = Union[GoTo, Wait, Queue, Choose, Leave]
+KINDS = ("goto", "wait", "queue", "choose", "leave")
+
+
+def check_route(route, where: str = "route") -> list:
+    """``route`` as a list of stages, refused (ValueError naming the stage) unless it is a
+    non-empty list of GoTo, Wait, Queue, Choose and Leave, with a leave only last (or a
+    choose of leaves last)."""
+    if not isinstance(route, (list, tuple)) or not route:
+        raise ValueError(f"{where} must be a non-empty list of stages, got {route!r}")
+    for i, s in enumerate(route):
+        if not isinstance(s, (GoTo, Wait, Queue, Choose, Leave)):
+            raise ValueError(f"{where}.{i} must be a GoTo, Wait, Queue, Choose or Leave stage, got {s!r}")
+        leaves = isinstance(s, Leave) or (isinstance(s, Choose) and any(isinstance(o, Leave) for o in s.among))
+        if leaves and i != len(route) - 1:
+            raise ValueError(f"{where}.{i} ({s.kind}): an agent leaves the scene there, so it must be the last stage")
+    return list(route)
+
+
+def flat_stages(route) -> list[tuple[str, object, int]]:
+    """Every stage of ``route`` with its stage id (the list index): (path, stage, index
+    of its top-level stage), depth first: ``route[i]``, then a choose's options
+    ``route[i].among[j]``."""
+    out = []
+    for i, s in enumerate(route):
+        out.append((f"route[{i}]", s, i))
+        if isinstance(s, Choose):
+            out += [(f"route[{i}].among[{j}]", o, i) for j, o in enumerate(s.among)]
+    return out
+
+
+def route_areas(route) -> list:
+    """The regions a route's agents walk to (areas, and each queue's line of places for
+    ``count`` agents is added by the caller), in order, without repeats."""
+    out = []
+    for _, s, _ in flat_stages(route):
+        area = getattr(s, "area", None)
+        if area is not None and all(a is not area for a in out):
+            out.append(area)
+    return out
