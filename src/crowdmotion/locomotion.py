@@ -301,18 +301,19 @@ def closing_and_opening_steps(advance: np.ndarray, stepping: np.ndarray, active:
     closing = np.zeros((t, n), bool)
     if t < 2:
         return closing
-    event = np.zeros((t, n), bool)
-    stop = np.zeros((t, n), bool)
-    stop[1:] = stepping[:-1] & ~stepping[1:] & active[1:]
-    event[1:] = stop[1:] | (~stepping[:-1] & stepping[1:])
-    agent_of, frame_of = np.nonzero(event.T)  # agent by agent, in time order
+    change = np.zeros((t, n), bool)
+    change[1:] = stepping[1:] != stepping[:-1]
+    agent_of, frame_of = np.nonzero(change.T)  # agent by agent, in time order
     if not len(agent_of):
         return closing
-    frame = np.arange(t)[:, None]
-    next_change = np.empty((t, n), np.int64)  # the first frame at or after this one whose stepping differs from its own
-    change = np.ones((t, n), bool)
-    change[:-1] = stepping[1:] != stepping[:-1]
-    next_change[:] = np.minimum.accumulate(np.where(change, frame, t - 1)[::-1], axis=0)[::-1] + 1
+    # each change's next one, where stepping changes back (t: none)
+    next_change = np.r_[frame_of[1:], t]
+    next_change[np.r_[agent_of[1:] != agent_of[:-1], True]] = t
+    stop = ~stepping[frame_of, agent_of]
+    keep = ~stop | active[frame_of, agent_of]  # no closing steps for an agent that is gone
+    agent_of, frame_of, next_change, stop = agent_of[keep], frame_of[keep], next_change[keep], stop[keep]
+    if not len(agent_of):
+        return closing
     ordinal = np.arange(len(agent_of)) - np.searchsorted(agent_of, agent_of)  # 0 for an agent's first event, ...
     phase = np.cumsum(advance, axis=0)  # before any closing or opening step
     carried = np.zeros(n)  # the phase they have added so far, per agent
@@ -322,11 +323,11 @@ def closing_and_opening_steps(advance: np.ndarray, stepping: np.ndarray, active:
         p0 = phase[k0 - 1, i] + carried[i]
         goal = np.maximum(np.floor(p0) + 1.0, np.floor(p0 - 0.5) + 1.5)  # left strikes at whole strides, right at halves
         frames = np.ceil((goal - p0) / rate - 1e-9).astype(np.int64)  # at least `rate` a frame: no more than these
-        length = np.minimum(k0 + frames, next_change[k0, i]) - k0
+        length = np.minimum(k0 + frames, next_change[pick]) - k0
         gap = np.repeat(goal - p0, length)
         s = np.arange(length.sum()) - np.repeat(np.cumsum(length) - length, length)  # frames into each window
         rows, cols = np.repeat(k0, length) + s, np.repeat(i, length)
-        closes = np.repeat(stop[k0, i], length)
+        closes = np.repeat(stop[pick], length)
         before = advance[rows, cols]
         boosted = np.maximum(before, rate)
         run = np.cumsum(boosted)
