@@ -13,7 +13,7 @@ import pytest
 from crowdmotion.blender import ADDON, SOURCE
 from crowdmotion.cli import main
 
-FILES = {f"{ADDON}/{name}" for name in ("__init__.py", "crowd.py", "walker.py", "blender_manifest.toml")}
+FILES = {f"{ADDON}/{name}" for name in ("__init__.py", "crowd.py", "footlock.py", "walker.py", "blender_manifest.toml")}
 # what Blender's Python has: its own modules, numpy, the standard library
 ALLOWED = {"bpy", "bpy_extras", "mathutils", "addon_utils", "numpy", "pxr"}
 

@@ -222,3 +222,58 @@ def test_positions_of_inactive_agents_may_be_nan_but_not_of_active_ones():
     tr.positions[5, 0, 1] = np.nan
     with pytest.raises(ValueError, match="positions of agent 0 at frame 5 is not finite: nan"):
         locomotion(Trajectories(tr.positions, DT, active=active))
+
+
+def test_a_walker_that_stops_takes_its_closing_steps_then_stands_with_both_feet_down():
+    # walks east at 1.3 m/s for 3 s, then stands for 3 s
+    t = np.arange(0, 145) * DT
+    pos = np.zeros((len(t), 1, 2))
+    pos[:, 0, 0] = 1.3 * np.minimum(t, 3.0)
+    loco = locomotion(Trajectories(pos, DT))
+    state, phase = loco.gait_state[:, 0], np.unwrap(loco.gait_phase[:, 0], period=1.0)
+    left, right = loco.contact_left[:, 0], loco.contact_right[:, 0]
+    stop = int(np.flatnonzero(state == WALK)[-1]) + 1  # the first standing frame
+    assert (state[stop:] == IDLE).all()
+    # after the stop each foot strikes once more (a heel strike: down after being up) ...
+    for foot in (left, right):
+        strikes = np.flatnonzero(foot[stop:][1:] & ~foot[stop:][:-1])
+        assert len(strikes) == 1
+    # ... at the reference cadence (0.93 strides/s), within a stride, and then stands
+    rate = np.diff(phase[stop - 1:])
+    run_on = rate > 0
+    np.testing.assert_allclose(rate[run_on][:-1], cadence(V_REF) / 2 * DT, rtol=1e-9)
+    assert run_on.sum() * DT <= 1 / (cadence(V_REF) / 2) + DT
+    settled = stop + int(np.flatnonzero(run_on)[-1]) + 1
+    assert left[settled:].all() and right[settled:].all() and np.ptp(phase[settled:]) == 0
+    assert settled < len(t) - 24
+    # without them the phase holds from the stop
+    held = locomotion(Trajectories(pos, DT), LocomotionParams(gait_transitions=False))
+    assert np.ptp(held.gait_phase[stop:, 0]) == 0 and held.contact_left[stop:, 0].all()
+
+
+def test_a_walker_setting_off_takes_its_first_stride_at_least_at_the_reference_cadence():
+    # stands 2 s, then speeds up at 0.8 m/s² to 1.3 m/s
+    t = np.arange(0, 145) * DT
+    speed = np.clip((t - 2.0) * 0.8, 0.0, 1.3)
+    x = np.concatenate([[0.0], np.cumsum(0.5 * (speed[1:] + speed[:-1]) * DT)])
+    tr = Trajectories(np.column_stack([x, np.zeros_like(x)])[:, None, :], DT)
+    loco, plain = locomotion(tr), locomotion(tr, LocomotionParams(gait_transitions=False))
+    phase = np.unwrap(loco.gait_phase[:, 0], period=1.0)
+    off = int(np.flatnonzero(loco.gait_state[:, 0] == WALK)[0])
+    reference = cadence(V_REF) / 2 * DT  # strides a frame
+    # both feet strike once before the phase may follow the (slow) speed again
+    strikes = [off + int(np.flatnonzero(f[off:][1:] & ~f[off:][:-1])[0]) + 1
+               for f in (loco.contact_left[:, 0], loco.contact_right[:, 0])]
+    opening = slice(off, max(strikes))
+    assert (np.diff(phase)[opening] >= reference - 1e-12).all()
+    assert (np.diff(phase)[opening] > np.diff(np.unwrap(plain.gait_phase[:, 0], period=1.0))[opening]).any()
+    # the ground the body covers over the foot that is down when it sets off: well under
+    # the 0.6 stride (0.85 m) of a stance at walking pace, and less than without them
+
+    def first_stance(lo):
+        lifts = [off + int(np.flatnonzero(~f[off:, 0])[0]) for f in (lo.contact_left, lo.contact_right) if f[off, 0]]
+        return x[max(lifts)] - x[off]
+
+    assert first_stance(loco) < 0.5 and first_stance(loco) < first_stance(plain)
+    np.testing.assert_allclose(np.diff(phase)[max(strikes) + 2:],
+                               np.diff(np.unwrap(plain.gait_phase[:, 0], period=1.0))[max(strikes) + 2:], atol=1e-12)

@@ -11,9 +11,16 @@ it), on the frames that are written: an export resampled to 24 fps gets channels
     where the agent is in its stride, in [0, 1): a *stride* is a full gait cycle of two
     steps; phase 0 is the left foot's heel strike, 0.5 the right's. It advances by
     ``ds / (2 L(v))`` over a step of ``ds`` metres at speed ``v`` while the agent walks or
-    runs (held while it stands or turns on the spot), so the contact foot does not slide
-    when a clip with stride ``2 L(v)`` is played at this phase. The step length follows
-    the documented stride model (:func:`step_length`):
+    runs, so the contact foot does not slide when a clip with stride ``2 L(v)`` is played
+    at this phase. Starting and stopping follow what people do (``gait_transitions=False``
+    leaves both out): when the agent stops (walk or run to idle or turn), the phase runs on
+    at the reference cadence ``f(v_ref) / 2`` until each foot has struck the ground once
+    more (at most a stride, about a second: the *closing steps* that bring both feet under
+    the standing body), then holds while it stands; when it sets off from standing, the
+    phase advances at least at that rate until each foot has struck once (short, quick
+    *opening steps*, where the stride model at the low speeds of a start would make the
+    first stance cover most of a stride). The step length follows the documented stride
+    model (:func:`step_length`):
 
         L(v) = L_ref · (v / v_ref) ** a,   cadence f(v) = v / L(v) steps/s
 
@@ -88,6 +95,8 @@ class LocomotionParams:
     walk_duty : float       share of the gait cycle each foot is down while walking
     run_duty : float        share of the gait cycle each foot is down while running
     stagger : bool          start each agent at its own phase (golden-ratio offsets by id)
+    gait_transitions : bool closing steps on stopping and opening steps on setting off
+                            (see the module docstring)
     """
 
     step_length_m: float = 0.72
@@ -104,13 +113,14 @@ class LocomotionParams:
     walk_duty: float = 0.6
     run_duty: float = 0.35
     stagger: bool = True
+    gait_transitions: bool = True
 
     def __post_init__(self):
         for f in fields(self):
             value = getattr(self, f.name)
-            if f.name == "stagger":
+            if f.name in ("stagger", "gait_transitions"):
                 if not isinstance(value, (bool, np.bool_)):
-                    raise ValueError(f"LocomotionParams.stagger must be True or False, got {value!r}")
+                    raise ValueError(f"LocomotionParams.{f.name} must be True or False, got {value!r}")
                 continue
             if isinstance(value, bool) or not isinstance(value, (int, float, np.integer, np.floating)) \
                     or not math.isfinite(value):
@@ -278,6 +288,60 @@ def signed_turn_rate(yaw: np.ndarray, dt: float) -> np.ndarray:
     return out
 
 
+def closing_and_opening_steps(advance: np.ndarray, stepping: np.ndarray, active: np.ndarray,
+                              rate: float) -> np.ndarray:
+    """Add the closing and opening steps to the phase increments ``advance`` (T, N) in
+    place (see the module docstring). From each frame an agent stops stepping (and is
+    there), the phase runs on by ``rate`` strides a frame until both feet have struck once
+    more (the next whole and the next half stride after the phase at the stop), or until
+    it steps again; from each frame it sets off from standing, it advances by at least
+    ``rate`` a frame until both feet have struck once. Returns (T, N) bool, the frames of
+    the closing steps."""
+    t, n = advance.shape
+    closing = np.zeros((t, n), bool)
+    if t < 2:
+        return closing
+    change = np.zeros((t, n), bool)
+    change[1:] = stepping[1:] != stepping[:-1]
+    agent_of, frame_of = np.nonzero(change.T)  # agent by agent, in time order
+    if not len(agent_of):
+        return closing
+    # each change's next one, where stepping changes back (t: none)
+    next_change = np.r_[frame_of[1:], t]
+    next_change[np.r_[agent_of[1:] != agent_of[:-1], True]] = t
+    stop = ~stepping[frame_of, agent_of]
+    keep = ~stop | active[frame_of, agent_of]  # no closing steps for an agent that is gone
+    agent_of, frame_of, next_change, stop = agent_of[keep], frame_of[keep], next_change[keep], stop[keep]
+    if not len(agent_of):
+        return closing
+    ordinal = np.arange(len(agent_of)) - np.searchsorted(agent_of, agent_of)  # 0 for an agent's first event, ...
+    phase = np.cumsum(advance, axis=0)  # before any closing or opening step
+    carried = np.zeros(n)  # the phase they have added so far, per agent
+    for j in range(int(ordinal.max()) + 1):  # the j-th event of every agent that has one, at once
+        pick = ordinal == j
+        i, k0 = agent_of[pick], frame_of[pick]
+        p0 = phase[k0 - 1, i] + carried[i]
+        goal = np.maximum(np.floor(p0) + 1.0, np.floor(p0 - 0.5) + 1.5)  # left strikes at whole strides, right at halves
+        frames = np.ceil((goal - p0) / rate - 1e-9).astype(np.int64)  # at least `rate` a frame: no more than these
+        length = np.minimum(k0 + frames, next_change[pick]) - k0
+        gap = np.repeat(goal - p0, length)
+        s = np.arange(length.sum()) - np.repeat(np.cumsum(length) - length, length)  # frames into each window
+        rows, cols = np.repeat(k0, length) + s, np.repeat(i, length)
+        closes = np.repeat(stop[pick], length)
+        before = advance[rows, cols]
+        boosted = np.maximum(before, rate)
+        run = np.cumsum(boosted)
+        run -= np.repeat(np.r_[0.0, run][np.cumsum(length) - length], length)  # summed within each window
+        # closing: exactly `rate` a frame up to the goal; opening: at least `rate` while short of it
+        added = np.where(closes, np.minimum((s + 1) * rate, gap) - np.minimum(s * rate, gap),
+                         np.where(run - boosted < gap, boosted, before))
+        advance[rows, cols] = np.where(closes, before + added, added)
+        closing[rows[closes], cols[closes]] = True
+        extra = np.where(closes, added, added - before)
+        np.add.at(carried, cols, extra)
+    return closing
+
+
 def locomotion(traj, params: LocomotionParams | None = None, kinds: dict | None = None) -> Locomotion:
     """Locomotion channels of ``traj`` on its own frames (see the module docstring).
 
@@ -336,14 +400,19 @@ def locomotion(traj, params: LocomotionParams | None = None, kinds: dict | None 
     v_step[1:] *= 0.5
     advance = ds / (2.0 * step_length(v_step, p))
     advance *= stepping
-    phase = np.cumsum(advance, axis=0)
     if p.stagger:
-        phase += (traj.ids.astype(np.float64) * GOLDEN) % 1.0
+        advance[0] += (traj.ids.astype(np.float64) * GOLDEN) % 1.0
+    closing = np.zeros((t, n), bool)
+    if p.gait_transitions:
+        closing = closing_and_opening_steps(advance, stepping, active & walker[None, :],
+                                            0.5 * float(cadence(p.reference_speed, p)) * dt)
+    phase = np.cumsum(advance, axis=0)
     np.mod(phase, 1.0, out=phase)
 
     duty = np.where(state == RUN, p.run_duty, p.walk_duty)
-    left = ~stepping | (phase < duty)
-    right = ~stepping | ((phase - 0.5) % 1.0 < duty)
+    feet_move = stepping | closing
+    left = ~feet_move | (phase < duty)
+    right = ~feet_move | ((phase - 0.5) % 1.0 < duty)
     if not walker.all():
         phase[:, ~walker] = np.nan
         left &= walker[None, :]

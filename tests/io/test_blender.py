@@ -164,3 +164,32 @@ def test_the_addon_walks_each_character_at_its_own_pace_where_the_trajectories_s
         box = (slice(int((1 - y1) * h), int(np.ceil((1 - y0) * h))), slice(int(x0 * w), int(np.ceil(x1 * w))))
         assert np.abs(crowd[box] - empty[box]).max() > 30, (x0, y0)  # each character is drawn
     assert got["render"]["pointclouds"] == []  # no guide spheres
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("name", ["rvo_street_O", "formation_army"])
+def test_walkers_of_a_builtin_scene_do_not_slide_their_feet(name, tmp_path):
+    """Foot slide per contact p95 ≤ 3 cm on the built-in scene at its default settings,
+    exported as `crowdmotion export --to usd` writes it and imported with the add-on."""
+    from crowdmotion.blender import write_addon
+    from crowdmotion.cli import builtin_scenarios
+    from crowdmotion.cli import main as cli
+    from crowdmotion.io import read_locomotion
+    from crowdmotion.scenario import load_scenario, run_scenario
+
+    path = {p.stem: p for p in builtin_scenarios()}[name]
+    run_scenario(load_scenario(path), progress=False).trajectories.save(tmp_path / "trajectories.parquet")
+    assert cli(["export", str(tmp_path / "trajectories.parquet"), "--to", "usd"]) in (0, None)
+    usd = tmp_path / "trajectories.usdc"
+    loco = read_locomotion(usd)
+    addon = write_addon(tmp_path)
+    (tmp_path / "user").mkdir()
+    done = subprocess.run([BLENDER_PYTHON, str(pathlib.Path(__file__).with_name("blender_addon_check.py")),
+                           str(addon), str(usd), str(tmp_path), "--feet", f"0:{loco.gait_phase.shape[0]}"],
+                          capture_output=True, text=True, timeout=900,
+                          env={**os.environ, "BLENDER_USER_RESOURCES": str(tmp_path / "user")})
+    assert any(x.startswith("CROWDMOTION_JSON ") for x in done.stdout.splitlines()), done.stderr[-3000:]
+    slide = foot_slide(np.load(tmp_path / "feet.npy").astype(float), loco) * 100
+    print(f"{name}: foot slide per contact (cm) median {np.median(slide):.2f}, p95 {np.percentile(slide, 95):.2f}, "
+          f"max {slide.max():.2f} over {slide.size} contacts")
+    assert slide.size > 1000 and np.percentile(slide, 95) <= 3.0

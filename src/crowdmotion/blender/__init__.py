@@ -17,7 +17,7 @@ from crowdmotion.io.atomic import atomic_path
 ADDON = "crowdmotion_blender"
 SOURCE = Path(__file__).with_name(ADDON)
 ZIP_NAME = f"{ADDON}.zip"
-FILES = ("__init__.py", "crowd.py", "walker.py", "blender_manifest.toml")
+FILES = ("__init__.py", "crowd.py", "footlock.py", "walker.py", "blender_manifest.toml")
 
 
 def write_addon(folder) -> Path:

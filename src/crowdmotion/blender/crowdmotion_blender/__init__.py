@@ -3,10 +3,11 @@ walking characters.
 
 File > Import > crowdmotion run (.usd/.usdc/.usda): sets the scene's frame rate and range
 from the file, keeps its obstacles, and binds a character to every agent, either the
-walker this add-on builds (an armature with legs, hips, spine and arms, and walk and run
-cycles for a ladder of stride lengths) or your own armature with a walk action. Each
-character's cycle runs at its own gait phase (so its planted foot stays put) and fades to
-its idle pose while the agent stands. Needs nothing but Blender (4.2 or later).
+walker this add-on builds (an armature with legs, hips, spine and arms, whose legs are
+posed on every frame with each foot planted through its contact, whichever way the body
+moves) or your own armature with a walk action, whose cycle runs at the agent's own gait
+phase and fades to its idle pose while the agent stands. Needs nothing but Blender (4.2
+or later).
 """
 
 bl_info = {

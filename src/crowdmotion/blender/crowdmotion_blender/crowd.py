@@ -5,11 +5,12 @@ Reading: Blender's own USD importer brings ``/World/Agents`` in as a point cloud
 are read once with ``foreach_get``, then the point cloud and the ``/World/Crowd``
 instancer are removed (the obstacles stay). Binding: per agent an armature object and a
 body object sharing their group's armature and mesh (linked duplicates); the root path as
-three F-curves per agent (x, y, heading) written in bulk (``foreach_set``); the cycle as an
-NLA strip of one shared walk action whose *animated strip time* follows the agent's gait
-phase (the cycle of the stride nearest its own), and an idle strip above it whose
-animated influence fades the walk out while the agent stands. Runs inside Blender: bpy
-and numpy only.
+F-curves per agent (location, heading) written in bulk (``foreach_set``). The built-in
+walker's legs are posed per agent and frame with each foot planted through its contacts
+(footlock.py), written as F-curves in the same action. A user's own character plays its
+walk action as an NLA strip whose *animated strip time* follows the agent's gait phase,
+and an idle strip above it whose animated influence fades the walk out while the agent
+stands. Runs inside Blender: bpy and numpy only.
 """
 
 from __future__ import annotations
@@ -20,6 +21,7 @@ import time
 import bpy
 import numpy as np
 
+from . import footlock
 from . import walker as walker_rig
 
 IDLE, WALK, RUN, TURN, MOVE = range(5)
@@ -171,14 +173,39 @@ def cycle_time(run: Run, table, fps: float) -> tuple[np.ndarray, np.ndarray]:
         chosen = np.where(ok & ~keep, best, chosen)
         known |= ok
         out[k] = table.start[chosen] + np.clip(run.phase[k], 0, 1 - 1e-6) * table.frames
-    # idle weight: 1 standing (idle, turn, inactive), 0 stepping, fading over BLEND_S
-    target = (~stepping).astype(float)
+    return out, idle_fade(~stepping, fps)
+
+
+def idle_fade(standing: np.ndarray, fps: float) -> np.ndarray:
+    """(T, N) in [0, 1]: 1 standing (idle, turn, inactive), 0 stepping, fading over BLEND_S."""
+    target = standing.astype(float)
     step = 1.0 / max(BLEND_S * fps, 1.0)
     weight = np.empty_like(target)
     weight[0] = target[0]
-    for k in range(1, t):
+    for k in range(1, len(target)):
         weight[k] = weight[k - 1] + np.clip(target[k] - weight[k - 1], -step, step)
-    return out, weight
+    return weight
+
+
+def walker_pose(run: Run, yaw: np.ndarray, arm_data) -> dict:
+    """((path, index) -> (T, N) values of the built-in walker's pose channels with its feet
+    planted (footlock.pose), in the F-curves' units; the ankles' world targets (T, N, 2, 3))."""
+    standing = (run.state != WALK) & (run.state != RUN)
+    rest = {b.name: np.array(b.matrix_local.to_3x3()) for b in arm_data.bones}
+    got = footlock.pose(run.position, yaw, run.contact_left, run.contact_right, standing,
+                        idle_fade(standing, run.fps), rest)
+    axes = walker_rig.bone_axes(arm_data)
+    path, index, sign = axes["hips"]
+    out = {(path, index): sign * got["hips"]}
+    for side in ("L", "R"):
+        for bone in walker_rig.LEG_BONES:
+            euler = got[f"{bone}.{side}"]
+            for k in range(1 if bone == "shin" else 3):  # the knee bends about its own X alone
+                out[(f'pose.bones["{bone}.{side}"].rotation_euler', k)] = euler[..., k]
+    for arm, leg in (("arm.L", "R"), ("arm.R", "L")):  # each arm swings with the other leg
+        path, index, sign = axes[arm]
+        out[(path, index)] = sign * 0.6 * got[f"swing.{leg}"]
+    return out, got["ankle"]
 
 
 def _changes(values: np.ndarray) -> np.ndarray:
@@ -200,7 +227,6 @@ def bind(run: Run, scene=None, character=None, collection_name: str = "crowdmoti
     groups = sorted(run.colour)
     if character is None:
         arm = walker_rig.build_armature()
-        walk, idle, table = walker_rig.build_cycles(arm)
         protos = {}
         for g in groups:
             mesh, owner = walker_rig.build_mesh(f"crowdmotion_body_{g}", run.colour[g])
@@ -209,6 +235,7 @@ def bind(run: Run, scene=None, character=None, collection_name: str = "crowdmoti
             bpy.data.objects.remove(holder)
             protos[g] = (arm, [(mesh, owner)])
         pose_bones = list(walker_rig.BONES)
+        table = None
     else:
         rig, walk, stride, idle = character
         table = walker_rig.CycleTable([stride, stride], [False, True], [walk.frame_range[0]] * 2,
@@ -218,7 +245,7 @@ def bind(run: Run, scene=None, character=None, collection_name: str = "crowdmoti
         pose_bones = None
         if idle is None:
             idle = _rest_action(walk)
-    times["rig and cycles"] = time.perf_counter() - t0
+    times["rig"] = time.perf_counter() - t0
 
     t0 = time.perf_counter()
     n = run.position.shape[1]
@@ -245,6 +272,10 @@ def bind(run: Run, scene=None, character=None, collection_name: str = "crowdmoti
     fps = run.fps
     frames = run.frame_start + np.arange(run.position.shape[0], dtype=np.float32)
     yaw = heading(run.forward)
+    legs, ankle = walker_pose(run, yaw, arm) if character is None else (None, None)
+    times["leg poses"] = time.perf_counter() - t0
+
+    t0 = time.perf_counter()
     for i, ob in enumerate(rigs):
         action = bpy.data.actions.new(f"agent_{i:05d}_path")
         slot = action.slots.new(id_type="OBJECT", name=ob.name)
@@ -257,10 +288,15 @@ def bind(run: Run, scene=None, character=None, collection_name: str = "crowdmoti
         at = _changes(hidden)
         for path in ("hide_viewport", "hide_render"):
             walker_rig.write_fcurve(bag.fcurves.new(path), frames[at], hidden[at], "CONSTANT")
+        if legs is not None:
+            for (path, index), values in legs.items():
+                walker_rig.write_fcurve(bag.fcurves.new(path, index=index), frames, values[:, i], "LINEAR")
         ad = ob.animation_data_create()
         ad.action = action
         ad.action_slot = slot
-    times["root paths"] = time.perf_counter() - t0
+    times["root paths" if legs is None else "root paths and legs"] = time.perf_counter() - t0
+    if legs is not None:
+        return {"times": times, "rigs": rigs, "ankle": ankle}
 
     t0 = time.perf_counter()
     strip_time, weight = cycle_time(run, table, fps)

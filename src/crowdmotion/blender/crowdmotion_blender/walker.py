@@ -1,33 +1,17 @@
 """The walker the add-on builds itself: an armature with hips, spine, legs and arms, a
-low-poly body skinned rigidly to it, and its walk and run cycles keyed by analytic leg IK.
-
-One action holds a table of cycles: a walk cycle (each foot down for ``WALK_DUTY`` of the
-cycle) for each stride length of a geometric ladder from 0.4 to 2.0 m, and run cycles
-(``RUN_DUTY``) from 1.4 to 3.0 m. A stride is a full cycle of two steps, the ground the
-body covers in one cycle. In each cycle the planted foot moves back under the hips at
-exactly the body's speed (the stride over the cycle), so a character whose cycle time
-follows its gait phase and whose stride matches the ladder's nearest keeps its planted
-foot in place. Left heel strike at phase 0, right at 0.5, as crowdmotion's channels say.
-Runs inside Blender: bpy and numpy only.
+low-poly body skinned rigidly to it, and the F-curves that pose it (its legs are posed per
+agent and frame with planted feet: see footlock.py). A user's own character keeps its walk
+cycle: ``CycleTable`` says where it lies in its action. Runs inside Blender: bpy and numpy
+only.
 """
 
 from __future__ import annotations
 
-import math
-
 import bpy
 import numpy as np
 
-ANKLE = 0.09  # m: ankle height over the ground with the foot flat
-THIGH = SHIN = 0.43  # m
-HIP = ANKLE + THIGH + SHIN  # m: hip height standing
-HIP_WIDTH = 0.1  # m: each hip joint's distance from the middle
-WALK_DUTY, RUN_DUTY = 0.6, 0.35  # share of the cycle each foot is down
-CYCLE_FRAMES = 32  # action frames per cycle
-GAP = 4  # action frames between two cycles of the table
-RATIO = 1.02  # stride ratio between neighbouring cycles
-WALK_STRIDES = (0.4, 2.0)
-RUN_STRIDES = (1.4, 3.0)
+from .footlock import ANKLE, HIP, HIP_WIDTH, THIGH  # the body's measures
+
 LEG_BONES = ("thigh", "shin", "foot")
 BONES = {  # name: (head, tail, parent) in the armature's space, Z up, facing -Y
     "hips": ((0, 0, HIP), (0, 0, HIP + 0.2), None),
@@ -58,72 +42,16 @@ NOSE = (-0.03, 0.03, -0.16, -0.1, HIP + 0.66, HIP + 0.71)
 
 
 class CycleTable:
-    """Where each stride's cycle lies in the walker's action: ``start[k]`` is the first
-    action frame of cycle k, which covers ``stride[k]`` metres in ``frames`` action
-    frames; ``run[k]`` says whether it is a run cycle."""
+    """Where each cycle lies in a character's walk action (a user's own: one cycle, used
+    for walking and running): ``start[k]`` is the first action frame of cycle k, which
+    covers ``stride[k]`` metres in ``frames`` action frames; ``run[k]`` says whether it
+    is a run cycle."""
 
     def __init__(self, stride, run, start, frames):
         self.stride = np.asarray(stride, float)
         self.run = np.asarray(run, bool)
         self.start = np.asarray(start, float)
         self.frames = float(frames)
-
-
-def ladder(lo: float, hi: float) -> np.ndarray:
-    n = int(math.ceil(math.log(hi / lo) / math.log(RATIO))) + 1
-    return lo * RATIO ** np.arange(n)
-
-
-def foot_path(u: np.ndarray, stride: float, duty: float) -> tuple[np.ndarray, np.ndarray]:
-    """(forward offset from the hip, ankle height) of a foot at cycle fraction ``u`` (0 at
-    its heel strike): planted for ``duty`` of the cycle, sliding back under the body at the
-    body's speed, then swung forward, lifted, to land a stride ahead of where it rose."""
-    u = np.mod(u, 1.0)
-    half = stride * duty / 2
-    stance = u < duty
-    s = np.clip((u - duty) / (1 - duty), 0, 1)
-    x = np.where(stance, half - stride * u, -half + 2 * half * (1 - np.cos(np.pi * s)) / 2)
-    lift = 0.06 + 0.03 * stride
-    y = np.where(stance, ANKLE, ANKLE + lift * np.sin(np.pi * s))
-    return x, y
-
-
-def leg_angles(x: np.ndarray, y: np.ndarray, hip: float) -> tuple[np.ndarray, np.ndarray]:
-    """Thigh and shin angles from straight down (forward positive) putting the ankle at
-    (x forward, y up) from a hip at height ``hip``, knee forward (two-bone IK)."""
-    dx, dy = x, y - hip
-    r = np.minimum(np.hypot(dx, dy), 0.999 * (THIGH + SHIN))
-    phi = np.arctan2(dx, -dy)
-    alpha = np.arccos(np.clip((THIGH ** 2 + r ** 2 - SHIN ** 2) / (2 * THIGH * r), -1, 1))
-    a1 = phi + alpha
-    kx, ky = THIGH * np.sin(a1), hip - THIGH * np.cos(a1)
-    # the ankle on the reachable circle in the leg's direction (where the foot would be)
-    ax, ay = r * np.sin(phi), hip - r * np.cos(phi)
-    a2 = np.arctan2(ax - kx, ky - ay)
-    return a1, a2
-
-
-def hip_height(stride: float, duty: float) -> float:
-    """The hips drop for long strides so the leg reaches the foot at both ends of its stance."""
-    reach = stride * duty / 2
-    return min(HIP, ANKLE + math.sqrt(max((0.985 * (THIGH + SHIN)) ** 2 - reach ** 2, 0.2)))
-
-
-def cycle_pose(stride: float, duty: float, frames: int) -> dict:
-    """channel -> values over ``frames + 1`` cycle frames (the last equals the first):
-    angles forward-positive about the armature's X axis in radians, relative to the parent
-    bone; ``hips`` the hips' drop in metres."""
-    u = np.arange(frames + 1) / frames
-    hip = hip_height(stride, duty)
-    out = {"hips": np.full(u.shape, hip - HIP)}
-    thigh = {}
-    for side, shift in (("L", 0.0), ("R", 0.5)):
-        x, y = foot_path(u - shift, stride, duty)
-        a1, a2 = leg_angles(x, y, hip)
-        out[f"thigh.{side}"], out[f"shin.{side}"], out[f"foot.{side}"] = a1, a2 - a1, -a2
-        thigh[side] = a1
-    out["arm.L"], out["arm.R"] = 0.6 * thigh["R"], 0.6 * thigh["L"]  # each arm swings with the other leg
-    return out
 
 
 def bone_axes(arm_data) -> dict:
@@ -218,26 +146,3 @@ def skin(ob, owner) -> None:
     for bone in dict.fromkeys(owner):
         idx = [i for i, b in enumerate(owner) if b == bone]
         ob.vertex_groups.new(name=bone).add(idx, 1.0, "REPLACE")
-
-
-def build_cycles(arm_data) -> tuple[bpy.types.Action, bpy.types.Action, CycleTable]:
-    """(walk-and-run action, idle action, its cycle table) for the walker's armature."""
-    axes = bone_axes(arm_data)
-    strides, runs = [], []
-    for lo_hi, run in ((WALK_STRIDES, False), (RUN_STRIDES, True)):
-        s = ladder(*lo_hi)
-        strides += s.tolist()
-        runs += [run] * len(s)
-    start = np.arange(len(strides)) * (CYCLE_FRAMES + GAP)
-    keys = {}
-    for k, (stride, run) in enumerate(zip(strides, runs)):
-        pose = cycle_pose(stride, RUN_DUTY if run else WALK_DUTY, CYCLE_FRAMES)
-        frames = start[k] + np.arange(CYCLE_FRAMES + 1)
-        for bone, values in pose.items():
-            path, index, sign = axes[bone]
-            f, v = keys.setdefault((path, index), ([], []))
-            f.append(frames)
-            v.append(sign * values)
-    walk = new_action("crowdmotion_walk", {k: (np.concatenate(f), np.concatenate(v)) for k, (f, v) in keys.items()})
-    idle = new_action("crowdmotion_idle", {k: (np.zeros(1), np.zeros(1)) for k in keys})
-    return walk, idle, CycleTable(strides, runs, start, CYCLE_FRAMES)
