@@ -679,7 +679,7 @@ class Simulator:
                             prims.seg_v, self.dt, key, new, forced, dl.keep_right, KEEP_RIGHT_LOOK_S,
                             self.follow * np.minimum(self.density / FOLLOW_FULL_DENSITY, 1.0),
                             self._comfort_reach(), self.goals,
-                            np.full(n, self.arrival_radius if self.remove_on_arrival else 0.0))
+                            np.where(self.leaves, self.arrival_radius, 0.0))
         # safety: of two agents that would touch during the step, the one with the lower
         # (random, per step) priority stands still instead, until none would
         # agents a moving obstacle bears down on go first: standing still is no refuge for them
