@@ -36,7 +36,8 @@ def test_lane_order_is_one_in_lanes_and_zero_when_directions_alternate():
 
 
 def test_every_empirical_case_cites_its_source_and_runs_the_rvo_method():
-    assert {c.name for c in empirical.CASES} == {"fd_open_corridor", "bottleneck_flow", "counterflow_lanes"}
+    assert {c.name for c in empirical.CASES} == {"fd_open_corridor", "bottleneck_flow", "narrow_door",
+                                                 "counterflow_lanes"}
     assert all(c.source and c.methods == ("rvo",) for c in empirical.CASES)
     assert verify.select(empirical=True, names=["bottleneck_flow"])[0][0].name == "bottleneck_flow"
 
@@ -58,3 +59,11 @@ def test_verify_empirical_runs_a_named_case_and_writes_its_table(tmp_path, capsy
     out = capsys.readouterr().out
     assert "| bottleneck_flow | rvo |" in out and "1 m: " in out and (tmp_path / "verify.json").exists()
     assert code == 0
+
+
+def test_a_07_m_door_passes_a_dense_crowd_at_one_person_a_second_or_more():
+    # Kretz et al. measured about 1.2 /s; two pressed abreast in the door must not wedge it
+    case = next(c for c in empirical.CASES if c.name == "narrow_door")
+    out = {name: verify.simulate("rvo", setup) for name, setup in case.build("rvo").items()}
+    criterion, measured, passed = case.judge(out)
+    assert passed, measured

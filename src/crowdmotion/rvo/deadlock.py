@@ -20,6 +20,13 @@ break that; none touches the continuous-time guarantee, which the step's safety 
    (a fixed hash of the id), yields: while it stands in the other's way it backs off,
    away from the other and turned 30° to its right; once out of the way it waits until
    the other has walked past (or 10 s have gone). A one-body-wide passage thus clears.
+   Two walkers (radius up to ``PERSON_MAX_RADIUS_M``) held up and standing for
+   ``ABREAST_STILL_S`` side by side, bound the same way (their v_pref within 60°) with
+   each in the other's way — wedged abreast in a door
+   too narrow for two — settle it the same way: the
+   one of lower priority steps back (half its preferred speed, back along its way and
+   away from the other) while it stands in the other's way, then waits until the other
+   is a body ahead of it (or ``ABREAST_MAX_S`` have gone).
 
 3. **Gridlock detour**: an agent standing (below 5 % of its preferred speed) for
    ``DETOUR_STILL_S`` seconds, held up by an agent in its way that stands as long, comes
@@ -46,12 +53,15 @@ from numba import njit
 from scipy.spatial import cKDTree
 
 from crowdmotion.rvo._kernels import held_up_time
+from crowdmotion.rvo.density import PERSON_MAX_RADIUS_M
 
 BLOCKER_CANDIDATES = 6  # nearest neighbours searched for the one in an agent's way
 KEEP_RIGHT_LOOK_S = 5.0  # keep right for an oncoming agent met within this many seconds
 SLOW = 0.1             # progress along v_pref below this fraction of pref_speed is "held up"
 YIELD_TURN = np.deg2rad(30.0)  # a yielding agent backs away turned this far to its right
 YIELD_MAX_S = 10.0
+ABREAST_MAX_S = 4.0  # longest wait of one wedged abreast at a door for the other to pass
+ABREAST_STILL_S = 1.0  # wedged abreast: both have stood (not crept) this long
 CONTACT_GAP_M = 0.1
 DETOUR_STILL_S = 3.0  # standing (not creeping in a queue) this long, and the blocker too: a gridlock
 STILL = 0.05  # below this fraction of pref_speed an agent stands
@@ -80,6 +90,7 @@ class Deadlock:
         self.yield_left = np.zeros(0)                  # seconds of yielding left
         self.detour = np.zeros(0, dtype=bool)          # gridlocked: walking round to the right
         self.still = np.zeros(0)                       # seconds standing without a break
+        self.abreast = np.zeros(0, dtype=bool)         # the yield is to one wedged beside it, bound its way
 
     def grow(self, n: int) -> None:
         """Make room for ``n`` new agents."""
@@ -88,6 +99,7 @@ class Deadlock:
         self.yield_left = np.concatenate([self.yield_left, np.zeros(n)])
         self.detour = np.concatenate([self.detour, np.zeros(n, dtype=bool)])
         self.still = np.concatenate([self.still, np.zeros(n)])
+        self.abreast = np.concatenate([self.abreast, np.zeros(n, dtype=bool)])
 
     def forget(self, ids: np.ndarray) -> None:
         """Clear the stand-off state of agents ``ids`` (given a new goal or taken out):
@@ -97,6 +109,7 @@ class Deadlock:
         self.yield_left[ids] = 0.0
         self.detour[ids] = False
         self.still[ids] = 0.0
+        self.abreast[ids] = False
         self.yield_to[np.isin(self.yield_to, ids)] = -1
 
     @staticmethod
@@ -109,7 +122,7 @@ class Deadlock:
         they yield to, and gridlocked agents' turned right by ``DETOUR_TURN``."""
         out = np.empty_like(wanted)
         if not _yielding_velocities(pos, wanted, pref_speed, radius, active, self.yield_to, self.detour,
-                                    _DETOUR_CS[0], _DETOUR_CS[1], _YIELD_CS[0], _YIELD_CS[1], out):
+                                    self.abreast, _DETOUR_CS[0], _DETOUR_CS[1], _YIELD_CS[0], _YIELD_CS[1], out):
             return wanted
         return out
 
@@ -126,8 +139,8 @@ class Deadlock:
         ``goals`` (N, 2) where each agent is going (detours need them).
         """
         cand = np.empty(len(pos), dtype=np.int64)
-        n_cand = _settle(wanted, chosen, pos, pref_speed, active, dt, self.patience, self.stuck, self.yield_to,
-                         self.yield_left, self.still, self.detour, cand)
+        n_cand = _settle(wanted, chosen, pos, pref_speed, radius, active, dt, self.patience, self.stuck,
+                         self.yield_to, self.yield_left, self.still, self.detour, self.abreast, cand)
         if n_cand == 0:
             return 0
         cand = cand[:n_cand]
@@ -138,7 +151,7 @@ class Deadlock:
         d, k = np.atleast_2d(d).reshape(len(cand), -1), np.atleast_2d(k).reshape(len(cand), -1)
         return _new_yields(cand, d, np.ascontiguousarray(k, dtype=np.int64), live, pos, wanted, radius, sight,
                            goals if goals is not None else pos, goals is not None, self.patience, self.stuck,
-                           self.yield_to, self.yield_left, self.still, self.detour)
+                           self.yield_to, self.yield_left, self.still, self.detour, self.abreast)
 
     def update_numpy(self, pos, wanted, chosen, pref_speed, radius, sight, active, dt, goals=None) -> int:
         """:meth:`update` as numpy array operations: the rules as written, the reference
@@ -150,8 +163,12 @@ class Deadlock:
             j = self.yield_to[y]
             self.yield_left[y] -= dt
             past = np.einsum("ij,ij->i", pos[y] - pos[j], _unit(wanted[j])) <= 0
+            # one wedged abreast waits until the other is a body ahead of it
+            ahead = np.einsum("ij,ij->i", pos[j] - pos[y], _unit(wanted[y])) >= radius[y] + radius[j]
+            past = np.where(self.abreast[y], ahead, past)
             done = past | ~active[j] | ~active[y] | (self.yield_left[y] <= 0)
             self.yield_to[y[done]] = -1
+            self.abreast[y[done]] = False
         standing = active & (np.linalg.norm(chosen, axis=1) < STILL * pref_speed)
         self.still = np.where(standing, self.still + dt, 0.0)
         self.detour &= self.stuck >= self.patience / 2  # walking again: back on its way
@@ -178,15 +195,19 @@ class Deadlock:
             bound = np.einsum("ij,ij->i", _unit(goals[i] - pos[i]), _unit(goals[j] - pos[j]))
             long = (self.still[i] >= DETOUR_STILL_S) & (self.still[j] >= DETOUR_STILL_S)
             self.detour[i[blocked & long & (np.abs(facing) < 0.5) & (bound < 0.5)]] = True
-        keep = (blocked & (facing < -0.5) & _blocks(pos, wanted, radius, j, i, sight[j])
+        # head-on (rule 2), or wedged abreast bound the same way
+        walkers = ((radius[i] <= PERSON_MAX_RADIUS_M) & (radius[j] <= PERSON_MAX_RADIUS_M)
+                   & (self.still[i] >= ABREAST_STILL_S) & (self.still[j] >= ABREAST_STILL_S))
+        keep = (blocked & ((facing < -0.5) | ((facing > 0.5) & walkers)) & _blocks(pos, wanted, radius, j, i, sight[j])
                 & (self.priority(j) > self.priority(i)))
-        i, j, gap = i[keep], j[keep], gap[keep]
+        i, j, gap, facing = i[keep], j[keep], gap[keep], facing[keep]
         if len(i) == 0:
             return 0
         order = np.lexsort((gap, i))  # each yielder steps aside from its nearest blocker
         first = order[np.r_[True, i[order][1:] != i[order][:-1]]]
         self.yield_to[i[first]] = j[first]
-        self.yield_left[i[first]] = YIELD_MAX_S
+        self.abreast[i[first]] = facing[first] > 0.5
+        self.yield_left[i[first]] = np.where(facing[first] > 0.5, ABREAST_MAX_S, YIELD_MAX_S)
         self.stuck[i[first]] = 0.0
         return len(first)
 
@@ -255,7 +276,7 @@ def _priority(i):
 
 
 @njit(cache=True)
-def _yielding_velocities(pos, wanted, pref_speed, radius, active, yield_to, detour, dc, ds, yc, ys, out):
+def _yielding_velocities(pos, wanted, pref_speed, radius, active, yield_to, detour, abreast, dc, ds, yc, ys, out):
     """:meth:`Deadlock.yielding_velocities` into ``out``; False (``out`` untouched) if
     nobody yields or detours."""
     n = pos.shape[0]
@@ -277,17 +298,21 @@ def _yielding_velocities(pos, wanted, pref_speed, radius, active, yield_to, deto
                 out[i, 0], out[i, 1] = wx * dc + wy * ds, -wx * ds + wy * dc
             continue
         ax, ay = _unit2(pos[i, 0] - pos[j, 0], pos[i, 1] - pos[j, 1])
-        if _blocks2(pos, wanted, radius, j, i, np.inf):  # still on the other's line: back off, else wait
+        if not _blocks2(pos, wanted, radius, j, i, np.inf):  # out of the other's way: wait
+            out[i, 0], out[i, 1] = 0.0, 0.0
+        elif abreast[i]:  # wedged beside it: step back along our way and away from it
+            ux, uy = _unit2(wx, wy)
+            bx, by = _unit2(ax - ux, ay - uy)
+            out[i, 0], out[i, 1] = 0.5 * bx * pref_speed[i], 0.5 * by * pref_speed[i]
+        else:  # head-on: back off, turned to the right
             out[i, 0] = (ax * yc + ay * ys) * pref_speed[i]
             out[i, 1] = (-ax * ys + ay * yc) * pref_speed[i]
-        else:
-            out[i, 0], out[i, 1] = 0.0, 0.0
     return True
 
 
 @njit(cache=True)
-def _settle(wanted, chosen, pos, pref_speed, active, dt, patience, stuck, yield_to, yield_left, still, detour,
-            cand):
+def _settle(wanted, chosen, pos, pref_speed, radius, active, dt, patience, stuck, yield_to, yield_left, still,
+            detour, abreast, cand):
     """The first part of :meth:`Deadlock.update`, in place: held-up time, ends of yields,
     standing time and ends of detours; writes the agents held up for the patience (the
     candidates to yield) into ``cand`` and returns how many."""
@@ -298,10 +323,15 @@ def _settle(wanted, chosen, pos, pref_speed, active, dt, patience, stuck, yield_
         if j < 0:
             continue
         yield_left[i] -= dt
-        ux, uy = _unit2(wanted[j, 0], wanted[j, 1])
-        past = (pos[i, 0] - pos[j, 0]) * ux + (pos[i, 1] - pos[j, 1]) * uy <= 0.0
+        if abreast[i]:  # one wedged abreast waits until the other is a body ahead of it
+            ux, uy = _unit2(wanted[i, 0], wanted[i, 1])
+            past = (pos[j, 0] - pos[i, 0]) * ux + (pos[j, 1] - pos[i, 1]) * uy >= radius[i] + radius[j]
+        else:
+            ux, uy = _unit2(wanted[j, 0], wanted[j, 1])
+            past = (pos[i, 0] - pos[j, 0]) * ux + (pos[i, 1] - pos[j, 1]) * uy <= 0.0
         if past or not active[j] or not active[i] or yield_left[i] <= 0.0:
             yield_to[i] = -1
+            abreast[i] = False
     half = patience / 2
     n_cand = 0
     for i in range(n):
@@ -320,7 +350,7 @@ def _settle(wanted, chosen, pos, pref_speed, active, dt, patience, stuck, yield_
 
 @njit(cache=True)
 def _new_yields(cand, d, k, live, pos, wanted, radius, sight, goals, use_goals, patience, stuck, yield_to,
-                yield_left, still, detour):
+                yield_left, still, detour, abreast):
     """The second part of :meth:`Deadlock.update`: of the candidates' nearest neighbours
     (``d``, ``k`` as cKDTree's query gives them, rows of ``live``), detours round gridlocks
     and new yields, each yielder to its nearest blocker. All decisions read the state from
@@ -328,6 +358,7 @@ def _new_yields(cand, d, k, live, pos, wanted, radius, sight, goals, use_goals, 
     half = patience / 2
     n_c, m = k.shape
     pick = np.empty(n_c, dtype=np.int64)
+    side = np.zeros(n_c, dtype=np.bool_)  # the pick is wedged abreast, bound our way
     for r in range(n_c):
         i = cand[r]
         pick[r] = -1
@@ -355,19 +386,25 @@ def _new_yields(cand, d, k, live, pos, wanted, radius, sight, goals, use_goals, 
                 if (still[i] >= DETOUR_STILL_S and still[j] >= DETOUR_STILL_S and abs(facing) < 0.5
                         and bound < 0.5):
                     detour[i] = True
-            if not (facing < -0.5 and _blocks2(pos, wanted, radius, j, i, sight[j]) and _priority(j) > _priority(i)):
+            # head-on (rule 2), or wedged abreast bound the same way
+            abreast_ok = (facing > 0.5 and radius[i] <= PERSON_MAX_RADIUS_M and radius[j] <= PERSON_MAX_RADIUS_M
+                          and still[i] >= ABREAST_STILL_S and still[j] >= ABREAST_STILL_S)
+            if not ((facing < -0.5 or abreast_ok) and _blocks2(pos, wanted, radius, j, i, sight[j])
+                    and _priority(j) > _priority(i)):
                 continue
             dx, dy = pos[j, 0] - pos[i, 0], pos[j, 1] - pos[i, 1]
             gap = np.sqrt(dx * dx + dy * dy) - radius[i] - radius[j]
             if gap < best_gap:  # each yielder steps aside from its nearest blocker (the first of equals)
                 best_gap = gap
                 pick[r] = j
+                side[r] = facing > 0.5
     count = 0
     for r in range(n_c):
         if pick[r] >= 0:
             i = cand[r]
             yield_to[i] = pick[r]
-            yield_left[i] = YIELD_MAX_S
+            abreast[i] = side[r]
+            yield_left[i] = ABREAST_MAX_S if side[r] else YIELD_MAX_S
             stuck[i] = 0.0
             count += 1
     return count
