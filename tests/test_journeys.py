@@ -328,3 +328,27 @@ def test_a_group_without_a_route_runs_as_before():
     result = run_scenario(parse_scenario(STREAM), progress=False)
     assert result.trajectories.stage is None and "journeys" not in result.summary
     assert "stages" not in result.trajectories.metadata
+
+
+def _stand_variants() -> dict:
+    """The built-in rvo_stand_exits three ways: each spectator to a random point of the
+    concourse (no route), to the nearest exit, to the least crowded one."""
+    from crowdmotion.builtin import builtin_scenarios
+
+    text = next(p for p in builtin_scenarios() if p.stem == "rvo_stand_exits").read_text()
+    a, b = text.index("[[groups.route]]"), text.index("[rvo]")
+    concourse = 'goal = { shape = "rect", lower = [0.5, 0.5], upper = [29.5, 5.0] }\nattributes ='
+    return {"random point": text[:a].replace("attributes =", concourse) + text[b:] + 'goal_assignment = "sample"\n',
+            "nearest": text.replace('by = "least_crowded"', 'by = "nearest"'), "least crowded": text}
+
+
+def test_stand_evacuation_nearest_beats_a_random_point_and_least_crowded_is_at_least_as_fast_as_nearest():
+    # the stand's third exit lies farther off than the other two (issue 30, Must hold)
+    out = {}
+    for name, text in _stand_variants().items():
+        result = _audited(run_scenario(parse_scenario(text), progress=False))
+        assert result.summary["arrival_rate"] == 1.0, name
+        traj = result.trajectories
+        out[name] = traj.times[np.flatnonzero(traj.active_mask.any(axis=1))[-1]]
+    assert out["nearest"] < out["random point"], out
+    assert out["least crowded"] <= out["nearest"], out

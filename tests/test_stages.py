@@ -4,7 +4,7 @@ import numpy as np
 import pytest
 
 from crowdmotion.groups import Disc, Points, Rect
-from crowdmotion.stages import Choose, GoTo, Leave, Queue, Wait, check_route, flat_stages
+from crowdmotion.stages import Choose, GoTo, Leave, Queue, Wait, check_route, flat_stages, opening_width
 
 
 def test_waiting_times_are_drawn_per_agent_the_same_for_the_same_key():
@@ -51,3 +51,11 @@ def test_stage_ids_count_a_chooses_options_after_it():
         ("route[0]", "goto", 0), ("route[1]", "wait", 1), ("route[2]", "choose", 2),
         ("route[2].among[0]", "leave", 2), ("route[2].among[1]", "leave", 2)]
     assert a.capacity == pytest.approx(1.3) and a.name == "exit rect [0, 0]-[1, 1]"
+
+
+def test_an_exit_takes_in_1_3_persons_per_metre_of_the_passage_it_spans_by_default():
+    assert Leave(Rect([9, 0], [11, 5])).capacity == pytest.approx(1.3 * 2.0), "a 2 m column below a door"
+    assert Leave(Rect([0, 5], [0.5, 7])).capacity == pytest.approx(1.3 * 2.0), "a strip across a 2 m opening"
+    assert GoTo(Disc([0, 0], 1.5)).capacity == pytest.approx(1.3 * 3.0)
+    assert opening_width(Points([[1, 1]])) == 0.6 and opening_width(Rect([0, 0], [0.2, 0.3])) == 0.6
+    assert Leave(Rect([0, 0], [1, 1]), capacity=0.5).capacity == 0.5, "a declared capacity wins"

@@ -117,6 +117,8 @@ class Walkers(Protocol):
 
     def walking_distance(self, points, region) -> np.ndarray: ...
 
+    def add_goal_regions(self, regions) -> None: ...
+
 
 class Journeys:
     """Where each agent on a route is, and the goals that move it on.
@@ -188,7 +190,104 @@ class Journeys:
         self.held: dict[int, dict[int, np.ndarray]] = {}  # id(area) -> {agent: its free point}
         self.holder = np.full(n, -1, dtype=np.int64)  # the id(area) whose free point each agent holds (-1: none)
         self.exits: dict[str, list[float]] = {}
+        self.removed = np.zeros(n, dtype=bool)    # taken out of the scene while on their route
         self.time = 0.0
+
+    # ---- routes set while running (the live API) ----------------------------------------
+    def set_route(self, agents, route, w: Walkers, radius=None, pref_speed=None, check=None) -> None:
+        """Send ``agents`` along ``route`` (a list of stages) from now on, wherever they
+        are on their old route: they leave its stage (a queue's line closes up behind
+        them, a held free point is freed) and begin the new route's first stage; agents
+        not yet in the scene begin it when they enter. Agents added to ``w`` since are
+        taken on (``radius`` and ``pref_speed``: (N,) over all of ``w``'s agents).
+
+        ``check(route)``, when given, refuses a route whose places do not fit the scene
+        (ValueError naming the stage, as a scenario's are refused) before anything
+        changes."""
+        route = check_route(route, "route")
+        n = len(w.active)
+        ids = np.unique(np.asarray(agents, dtype=np.int64).ravel())
+        if len(ids) and (ids.min() < 0 or ids.max() >= n):
+            raise ValueError(f"set_route: agent ids must be in [0, {n}), got {ids.tolist()}")
+        if check is not None:
+            check(route, ids)
+        self._take_on(n, radius, pref_speed)
+        g = len(self.routes)
+        flat = flat_stages(route)
+        self.routes.append(route)
+        self.flat.append(flat)
+        self.spawns.append(None)
+        self.top_id.append([sid for sid, (_, _, i) in enumerate(flat) if sid == 0 or flat[sid - 1][2] != i])
+        if len(flat) > self.since.shape[1]:
+            more = np.full((n, len(flat) - self.since.shape[1]), np.nan)
+            self.since, self.reached, self.until = (np.hstack([a, more]) for a in (self.since, self.reached, self.until))
+        for _, st, _ in flat:
+            if isinstance(st, Queue):
+                if st.key in self._queue_of:
+                    self.queues[self._queue_of[st.key]].grow(len(ids))
+                else:
+                    self._queue_of[st.key] = len(self.queues)
+                    self.queues.append(ServiceQueue(st, len(ids)))
+        w.add_goal_regions([r for r in self.regions() if r is not None])
+        self._drop(ids[self.on_route[ids] & self.begun[ids] & ~self.done[ids]], w)
+        self.group_of[ids] = g
+        self.on_route[ids] = True
+        self.done[ids] = self.removed[ids] = False
+        self.stage[ids] = self.top[ids] = -1
+        self.finished_at[ids] = np.nan
+        for a in (self.since, self.reached, self.until):
+            a[ids] = np.nan
+        inside = ids[w.active[ids]]
+        self.begun[ids] = False
+        self.begun[inside] = True
+        self.time = float(w.time)
+        if len(inside):
+            self._enter_top(inside, np.zeros(len(inside), dtype=np.int64), w)
+
+    def _take_on(self, n: int, radius=None, pref_speed=None) -> None:
+        """Grow the per-agent arrays to ``n`` agents (added to the method since), off route."""
+        k = n - len(self.group_of)
+        if radius is not None:
+            self.radius = np.asarray(radius, dtype=float).copy()
+        if pref_speed is not None:
+            self.pref_speed = np.asarray(pref_speed, dtype=float).copy()
+        if k <= 0:
+            return
+        if not any(r is None for r in self.routes):
+            self.routes.append(None)
+            self.flat.append([])
+            self.spawns.append(None)
+            self.top_id.append([])
+        off = next(g for g, r in enumerate(self.routes) if r is None)
+        width = self.since.shape[1]
+        self.group_of = np.append(self.group_of, np.full(k, off))
+        for name, fill, dtype in (("stage", -1, np.int64), ("top", -1, np.int64), ("holder", -1, np.int64),
+                                  ("on_route", False, bool), ("begun", False, bool), ("done", False, bool),
+                                  ("expect", False, bool), ("removed", False, bool), ("wait_until", np.inf, float),
+                                  ("finished_at", np.nan, float)):
+            setattr(self, name, np.append(getattr(self, name), np.full(k, fill, dtype=dtype)))
+        for name in ("since", "reached", "until"):
+            setattr(self, name, np.vstack([getattr(self, name), np.full((k, width), np.nan)]))
+
+    def _drop(self, ids: np.ndarray, w: Walkers) -> None:
+        """Agents ``ids`` leave the stage they are in (rerouted or taken out of the scene):
+        no longer bound to its area, out of its queue (the line closes up), their free
+        point freed, no wait running."""
+        if not len(ids):
+            return
+        for a in ids:
+            g, sid = int(self.group_of[a]), int(self.stage[a])
+            st = self.flat[g][sid][1] if 0 <= sid < len(self.flat[g]) else None
+            if isinstance(st, (GoTo, Leave)) and self.expect[a]:
+                self.bound[id(st)] -= 1
+        for q in self.queues:
+            if q.remove(ids) and q.members:
+                w.set_goals(np.array(q.members), q.places(), goal_region=q.region, leave=False)
+            if len(q.approaching):
+                w.set_goals(q.approaching, q.tail, goal_region=q.region, leave=False)
+        self.expect[ids] = False
+        self.wait_until[ids] = np.inf
+        self._release_points(ids)
 
     # ---- what the method needs before it starts -------------------------------------
     def regions(self) -> list:
@@ -223,6 +322,8 @@ class Journeys:
         their routes, those that arrived, finished waiting or were served go on to their
         next stage (new goals through ``w.set_goals``)."""
         self.time = t = float(w.time)
+        if len(w.active) > len(self.group_of):
+            self._take_on(len(w.active))
         new = self.on_route & ~self.begun & w.active
         if new.any():
             ids = np.flatnonzero(new)
@@ -231,6 +332,11 @@ class Journeys:
         arrived = self.expect & w.arrived
         if arrived.any():
             self._arrive(np.flatnonzero(arrived), w)
+        gone = self.on_route & self.begun & ~self.done & ~w.active  # taken out of the scene by the caller
+        if gone.any():
+            ids = np.flatnonzero(gone)
+            self._drop(ids, w)
+            self.done[ids] = self.removed[ids] = True
         over = self.wait_until <= t + 1e-9
         if over.any():
             ids = np.flatnonzero(over)
@@ -398,9 +504,13 @@ class Journeys:
     # ---- what researchers measure -------------------------------------------------------
     def stage_table(self, names) -> dict:
         """Per group on a route: its stages by id (path in the route, kind, name)."""
-        return {str(names[g]): [{"id": sid, "path": path, "kind": st.kind, "name": st.name}
-                                for sid, (path, st, _) in enumerate(f)]
+        return {self._route_name(names, g): [{"id": sid, "path": path, "kind": st.kind, "name": st.name}
+                                             for sid, (path, st, _) in enumerate(f)]
                 for g, f in enumerate(self.flat) if f}
+
+    def _route_name(self, names, g: int) -> str:
+        """A group's name, or ``route k`` for a route set while running."""
+        return str(names[g]) if g < len(names) else f"route {g}"
 
     def report(self, names) -> dict:
         """For summary.json: per group and stage, the agents that reached it and the mean
@@ -420,11 +530,12 @@ class Journeys:
                              "reached": int(np.isfinite(self.reached[own, sid]).sum()),
                              "mean_time_s": float(spent.mean()) if len(spent) else None,
                              "max_time_s": float(spent.max()) if len(spent) else None})
-            stages[str(names[g])] = rows
+            stages[self._route_name(names, g)] = rows
         exits = {}
         for name, times in self.exits.items():
             t = np.sort(np.array(times))
             flow = (len(t) - 1) / (t[-1] - t[0]) if len(t) > 1 and t[-1] > t[0] else None
             exits[name] = {"left": len(t), "flow_per_s": None if flow is None else float(flow), "first_s": float(t[0]), "evacuation_time_s": float(t[-1])}
         return {"stages": stages, "queues": {q.stage.name: q.report() for q in self.queues}, "exits": exits,
-                "finished": int((self.on_route & self.done).sum()), "on_route": int(self.on_route.sum())}
+                "finished": int((self.on_route & self.done & ~self.removed).sum()), "on_route": int(self.on_route.sum()),
+                "removed": int((self.on_route & self.removed).sum())}

@@ -45,6 +45,26 @@ class ServiceQueue:
         """Agents in line or walking to it."""
         return len(self.members) + len(self.approaching)
 
+    def grow(self, more: int) -> None:
+        """Lay out ``more`` places in line beyond those there are (a new field for the line)."""
+        self.slots = self.stage.slots(len(self.slots) + max(int(more), 0))
+        self.region = Points(self.slots)
+
+    def remove(self, agents) -> bool:
+        """Take ``agents`` out of the line and off the way to it (rerouted or gone); a
+        head being served is no longer. True if the line itself changed."""
+        agents = np.asarray(agents, dtype=np.int64)
+        self.approaching = self.approaching[~np.isin(self.approaching, agents)]
+        out = [a for a in self.members if a in set(agents.tolist())]
+        if not out:
+            return False
+        if self.serving and self.members[0] in out:
+            self.serving = False
+        self.members = [a for a in self.members if a not in out]
+        for a in out:
+            self.joined_at.pop(a, None)
+        return True
+
     def approach(self, agents: np.ndarray) -> None:
         """``agents`` walk to the end of the line (they join on arriving there)."""
         self.approaching = np.concatenate([self.approaching, np.asarray(agents, dtype=np.int64)])

@@ -300,7 +300,8 @@ class GotoStageSpec(_Model):
                         point of a rect or disc no one else bound there holds)
     name : str          the stage's name in summary.json (default: kind and area)
     capacity : float    persons/s it takes in, for choose by "least_crowded" (default 1.3
-                        persons/m/s times the area's widest side)
+                        persons/m/s times the area's width: a rect's shorter side, its
+                        longer one if the shorter is under 1 m; a disc's diameter)
     """
 
     kind: Literal["goto"]
@@ -366,7 +367,8 @@ class LeaveStageSpec(_Model):
     area : table        a point, points, rect or disc region: arriving anywhere in it
     name : str          the exit's name in summary.json (flow, evacuation time)
     capacity : float    persons/s it passes, for choose by "least_crowded" (default 1.3
-                        persons/m/s times the area's widest side)
+                        persons/m/s times the area's width: a rect's shorter side, its
+                        longer one if the shorter is under 1 m; a disc's diameter)
     """
 
     kind: Literal["leave"]

@@ -22,7 +22,7 @@ from crowdmotion._rng import uniforms
 from crowdmotion.geometry import finite_array
 from crowdmotion.groups import Disc, Points, Rect, describe_region
 
-SPECIFIC_FLOW = 1.3  # persons per metre of opening per second: an area's capacity by default
+SPECIFIC_FLOW = 1.3  # persons per metre of opening per second (bottleneck flow): an area's capacity by default
 QUEUE_SPACING_M = 0.65  # metres between two places in a queue
 ARRIVE = ("anywhere", "free_point")
 CHOOSE_BY = ("nearest", "least_crowded", "weights")
@@ -35,17 +35,28 @@ def _area(area, what: str):
     return area
 
 
+STRIP_M = 1.0  # a rect thinner than this is a strip laid across an opening: its length is the opening
+
+
+def opening_width(area) -> float:
+    """Metres of opening an area offers walkers, for its default capacity: a Rect's
+    shorter side (the width of the passage it spans), or its longer side when the shorter
+    is under STRIP_M (a strip laid across an opening); a Disc's diameter; one body
+    (0.6 m) for points; never below 0.6 m."""
+    if isinstance(area, Rect):
+        short, long = np.sort(area.upper - area.lower)
+        width = long if short < STRIP_M else short
+    elif isinstance(area, Disc):
+        width = 2.0 * area.radius
+    else:
+        width = 0.6
+    return max(float(width), 0.6)
+
+
 def _capacity(value, area, what: str) -> float:
-    """``value`` persons/s, or by default SPECIFIC_FLOW × the area's widest opening (a
-    Rect's longer side, a Disc's diameter; one person's width, 0.6 m, for points)."""
+    """``value`` persons/s, or by default SPECIFIC_FLOW × the area's :func:`opening_width`."""
     if value is None:
-        if isinstance(area, Rect):
-            width = float(np.max(area.upper - area.lower))
-        elif isinstance(area, Disc):
-            width = 2.0 * area.radius
-        else:
-            width = 0.6
-        return SPECIFIC_FLOW * max(width, 0.6)
+        return SPECIFIC_FLOW * opening_width(area)
     v = float(value)
     if not (np.isfinite(v) and v > 0):
         raise ValueError(f"{what}.capacity must be > 0 persons per second, got {value!r}")
@@ -72,7 +83,7 @@ class GoTo:
     else bound there holds, at least a body apart; Rect or Disc areas).
 
     capacity : persons/s the area takes in, for ``choose by least_crowded`` (default
-    SPECIFIC_FLOW × its widest opening)."""
+    SPECIFIC_FLOW × its :func:`opening_width`)."""
 
     area: Rect | Disc | Points
     arrive: str = "anywhere"
@@ -94,7 +105,8 @@ class GoTo:
 class Leave:
     """Walk to ``area`` and leave the scene on arriving anywhere in it (an exit).
 
-    capacity : persons/s the exit passes, for ``choose by least_crowded``."""
+    capacity : persons/s the exit passes, for ``choose by least_crowded`` (default
+    SPECIFIC_FLOW × its :func:`opening_width`)."""
 
     area: Rect | Disc | Points
     name: str | None = None

@@ -80,3 +80,14 @@ def test_player_data_carries_each_agents_gait_state_and_feet():
     np.testing.assert_array_equal((gait >> 3) & 1, loco.contact_left)
     np.testing.assert_array_equal((gait >> 4) & 1, loco.contact_right)
     assert [s["name"] for s in data["states"]] == ["idle", "walk", "run", "turn", "move"]
+
+
+def test_player_draws_a_door_only_while_it_stands(tmp_path):
+    # a door removed at 3 s (a live Simulator's remove_obstacle), a wall put in at 3 s
+    tr = _run()
+    scene = Scene(((0, 0), (10, 5)), [Box((8, 0), (9, 1)), Box((4, 0), (4.5, 2)).during(0.0, 3.0),
+                                      Box((6, 3), (7, 5)).during(3.0)])
+    tr.metadata["scene"] = scene.to_dict()
+    result, _ = _selftest(write_player(tr, tmp_path / "door.html"), tmp_path)
+    assert result["errors"] == []
+    assert result["standing"] == [[True, True], [True, False], [False, True]], "first frame, last frame"

@@ -97,3 +97,27 @@ def test_formation_gif_moves_obstacles_and_draws_torn_edges_where_they_are(tmp_p
         intact = colour(frame, 3.0, 2.0)  # the middle of the intact edge (0, 1): blue
         assert (torn[:, 0] - torn[:, 2]).max() > 60 or (torn.min(axis=1) > 240).all()  # a dash or a gap
         assert (intact[:, 2] - intact[:, 0]).max() > 60
+
+
+def test_an_obstacle_that_stood_for_part_of_the_run_is_a_dashed_outline_in_paths_and_shown_only_then_in_frames(
+        captured, tmp_path):
+    scene = cm.Scene([[0.0, 0.0], [10.0, 5.0]], [cm.Box([8, 0], [9, 1]), cm.Box([4, 0], [4.5, 2]).during(0.0, 3.0)])
+    t = np.arange(60) * 0.1
+    pos = np.stack([1 + t[:, None] + 0 * np.arange(2), 3 + np.arange(2) + 0 * t[:, None]], axis=-1)
+    traj = Trajectories(pos, 0.1, radius=[0.2, 0.2], metadata={"scene": scene.to_dict()})
+    plots.plot_paths(traj, scene, tmp_path / "p.png")
+    wall, door = [p for p in captured[-1].axes[0].patches if isinstance(p, plots.patches.Rectangle)][:2]
+    assert wall.get_facecolor()[3] > 0 and wall.get_linestyle() in ("-", "solid")
+    assert door.get_facecolor()[3] == 0 and door.get_linestyle() in ("--", "dashed"), "the door stood for the first 3 s only"
+    import matplotlib.pyplot as plt
+
+    for when, shown in ((1.0, True), (4.0, False)):
+        fig, ax = plt.subplots()
+        drawn = plots._draw_obstacles_2d(ax, scene, when, at_t=True)
+        assert [ob.present for ob, _ in drawn if ob.is_timed] == ([(0.0, 3.0)] if shown else [])
+        plt.close(fig)
+    fig, ax = plt.subplots()  # blitted frames: the patch made once, shown while it stands
+    movers = plots._draw_obstacles_2d(ax, scene, moving=True, animated=True, at_t=True)
+    assert [p.get_visible() for p in plots.move_obstacles(ax, movers, 1.0)] == [True]
+    assert [p.get_visible() for p in plots.move_obstacles(ax, movers, 4.0)] == [False]
+    plt.close(fig)

@@ -274,3 +274,54 @@ def test_set_goals_can_make_an_agent_stay_at_or_leave_by_its_goal():
     for _ in range(20):
         sim.step()
     assert sim.arrived[[stays, goes]].all() and sim.active[stays] and not sim.active[goes]
+
+
+# ---- the live API: routes set while running ----------------------------------------------------
+def test_a_crowd_rerouted_mid_run_thinned_and_let_through_a_door_that_opens_follows_its_routes_cleanly():
+    from crowdmotion.stages import GoTo, Leave, Queue, Wait
+
+    scene = cm.Scene(bounds=([0, 0], [40, 14]), obstacles=[cm.Box([19, 0], [21, 6]), cm.Box([19, 8], [21, 14])])
+    sim = rvo.Simulator(scene, rng=np.random.default_rng(2), remove_on_arrival=False)
+    door = sim.add_obstacle(cm.Box([19.5, 6], [20.5, 8]))  # shut
+    starts = np.array([[2.0 + 1.2 * (k % 9), 9.0 + 1.1 * (k // 9)] for k in range(40)])
+    ids = sim.add_agents(starts, starts)
+    west = Leave(cm.groups.Rect([0, 1], [0.5, 5]), name="west")
+    sim.set_route(ids, [GoTo(cm.groups.Disc([6, 3], 2.5), arrive="free_point"), Wait({"uniform": [20.0, 30.0]}), west])
+    frames, present = [sim.positions.copy()], [sim.present.copy()]
+    while sim.time < 8.0 - 1e-9:
+        sim.step()
+        _record(sim, frames, present)
+    rerouted, removed = ids[::2], ids[1:20:2]
+    sim.set_route(rerouted, [Queue([18.2, 7], rate=0.5, direction=[-1, 0], name="door"),
+                             Leave(cm.groups.Rect([38, 5], [40, 9]), name="east")])
+    sim.remove_agents(removed)
+    for _ in range(8):
+        sim.step()
+        _record(sim, frames, present)
+    sim.remove_obstacle(door)  # the door opens at 10 s
+    while (sim.active | sim.waiting).any() and sim.time < 200:
+        sim.step()
+        _record(sim, frames, present)
+    j = sim.journeys
+    report = j.report(["all"])
+    assert report["exits"]["east"]["left"] == 20 and report["exits"]["west"]["left"] == 10, report["exits"]
+    assert report["removed"] == 10 and report["finished"] == 30
+    served = j.queues[0].served  # first come (to the end of the line), first served
+    assert len(served) == 20 and all(a[1] <= b[1] for a, b in zip(served, served[1:]))
+    assert served[0][2] > 10.0, "nobody served before the door opened"
+    traj = cm.Trajectories(np.array(frames), sim.dt, radius=sim.params["radius"], active=np.array(present))
+    audit = collision_audit(traj, sim.scene)
+    assert audit.agent_agent == 0 and audit.agent_obstacle == 0, audit.events[:3]
+
+
+def test_a_route_that_does_not_fit_the_scene_is_refused_naming_the_stage_and_nothing_changes():
+    from crowdmotion.stages import Leave, Queue
+
+    sim = rvo.Simulator(_room_with_door())
+    ids = sim.add_agents([[2, 5], [3, 2]], [5, 5])
+    bad = [Queue([8.5, 2], rate=1.0, direction=[1, 0], name="gate"), Leave(cm.groups.Rect([19, 4], [20, 6]))]
+    with pytest.raises(ValueError, match=r"set_route: route.0 \(queue 'gate'\): place 1 in line at \[9.15, 2\]"):
+        sim.set_route(ids, bad)
+    assert sim.journeys is None or not sim.journeys.on_route.any()
+    with pytest.raises(ValueError, match=r"route.0 \(leave\).*must be the last stage"):
+        sim.set_route(ids, [Leave(cm.groups.Rect([19, 4], [20, 6])), Queue([5, 5], rate=1.0, direction=[-1, 0])])

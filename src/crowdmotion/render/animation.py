@@ -107,7 +107,7 @@ def frame_images(traj: Trajectories, frames, trail_s: float = 2.0, width_px: int
         title = f"{traj.metadata.get('scenario', traj.metadata.get('method', ''))}"
         if traj.dim == 3:
             title += " (seen from above)"
-        moving = scene is not None and any(ob.is_moving for ob in scene.obstacles)
+        moving = scene is not None and any(ob.is_moving or ob.is_timed for ob in scene.obstacles)
         if scene is not None:
             _draw_obstacles_2d(ax, scene, moving=False)  # the resting ones once, in the background
         ax.set_xlim(lo[0], hi[0])
@@ -137,7 +137,7 @@ def frame_images(traj: Trajectories, frames, trail_s: float = 2.0, width_px: int
                 for artist in shapes:
                     artist.remove()
                 before = set(ax.patches) | set(ax.lines)
-                _draw_obstacles_2d(ax, scene, f * traj.dt, moving=True)
+                _draw_obstacles_2d(ax, scene, f * traj.dt, moving=True, at_t=True)
                 shapes = [a for a in list(ax.patches) + list(ax.lines) if a not in before]
                 for artist in shapes:
                     artist.set_animated(blit)

@@ -129,6 +129,8 @@ function offset(ob, t){ if (!ob.path) return [0, 0, 0]; const ts = ob.path.times
   const centre = ob.center ? ob.center : (ob.lower ? ob.lower.map((v, i) => (v + ob.upper[i]) / 2)
     : ob.vertices.reduce((s, v) => [s[0] + v[0] / ob.vertices.length, s[1] + v[1] / ob.vertices.length], [0, 0]));
   return [p[0] - centre[0], p[1] - centre[1], (p[2] || 0) - (centre[2] || 0)]; }
+// an obstacle added or removed while running stands in [present[0], present[1]) (null: open)
+function standing(ob, t){ const w = ob.present; return !w || ((w[0] === null || t >= w[0]) && (w[1] === null || t < w[1])); }
 function resize(){ cv.width = window.innerWidth; cv.height = Math.max(200, window.innerHeight - document.getElementById("bar").offsetHeight); }
 window.addEventListener("resize", () => { resize(); draw(); });
 // projections
@@ -144,7 +146,7 @@ function orbitProj(){ const c = [(lo[0] + hi[0]) / 2, (lo[1] + hi[1]) / 2, (lo[2
     const depth = dist + yy; const k = fpx / Math.max(depth, 1e-3);
     return [cv.width / 2 + x * k, cv.height / 2 - zz * k, k / (fpx / dist)]; } }; }
 function drawObstacles(pr, t){ if (!D.scene) return; ctx.fillStyle = "rgba(90,90,90,0.6)"; ctx.strokeStyle = "#333";
-  for (const ob of D.scene.obstacles) { const o = offset(ob, t); ctx.beginPath();
+  for (const ob of D.scene.obstacles) { if (!standing(ob, t)) continue; const o = offset(ob, t); ctx.beginPath();
     if (ob.center) { const c = [ob.center[0] + o[0], ob.center[1] + o[1], (ob.center[2] || 0) + o[2]];
       const q = pr.f(c); ctx.arc(q[0], q[1], Math.max(1, ob.radius * pr.s * q[2]), 0, 2 * Math.PI); }
     else if (ob.lower) { const l = ob.lower, u = ob.upper, z0 = l[2] || 0;
@@ -209,8 +211,9 @@ if (location.hash === "#selftest") {
   const plain = snap(); document.getElementById("gait").checked = true; draw(); const withGait = snap();
   let gaitDiff = 0; for (let i = 0; i < plain.length; i++) if (plain[i] !== withGait[i]) gaitDiff++;
   document.getElementById("gait").checked = false; draw();
+  const standingAt = D.scene ? D.scene.obstacles.map(ob => [standing(ob, D.times[0]), standing(ob, D.times[T - 1])]) : [];
   document.getElementById("selftest").textContent = JSON.stringify({ changed_pixels: diff, gait_pixels: gaitDiff,
-    frame: frame, frames: T, errors: errors });
+    frame: frame, frames: T, errors: errors, standing: standingAt });
 }
 </script></body></html>
 """

@@ -28,18 +28,28 @@ def _save(fig, path: Path) -> Path:
 
 
 def _draw_obstacles_2d(ax, scene: Scene, t: float = 0.0, moving: bool | None = None,
-                       animated: bool = False) -> list:
-    """The scene's obstacles at time t, seen from above (3D shapes projected on x, y):
-    all of them, or (``moving`` True / False) only the moving / resting ones; a moving
-    one's path as a dashed line. Returns ``[(obstacle, patch)]`` for the shapes drawn
-    (``animated``: left out of a full draw, for blitting with :func:`move_obstacles`)."""
+                       animated: bool = False, at_t: bool = False) -> list:
+    """The scene's obstacles seen from above (3D shapes projected on x, y): all of them,
+    or (``moving`` True / False) only those that change (move, or stand for part of the
+    run: added or removed while running) / the others; a moving one's path as a dashed
+    line. With ``at_t`` the picture is of time ``t``: an obstacle stands in it only if it
+    stands at ``t`` (``Obstacle.present``); without, it is a whole run's picture, where
+    an obstacle that stood for part of the run is a dashed outline. Returns
+    ``[(obstacle, patch)]`` for the shapes drawn (``animated``: left out of a full draw,
+    for blitting with :func:`move_obstacles`, which shows each only while it stands)."""
     drawn = []
     for ob in scene.obstacles:
-        if moving is not None and ob.is_moving != moving:
+        changes = ob.is_moving or ob.is_timed
+        if moving is not None and changes != moving:
+            continue
+        standing = bool(ob.present_at(t))
+        if at_t and not standing and not animated:
             continue
         shift = ob.offset(t)[:2]
         style = dict(facecolor="0.35", edgecolor="0.1", alpha=0.5 if ob.is_moving else 0.85, zorder=2,
-                     animated=animated and ob.is_moving)
+                     animated=animated and changes)
+        if ob.is_timed and not at_t:  # stood for part of the run only
+            style.update(facecolor="none", linestyle="--", linewidth=1.2, alpha=0.9)
         if isinstance(ob, (Circle, Sphere)):
             patch = ax.add_patch(patches.Circle(ob.center[:2] + shift, ob.radius, **style))
         elif isinstance(ob, Box):
@@ -49,6 +59,7 @@ def _draw_obstacles_2d(ax, scene: Scene, t: float = 0.0, moving: bool | None = N
             patch = ax.add_patch(patches.Polygon(ob.vertices + shift, closed=True, **style))
         else:
             continue
+        patch.set_visible(standing or not at_t)
         drawn.append((ob, patch))
         if ob.is_moving:
             ax.plot(ob.path.positions[:, 0], ob.path.positions[:, 1], "k--", lw=1, zorder=2)
@@ -56,13 +67,15 @@ def _draw_obstacles_2d(ax, scene: Scene, t: float = 0.0, moving: bool | None = N
 
 
 def move_obstacles(ax, drawn: list, t: float, t0: float = 0.0) -> list:
-    """Moving obstacles drawn at time ``t0`` by :func:`_draw_obstacles_2d`, shifted to
-    where they are at ``t`` (the same patches, translated). Returns the patches."""
+    """Changing obstacles drawn at time ``t0`` by :func:`_draw_obstacles_2d`, shifted to
+    where they are at ``t`` (the same patches, translated) and shown only if they stand
+    at ``t``. Returns the patches."""
     from matplotlib.transforms import Affine2D
 
     for ob, patch in drawn:
         dx, dy = (ob.offset(t) - ob.offset(t0))[:2]
         patch.set_transform(Affine2D().translate(dx, dy) + ax.transData)  # after the patch's own
+        patch.set_visible(bool(ob.present_at(t)))
     return [patch for _, patch in drawn]
 
 
@@ -361,7 +374,7 @@ def plot_formation_snapshots(scene: Scene, snapshots: list[dict], path, title: s
                              squeeze=False, layout="constrained")
     colours = _snapshot_colours(snapshots)
     for ax, snap in zip(axes.ravel(), snapshots):
-        _draw_obstacles_2d(ax, scene, snap["time"])
+        _draw_obstacles_2d(ax, scene, snap["time"], at_t=True)
         for gi, g in enumerate(snap["groups"]):
             c = colours[g.get("name", gi)]
             _draw_mesh(ax, g["vertices"], g["edges"], g["torn"], c, lw=0.6, alpha=0.7)
@@ -416,7 +429,7 @@ def animate_formation_snapshots(scene: Scene, snapshots: list[dict], path, fps: 
     # axes, labels, legend and resting obstacles are drawn once; each frame restores that
     # background and draws only what moves (blitting: about 4x faster than redrawing)
     _draw_obstacles_2d(ax, scene, moving=False)
-    movers = _draw_obstacles_2d(ax, scene, moving=True, animated=True)  # their paths go in the background
+    movers = _draw_obstacles_2d(ax, scene, moving=True, animated=True, at_t=True)  # their paths go in the background
     ax.set_xlim(lo[0], hi[0])
     ax.set_ylim(lo[1], hi[1])
     ax.set_aspect("equal")

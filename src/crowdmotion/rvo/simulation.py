@@ -116,8 +116,9 @@ def retry_entries(sim: Simulator, scene: Scene, groups: Sequence[Group], params:
 def build_journeys(sim: Simulator, scene: Scene, groups: Sequence[Group],
                    rng: np.random.Generator) -> Journeys | None:
     """The state machine that walks the agents of groups with a ``route`` attribute
-    along it (None when no group has one: ``rng`` is then left untouched), with the
-    guidance fields of every stage made known to ``sim`` so they are solved once."""
+    along it (None when no group has one: ``rng`` is then left untouched), attached to
+    ``sim`` (``sim.journeys``: each step moves them on), with the guidance fields of
+    every stage made known to ``sim`` so they are solved once."""
     routes = [g.attributes.get("route") for g in groups]
     if all(r is None for r in routes):
         return None
@@ -129,6 +130,7 @@ def build_journeys(sim: Simulator, scene: Scene, groups: Sequence[Group],
     journeys = Journeys(routes, sim.group, [g.spawn for g in groups], sim.params["radius"],
                         sim.params["pref_speed"], step_key(rng), clearance)
     sim.add_goal_regions(journeys.regions())
+    sim.journeys = journeys  # each step moves the agents on along their routes
     return journeys
 
 
@@ -160,8 +162,7 @@ def run(scene: Scene, groups: Sequence[Group], params: RVOParams, rng: np.random
             sim.step()
             if entering:
                 retry_entries(sim, scene, groups, params, rng)
-            if journeys is not None:
-                journeys.update(sim, params.time_step)
+            if journeys is not None:  # sim.step moved them on along their routes
                 stages.append(journeys.frame(sim.present))
             frames.append(sim.positions.copy())
             present.append(sim.present.copy())

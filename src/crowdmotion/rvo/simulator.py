@@ -157,6 +157,7 @@ class Simulator:
         self.counterflow = float(counterflow)
         self.replan_steps = max(1, int(round(replan_s / time_step)))
         self.scene = scene  # with every obstacle ever in it, each with the time it stood (for the audit)
+        self.journeys = None  # the route state machine, once a route is set (set_route, or a scenario's)
         self._now = scene   # the obstacles standing now
         self._scene_owned = False
         self.dt = float(time_step)
@@ -644,10 +645,58 @@ class Simulator:
         """A uniform grid over the active agents, cells wide enough for the step check."""
         return grid_for(self.positions, self.active, self.params["radius"], self.params["max_speed"], self.dt)
 
+    def set_route(self, agents, route) -> None:
+        """Send agents along a route of stages from now on (the live API): ``route`` is a
+        list of :mod:`crowdmotion.stages` stages (GoTo, Wait, Queue, Choose, Leave), as a
+        scenario's ``[[groups.route]]`` gives them. Each step then moves the agents on
+        along it (``sim.journeys``, a :class:`crowdmotion.journeys.Journeys`, holds where
+        each is: ``sim.journeys.stage``). Agents on another route leave its stage at once
+        (a queue closes up behind them); agents still waiting to enter begin it on entering.
+
+        Refused (ValueError naming the stage, ``set_route: route.1 (queue 'gate'): ...``,
+        nothing changed) as a scenario's route is: stages out of order, an area outside
+        the scene or covered by obstacles standing now, queue places that do not fit a
+        line of these agents."""
+        ids = self._agent_ids(agents, "set_route")
+        if not len(ids):
+            return
+        if self.journeys is None:
+            from crowdmotion._rng import step_key
+            from crowdmotion.journeys import Journeys
+
+            self.journeys = Journeys([None], np.zeros(self.n_agents, dtype=np.int64), [None], self.params["radius"],
+                                     self.params["pref_speed"], step_key(self.rng), self._clearance)
+        self.journeys.set_route(ids, route, self, self.params["radius"], self.params["pref_speed"],
+                                check=self._check_route)
+
+    def _check_route(self, route, ids: np.ndarray) -> None:
+        """A route's places checked against the scene standing now, as a scenario's are."""
+        from crowdmotion.checks import check_route_places, where
+        from crowdmotion.groups import Group
+
+        probe = Group("set_route", len(ids), Points(self.positions[ids[:1]]), Points(self.positions[ids[:1]]),
+                      radius=float(self.params["radius"][ids].max()), attributes={"route": route})
+        try:
+            check_route_places(self._now, 0, probe)
+        except ValueError as exc:
+            raise ValueError(str(exc).replace(f"{where(0, probe)} ", "set_route: ")) from None
+
+    def _clearance(self, points: np.ndarray) -> np.ndarray:
+        """Metres from each point to the nearest wall or static obstacle standing now."""
+        scene = self._now
+        walls = np.minimum(points - scene.lower, scene.upper - points).min(axis=1)
+        return np.minimum(walls, scene.static_obstacle_distance(points))
+
     def step(self) -> None:
-        """Advance every agent by one time step (all choose at once, then all move).
-        A ValueError, before anything moves, if an active agent's position, velocity or
-        goal is NaN or inf (the kernels would crash on it)."""
+        """Advance every agent by one time step (all choose at once, then all move), then
+        move agents on along their routes (``journeys``). A ValueError, before anything
+        moves, if an active agent's position, velocity or goal is NaN or inf (the kernels
+        would crash on it)."""
+        self._advance()
+        if self.journeys is not None:
+            self.journeys.update(self, self.dt)
+
+    def _advance(self) -> None:
         require_finite_agents({"positions": self.positions, "velocities": self.velocities, "goals": self.goals},
                               self.active)
         n = self.n_agents

@@ -1,0 +1,76 @@
+"""Make the pictures and the measured figures of docs/journeys.md's built-in scenes.
+
+    python docs/make_journeys_figures.py
+
+Runs rvo_station_concourse, rvo_town_square and rvo_stand_exits at their defaults, writes
+docs/img/<scene>.png (every path over the scene) and prints per scene its run time, the
+audit, the time the last agent left, and per queue its waits, per exit who left by it;
+then the stand three ways (a random point of the concourse, the nearest exit, the least
+crowded exit) with the evacuation time of each.
+"""
+
+from __future__ import annotations
+
+import time
+from pathlib import Path
+
+import numpy as np
+
+from crowdmotion.builtin import builtin_scenarios
+from crowdmotion.render import plot_paths
+from crowdmotion.scenario import load_scenario, parse_scenario, run_scenario
+
+IMG = Path(__file__).parent / "img"
+SCENES = ("rvo_station_concourse", "rvo_town_square", "rvo_stand_exits")
+CONCOURSE = 'goal = { shape = "rect", lower = [0.5, 0.5], upper = [29.5, 5.0] }\nattributes ='
+
+
+def last_out(traj) -> float:
+    """When the last agent left the scene (s)."""
+    return float(traj.times[np.flatnonzero(traj.active_mask.any(axis=1))[-1]])
+
+
+def stand_variants(text: str) -> dict[str, str]:
+    """rvo_stand_exits to a random point of the concourse (no route), the nearest exit,
+    the least crowded exit (the built-in's)."""
+    a, b = text.index("[[groups.route]]"), text.index("[rvo]")
+    return {"random point of the concourse (`goal_assignment = \"sample\"`)":
+            text[:a].replace("attributes =", CONCOURSE) + text[b:] + 'goal_assignment = "sample"\n',
+            "nearest exit (`by = \"nearest\"`)": text.replace('by = "least_crowded"', 'by = "nearest"'),
+            "least crowded exit (`by = \"least_crowded\"`, the built-in's)": text}
+
+
+def main() -> None:
+    paths = {p.stem: p for p in builtin_scenarios()}
+    for name in SCENES:
+        sc = load_scenario(paths[name])
+        t0 = time.perf_counter()
+        res = run_scenario(sc, progress=False)
+        took = time.perf_counter() - t0
+        s, traj = res.summary, res.trajectories
+        plot_paths(traj, sc.scene, IMG / f"{name}.png", title=sc.spec.description[:90])
+        j = s["journeys"]
+        print(f"\n{name}: {traj.n_agents} agents, run {took:.1f} s, last out at {last_out(traj):.1f} s, "
+              f"route finished {j['finished']}/{j['on_route']}, overlaps {s['agent_agent_overlaps']}, "
+              f"penetrations {s['agent_obstacle_penetrations']}")
+        for q, v in j["queues"].items():
+            print(f"  {q}: {v['served']} served, wait in line mean {v['mean_wait_s']:.1f} s, longest "
+                  f"{v['max_wait_s']:.1f} s, longest line {max(v['length_per_s'] or [0])}")
+        for e, v in sorted(j["exits"].items()):
+            print(f"  {e}: {v['left']} left, last at {v['evacuation_time_s']:.1f} s")
+        for g, rows in j["stages"].items():
+            for r in rows:
+                if r["kind"] == "wait" and r["mean_time_s"] is not None:
+                    print(f"  {g}, {r['name']}: mean {r['mean_time_s']:.1f} s, longest {r['max_time_s']:.1f} s")
+    print("\n| rvo_stand_exits, each spectator to | everyone out after | overlaps / penetrations |")
+    print("|---|---|---|")
+    for label, text in stand_variants(paths["rvo_stand_exits"].read_text()).items():
+        s = (res := run_scenario(parse_scenario(text), progress=False)).summary
+        exits = s.get("journeys", {}).get("exits", {})
+        split = " (" + ", ".join(f"{e}: {v['left']}" for e, v in sorted(exits.items())) + ")" if exits else ""
+        print(f"| {label} | {last_out(res.trajectories):.2f} s{split} | {s['agent_agent_overlaps']} / "
+              f"{s['agent_obstacle_penetrations']} |")
+
+
+if __name__ == "__main__":
+    main()
