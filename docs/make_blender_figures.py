@@ -1,6 +1,8 @@
-"""docs/blender_addon.png: rvo_street_O at its default settings, exported as
-`crowdmotion export --to usd` writes it, imported with the crowdmotion add-on in Blender
-(the ``bpy`` package) and rendered with Cycles.
+"""docs/blender_addon.png and docs/blender_by_hand.png: rvo_street_O at its default
+settings, exported as `crowdmotion export --to usd` writes it, imported into Blender (the
+``bpy`` package) and rendered with Cycles: with the crowdmotion add-on (walking
+characters), and by hand (Blender's USD importer, the prototypes given a character's
+mesh by docs/blender_by_hand.py: placed and turned, not walking).
 
     python docs/make_blender_figures.py --python /path/to/venv-with-bpy/bin/python [--time 18 --focus 30,7,6]
 
@@ -32,6 +34,7 @@ def main(argv=None) -> None:
     ap.add_argument("--focus", default="30,7,6", help="X,Y,R: frame the characters within R m of (X, Y)")
     ap.add_argument("--size", default="640,250")
     ap.add_argument("-o", "--output", default=str(HERE / "blender_addon.png"))
+    ap.add_argument("--by-hand", default=str(HERE / "blender_by_hand.png"), help="the by-hand route's picture")
     args = ap.parse_args(argv)
     warnings.simplefilter("ignore")
     from crowdmotion.blender import write_addon
@@ -58,9 +61,18 @@ def main(argv=None) -> None:
         got = json.loads(line.split(" ", 1)[1])
         from PIL import Image  # a palette of 256 colours: a third of the file
 
-        Image.open(tmp / "crowd.png").convert("RGB").quantize(256, Image.Quantize.MEDIANCUT).save(args.output,
-                                                                                                   optimize=True)
+        def save(png: Path, dest: str) -> None:
+            Image.open(png).convert("RGB").quantize(256, Image.Quantize.MEDIANCUT).save(dest, optimize=True)
+
+        save(tmp / "crowd.png", args.output)
+        done = subprocess.run([args.python, str(HERE / "blender_by_hand.py"), str(tmp / "trajectories.usdc"),
+                               str(tmp / "by_hand.png"), str(args.time), args.focus, args.size],
+                              capture_output=True, text=True)
+        if "CROWDMOTION_DONE" not in done.stdout:
+            sys.exit(done.stderr[-3000:])
+        save(tmp / "by_hand.png", args.by_hand)
     frame = got["frames"][-1]["rigs"]
+    print(f"{args.by_hand}: the same frame by hand")
     print(f"{args.output}: {sum(r['visible'] for r in frame)} characters in the scene at t = {args.time} s, Blender "
           f"{got['version']}, rendered in {got['render']['render_s']:.1f} s")
 
