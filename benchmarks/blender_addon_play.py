@@ -9,6 +9,10 @@ smallest run's (about 1 when linear; quadratic would be N / N_smallest)::
 
     python benchmarks/blender_addon_play.py --python /path/to/bpyenv/bin/python --sizes 50 500 2000
 
+``--frames`` sets the runs' length (96 by default; ``--sizes 2000 --frames 500`` is issue
+31's 2000 agents x 500 frames). A second table gives each run's import stages (the
+add-on's own times) and the import operator's total, as File > Import runs it.
+
 ``--python`` is a Python with the ``bpy`` package (default: ``CROWDMOTION_BLENDER_PYTHON``).
 """
 
@@ -61,21 +65,32 @@ def main(argv=None) -> None:
     ap.add_argument("--python", default=os.environ.get("CROWDMOTION_BLENDER_PYTHON"),
                     help="a Python with bpy (default: $CROWDMOTION_BLENDER_PYTHON)")
     ap.add_argument("--sizes", type=int, nargs="+", default=[50, 500])
+    ap.add_argument("--frames", type=int, default=96, help="frames of each run (at 24 fps)")
     args = ap.parse_args(argv)
     if not args.python:
         ap.error("name a Python with bpy: --python or CROWDMOTION_BLENDER_PYTHON")
-    if any(n < 1 for n in args.sizes):
-        ap.error("--sizes must be positive")
+    if any(n < 1 for n in args.sizes) or args.frames < 3:
+        ap.error("--sizes must be positive and --frames at least 3")
     print("| characters | frame change, median | longest | per character | per character / smallest run's |")
     print("|---|---|---|---|---|")
     base = None
+    stages = []
     with tempfile.TemporaryDirectory() as tmp:
         for n in sorted(args.sizes):
-            s = play(args.python, Path(tmp), n)["play_s"]
+            got = play(args.python, Path(tmp), n, args.frames)
+            s = got["play_s"]
             per = s["median"] / n
             base = per if base is None else base
             print(f"| {n:,} | {s['median']:.3f} s | {s['max']:.3f} s | {per * 1e3:.3f} ms | {per / base:.2f} |",
                   flush=True)
+            stages.append((n, got))
+    names = list(stages[0][1]["times"])
+    print(f"\n| characters x frames | {' | '.join(names)} | the stages | the import operator |")
+    print("|---|" + "---|" * (len(names) + 2))
+    for n, got in stages:
+        times = got["times"]
+        print(f"| {n:,} x {args.frames} | " + " | ".join(f"{times[k]:.2f} s" for k in names)
+              + f" | {sum(times.values()):.1f} s | {got['import_s']:.1f} s |")
 
 
 if __name__ == "__main__":

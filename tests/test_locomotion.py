@@ -277,3 +277,31 @@ def test_a_walker_setting_off_takes_its_first_stride_at_least_at_the_reference_c
     assert first_stance(loco) < 0.5 and first_stance(loco) < first_stance(plain)
     np.testing.assert_allclose(np.diff(phase)[max(strikes) + 2:],
                                np.diff(np.unwrap(plain.gait_phase[:, 0], period=1.0))[max(strikes) + 2:], atol=1e-12)
+
+
+def test_a_runs_files_and_its_player_share_one_derivation_of_the_channels(tmp_path, monkeypatch):
+    import crowdmotion.locomotion as module
+    from crowdmotion.io import read_locomotion
+    from crowdmotion.render.player import player_data
+
+    calls = []
+    derive = module.locomotion
+    monkeypatch.setattr(module, "locomotion", lambda *a, **k: calls.append(a[1:]) or derive(*a, **k))
+    t = np.arange(97) / 24
+    pos = np.stack([np.stack([1.3 * t, np.zeros_like(t)], 1), np.stack([np.zeros_like(t), 0.7 * t], 1)], 1)
+    tr = Trajectories(pos, 1 / 24)
+    for suffix in ("parquet", "csv", "sqlite", "usda"):
+        tr.save(tmp_path / f"run.{suffix}")
+    player_data(tr)
+    assert len(calls) == 1  # once for every file and the player
+    expected = derive(tr)
+    for suffix in ("parquet", "csv", "sqlite", "usda"):
+        np.testing.assert_allclose(read_locomotion(tmp_path / f"run.{suffix}").gait_phase, expected.gait_phase, atol=1e-6)
+    other = LocomotionParams(min_state_s=0.5)
+    tr.save(tmp_path / "other.parquet", locomotion=other)
+    assert len(calls) == 2 and calls[-1] == (other,)  # other parameters: their own channels
+    tr.positions = tr.positions * 2.0  # new positions: derived again
+    tr.save(tmp_path / "faster.parquet")
+    assert len(calls) == 3
+    np.testing.assert_allclose(read_locomotion(tmp_path / "faster.parquet").distance[-1], 2 * expected.distance[-1],
+                               rtol=1e-6)

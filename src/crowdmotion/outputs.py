@@ -377,6 +377,8 @@ def write_run(result, out, plots=None, pictures=None) -> list[Path]:
     _write_manifest(out, planned, complete=False, partial=partial)  # first: what a killed run leaves is listed
     try:
         if pictures is not None:
+            if "player" in plots:  # derived once, before the run goes to the picture process: player and files share them
+                result.trajectories.locomotion()
             split = getattr(get_method(spec.method).module, "PICTURE_PARTS", None)
             pictures.submit(draw_pictures, [(*run, part, spec.name) for part in picture_parts(plots, cores(), split)])
         written = [result.trajectories.save(out / f"trajectories.{fmt}") for fmt in spec.output.formats]

@@ -173,6 +173,25 @@ class Trajectories:
         v = self.velocity
         return np.arctan2(v[..., 2], np.linalg.norm(v[..., :2], axis=-1))
 
+    def locomotion(self, params=None):
+        """The locomotion channels on these frames
+        (:func:`crowdmotion.locomotion.locomotion` with ``params``, a
+        :class:`~crowdmotion.locomotion.LocomotionParams`, the defaults when None), derived
+        once and kept: every file a run writes and its player share them. They are derived
+        again if the positions, active mask, facing, time step or the metadata's body kinds
+        are replaced (not if an array is changed in place)."""
+        from crowdmotion.locomotion import LocomotionParams, locomotion
+
+        params = LocomotionParams() if params is None else params
+        meta = self.metadata
+        key = (params, id(self.positions), id(self.active), id(self.facing), self.dt,
+               repr(meta.get("bodies")), meta.get("method"))
+        cache = self.__dict__.get("_locomotion")
+        if cache is None or cache[0] != key:
+            cache = (key, locomotion(self, params))
+            self.__dict__["_locomotion"] = cache
+        return cache[1]
+
     def select(self, agents=None, frames=None) -> "Trajectories":
         """A sub-set of agents and/or frames (indices or boolean masks)."""
         a = slice(None) if agents is None else agents

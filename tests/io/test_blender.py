@@ -193,3 +193,51 @@ def test_walkers_of_a_builtin_scene_do_not_slide_their_feet(name, tmp_path):
     print(f"{name}: foot slide per contact (cm) median {np.median(slide):.2f}, p95 {np.percentile(slide, 95):.2f}, "
           f"max {slide.max():.2f} over {slide.size} contacts")
     assert slide.size > 1000 and np.percentile(slide, 95) <= 3.0
+
+
+@pytest.mark.slow
+def test_an_own_character_plays_its_walk_cycle_at_each_agents_gait_phase(tmp_path):
+    """*Own character*: a tiny armature of one's own with a one-stride walk action, bound by
+    the add-on, shows on every walking frame the pose of its cycle at the agent's gait
+    phase (so each plays it at its own rate), and its rest pose while it stands."""
+    from crowdmotion.blender import write_addon
+    from crowdmotion.io import read_locomotion
+
+    fps = 24.0
+    t = np.arange(0, 241) / fps
+    pos = np.zeros((241, 3, 2))
+    pos[:, 0] = np.stack([1 + 0.8 * t, np.full_like(t, 2.0)], axis=1)  # slow, east
+    pos[:, 1] = np.stack([np.full_like(t, 6.0), 1 + 1.6 * t], axis=1)  # brisk, north
+    pos[:, 2] = [9.0, 4.0]  # stands
+    tr = Trajectories(pos, 1 / fps, radius=[0.25] * 3)
+    path = tr.save(tmp_path / "run.usdc")
+    loco = read_locomotion(path)
+    addon = write_addon(tmp_path)
+    (tmp_path / "user").mkdir()
+    done = subprocess.run([BLENDER_PYTHON, str(pathlib.Path(__file__).with_name("blender_own_rig_check.py")),
+                           str(addon), str(path)], capture_output=True, text=True, timeout=600,
+                          env={**os.environ, "BLENDER_USER_RESOURCES": str(tmp_path / "user")})
+    line = next((x for x in done.stdout.splitlines() if x.startswith("CROWDMOTION_JSON ")), None)
+    assert line, done.stderr[-3000:]
+    got = json.loads(line.split(" ", 1)[1])
+    assert got["result"] == ["FINISHED"] and got["agents"] == 3 and got["bodies"] == [1, 1, 1]
+    assert got["walk_range"] == [1.0, 25.0]
+    roots = np.array([[r["root"] for r in row] for row in got["frames"]])
+    thigh = np.array([[r["thigh"] for r in row] for row in got["frames"]])
+    assert roots.shape[0] == tr.n_frames
+    np.testing.assert_allclose(roots[:, :, :2], tr.positions, atol=0.01)  # where the trajectories say
+    # walking (past the 0.3 s fade from standing): the cycle's pose at the agent's phase,
+    # to the linear keys' rounding (a key every 1/24 of the stride)
+    walking = (loco.gait_state[:, :2] == 1)
+    walking[: int(0.5 * fps)] = False
+    want = got["amplitude"] * np.sin(2 * np.pi * loco.gait_phase[:, :2])
+    assert walking.sum() > 400
+    np.testing.assert_allclose(thigh[:, :2][walking], want[walking], atol=0.02)
+    # so each plays its cycle at its own rate: cycles per second from the thigh's swings
+    swings = ((thigh[1:, :2] >= 0) & (thigh[:-1, :2] < 0)).sum(axis=0) / (tr.n_frames / fps)
+    wraps = (np.diff(loco.gait_phase[:, :2], axis=0) < -0.5).sum(axis=0) / (tr.n_frames / fps)
+    np.testing.assert_allclose(swings, wraps, atol=0.15)
+    assert swings[1] > 1.25 * swings[0] > 0, swings
+    assert np.abs(thigh[:, 2]).max() < 1e-6  # the standing one stands in its rest pose
+    low = np.array([[r["low"] for r in row] for row in got["frames"]])
+    np.testing.assert_allclose(low[:, 2], 0.0, atol=0.01)  # on the ground

@@ -234,3 +234,44 @@ def test_the_points_are_a_guide_with_orient_and_both_prims_carry_the_locomotion_
         assert phase[0] == pytest.approx(loco.gait_phase[24, 0], abs=1e-6) and phase[1] == -1.0  # a car has none
         assert list(api.GetPrimvar("contact_left").Get(code))[1] == 0
         assert api.GetPrimvar("turn_rate").Get(code) is not None and api.GetPrimvar("speed").Get(code) is not None
+
+
+def test_the_points_carry_what_houdinis_crowd_tools_read(tmp_path):
+    """docs/exporting.md's Houdini paragraph: /World/Agents' points carry widths, ids,
+    velocities (Houdini's v), orient and the locomotion primvars, one value per point
+    (vertex interpolation: point attributes in Houdini); exported with Houdini's axes
+    (Y up, facing +Z) orient turns +Z to the agent's facing and keeps +Y up."""
+    from pxr import Gf, Sdf, Usd, UsdGeom
+
+    from crowdmotion.locomotion import IDLE, WALK
+
+    t = np.arange(49) / 24
+    pos = np.zeros((49, 3, 2))
+    pos[:, 0, 0] = 1.3 * t  # east
+    pos[:, 1, 1] = 1.3 * t  # north
+    pos[:, 2] = [4.0, 4.0]  # stands
+    tr = Trajectories(pos, 1 / 24, radius=[0.25, 0.3, 0.2])
+    stage = Usd.Stage.Open(str(tr.save(tmp_path / "h.usda", prototype_up="Y", prototype_forward="Z")))
+    points = UsdGeom.Points(stage.GetPrimAtPath("/World/Agents"))
+    code = 24.0
+    np.testing.assert_allclose(points.GetWidthsAttr().Get(code), [0.5, 0.6, 0.4], rtol=1e-6)
+    assert list(points.GetIdsAttr().Get(code)) == [0, 1, 2]
+    v = np.array(points.GetVelocitiesAttr().Get(code))
+    np.testing.assert_allclose(v, [[1.3, 0, 0], [0, 0, -1.3], [0, 0, 0]], atol=1e-5)  # world north is USD -Z
+    api = UsdGeom.PrimvarsAPI(points)
+    kinds = {"orient": Sdf.ValueTypeNames.QuatfArray, "gait_phase": None, "gait_state": None, "distance": None,
+             "turn_rate": None, "contact_left": None, "contact_right": None, "speed": None}
+    for name, kind in kinds.items():
+        var = api.GetPrimvar(name)
+        assert var and var.GetInterpolation() == UsdGeom.Tokens.vertex, name  # a point attribute in Houdini
+        assert len(var.Get(code)) == 3, name
+        if kind is not None:
+            assert var.GetTypeName() == kind, name
+    loco = tr.locomotion()
+    np.testing.assert_allclose(api.GetPrimvar("gait_phase").Get(code), loco.gait_phase[24], atol=1e-6)
+    assert list(api.GetPrimvar("gait_state").Get(code)) == [WALK, WALK, IDLE]
+    for i, want in ((0, (1, 0, 0)), (1, (0, 0, -1))):  # +Z (the prototype's front) to the facing
+        q = api.GetPrimvar("orient").Get(code)[i]
+        rot = Gf.Rotation(Gf.Quatd(q.GetReal(), Gf.Vec3d(q.GetImaginary())))
+        np.testing.assert_allclose(rot.TransformDir(Gf.Vec3d(0, 0, 1)), want, atol=2e-3)
+        np.testing.assert_allclose(rot.TransformDir(Gf.Vec3d(0, 1, 0)), (0, 1, 0), atol=2e-3)  # upright

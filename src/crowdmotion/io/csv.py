@@ -9,7 +9,7 @@ import pyarrow.csv as pacsv
 
 from crowdmotion.io.atomic import atomic_path
 from crowdmotion.io.longform import from_table, locomotion_from_table, metadata_json, to_table
-from crowdmotion.locomotion import LocomotionParams, locomotion as derive_locomotion
+from crowdmotion.locomotion import LocomotionParams
 
 
 def sidecar(path: Path) -> Path:
@@ -19,7 +19,7 @@ def sidecar(path: Path) -> Path:
 def write(traj, path: Path, locomotion: LocomotionParams | None = None) -> None:
     """Write ``traj`` and its locomotion channels (derived with ``locomotion``'s
     parameters, the defaults when None) to ``path``, atomically."""
-    loco = derive_locomotion(traj, locomotion)
+    loco = traj.locomotion(locomotion)  # derived once per run: every file shares them
     table = to_table(traj, loco)
     with atomic_path(path) as tmp:
         pacsv.write_csv(table, tmp)

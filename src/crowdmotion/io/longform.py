@@ -8,7 +8,7 @@ import json
 import numpy as np
 import pyarrow as pa
 
-from crowdmotion.locomotion import STATES, Locomotion, LocomotionParams, locomotion
+from crowdmotion.locomotion import STATES, Locomotion, LocomotionParams
 from crowdmotion.trajectories import Trajectories
 
 LOCOMOTION_COLUMNS = ("distance", "gait_phase", "gait_state", "turn_rate", "contact_left", "contact_right")
@@ -28,7 +28,7 @@ def to_table(traj: Trajectories, loco: Locomotion | None = None) -> pa.Table:
     ``gait_state`` (text: idle, walk, run, turn, move), ``turn_rate`` (rad/s) and
     ``contact_left`` / ``contact_right``; phase and contacts are null for agents that
     are not walkers."""
-    loco = locomotion(traj) if loco is None else loco
+    loco = traj.locomotion() if loco is None else loco
     t, n, d = traj.positions.shape
     frame = np.repeat(np.arange(t, dtype=np.int64), n)
     pos = traj.positions.reshape(t * n, d)

@@ -9,7 +9,7 @@ import pyarrow.parquet as pq
 
 from crowdmotion.io.atomic import atomic_path
 from crowdmotion.io.longform import from_table, locomotion_from_table, metadata_json, to_table
-from crowdmotion.locomotion import LocomotionParams, locomotion as derive_locomotion
+from crowdmotion.locomotion import LocomotionParams
 
 _KEY = b"crowdmotion"
 
@@ -17,7 +17,7 @@ _KEY = b"crowdmotion"
 def write(traj, path: Path, locomotion: LocomotionParams | None = None) -> None:
     """Write ``traj`` and its locomotion channels (derived with ``locomotion``'s
     parameters, the defaults when None) to ``path``, atomically."""
-    loco = derive_locomotion(traj, locomotion)
+    loco = traj.locomotion(locomotion)  # derived once per run: every file shares them
     table = to_table(traj, loco)
     table = table.replace_schema_metadata({_KEY: metadata_json(traj, loco).encode()})
     with atomic_path(path) as tmp:

@@ -34,7 +34,7 @@ import shapely
 
 from crowdmotion.io.atomic import atomic_path
 from crowdmotion.io.longform import metadata_json
-from crowdmotion.locomotion import IDLE, STATES, Locomotion, LocomotionParams, locomotion as derive_locomotion
+from crowdmotion.locomotion import IDLE, STATES, Locomotion, LocomotionParams
 from crowdmotion.scene import Box, Circle, Polygon, Scene, Sphere
 from crowdmotion.trajectories import Trajectories
 
@@ -128,7 +128,7 @@ def write(traj: Trajectories, path: Path, locomotion: LocomotionParams | None = 
     pos = traj.positions[frame, agent, :2] + np.random.default_rng(0).uniform(-JITTER_M, JITTER_M, (len(frame), 2))
     ori = _orientation(traj)[frame, agent]
     rows = np.column_stack([frame, traj.ids[agent], pos, ori])
-    loco = derive_locomotion(traj, locomotion)
+    loco = traj.locomotion(locomotion)  # derived once per run: every file shares them
     walker = loco.walker[agent]
 
     def gait(values):  # NULL (NaN) for agents that are not walkers

@@ -57,7 +57,7 @@ import numpy as np
 
 from crowdmotion.io.atomic import atomic_path
 from crowdmotion.io.longform import metadata_json
-from crowdmotion.locomotion import Locomotion, LocomotionParams, locomotion as derive_locomotion
+from crowdmotion.locomotion import Locomotion, LocomotionParams
 from crowdmotion.trajectories import Trajectories
 
 AXES = {"X": (1.0, 0.0, 0.0), "Y": (0.0, 1.0, 0.0), "Z": (0.0, 0.0, 1.0),
@@ -308,7 +308,7 @@ def write(traj: Trajectories, path: Path, locomotion: LocomotionParams | None = 
     codes = np.arange(traj.n_frames) * traj.dt * rate  # the time code of each frame
     pos = to_usd_frame(traj.positions).astype(np.float32)
     act = traj.active_mask
-    loco = derive_locomotion(traj, locomotion)
+    loco = traj.locomotion(locomotion)  # derived once per run: every file shares them
     channels = _locomotion_primvars(loco)
     # Vt.QuathArray.FromNumpy takes (i, j, k, real)
     orient = quaternion_product(orientations(traj.facing, traj.facing_pitch), axes)[..., [1, 2, 3, 0]]

@@ -22,7 +22,7 @@ import numpy as np
 from matplotlib.colors import to_hex
 
 from crowdmotion.io.atomic import atomic_path
-from crowdmotion.locomotion import STATES, locomotion
+from crowdmotion.locomotion import STATES
 from crowdmotion.render.colours import group_colours
 from crowdmotion.trajectories import Trajectories
 
@@ -41,7 +41,7 @@ def player_data(traj: Trajectories, max_frames: int = 3000) -> dict:
     facing = np.stack([np.cos(pitch) * np.cos(yaw), np.cos(pitch) * np.sin(yaw), np.sin(pitch)], axis=-1)
     names = list(dict.fromkeys(traj.group.tolist()))
     colours = group_colours(names)
-    loco = locomotion(traj)  # on the run's own frames, then picked as the positions are
+    loco = traj.locomotion()  # on the run's own frames (shared with the run's files), then picked as the positions are
     # one byte per agent and frame: the state (bits 0-2), left foot down (bit 3), right (bit 4)
     gait = (loco.gait_state[frames].astype(np.uint8) | (loco.contact_left[frames].astype(np.uint8) << 3)
             | (loco.contact_right[frames].astype(np.uint8) << 4))  # as in the pictures: a group called "red" is red

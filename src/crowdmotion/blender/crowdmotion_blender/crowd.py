@@ -27,6 +27,7 @@ from . import walker as walker_rig
 IDLE, WALK, RUN, TURN, MOVE = range(5)
 LAST_TIMES: dict = {}  # the seconds each stage of the last import took (the operator reports them too)
 BLEND_S = 0.3  # s: walk to idle (and back) fades over this long
+SWITCH = 1.02  # a cycle is kept until another's stride is this much nearer the agent's
 
 
 class Run:
@@ -159,7 +160,7 @@ def cycle_time(run: Run, table, fps: float) -> tuple[np.ndarray, np.ndarray]:
     chosen = np.zeros(n, np.int64)
     known = np.zeros(n, bool)
     out = np.empty((t, n))
-    width = math.log(walker_rig.RATIO)
+    width = math.log(SWITCH)
     for k in range(t):
         run_now = run.state[k] == RUN
         s = stride[k]
@@ -261,8 +262,10 @@ def bind(run: Run, scene=None, character=None, collection_name: str = "crowdmoti
             body.parent = ob
             coll.objects.link(body)
             body.modifiers.new("walk", "ARMATURE").object = ob
-    if pose_bones is not None:  # the cycles key Euler X: each rig's pose bones rotate in XYZ
-        bpy.context.view_layer.update()  # the rigs' poses exist once evaluated
+    # the rigs' poses exist once evaluated: an armature object without one crashes Blender
+    # (5.0.1) when its action slot is assigned
+    bpy.context.view_layer.update()
+    if pose_bones is not None:  # the walker's legs key Euler angles: each rig's pose bones rotate in XYZ
         for ob in rigs:
             for pb in ob.pose.bones:
                 pb.rotation_mode = "XYZ"
