@@ -97,6 +97,7 @@ def entry_report(names: np.ndarray, due: np.ndarray, entered: np.ndarray) -> dic
 # ---- routes ---------------------------------------------------------------------------
 FREE_POINT_TRIES = 32   # candidate points an agent tries for a free point of an area
 FREE_POINT_GAP_M = 0.1  # clearance between two bodies standing at free points
+FREE_POINT_WALL_GAP_M = 0.25  # clearance between a body at a free point and an obstacle
 DRAW_CHOICE, DRAW_FREE_POINT = 1 << 20, 1 << 21  # draw numbers (per stage id) of each kind
 
 
@@ -378,7 +379,13 @@ class Journeys:
             area = st.area
             anywhere = isinstance(area, (Rect, Disc))
             if isinstance(st, GoTo) and st.arrive == "free_point":
-                w.set_goals(ids, self._free_points(ids, area, sid, w), goal_region=area, leave=False)
+                # each to its own point, along a field of its own: the area's field ends at
+                # the area's edge, and a point behind a fountain in it is not straight ahead
+                for a, point in zip(ids, self._free_points(ids, area, sid, w)):
+                    try:
+                        w.set_goals(a[None], point[None], goal_region=Points(point[None]), leave=False)
+                    except ValueError:  # no field cell of its own that clear: the area's field
+                        w.set_goals(a[None], point[None], goal_region=area, leave=False)
             else:
                 w.set_goals(ids, area.nearest(pos), goal_region=area, arrive_anywhere=anywhere,
                             leave=isinstance(st, Leave))
@@ -487,7 +494,7 @@ class Journeys:
             others = np.array(list(held.values())) if held else np.zeros((0, 2))
             apart = np.full(m, np.inf) if not len(others) else \
                 np.linalg.norm(cand[k][:, None] - others[None], axis=-1).min(axis=1) - 2 * self.radius.max()
-            fits = (room[k] >= rad) & (apart >= FREE_POINT_GAP_M)
+            fits = (room[k] >= rad + FREE_POINT_WALL_GAP_M) & (apart >= FREE_POINT_GAP_M)
             near = np.linalg.norm(cand[k] - pos[k], axis=1)  # the nearest that fits: on the near side
             best = int(np.argmin(np.where(fits, near, np.inf))) if fits.any() else \
                 int(np.argmax(np.minimum(room[k] - rad, apart)))
