@@ -23,6 +23,7 @@ SLACK = 1e-6
 # penalty (m/s of eq. (3)'s deviation) per m/s of velocity change beyond the comfortable one
 COMFORT_WEIGHT = 2.0
 RING = 8  # candidates on the circle of comfortable changes round the current velocity
+LEAVE_LOOK_S = 1.0  # an agent counts on leaving at its goal when it would get there within this many seconds
 
 
 @njit(cache=True)
@@ -164,25 +165,6 @@ def choose_velocities(pos, vel, vpref, aim_dist, radius, vmax, max_nb, nb_dist, 
                         cell_start, items, origin_x, origin_y, h, nx, ny, circ_c, circ_r, circ_v, seg_a, seg_b,
                         seg_v, dt, key, out_vel, out_forced, idx, d2, rel, near_c, near_s, keep_right, look_s,
                         follow, comfort, goals, leave_r)
-
-
-LEAVE_LOOK_S = 1.0  # an agent counts on leaving at its goal when it would get there within this many seconds
-
-
-@njit(inline="always")
-def _entry_time(ex, ey, vx, vy, r):
-    """First time t ≥ 0 at which (ex, ey) + (vx, vy) t lies within r of the origin, or INF."""
-    c = ex * ex + ey * ey - r * r
-    if c <= 0.0:
-        return 0.0
-    b = ex * vx + ey * vy
-    if b >= 0.0:
-        return INF
-    a = vx * vx + vy * vy
-    disc = b * b - a * c
-    if disc < 0.0:
-        return INF
-    return (-b - np.sqrt(disc)) / a
 
 
 @njit(inline="always")
@@ -332,7 +314,7 @@ def _choose_one(i, pos, vel, vpref, aim_dist, radius, vmax, max_nb, nb_dist, sam
         limit = -1.0 if best_pen == INF else w_i / max(best_pen - dev, 1e-300)
         gone = INF  # when the candidate brings the agent within leave_r of its goal: it leaves
         if leave_r[i] > 0.0:
-            gone = _entry_time(px - goals[i, 0], py - goals[i, 1], cx_, cy_, leave_r[i])
+            gone = _ray_disc(px - goals[i, 0], py - goals[i, 1], cx_, cy_, leave_r[i])
             if gone < dt:
                 gone = dt  # it leaves at the end of the step
             elif gone > LEAVE_LOOK_S:
