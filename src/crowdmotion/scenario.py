@@ -36,9 +36,9 @@ ATTRIBUTES: dict[str, type[BaseModel] | None] = {"mdp": None, "rvo": RVOAttribut
                                                  "formation": FormationAttributes}
 # [[groups]] fields only one method reads
 GROUP_FIELD_METHOD = {"personality": "rvo", "formation": "formation", "enter": "rvo"}
-# the route stages each method follows (issue 30: MDP go to / wait / leave, PSO go to /
-# leave and formation every stage but queue are planned, not built)
-ROUTE_SUPPORT = {"rvo": ("goto", "wait", "queue", "choose", "leave"), "mdp": (), "pso": (), "formation": ()}
+# the route stages each method follows
+ROUTE_SUPPORT = {"rvo": ("goto", "wait", "queue", "choose", "leave"), "mdp": (), "pso": (),
+                 "formation": ("goto", "wait", "choose", "leave")}
 
 
 class _Model(BaseModel):
@@ -430,9 +430,10 @@ class GroupSpec(_Model):
     enter : table       rvo: agents enter over time: {rate = persons/s, start = s} or
                         {times = [s, ...]} (one per agent); each enters at a free point of
                         the spawn region, waiting while there is no room
-    route : list        rvo: the stages the agents follow in order ([[groups.route]]
-                        tables: goto, wait, queue, choose, leave; see "Route stages");
-                        the goal may then be left out
+    route : list        rvo, formation: the stages the agents follow in order
+                        ([[groups.route]] tables: goto, wait, queue, choose, leave;
+                        formation: all but queue; see "Route stages"); the goal may
+                        then be left out
     attributes : table  method-specific extras (Python: Group.attributes), checked against the
                         method's own list (see "Group attributes"): rvo: pref_speed_range,
                         max_neighbors, neighbor_dist, samples, safety; formation: reassign,
@@ -686,15 +687,14 @@ def _route_lines(route: Any, method: str, where: str) -> list[str]:
     if not isinstance(route, list):
         return []
     takes = ROUTE_SUPPORT[method]
-    who = [m for m, kinds in ROUTE_SUPPORT.items() if kinds]
     lines = []
     for i, st in enumerate(route):
         kind = st.get("kind") if isinstance(st, dict) else None
         if kind in ROUTE_SUPPORT["rvo"] and kind not in takes:
-            why = "follows no route stages yet" if not takes else f"follows only {', '.join(takes)} stages"
+            why = "follows no route stages" if not takes else f"follows only {', '.join(takes)} stages"
+            who = [repr(m) for m, kinds in ROUTE_SUPPORT.items() if kind in kinds]
             lines.append(f"{where}.{i}: a {kind!r} stage, but method {method!r} {why}; method "
-                         + " and ".join(repr(m) for m in who) + " follows every stage kind (goto, wait, queue, "
-                         f"choose, leave)")
+                         + " and ".join(who) + (" follows" if len(who) == 1 else " follow") + f" {kind} stages")
     return lines
 
 

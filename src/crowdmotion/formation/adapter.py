@@ -17,12 +17,16 @@ def check_scenario(scene, groups, params: FormationParams) -> None:
     """Problems a scenario can be refused for before running: a goal outside the bounds
     or where a body cannot stand, a 3D scene, a template that does not match the count,
     duplicate or blocked starts, a goal that walls cut off from the formation's start."""
-    from crowdmotion.checks import check_goal_clear, check_inside, describe_region, where
+    from crowdmotion.checks import check_goal_clear, check_inside, check_route_places, describe_region, where
+    from crowdmotion.formation.routes import check_formation_route
 
     for k, g in enumerate(groups):
         if g.dim == scene.dim:  # (a 3D group is refused, by name, as the simulator is built)
             check_goal_clear(scene, k, g)
             check_inside(scene, k, g, "goal")
+            if g.attributes.get("route") is not None:
+                check_formation_route(g.attributes["route"], where(k, g))
+                check_route_places(scene, k, g)
     sim = build_simulator(scene, groups, params, np.random.default_rng(0))
     try:
         stranded = sim.cut_off()
@@ -62,6 +66,7 @@ def run_scenario(scene, groups, params: FormationParams, rng, progress: bool = T
         "steps": sim.steps,
         "all_recovered": sim.done,
         "formation": result.report,
+        **({} if result.journeys is None else {"journeys": result.journeys.report([g.name for g in groups])}),
         "rules": dict(sim.stats),
         "groups": metrics.group_report(traj),
     })

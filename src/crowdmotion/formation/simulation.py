@@ -5,7 +5,7 @@ with the formation measures of each group."""
 from __future__ import annotations
 
 from dataclasses import dataclass, field
-from typing import Callable, Sequence
+from typing import Any, Callable, Sequence
 
 import numpy as np
 
@@ -58,6 +58,7 @@ class FormationRun:
     torn: list[np.ndarray]
     dislocated: list[np.ndarray]
     report: dict = field(default_factory=dict)
+    journeys: Any = None  # the route state machine (crowdmotion.journeys.Journeys), None without routes
 
     def snapshot(self, step: int) -> list[dict]:
         """Every group's mesh and agents at raw step ``step`` (for figures)."""
@@ -98,7 +99,10 @@ def run(scene: Scene, groups: Sequence[Group], params: FormationParams | dict | 
     params = params if isinstance(params, FormationParams) else make_params(params)
     rng = np.random.default_rng(0) if rng is None else rng
     sim = build_simulator(scene, groups, params, rng)
+    journeys, walkers = build_journeys(sim, scene, groups, rng)
     frames = [sim.positions.copy()]
+    present = [sim.active.copy()]
+    stages = [] if journeys is None else [_stage_frame(journeys, walkers, sim)]
     facing = [sim.facing()]
     headings = [[g.heading] for g in sim.groups]
     verts = [[g.vertices.copy()] for g in sim.groups]
@@ -109,7 +113,12 @@ def run(scene: Scene, groups: Sequence[Group], params: FormationParams | dict | 
     try:
         for _ in range(params.max_steps):
             sim.step()
+            if journeys is not None:  # groups bound for an exit leave there; the rest move on
+                walkers.after_step()
+                journeys.update(walkers, sim.dt)
+                stages.append(_stage_frame(journeys, walkers, sim))
             frames.append(sim.positions.copy())
+            present.append(sim.active.copy())
             facing.append(sim.facing())
             for k, g in enumerate(sim.groups):
                 verts[k].append(g.vertices.copy())
@@ -119,11 +128,13 @@ def run(scene: Scene, groups: Sequence[Group], params: FormationParams | dict | 
                 dislocated[k].append(g.guide.dislocated.copy())
             if progress is not None:
                 progress(1)
-            if sim.done:
+            if sim.done and (journeys is None or not journeys.busy(walkers.active)):
                 break
     except KeyboardInterrupt:  # Ctrl-C: keep the steps so far, marked partial
         partial = True
-    n = min(len(frames), len(facing), *(len(x) for lists in (verts, torn, field_steps, dislocated) for x in lists))
+    n = min(len(frames), len(facing), len(present), len(stages) if journeys is not None else len(frames),
+            *(len(x) for lists in (verts, torn, field_steps, dislocated) for x in lists))
+    active = np.array(present[:n])
     frames = np.array(frames[:n])
     facing = limit_turn(np.array(facing[:n]), MAX_TURN_RATE * sim.dt)
     verts, torn = [v[:n] for v in verts], [t[:n] for t in torn]
@@ -131,8 +142,13 @@ def run(scene: Scene, groups: Sequence[Group], params: FormationParams | dict | 
     from crowdmotion import __version__
 
     names = np.concatenate([np.full(len(g.agents), g.name, dtype=object) for g in sim.groups])
+    metadata = {}
+    if journeys is not None:
+        metadata["stages"] = journeys.stage_table([g.name for g in sim.groups])
     traj = Trajectories(frames, sim.dt, group=names, radius=sim.radius.copy(), facing=facing,
-                        metadata={"method": "formation", "params": params.model_dump(), "scene": scene.to_dict(),
+                        active=None if active.all() else active,
+                        stage=None if journeys is None else np.array(stages[:n]),
+                        metadata=metadata | {"method": "formation", "params": params.model_dump(), "scene": scene.to_dict(),
                                   "version": __version__, "steps": sim.steps, "stats": dict(sim.stats),
                                   "partial": partial, "facing": FACING,
                                   "bodies": {g.name: "car" if g.cars else "walker" for g in sim.groups}})
@@ -144,7 +160,39 @@ def run(scene: Scene, groups: Sequence[Group], params: FormationParams | dict | 
             report[g.name].update(car_measures(frames, facing, np.array(headings[k][:n]), g.agents[g.template.pairs]))
     out = traj if params.fps is None else resample(traj, params.fps, "linear")
     return FormationRun(out, sim, frames, [np.array(v) for v in verts], [np.array(t) for t in torn], dislocated,
-                        report)
+                        report, journeys)
+
+
+def build_journeys(sim: Simulator, scene: Scene, groups: Sequence[Group], rng: np.random.Generator):
+    """The route state machine with each formation as one walker (``(journeys,
+    walkers)``, both None when no group has a route: ``rng`` is then left untouched),
+    already moved on to every group's first stage. A queue stage is refused."""
+    from crowdmotion._rng import step_key
+    from crowdmotion.checks import where
+    from crowdmotion.formation.routes import FormationWalkers, check_formation_route
+    from crowdmotion.journeys import Journeys
+
+    routes = [g.attributes.get("route") for g in groups]
+    if all(r is None for r in routes):
+        return None, None
+    for k, r in enumerate(routes):
+        if r is not None:
+            check_formation_route(r, where(k, groups[k]))
+
+    def clearance(points: np.ndarray) -> np.ndarray:
+        walls = np.minimum(points - scene.lower, scene.upper - points).min(axis=1)
+        return np.minimum(walls, scene.static_obstacle_distance(points))
+
+    walkers = FormationWalkers(sim)
+    journeys = Journeys(routes, np.arange(len(groups)), [g.spawn for g in groups],
+                        [g.extent for g in sim.groups], [g.pref_speed for g in sim.groups], step_key(rng), clearance)
+    journeys.update(walkers, sim.dt)
+    return journeys, walkers
+
+
+def _stage_frame(journeys, walkers, sim: Simulator) -> np.ndarray:
+    """(N,) each agent's stage id: its group's, -1 once the group left."""
+    return journeys.frame(walkers.active)[sim.group_of]
 
 
 def _group_report(sim: Simulator, k: int, g, in_field: np.ndarray, dislocated: np.ndarray) -> dict:

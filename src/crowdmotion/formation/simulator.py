@@ -113,6 +113,7 @@ class FormationGroup:
     stale_steps: int = 0  # steps since it last came nearer
     uniform_until: float = float("-inf")  # stall relief: uniform handles until then
     settled_at: float | None = None  # recovered and standing on its places (see Simulator._settle)
+    left_at: float | None = None  # when it left the scene (a route's leave stage: Simulator.remove_group)
     vertex_velocity: np.ndarray | None = None  # (n, 2) each vertex's move over the last step / dt
 
     @property
@@ -166,6 +167,7 @@ class Simulator:
         self.field = PotentialField(scene, self.params.field_range, self.params.field_cell)
         self._route: DistanceFields | None = None  # routes round static walls to each group's goal
         self._route_stale = True
+        self._routes_solved: dict[tuple, DistanceFields] = {}  # by the groups' goals: a goal met again re-solves nothing
         self.obstacles = ObstacleSet(scene, "formation", "the guiding-mesh method")
         self.rng = np.random.default_rng(0) if rng is None else rng
         self.groups: list[FormationGroup] = []
@@ -174,6 +176,7 @@ class Simulator:
         self.radius = np.zeros(0)
         self.max_speed = np.zeros(0)
         self.group_of = np.zeros(0, np.int64)
+        self.active = np.zeros(0, bool)  # in the scene (a group that left by remove_group is not)
         self.pairs = np.zeros((0, 2), np.int64)  # cars: the two agents of each (global indices)
         self.pair_length = np.zeros(0)  # and their distance, the car width
         self.time = 0.0
@@ -241,6 +244,7 @@ class Simulator:
         self.radius = np.concatenate([self.radius, np.full(n, radius)])
         self.max_speed = np.concatenate([self.max_speed, np.full(n, max_speed)])
         self.group_of = np.concatenate([self.group_of, np.full(n, len(self.groups) - 1)])
+        self.active = np.concatenate([self.active, np.ones(n, bool)])
         if len(tpl.pairs):
             self.pairs = np.concatenate([self.pairs, idx[tpl.pairs]])
             self.pair_length = np.concatenate([self.pair_length, np.linalg.norm(
@@ -257,6 +261,8 @@ class Simulator:
             raise ValueError(f"formation.set_goal: no group {group!r} (ids run from 0 to {len(self.groups) - 1})")
         g = self.groups[group]
         what = f"formation group {g.name!r}"
+        if g.left_at is not None:
+            raise ValueError(f"formation.set_goal: {what} left the scene at t = {g.left_at:g} s")
         region, gc = _region_goal(goal)
         self._check_inside(gc[None], g.radius, f"{what}: goal")
         gclear = float(self.scene.obstacle_distance(gc[None], self.time)[0])
@@ -275,6 +281,19 @@ class Simulator:
         g.arrived_at = g.recovered_at = g.settled_at = None
         g.facing_offset = 0.0
         g.best_progress, g.stale_steps, g.uniform_until = float("inf"), 0, float("-inf")
+
+    def remove_group(self, group: int) -> None:
+        """Take a group out of the scene (the live API; a route's leave stage on arrival):
+        its agents stop, keep their last positions, no longer count as bodies or
+        obstacles to the others (``active`` False) and the group counts as done."""
+        if isinstance(group, bool) or not isinstance(group, (int, np.integer)) or not 0 <= group < len(self.groups):
+            raise ValueError(f"formation.remove_group: no group {group!r} (ids run from 0 to {len(self.groups) - 1})")
+        g = self.groups[group]
+        if g.left_at is None:
+            g.left_at = self.time
+            self.active[g.span] = False
+            self.velocities[g.span] = 0.0
+            self._grid = None
 
     def _check_inside(self, pos: np.ndarray, radius: float, what: str) -> None:
         lo, hi = self.scene.lower, self.scene.upper
@@ -340,7 +359,7 @@ class Simulator:
             wait = max(0.1, 1.0 - 2.0 * float(g.guide.dislocated.mean()))
             u = wait * g.pref_speed * self._route_directions(k, V, to_goal / dist) * min(1.0, dist / SLOW_DOWN)
             fvec, fmag = self.field.sample(V)
-            others = np.arange(len(self.groups)) != k
+            others = (np.arange(len(self.groups)) != k) & np.array([h.left_at is None for h in self.groups])
             if others.any():
                 gv, gf = disc_field(V, centers[others], reach[others], p.field_range)
                 fvec = fvec + gv
@@ -512,7 +531,10 @@ class Simulator:
         self._route = None
         if self.groups and self.scene.static_obstacles:
             goals = [g.goal if isinstance(g.goal, (Rect, Disc)) else Points([g.goal_center]) for g in self.groups]
-            self._route = distance_fields(self.scene, goals, min(g.radius for g in self.groups))
+            key = tuple((type(r).__name__, repr(r)) for r in goals)
+            if key not in self._routes_solved:  # a route's stages come back to the same goals
+                self._routes_solved[key] = distance_fields(self.scene, goals, min(g.radius for g in self.groups))
+            self._route = self._routes_solved[key]
 
     @staticmethod
     def _arrive(g: FormationGroup, V: np.ndarray, centroid: np.ndarray) -> None:
@@ -595,6 +617,8 @@ class Simulator:
         dt = self.dt
         want = np.zeros_like(self.positions)
         for g in self.groups:
+            if g.left_at is not None:
+                continue
             o = self.positions[g.span]
             # whole-group reassignment (the least summed squared distance): in the target
             # area, and on the way whenever no vertex is in a field; agents left behind the
@@ -722,8 +746,7 @@ class Simulator:
         if reach <= 0 or len(who) == 0:
             return out
         if self._grid is None:
-            live = np.ones(len(self.positions), bool)
-            self._grid = grid_for(self.positions, live, self.radius, self.max_speed, self.dt,
+            self._grid = grid_for(self.positions, self.active, self.radius, self.max_speed, self.dt,
                                   extra=reach + 2 * float(self.radius.max()))
         repulsion(who, self.positions, self.radius, reach, speed, *self._grid, out)
         return out
@@ -741,10 +764,12 @@ class Simulator:
         prims = self._prims = self.obstacles.at(self.time, self.dt)  # obstacles placed now
         centers, reach = self._discs()
         for k, g in enumerate(self.groups):
-            self._advance_mesh(k, g, centers, reach)
+            if g.left_at is None:
+                self._advance_mesh(k, g, centers, reach)
         self._agent_velocities()
         self._rigid_pairs()
-        active = np.ones(len(self.positions), dtype=bool)
+        active = self.active.copy()
+        self.velocities[~active] = 0.0
         scale = self._obstacle_pass(active)
         self.stats["obstacle_cuts"] += int((scale < 1).sum())
         if len(self.pairs):
@@ -756,13 +781,16 @@ class Simulator:
                                                         priority, *grid, self.dt)
         self._stop_whole_cars(active, priority, grid)
         self.positions = self.positions + self.velocities * self.dt
-        self.stats["agent_steps"] += len(self.positions)
+        self.stats["agent_steps"] += int(active.sum())
         self.time += self.dt
         self.steps += 1
         self._bookkeeping()
 
     def _bookkeeping(self) -> None:
         for g in self.groups:
+            if g.left_at is not None:  # as it left
+                g.edge_error.append(g.edge_error[-1] if g.edge_error else 0.0)
+                continue
             mean, _ = edge_errors(self.positions[g.span][g.guide.slot_order], g.mesh.edges, g.mesh.rest_length)
             g.edge_error.append(mean)
             if g.recovered_at is not None and g.settled_at is None:
@@ -791,8 +819,10 @@ class Simulator:
 
     @property
     def done(self) -> bool:
-        """Every group is in its target area, has recovered its formation and settled."""
-        return all(g.recovered_at is not None and g.settled_at is not None for g in self.groups)
+        """Every group is in its target area, has recovered its formation and settled
+        (or has left the scene)."""
+        return all(g.left_at is not None or (g.recovered_at is not None and g.settled_at is not None)
+                   for g in self.groups)
 
     def facing(self) -> np.ndarray:
         """(n,) the way each agent faces now, yaw radians: a car along its body (the
