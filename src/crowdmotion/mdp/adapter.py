@@ -36,7 +36,31 @@ def check_scenario(scene, groups, params: MDPParams) -> None:
     from crowdmotion.checks import describe_region, where
     from crowdmotion.mdp.solvers import exact_values
 
+    from crowdmotion.checks import check_route_places
+    from crowdmotion.mdp.routes import check_mdp_route
+    from crowdmotion.mdp.simulation import region_cells
+    from crowdmotion.stages import flat_stages
+
+    for k, g in enumerate(groups):
+        if g.attributes.get("route") is not None:
+            check_mdp_route(g.attributes["route"], where(k, g))
+            check_route_places(scene, k, g)
+            if scene.moving_obstacles:
+                raise ValueError(f"{where(k, g)} route: the MDP method follows routes in static scenes only "
+                                 f"(moving obstacles re-solve every field as they move)")
     su = setup(scene, groups, params, np.random.default_rng(0))
+    for k, g in enumerate(groups):  # every place on a route can be walked to from the spawn
+        starts = su.starts[su.field_of == k]
+        for path, st, _ in flat_stages(g.attributes.get("route") or []):
+            area = getattr(st, "area", None)
+            if area is None:
+                continue
+            at = f"{where(k, g)} {path.replace('[', '.').replace(']', '')} ({st.kind} {st.name!r})"
+            cells = region_cells(su.grid, area, f"{at} area")
+            values = exact_values(su.grid.occupancy, [tuple(c) for c in cells], params.corner_cutting)
+            if not np.isfinite(values[tuple(starts.T)]).any():
+                raise ValueError(f"{at}: cannot be reached from the spawn {describe_region(g.spawn)}: obstacles "
+                                 f"cut the way on the grid of {su.cell:.3g} m cells")
     for k, g in enumerate(groups):
         values = exact_values(su.grid.occupancy, [tuple(c) for c in su.goal_cells[k]], params.corner_cutting)
         starts = su.starts[su.field_of == k]
@@ -71,6 +95,16 @@ def run_scenario(scene, groups, params: MDPParams, rng, progress: bool = True):
         result = run(scene, groups, params, rng, progress=bar.done)
     traj = result.trajectories
     summary = metrics.summary(traj, scene, goal_test(result))
+    journeys = result.journeys
+    if journeys is not None:  # an agent on a route arrives where its route ends (or it leaves)
+        got, when = metrics.arrival(traj, goal_test(result))
+        arrived = np.where(journeys.on_route, journeys.done, got)
+        finished = np.where(journeys.on_route, journeys.finished_at, when)
+        summary["arrival_rate"] = float(arrived.mean())
+        summary["mean_time_to_goal_s"] = float(np.nanmean(finished)) if arrived.any() else None
+        summary["time_to_goal_by_group_s"] = metrics.time_to_goal_by_group(traj, finished)
+        summary["journeys"] = journeys.report([g.name for g in groups])
+        summary["route_fields_solved"] = result.walkers.solves
     field_of = result.field_of
     last = result.grid.cell_of(traj.positions[-1])
     last = np.clip(last, 0, np.array(result.grid.shape) - 1)

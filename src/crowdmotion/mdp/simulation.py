@@ -3,7 +3,7 @@
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import Callable, Sequence
+from typing import Any, Callable, Sequence
 
 import numpy as np
 
@@ -30,6 +30,8 @@ class MDPRun:
     goal_cells: list[np.ndarray]
     unreachable: np.ndarray  # agent indices whose start could not reach their goal
     field_of: np.ndarray  # group (value field) index of each agent
+    journeys: Any = None  # the route state machine (crowdmotion.journeys.Journeys), None without routes
+    walkers: Any = None  # its view of the grid (crowdmotion.mdp.routes.MDPWalkers): fields solved, who left
 
 
 def cell_size_for(groups: Sequence[Group], params: MDPParams) -> float:
@@ -163,6 +165,8 @@ def run(scene: Scene, groups: Sequence[Group], params: MDPParams, rng: np.random
     r_cells = max(g.radius for g in groups) / cell
     walker = Walker(grid.occupancy, starts, masks, field_of, params.corner_cutting, min(r_cells, max_radius(1.0)))
     moving = scene.moving_obstacles
+    if any(g.attributes.get("route") is not None for g in groups):
+        return _run_routes(scene, groups, params, rng, su, walker, dt, progress)
     values = None
     cells_out = [starts[None]]
     active_out = [np.ones((1, len(starts)), dtype=bool)]
@@ -236,6 +240,91 @@ def run(scene: Scene, groups: Sequence[Group], params: MDPParams, rng: np.random
     elif params.smoothing is not None:
         traj = resample_checked(traj, params.fps, params.smoothing, scene, max_speed)
     return MDPRun(traj, grid, values, goal_cells, unreachable, field_of)
+
+
+def _run_routes(scene: Scene, groups: Sequence[Group], params: MDPParams, rng: np.random.Generator, su: Setup,
+                walker: Walker, dt: float, progress: Callable[[int], None] | None) -> MDPRun:
+    """:func:`run` when a group has a route: one step of Algorithm 3 at a time, after
+    each the route state machine moves agents on (:mod:`crowdmotion.mdp.routes`); the
+    step time is fixed ahead (a diagonal within max_speed), so that waits last their
+    seconds, and ``Trajectories.stage`` says each agent's stage per frame."""
+    from crowdmotion._rng import step_key
+    from crowdmotion.checks import where
+    from crowdmotion.journeys import Journeys
+    from crowdmotion.mdp.routes import MDPWalkers, check_mdp_route
+
+    if scene.moving_obstacles:
+        raise ValueError("mdp routes need a static scene: moving obstacles re-solve every field each few steps")
+    routes = [g.attributes.get("route") for g in groups]
+    for k, r in enumerate(routes):
+        if r is not None:
+            check_mdp_route(r, where(k, groups[k]))
+    grid, starts, field_of = su.grid, su.starts, su.field_of.copy()  # each agent's group
+    walker.field_of = walker.field_of.copy()  # the field each agent follows now: its stage's
+    values = np.stack([solve_field(grid.occupancy, gc, params) for gc in su.goal_cells])
+    depth = np.stack([fill_depth(grid.occupancy, gc, params.corner_cutting, su.toward[k])
+                      for k, gc in enumerate(su.goal_cells)])
+    walker.set_values(values + depth)
+    on_route = np.array([routes[k] is not None for k in field_of], dtype=bool)
+    walkers = MDPWalkers(walker, grid, params, dt, values, su.goal_cells, ~on_route & params.remove_on_arrival,
+                         region_cells, solve_field)
+
+    def clearance(points: np.ndarray) -> np.ndarray:
+        walls = np.minimum(points - scene.lower, scene.upper - points).min(axis=1)
+        return np.minimum(walls, scene.static_obstacle_distance(points))
+
+    radius = np.concatenate([np.full(g.count, g.radius) for g in groups])
+    pref = np.concatenate([np.full(g.count, g.pref_speed) for g in groups])
+    journeys = Journeys(routes, field_of, [g.spawn for g in groups], radius, pref, step_key(rng), clearance)
+    journeys.update(walkers, dt)
+    cells_out = [starts[None]]
+    active_out = [np.ones((1, len(starts)), dtype=bool)]
+    stages = [journeys.frame(active_out[0][0])]
+    partial = False
+    try:
+        for done in range(1, params.max_steps + 1):
+            before = walker.cells.copy()
+            c, a = walker.advance(1, rng, params.tau, params.forbid_crossing, False)
+            cells_out.append(c.copy())
+            active_out.append(a)
+            walkers.after_step()  # agents in their exit leave the scene; the rest move on
+            journeys.update(walkers, dt)
+            stages.append(journeys.frame(a[0]))
+            if progress is not None:
+                progress(done)
+            if (params.stop_when_done and not journeys.busy(walkers.active) and walkers.settled()
+                    and (np.array_equal(before, walker.cells) or not walker.can_fill_deeper().any())):
+                break
+    except KeyboardInterrupt:  # Ctrl-C: keep the steps so far, marked partial
+        partial = True
+    if not partial and (active_out[-1][-1] & ~walkers.active).any():  # the last to leave, gone in a frame more
+        cells_out.append(walker.cells[None])
+        active_out.append(walkers.active[None])
+        stages.append(journeys.frame(walkers.active))
+    n = min(len(cells_out), len(active_out), len(stages))
+    cells = np.concatenate(cells_out[:n])
+    active = np.concatenate(active_out[:n])
+    stage = np.array(stages[:n])
+    unreachable = np.flatnonzero(~np.isfinite(values[(field_of, *starts.T)]))
+    names = np.concatenate([np.full(g.count, g.name, dtype=object) for g in groups])
+    traj = Trajectories(
+        grid.centers(cells), dt, group=names, radius=radius, active=None if active.all() else active, stage=stage,
+        metadata={"method": "mdp", "params": params.model_dump(), "cell_size": su.cell, "grid_shape": list(grid.shape),
+                  "steps": int(len(cells) - 1), "unreachable_agents": unreachable.tolist(), "partial": partial,
+                  "scene": scene.to_dict(), "stages": journeys.stage_table([g.name for g in groups]),
+                  "route_fields_solved": walkers.solves},
+    )
+    max_speed = np.concatenate([np.full(g.count, g.max_speed) for g in groups])
+    if params.smoothing == "relaxed":
+        out = relaxed(traj, params, scene, max_speed, False)
+    elif params.smoothing is not None:
+        out = resample_checked(traj, params.fps, params.smoothing, scene, max_speed)
+    else:
+        out = traj
+    if out is not traj:  # each new frame holds the stage of the step it ends in (as resample does)
+        held = np.minimum(np.ceil(out.times / dt - 1e-9).astype(int), traj.n_frames - 1)
+        out.stage = np.where(out.active_mask, stage[held], -1).astype(np.int16)
+    return MDPRun(out, grid, values, su.goal_cells, unreachable, field_of, journeys, walkers)
 
 
 def relaxed(traj: Trajectories, params: MDPParams, scene: Scene, max_speed: np.ndarray,

@@ -66,6 +66,23 @@ class Walker:
         flat = np.stack([np.pad(v, PAD, constant_values=-np.inf).ravel() for v in values])
         self.values = flat
 
+    def add_field(self, values: np.ndarray, goal_mask: np.ndarray) -> int:
+        """Append a value field (``*shape``; goal cells >= 0, the rest < 0) and its goal
+        mask; return its index for ``field_of``."""
+        self.values = np.vstack([self.values, np.pad(values, PAD, constant_values=-np.inf).ravel()[None]])
+        self.goal = np.vstack([self.goal, np.pad(np.asarray(goal_mask, dtype=np.uint8), PAD).ravel()[None]])
+        return len(self.values) - 1
+
+    def remove(self, ids: np.ndarray) -> None:
+        """Take agents ``ids`` out of the scene after the steps done so far: they are
+        drawn where they stand in the last frame, gone from the next, and free their cell."""
+        ids = np.asarray(ids, dtype=np.int64)
+        ids = ids[self.active[ids] == 1]
+        self.active[ids] = 0
+        self.gone_step[ids] = self.steps_done
+        mine = self.occ[self.cur[ids]] == ids
+        self.occ[self.cur[ids][mine]] = -1
+
     def advance(self, steps: int, rng: np.random.Generator, tau: float, forbid_crossing: bool,
                 despawn: bool, out: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
         """Run ``steps`` steps; return ((steps, N, D) cell indices, (steps, N) active).
