@@ -62,6 +62,7 @@ def test_a_formation_of_12_walks_to_the_square_waits_5_s_then_leaves_by_the_east
     seen = [int(s) for s in dict.fromkeys(st[:, 0].tolist())]
     assert seen == [ids[0], ids[1], ids[3], -1]  # square, wait, east exit (among[0]), left
     assert not traj.active[-1].any()
+    assert result.extras.snapshot(len(result.extras.frames) - 1) == []  # figures draw no band that left
     # it keeps its shape between stages: when it begins to wait and when it sets off for the exit
     rest = result.extras.simulator.groups[0].mesh.rest  # the block as it set out
     waiting = np.flatnonzero(st[:, 0] == ids[1])

@@ -59,11 +59,15 @@ class FormationRun:
     dislocated: list[np.ndarray]
     report: dict = field(default_factory=dict)
     journeys: Any = None  # the route state machine (crowdmotion.journeys.Journeys), None without routes
+    active: np.ndarray | None = None  # (steps, agents) still in the scene (a group that left by a route's exit is not)
 
     def snapshot(self, step: int) -> list[dict]:
-        """Every group's mesh and agents at raw step ``step`` (for figures)."""
+        """Every group's mesh and agents at raw step ``step`` (for figures); a group that
+        has left the scene is not drawn."""
         out = []
         for k, g in enumerate(self.simulator.groups):
+            if self.active is not None and not self.active[step][g.agents].any():
+                continue  # it has left the scene
             out.append({"name": g.name, "vertices": self.vertices[k][step], "edges": g.mesh.edges,
                         "torn": self.torn[k][step],
                         "agents": self.frames[step][g.agents], "radius": g.radius,
@@ -160,7 +164,7 @@ def run(scene: Scene, groups: Sequence[Group], params: FormationParams | dict | 
             report[g.name].update(car_measures(frames, facing, np.array(headings[k][:n]), g.agents[g.template.pairs]))
     out = traj if params.fps is None else resample(traj, params.fps, "linear")
     return FormationRun(out, sim, frames, [np.array(v) for v in verts], [np.array(t) for t in torn], dislocated,
-                        report, journeys)
+                        report, journeys, active)
 
 
 def build_journeys(sim: Simulator, scene: Scene, groups: Sequence[Group], rng: np.random.Generator):
