@@ -11,6 +11,7 @@ crowded exit) with the evacuation time of each.
 
 from __future__ import annotations
 
+import textwrap
 import time
 from pathlib import Path
 
@@ -48,7 +49,7 @@ def main() -> None:
         res = run_scenario(sc, progress=False)
         took = time.perf_counter() - t0
         s, traj = res.summary, res.trajectories
-        plot_paths(traj, sc.scene, IMG / f"{name}.png", title=sc.spec.description[:90])
+        plot_paths(traj, sc.scene, IMG / f"{name}.png", title=textwrap.fill(sc.spec.description, 80))
         j = s["journeys"]
         print(f"\n{name}: {traj.n_agents} agents, run {took:.1f} s, last out at {last_out(traj):.1f} s, "
               f"route finished {j['finished']}/{j['on_route']}, overlaps {s['agent_agent_overlaps']}, "
