@@ -402,8 +402,12 @@ def field_directions(pos, field_of, dist, origin_x, origin_y, cell, window, use,
         px, py = pos[i, 0], pos[i, 1]
         cx = int(np.floor((px - origin_x) / cell))
         cy = int(np.floor((py - origin_y) / cell))
-        best = INF
-        bx, by = 0.0, 0.0
+        # the window's cells by cost; the cheapest one in sight wins (of equal costs, the
+        # first in the window's order): line of sight is tested cheapest first, until one is clear
+        cost = np.empty((2 * window + 1) * (2 * window + 1))
+        offx = np.empty_like(cost)
+        offy = np.empty_like(cost)
+        m = 0
         for gx in range(max(cx - window, 0), min(cx + window, gx_n - 1) + 1):
             for gy in range(max(cy - window, 0), min(cy + window, gy_n - 1) + 1):
                 d = dist[f, gx, gy]
@@ -411,11 +415,22 @@ def field_directions(pos, field_of, dist, origin_x, origin_y, cell, window, use,
                     continue
                 ex = origin_x + (gx + 0.5) * cell - px
                 ey = origin_y + (gy + 0.5) * cell - py
-                cost = d + np.sqrt(ex * ex + ey * ey)
-                if cost < best and _clear(px, py, px + ex, py + ey, radius[i], circ_c, circ_r, seg_a, seg_b):
-                    best, bx, by = cost, ex, ey
-        out[i, 0] = bx
-        out[i, 1] = by
+                cost[m] = d + np.sqrt(ex * ex + ey * ey)
+                offx[m], offy[m] = ex, ey
+                m += 1
+        while True:
+            best = INF
+            b = -1
+            for q in range(m):
+                if cost[q] < best:
+                    best, b = cost[q], q
+            if b < 0:
+                break
+            if _clear(px, py, px + offx[b], py + offy[b], radius[i], circ_c, circ_r, seg_a, seg_b):
+                out[i, 0] = offx[b]
+                out[i, 1] = offy[b]
+                break
+            cost[b] = INF
 
 
 @njit(cache=True)
