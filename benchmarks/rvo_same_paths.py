@@ -9,7 +9,8 @@ Prints, per scene, a digest of the positions and, with ``--compare``, whether th
 are identical; where they are not, the first differing step, the largest difference and
 the arrivals, overlaps and safety stops of both runs. Scenes: the doorway (120 people,
 two ways), the stand evacuation (2000 people, its first ``--stand-steps`` steps) and two
-streets (``rvo_street_O``, ``rvo_blocked_street``).
+streets (``rvo_street_O``, ``rvo_blocked_street``) and the stand with its exits
+(``rvo_stand_exits``, its first 300 steps).
 """
 
 from __future__ import annotations
@@ -25,7 +26,8 @@ from crowdmotion.builtin import builtin_scenarios
 from crowdmotion.rvo.simulation import build_simulator
 from crowdmotion.scenario import load_scenario
 
-SCENES = {"rvo_doorway": None, "rvo_street_O": None, "rvo_blocked_street": None, "rvo_stand_evacuation": 300}
+SCENES = {"rvo_doorway": None, "rvo_street_O": None, "rvo_blocked_street": None, "rvo_stand_evacuation": 300,
+          "rvo_stand_exits": 300}
 
 
 def run(name: str, steps: int | None) -> tuple[np.ndarray, np.ndarray, dict]:

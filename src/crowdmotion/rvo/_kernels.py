@@ -24,6 +24,9 @@ SLACK = 1e-6
 COMFORT_WEIGHT = 2.0
 RING = 8  # candidates on the circle of comfortable changes round the current velocity
 LEAVE_LOOK_S = 1.0  # an agent counts on leaving at its goal when it would get there within this many seconds
+# lane choice leaves out a neighbour whose weight at every offset is below exp(−LANE_TRUNCATE)
+# of its own: 2e-16, under the rounding of the sums it would join
+LANE_TRUNCATE = 36.0
 
 
 @njit(cache=True)
@@ -381,8 +384,12 @@ def field_directions(pos, field_of, dist, origin_x, origin_y, cell, window, use,
         px, py = pos[i, 0], pos[i, 1]
         cx = int(np.floor((px - origin_x) / cell))
         cy = int(np.floor((py - origin_y) / cell))
-        best = INF
-        bx, by = 0.0, 0.0
+        # the window's cells by cost; the cheapest one in sight wins (of equal costs, the
+        # first in the window's order): line of sight is tested cheapest first, until one is clear
+        cost = np.empty((2 * window + 1) * (2 * window + 1))
+        offx = np.empty_like(cost)
+        offy = np.empty_like(cost)
+        m = 0
         for gx in range(max(cx - window, 0), min(cx + window, gx_n - 1) + 1):
             for gy in range(max(cy - window, 0), min(cy + window, gy_n - 1) + 1):
                 d = dist[f, gx, gy]
@@ -390,11 +397,22 @@ def field_directions(pos, field_of, dist, origin_x, origin_y, cell, window, use,
                     continue
                 ex = origin_x + (gx + 0.5) * cell - px
                 ey = origin_y + (gy + 0.5) * cell - py
-                cost = d + np.sqrt(ex * ex + ey * ey)
-                if cost < best and _clear(px, py, px + ex, py + ey, radius[i], circ_c, circ_r, seg_a, seg_b):
-                    best, bx, by = cost, ex, ey
-        out[i, 0] = bx
-        out[i, 1] = by
+                cost[m] = d + np.sqrt(ex * ex + ey * ey)
+                offx[m], offy[m] = ex, ey
+                m += 1
+        while True:
+            best = INF
+            b = -1
+            for q in range(m):
+                if cost[q] < best:
+                    best, b = cost[q], q
+            if b < 0:
+                break
+            if _clear(px, py, px + offx[b], py + offy[b], radius[i], circ_c, circ_r, seg_a, seg_b):
+                out[i, 0] = offx[b]
+                out[i, 1] = offy[b]
+                break
+            cost[b] = INF
 
 
 @njit(cache=True)
@@ -538,7 +556,29 @@ def lane_choice(pos, vel, vpref, radius, weight, active, cell_start, items, orig
     n = pos.shape[0]
     n_off = offsets.shape[0]
     inv2 = 1.0 / (2.0 * spread * spread)
-    reach = np.sqrt(look * look + 4.0 * spread * spread) + 0.5
+    # offsets on a lattice (multiples m_k of one step, the usual case): a neighbour at
+    # lateral lat weighs exp(−(lat − m·step)²/2σ²) = exp(−lat²/2σ²) · E^m · exp(−(m·step)²/2σ²)
+    # with E = exp(lat·step/σ²): two exp per neighbour instead of one per offset, the last
+    # factor once per agent. Off the lattice: one exp per offset.
+    step = INF
+    widest = 0.0
+    for k in range(n_off):
+        if offsets[k] != 0.0:
+            step = min(step, abs(offsets[k]))
+        widest = max(widest, abs(offsets[k]))
+    mult = np.zeros(n_off, dtype=np.int64)
+    lattice = step < INF and widest <= 12.0 * spread and widest <= 64.0 * step
+    if lattice:
+        for k in range(n_off):
+            mult[k] = int(np.round(offsets[k] / step))
+            if abs(offsets[k] - mult[k] * step) > 1e-9 * step:
+                lattice = False
+    m_max = 0
+    for k in range(n_off):
+        m_max = max(m_max, abs(mult[k]))
+    # a neighbour farther aside than this from every offset adds under exp(−TRUNCATE) of
+    # its weight to any: left out
+    lat_max = widest + np.sqrt(LANE_TRUNCATE / inv2)
     for i in prange(n):
         out[i, 0] = vpref[i, 0]
         out[i, 1] = vpref[i, 1]
@@ -551,11 +591,17 @@ def lane_choice(pos, vel, vpref, radius, weight, active, cell_start, items, orig
         ux, uy = wx / sp, wy / sp
         rx, ry = uy, -ux  # right normal
         px, py = pos[i, 0], pos[i, 1]
-        cx, cy = px + 0.5 * look * ux, py + 0.5 * look * uy
-        gx0, gx1, gy0, gy1 = _cell_box(cx, cy, reach, origin_x, origin_y, h, nx, ny)
-        pres = np.empty(n_off)
-        for k in range(n_off):
-            pres[k] = 0.0
+        # the cells of the box round the strip 0 < ahead <= look, |lateral| <= lat_max
+        x0 = px + min(0.0, look * ux) - lat_max * abs(rx)
+        x1 = px + max(0.0, look * ux) + lat_max * abs(rx)
+        y0 = py + min(0.0, look * uy) - lat_max * abs(ry)
+        y1 = py + max(0.0, look * uy) + lat_max * abs(ry)
+        gx0 = max(int(np.floor((x0 - origin_x) / h)), 0)
+        gx1 = min(int(np.floor((x1 - origin_x) / h)), nx - 1)
+        gy0 = max(int(np.floor((y0 - origin_y) / h)), 0)
+        gy1 = min(int(np.floor((y1 - origin_y) / h)), ny - 1)
+        pres = np.zeros(n_off)
+        acc = np.zeros(2 * m_max + 1)  # Σ_j weight_j exp(−lat_j²/2σ²) E_j^m, m = −m_max … m_max
         for gx in range(gx0, gx1 + 1):
             for gy in range(gy0, gy1 + 1):
                 c = gx * ny + gy
@@ -563,22 +609,43 @@ def lane_choice(pos, vel, vpref, radius, weight, active, cell_start, items, orig
                     j = items[q]
                     if j == i:
                         continue
-                    ojx, ojy = vpref[j, 0], vpref[j, 1]
-                    oncoming = ojx * ux + ojy * uy < -0.5 * np.sqrt(ojx * ojx + ojy * ojy)
                     dx, dy = pos[j, 0] - px, pos[j, 1] - py
                     ahead = dx * ux + dy * uy
                     if ahead <= 0.0 or ahead > look:
                         continue
                     lat = dx * rx + dy * ry
-                    wgt = np.exp(-2.0 * ahead / look)
-                    if not oncoming:  # one going our way is in the way as far as it is slower
-                        lag = 1.0 - (vel[j, 0] * ux + vel[j, 1] * uy) / sp
-                        wgt *= crowd_weight * min(max(lag, 0.0), 1.0)
-                    if wgt == 0.0:
+                    if abs(lat) > lat_max:
                         continue
-                    for k in range(n_off):
-                        e = lat - offsets[k]
-                        pres[k] += wgt * np.exp(-e * e * inv2)
+                    ojx, ojy = vpref[j, 0], vpref[j, 1]
+                    share = 1.0
+                    if not ojx * ux + ojy * uy < -0.5 * np.sqrt(ojx * ojx + ojy * ojy):
+                        # one going our way is in the way as far as it is slower
+                        lag = 1.0 - (vel[j, 0] * ux + vel[j, 1] * uy) / sp
+                        share = crowd_weight * min(max(lag, 0.0), 1.0)
+                        if share == 0.0:
+                            continue
+                    if lattice:
+                        a = share * np.exp(-2.0 * ahead / look - lat * lat * inv2)
+                        e = np.exp(2.0 * lat * step * inv2)
+                        acc[m_max] += a
+                        t = a
+                        for m in range(1, m_max + 1):
+                            t *= e
+                            acc[m_max + m] += t
+                        t = a
+                        einv = 1.0 / e
+                        for m in range(1, m_max + 1):
+                            t *= einv
+                            acc[m_max - m] += t
+                    else:
+                        wgt = share * np.exp(-2.0 * ahead / look)
+                        for k in range(n_off):
+                            d = lat - offsets[k]
+                            pres[k] += wgt * np.exp(-d * d * inv2)
+        if lattice:
+            for k in range(n_off):
+                y = mult[k] * step
+                pres[k] = acc[m_max + mult[k]] * np.exp(-y * y * inv2)
         for k in range(n_off):
             pres[k] *= weight[i]
         p0 = pres[0]  # offsets[0] is 0: straight on

@@ -68,6 +68,21 @@ class GridGraph:
         step = np.stack(np.unravel_index(self.cell_index[self.dst], shape), axis=1) - \
             np.stack(np.unravel_index(self.cell_index[self.src], shape), axis=1)
         self.unit = step / np.linalg.norm(step, axis=1)[:, None]  # (E, 2) direction src -> dst
+        # the CSR layout of both graphs, once: entries by row, then column (the canonical
+        # form scipy's COO -> CSR conversion gives), so a re-solve only fills in weights
+        n = len(self.cell_index)
+        self._layout = {}
+        for directed, rows, cols in ((False, self.src, self.dst),
+                                     (True, np.concatenate([self.dst, self.src]), np.concatenate([self.src, self.dst]))):
+            order = np.lexsort((cols, rows))
+            indptr = np.zeros(n + 1, dtype=np.int64)
+            np.cumsum(np.bincount(rows, minlength=n), out=indptr[1:])
+            self._layout[directed] = (order, cols[order], indptr)
+
+    def _matrix(self, weights: np.ndarray, directed: bool) -> csr_matrix:
+        order, indices, indptr = self._layout[directed]
+        n = len(self.cell_index)
+        return csr_matrix((weights[order], indices, indptr), shape=(n, n))
 
     def distances(self, goal_cells: list, shape: tuple, cost: np.ndarray | None = None,
                   against: tuple[np.ndarray, np.ndarray] | None = None) -> np.ndarray:
@@ -77,15 +92,12 @@ class GridGraph:
         -> dst, and dst -> src), the graph is directed: the cost is that of walking from a
         cell towards the goal."""
         w = self.length if cost is None else self.length * 0.5 * (cost[self.src] + cost[self.dst])
-        n = len(self.cell_index)
         directed = against is not None
         if directed:
             # Dijkstra runs outward from the goal cells, so the edge an agent walks a -> b is b -> a
-            weights = np.concatenate([w + self.length * against[0], w + self.length * against[1]])
-            graph = csr_matrix((weights, (np.concatenate([self.dst, self.src]), np.concatenate([self.src, self.dst]))),
-                               shape=(n, n))
+            graph = self._matrix(np.concatenate([w + self.length * against[0], w + self.length * against[1]]), True)
         else:
-            graph = csr_matrix((w, (self.src, self.dst)), shape=(n, n))
+            graph = self._matrix(w, False)
         out = np.full((len(goal_cells),) + tuple(shape), np.inf)
         for k, goals in enumerate(goal_cells):
             goals = np.asarray(goals, dtype=np.int64).reshape(-1, 2)
@@ -107,25 +119,36 @@ class CongestionRouter:
         if self.enabled:
             self.graph = GridGraph(free, fields.cell)
 
-    def density(self, positions: np.ndarray, weights: np.ndarray | None = None) -> np.ndarray:
-        """(nx, ny) agents per m² on the field grid, smoothed over ~SMOOTH_M metres; with
-        ``weights``, the smoothed sum of each agent's weight per m² instead (its velocity
-        along an axis gives the flux)."""
+    def bins(self, positions: np.ndarray) -> np.ndarray:
+        """(N,) each agent's cell of the field grid, flattened (−1 off the grid)."""
         f = self.fields
         shape = f.blocked.shape
         idx = np.floor((positions - f.origin) / f.cell).astype(np.int64)
         inside = np.all((idx >= 0) & (idx < np.array(shape)), axis=1)
-        counts = np.zeros(shape)
-        np.add.at(counts, (idx[inside, 0], idx[inside, 1]), 1.0 if weights is None else weights[inside])
+        return np.where(inside, idx[:, 0] * shape[1] + idx[:, 1], -1)
+
+    def density(self, positions: np.ndarray, weights: np.ndarray | None = None,
+                bins: np.ndarray | None = None) -> np.ndarray:
+        """(nx, ny) agents per m² on the field grid, smoothed over ~SMOOTH_M metres; with
+        ``weights``, the smoothed sum of each agent's weight per m² instead (its velocity
+        along an axis gives the flux). ``bins``: the agents' cells, if known (:meth:`bins`)."""
+        f = self.fields
+        shape = f.blocked.shape
+        b = self.bins(positions) if bins is None else bins
+        inside = b >= 0
+        counts = np.bincount(b[inside], None if weights is None else weights[inside],
+                             minlength=shape[0] * shape[1]).astype(float).reshape(shape)
         return gaussian_filter(counts / f.cell ** 2, SMOOTH_M / f.cell, mode="constant")
 
-    def against(self, positions: np.ndarray, velocities: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    def against(self, positions: np.ndarray, velocities: np.ndarray,
+                bins: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
         """Extra cost per metre of walking each edge of the graph src -> dst and dst -> src:
         ``counterflow`` × the flux coming the other way, max(0, ∓J · n̂), J taken at the
         edge's middle (the mean of its two cells)."""
         g = self.graph
-        jx = self.density(positions, velocities[:, 0]).ravel()[g.cell_index]
-        jy = self.density(positions, velocities[:, 1]).ravel()[g.cell_index]
+        b = self.bins(positions) if bins is None else bins
+        jx = self.density(positions, velocities[:, 0], b).ravel()[g.cell_index]
+        jy = self.density(positions, velocities[:, 1], b).ravel()[g.cell_index]
         along = 0.5 * ((jx[g.src] + jx[g.dst]) * g.unit[:, 0] + (jy[g.src] + jy[g.dst]) * g.unit[:, 1])
         return self.counterflow * np.maximum(-along, 0.0), self.counterflow * np.maximum(along, 0.0)
 
@@ -136,10 +159,11 @@ class CongestionRouter:
         With ``fields`` (indices), only those are re-solved; the others keep ``exact``."""
         if not self.enabled or len(positions) == 0:
             return exact
-        cost = 1.0 + self.congestion * self.density(positions).ravel()[self.graph.cell_index]
+        bins = self.bins(positions)  # one binning for the density and both flux components
+        cost = 1.0 + self.congestion * self.density(positions, bins=bins).ravel()[self.graph.cell_index]
         against = None
         if self.counterflow > 0 and velocities is not None:
-            against = self.against(positions, velocities)
+            against = self.against(positions, velocities, bins)
         goal_cells = self.fields.goal_cells
         if fields is None or len(fields) == len(goal_cells):
             return self.graph.distances(goal_cells, self.fields.blocked.shape, cost, against)
