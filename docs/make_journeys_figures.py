@@ -3,7 +3,8 @@
     python docs/make_journeys_figures.py
 
 Runs rvo_station_concourse, rvo_town_square and rvo_stand_exits at their defaults, writes
-docs/img/<scene>.png (every path over the scene) and prints per scene its run time, the
+docs/img/<scene>.png (every path over the scene) and the concourse's queues and exits over
+time (docs/img/rvo_station_concourse_journeys.png), and prints per scene its run time, the
 audit, the time the last agent left, and per queue its waits, per exit who left by it;
 then the stand three ways (a random point of the concourse, the nearest exit, the least
 crowded exit) with the evacuation time of each.
@@ -18,7 +19,7 @@ from pathlib import Path
 import numpy as np
 
 from crowdmotion.builtin import builtin_scenarios
-from crowdmotion.render import plot_paths
+from crowdmotion.render import plot_journeys, plot_paths
 from crowdmotion.scenario import load_scenario, parse_scenario, run_scenario
 
 IMG = Path(__file__).parent / "img"
@@ -50,6 +51,8 @@ def main() -> None:
         took = time.perf_counter() - t0
         s, traj = res.summary, res.trajectories
         plot_paths(traj, sc.scene, IMG / f"{name}.png", title=textwrap.fill(sc.spec.description, 80))
+        if name == "rvo_station_concourse":
+            plot_journeys(res.extras.journeys, IMG / f"{name}_journeys.png", title=name)
         j = s["journeys"]
         print(f"\n{name}: {traj.n_agents} agents, run {took:.1f} s, last out at {last_out(traj):.1f} s, "
               f"route finished {j['finished']}/{j['on_route']}, overlaps {s['agent_agent_overlaps']}, "

@@ -352,3 +352,15 @@ def test_stand_evacuation_nearest_beats_a_random_point_and_least_crowded_is_at_l
         out[name] = traj.times[np.flatnonzero(traj.active_mask.any(axis=1))[-1]]
     assert out["nearest"] < out["random point"], out
     assert out["least crowded"] <= out["nearest"], out
+
+
+def test_a_run_with_routes_draws_its_queues_and_exits_over_time(tmp_path):
+    from crowdmotion.outputs import write_run
+
+    result = run_scenario(parse_scenario(GATE), progress=False)
+    written = {p.name for p in write_run(result, tmp_path, plots=["paths"], pictures=None)}
+    assert {"paths.png", "journeys.png"} <= written
+    assert (tmp_path / "journeys.png").stat().st_size > 10_000
+    no_route = GATE.split("[[groups.route]]")[0] + 'goal = { shape = "rect", lower = [39.0, 8.0], upper = [40.0, 12.0] }\n'
+    plain = run_scenario(parse_scenario(no_route), progress=False)
+    assert "journeys.png" not in {p.name for p in write_run(plain, tmp_path / "plain", plots=["paths"], pictures=None)}

@@ -22,13 +22,13 @@ from crowdmotion.registry import get_method
 
 # what ``crowdmotion run`` and the commands that read a run folder write into it
 RUN_FILES = ("trajectories.parquet", "trajectories.csv", "trajectories.csv.meta.json", "trajectories.sqlite",
-             "trajectories.usdc", "trajectories.usda", "summary.json", "report.json", "paths.png", "values.png",
+             "trajectories.usdc", "trajectories.usda", "summary.json", "report.json", "paths.png", "journeys.png", "values.png",
              "snapshots.png", "field.png", "density.png", "formation.gif", "animation.mp4", "animation.gif",
              "view.html")
 MANIFEST = "manifest.json"  # the files a run wrote, and whether it finished writing them
 LOCK = ".crowdmotion.lock"  # held (flock) by the run writing into the folder
 # the picture files each name in [output] plots may give, whatever the method
-PICTURE_FILES = {"paths": ("paths.png",), "values": ("values.png", "field.png"),
+PICTURE_FILES = {"paths": ("paths.png", "journeys.png"), "values": ("values.png", "field.png"),
                  "snapshots": ("snapshots.png", "formation.gif"), "player": ("view.html",)}
 
 

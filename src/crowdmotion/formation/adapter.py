@@ -94,13 +94,15 @@ def write_plots(scene, result: FormationRun, out, which, title: str = "") -> lis
     (``field.png``); ``snapshots``: the meshes at four moments (``snapshots-figure``
     alone) and an animated GIF of the whole run (``formation.gif``, at most 120 frames;
     ``snapshots-animation`` alone)."""
-    from crowdmotion.render import animate_formation_snapshots, plot_formation_snapshots, plot_paths, \
-        plot_potential_field
+    from crowdmotion.render import animate_formation_snapshots, plot_formation_snapshots, plot_journeys, \
+        plot_paths, plot_potential_field
 
     written = []
     if "paths" in which:
         goals = np.array([g.goal_center for g in result.simulator.groups])
         written.append(plot_paths(result.trajectories, scene, out / "paths.png", title=title, goals=goals))
+        if result.journeys is not None:  # a run with routes: its exits over time
+            written.append(plot_journeys(result.journeys, out / "journeys.png", title=title))
     if "values" in which and scene.obstacles:
         field = result.simulator.field
         written.append(plot_potential_field(scene, field.static_f, field.static_vec, field.cell, out / "field.png",

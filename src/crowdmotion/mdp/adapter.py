@@ -124,13 +124,16 @@ def run_scenario(scene, groups, params: MDPParams, rng, progress: bool = True):
 
 
 def write_plots(scene, result: MDPRun, out, which, title: str = "") -> list:
-    """The MDP run's figures: ``paths`` over the scene and the ``values`` field of group 0."""
-    from crowdmotion.render import plot_paths, plot_values
+    """The MDP run's figures: ``paths`` over the scene (and, for a run with routes,
+    ``journeys.png``: its exits over time) and the ``values`` field of group 0."""
+    from crowdmotion.render import plot_journeys, plot_paths, plot_values
 
     written = []
     goals = np.concatenate([result.grid.centers(gc) for gc in result.goal_cells])
     if "paths" in which:
         written.append(plot_paths(result.trajectories, scene, out / "paths.png", title=title, goals=goals))
+        if result.journeys is not None:
+            written.append(plot_journeys(result.journeys, out / "journeys.png", title=title))
     if "values" in which:
         written.append(plot_values(result.values[0], out / "values.png", result.grid.cell_size,
                                    tuple(result.grid.origin), title=f"{title}: state values",

@@ -7,5 +7,5 @@ from crowdmotion._lazy import lazy_exports
 
 __getattr__, __all__ = lazy_exports(__name__, {
     **{name: "plots" for name in ("animate_formation_snapshots", "plot_formation_snapshots", "plot_group_report",
-                                  "plot_paths", "plot_potential_field", "plot_values")},
+                                  "plot_journeys", "plot_paths", "plot_potential_field", "plot_values")},
     "animate": "animation", "plot_density": "animation"})

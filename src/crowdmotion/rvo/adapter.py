@@ -102,10 +102,13 @@ def run_scenario(scene, groups, params: RVOParams, rng, progress: bool = True):
 
 
 def write_plots(scene, result: RVORun, out, which, title: str = "") -> list:
-    """The RVO run's figures: ``paths`` over the scene, coloured by group."""
-    from crowdmotion.render import plot_paths
+    """The RVO run's figures: ``paths`` over the scene, coloured by group (and, for a
+    run with routes, ``journeys.png``: its queues and exits over time)."""
+    from crowdmotion.render import plot_journeys, plot_paths
 
     written = []
     if "paths" in which:
         written.append(plot_paths(result.trajectories, scene, out / "paths.png", title=title))
+        if result.journeys is not None:
+            written.append(plot_journeys(result.journeys, out / "journeys.png", title=title))
     return written
