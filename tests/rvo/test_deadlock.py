@@ -124,3 +124,19 @@ def test_a_gridlock_detour_only_for_crossing_streams_bound_elsewhere():
     assert not _standing_pair([0.0, 1.3], [10.0, 1.0])
     # head-on is the yielding rule's, not a detour
     assert not _standing_pair([-1.3, 0.0], [-10.0, 0.0])
+
+
+def test_a_crowd_bound_for_one_goal_point_steps_in_as_each_leaves():
+    # 150 bodies of 0.5 m converge on one point and leave within 0.5 m of it (SteerSuite's
+    # bottleneck-squeeze in small): leaving agents do not brake for those beyond the point,
+    # so the ring round it keeps moving (135 s; about 320-360 s when they brake)
+    from crowdmotion.cases import Setup, simulate
+    from crowdmotion.groups import Group, Rect
+    from crowdmotion.scene import Scene
+
+    crowd = Group("crowd", 150, spawn=Rect([20, -10], [40, 10]), goal=[0.0, 0.0], radius=0.5, max_speed=1.5,
+                  pref_speed=1.3)
+    out = simulate("rvo", Setup(Scene(bounds=([-20, -20], [45, 20])), [crowd],
+                                {"remove_on_arrival": True, "arrival_radius": 0.5, "max_steps": 800}, seed=0))
+    assert out.summary["arrival_rate"] == 1.0 and out.summary["agent_agent_overlaps"] == 0
+    assert out.traj.n_frames * out.traj.dt <= 200.0
