@@ -300,7 +300,7 @@ def test_least_crowded_sends_some_to_the_farther_exit_when_one_is_swamped():
 def test_validate_refuses_a_queue_stage_for_a_pso_group():
     text = GATE.replace('method = "rvo"', 'method = "pso"').replace("[rvo]\nmax_steps = 800", "")
     with pytest.raises(ScenarioError, match=r"groups.0.route.0 \(group 'riders'\): a 'queue' stage, but method "
-                                            r"'pso' follows no route stages; method 'rvo' follows queue stages"):
+                                            r"'pso' follows only goto, choose, leave stages; method 'rvo' follows queue stages"):
         parse_scenario(text)
 
 

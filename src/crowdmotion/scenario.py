@@ -37,7 +37,8 @@ ATTRIBUTES: dict[str, type[BaseModel] | None] = {"mdp": None, "rvo": RVOAttribut
 # [[groups]] fields only one method reads
 GROUP_FIELD_METHOD = {"personality": "rvo", "formation": "formation", "enter": "rvo"}
 # the route stages each method follows
-ROUTE_SUPPORT = {"rvo": ("goto", "wait", "queue", "choose", "leave"), "mdp": ("goto", "wait", "choose", "leave"), "pso": (),
+ROUTE_SUPPORT = {"rvo": ("goto", "wait", "queue", "choose", "leave"), "mdp": ("goto", "wait", "choose", "leave"),
+                 "pso": ("goto", "choose", "leave"),
                  "formation": ("goto", "wait", "choose", "leave")}
 
 
@@ -430,10 +431,10 @@ class GroupSpec(_Model):
     enter : table       rvo: agents enter over time: {rate = persons/s, start = s} or
                         {times = [s, ...]} (one per agent); each enters at a free point of
                         the spawn region, waiting while there is no room
-    route : list        rvo, formation, mdp: the stages the agents follow in order
+    route : list        rvo, formation, mdp, pso: the stages the agents follow in order
                         ([[groups.route]] tables: goto, wait, queue, choose, leave;
-                        formation and mdp: all but queue; see "Route stages"); the goal may
-                        then be left out
+                        formation and mdp: all but queue; pso: goto, choose, leave; see
+                        "Route stages"); the goal may then be left out
     attributes : table  method-specific extras (Python: Group.attributes), checked against the
                         method's own list (see "Group attributes"): rvo: pref_speed_range,
                         max_neighbors, neighbor_dist, samples, safety; formation: reassign,

@@ -325,3 +325,52 @@ def test_a_route_that_does_not_fit_the_scene_is_refused_naming_the_stage_and_not
     assert sim.journeys is None or not sim.journeys.on_route.any()
     with pytest.raises(ValueError, match=r"route.0 \(leave\).*must be the last stage"):
         sim.set_route(ids, [Leave(cm.groups.Rect([19, 4], [20, 6])), Queue([5, 5], rate=1.0, direction=[-1, 0])])
+
+
+def test_a_barrier_moved_aside_at_10_s_lets_the_crowd_through_and_the_audit_is_clean():
+    scene = _room_with_door()
+    sim = rvo.Simulator(scene, rng=np.random.default_rng(1))
+    barrier = sim.add_obstacle(cm.Box([9.5, 4], [10.5, 6]))  # across the doorway
+    starts = np.array([[1.0 + 1.0 * (k % 6), 1.0 + 1.3 * (k // 6)] for k in range(36)])
+    sim.add_agents(starts, [18, 5], radius=0.25)
+    frames, present = [sim.positions.copy()], [sim.present.copy()]
+    while sim.time < 10.0 - 1e-9:
+        sim.step()
+        frames.append(sim.positions.copy())
+        present.append(sim.present.copy())
+    assert (sim.positions[:, 0] < 9.5).all(), "nobody got past the barrier"
+    moved = sim.move_obstacle(barrier, (0.0, 2.0))  # pushed aside, into the wall's end
+    while (sim.active & ~sim.arrived).any() and sim.time < 120:
+        sim.step()
+        frames.append(sim.positions.copy())
+        present.append(sim.present.copy())
+    assert sim.arrived.all(), "the whole crowd went through once the barrier was aside"
+    obs = sim.scene.obstacles
+    assert obs[barrier].present == (0.0, 10.0) and obs[moved].present == (10.0, np.inf)
+    assert np.allclose(obs[moved].lower, [9.5, 6]) and len(scene.obstacles) == 2, "the user's scene is untouched"
+    traj = cm.Trajectories(np.array(frames), sim.dt, radius=sim.params["radius"], active=np.array(present))
+    report = collision_audit(traj, sim.scene)
+    assert report.agent_agent == 0 and report.agent_obstacle == 0, report.events[:3]
+    # the same paths against a barrier that never moved cross it: the audit does look
+    stayed = cm.Scene(bounds=([0, 0], [20, 10]), obstacles=[*scene.obstacles, cm.Box([9.5, 4], [10.5, 6])])
+    assert collision_audit(traj, stayed).agent_obstacle > 0
+
+
+@pytest.mark.parametrize("to,message", [
+    ((-4.7, 1.0), r"move_obstacle: obstacle 2 moved, agent 0 at \[5.0, 5.0\] would stand inside"),
+    (cm.Circle([18, 5], 0.5), r"move_obstacle: obstacle 2 moved, .* cannot go in"),
+    ((0.0, 0.0, 1.0), r"move_obstacle: an obstacle or an offset \(dx, dy\) is needed"),
+])
+def test_a_move_onto_an_agent_or_its_goal_is_refused_and_nothing_changes(to, message):
+    sim = rvo.Simulator(_room_with_door())
+    barrier = sim.add_obstacle(cm.Box([9.5, 4], [10.5, 6]))
+    sim.add_agents([[5, 5]], [[18, 5]])
+    sim.step()
+    before = list(sim.scene.obstacles)
+    with pytest.raises(ValueError, match=message):
+        sim.move_obstacle(barrier, to)
+    assert sim.scene.obstacles == before and sim.scene.obstacles[barrier].present == (0.0, np.inf)
+    with pytest.raises(ValueError, match="move_obstacle: no obstacle 9"):
+        sim.move_obstacle(9, (1, 0))
+    sim.step()
+    assert sim.active.all()

@@ -25,13 +25,39 @@ def check_scenario(scene, groups, params: PSOParams) -> None:
     take (polygons, moving ones), v_max axes, goals outside the bounds or covered,
     listed starts outside the bounds, in obstacles or on top of each other, spawn
     regions too small, goals walled off from their spawns, and a generated obstacle
-    field that leaves a spawn no room to start. Warns when v_max lets a particle move
+    field that leaves a spawn no room to start; routes with a wait or queue stage, an
+    area outside the bounds or whose centre (where the swarm gathers) is covered, beside
+    a moving target or a generated obstacle field. Warns when v_max lets a particle move
     faster than its group's max_speed."""
-    from crowdmotion.checks import check_goal_clear, check_inside, check_reachable, check_spawn_capacity, \
-        check_start_points, where
+    from crowdmotion.checks import check_goal_clear, check_inside, check_reachable, check_route_places, \
+        check_spawn_capacity, check_start_points, where
+    from crowdmotion.pso.routes import check_pso_route, region_target
+    from crowdmotion.stages import flat_stages
 
     ObstacleArrays.from_scene(scene)
     params.axis_vmax(scene.dim)
+    routed = [i for i, g in enumerate(groups) if g.attributes.get("route") is not None]
+    if routed and params.obstacle_field is not None:
+        raise ValueError(f"pso.obstacle_field: {where(routed[0], groups[routed[0]])} has a route; generated "
+                         f"obstacles keep clear of the groups' goals only, not of route areas: place obstacles "
+                         f"in [scene] instead")
+    for i in routed:
+        g = groups[i]
+        check_pso_route(g.attributes["route"], where(i, g))
+        if isinstance(g.goal, MovingTarget) or any(isinstance(h.goal, MovingTarget) for h in groups):
+            raise ValueError(f"{where(i, g)} route: pso routes need fixed goals; a moving target is followed "
+                             f"on its own, without routes in the scene")
+        check_route_places(scene, i, g)
+        for path, st, _ in flat_stages(g.attributes["route"]):
+            area = getattr(st, "area", None)
+            if area is None:
+                continue
+            point = region_target(area)[None]
+            clear = scene.obstacle_distance(point, 0.0)
+            if clear[0] < g.radius:
+                raise ValueError(f"{where(i, g)} {path.replace('[', '.').replace(']', '')} ({st.kind} {st.name!r}) "
+                                 f"area: its centre {point[0].tolist()}, where the swarm gathers, is covered by an "
+                                 f"obstacle (clearance {clear[0]:.3g} m < radius {g.radius} m)")
     for i, g in enumerate(groups):
         check_goal_clear(scene, i, g)
         points = g.goal.positions if isinstance(g.goal, MovingTarget) else np.asarray(g.goal.center)[None]
@@ -141,6 +167,7 @@ def run_scenario(scene, groups, params: PSOParams, rng, progress: bool = True):
         "generated_obstacles": len(result.scene.obstacles) - len(scene.obstacles),
         "smoothing": smoothing_report(traj, params),
         "groups": metrics.group_report(traj),
+        **({} if result.journeys is None else {"journeys": result.journeys.report(result.group_names)}),
     })
     return traj, result, summary
 

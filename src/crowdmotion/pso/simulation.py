@@ -4,7 +4,7 @@ together (each group is an obstacle to the others), output as Trajectories."""
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import Callable, Sequence
+from typing import Any, Callable, Sequence
 
 import numpy as np
 
@@ -27,6 +27,7 @@ class PSORun:
     swarm_run: SwarmRun
     scene: Scene
     group_names: list[str]
+    journeys: Any = None  # the route state machine (crowdmotion.journeys.Journeys), None without routes
 
 
 def _region_box(region) -> tuple[np.ndarray, np.ndarray]:
@@ -83,6 +84,8 @@ def run(scene: Scene, groups: Sequence[Group], params: PSOParams | None = None,
     except ValueError as exc:
         raise ValueError(f"pso: {exc}") from None
     swarm = Swarm(xs, sw, targets0, rs, params, used, rng)
+    if any(g.attributes.get("route") is not None for g in groups):
+        return _run_routes(swarm, groups, params, rng, progress)
     moving = np.array([isinstance(g.goal, MovingTarget) for g in groups])
     schedule = None
     if moving.any():
@@ -93,6 +96,62 @@ def run(scene: Scene, groups: Sequence[Group], params: PSOParams | None = None,
     names = [g.name for g in groups]
     max_speed = np.array([g.max_speed for g in groups])[result.swarm]
     return PSORun(result.trajectories(names, params.fps, max_speed=max_speed), result, used, names)
+
+
+def _run_routes(swarm: Swarm, groups: Sequence[Group], params: PSOParams, rng: np.random.Generator,
+                progress: Callable[[int], None] | None) -> PSORun:
+    """:func:`run` when a group has a route: one iteration at a time, after each the
+    route state machine moves swarms on (:mod:`crowdmotion.pso.routes`), until every
+    swarm has gathered at its route's end or left (or ``params.max_iterations``);
+    ``Trajectories.stage`` says each particle's stage per frame and ``active`` which
+    particles are still in the scene."""
+    from crowdmotion._rng import step_key
+    from crowdmotion.checks import where
+    from crowdmotion.journeys import Journeys
+    from crowdmotion.pso.routes import PSOWalkers, check_pso_route
+
+    routes = [g.attributes.get("route") for g in groups]
+    for k, g in enumerate(groups):
+        if isinstance(g.goal, MovingTarget):
+            raise ValueError(f"{where(k, g)} goal: pso routes need fixed goals; a moving target is followed "
+                             f"on its own, without routes in the scene")
+        if routes[k] is not None:
+            check_pso_route(routes[k], where(k, g))
+    walkers = PSOWalkers(swarm)
+    journeys = Journeys(routes, np.arange(len(groups)), [g.spawn for g in groups],
+                        [float(swarm.radius[swarm.swarm == k].max()) for k in range(len(groups))],
+                        [g.pref_speed for g in groups], step_key(rng))
+    journeys.update(walkers, params.iteration_time)
+
+    def stage_now():
+        return np.where(walkers.present, journeys.frame(walkers.active)[walkers.swarm_of], -1).astype(np.int16)
+
+    frames, targets, present, stages = [walkers.frame()], [swarm.target.copy()], [walkers.present.copy()], [stage_now()]
+    partial = False
+    try:
+        while len(frames) <= params.max_iterations and swarm.n:
+            swarm.iterate()
+            walkers.after_step()  # particles at their exit leave; swarms that arrived move on
+            journeys.update(walkers, params.iteration_time)
+            frames.append(walkers.frame())
+            targets.append(swarm.target.copy())
+            present.append(walkers.present.copy())
+            stages.append(stage_now())
+            if progress is not None:
+                progress(1)
+            if swarm.done and not journeys.busy(walkers.active):
+                break
+    except KeyboardInterrupt:  # Ctrl-C: keep the iterations so far, marked partial
+        partial = True
+    n = min(len(frames), len(targets), len(present), len(stages))
+    active, stage = np.array(present[:n]), np.array(stages[:n])
+    sr = SwarmRun(np.array(frames[:n]), walkers.swarm_of.copy(), np.array(targets[:n]), walkers.stopped(),
+                  walkers.arrival_iteration(), walkers.radius.copy(), swarm.scene, params, swarm.stats,
+                  params.iteration_time, partial, active=None if active.all() else active, stage=stage,
+                  stages=journeys.stage_table([g.name for g in groups]))
+    names = [g.name for g in groups]
+    max_speed = np.array([g.max_speed for g in groups])[sr.swarm]
+    return PSORun(sr.trajectories(names, params.fps, max_speed=max_speed), sr, swarm.scene, names, journeys)
 
 
 def simulate(scene: Scene, groups: Sequence[Group], params: PSOParams | None = None,

@@ -111,6 +111,7 @@ class Swarm:
         self._lo, self._hi = lo.astype(float).copy(), hi.astype(float).copy()
         self._grid = (self._lo, h, np.maximum(1, np.ceil((hi - lo) / h)).astype(np.int64))
         self.moved = 0
+        self.particle_iterations = 0  # particles stepped, summed over the iterations
         ob = self.obstacles
         expand = params.detection + float(r.max()) + s_max
         self._obstacle_grid = ob.grid(expand, *self._grid)
@@ -149,6 +150,16 @@ class Swarm:
         self.target[mask] = tg[mask]
         self._reset_memory(mask)
 
+    def remove(self, which) -> None:
+        """Take the particles ``which`` (indices into the current ones) out of the scene:
+        they are neither stepped nor avoided any more, and the rest keep their state
+        (velocities, bests, draws); indices of the rest close up, in order."""
+        keep = np.ones(self.n, bool)
+        keep[np.asarray(which, dtype=np.int64)] = False
+        for name in ("x", "v", "swarm", "radius", "stopped", "arrival_iteration", "redirected", "pb", "pbd"):
+            setattr(self, name, np.ascontiguousarray(getattr(self, name)[keep]))
+        self.n = int(keep.sum())
+
     # ---- one iteration ------------------------------------------------------------------
     @property
     def done(self) -> bool:
@@ -159,6 +170,7 @@ class Swarm:
         p = self.params
         moving = ~self.stopped
         self.moved += int(moving.sum())
+        self.particle_iterations += self.n
         key = step_key(self.rng)
         K.propose_velocities(self.x, self.v, self.pb, self.gb, self.swarm, moving, p.w, p.c1, p.c2, p.chi,
                              self.vmax, key)
@@ -213,7 +225,7 @@ class Swarm:
         out = {name: int(c) for name, c in zip(COUNTER_NAMES, self.counters)}
         out["particles_redirected"] = int(np.count_nonzero(self.redirected))
         out["stall_pulls"] = self.stall_pulls
-        out["particle_iterations"] = int(self.iteration * self.n)
+        out["particle_iterations"] = int(self.particle_iterations)
         out["moving_particle_iterations"] = self.moved
         return out
 
@@ -266,6 +278,9 @@ class SwarmRun:
     stats: dict = field(default_factory=dict)
     iteration_time: float = 0.25
     partial: bool = False
+    active: np.ndarray | None = None  # (T, N) particles still in the scene (None: all, always)
+    stage: np.ndarray | None = None   # (T, N) each particle's route stage id (None: no routes)
+    stages: dict | None = None        # the stage table per group on a route
 
     @property
     def arrival_rate(self) -> float:
@@ -293,10 +308,17 @@ class SwarmRun:
                             metadata={"method": "pso", "params": self.params.model_dump(),
                                       "scene": self.scene.to_dict(), "version": __version__,
                                       "iterations": int(self.paths.shape[0] - 1), "stats": dict(self.stats),
-                                      "partial": self.partial})
+                                      "partial": self.partial}, active=self.active, stage=self.stage)
+        if self.stages is not None:
+            traj.metadata["stages"] = self.stages
         if (self.params.smoothing if smoothing is None else smoothing) == "relaxed":
-            return relaxed(traj, fps, self.params.smoothing_window, self.scene, max_speed)
-        return traj if fps is None else resample(traj, fps, "linear")
+            out = relaxed(traj, fps, self.params.smoothing_window, self.scene, max_speed)
+        else:
+            out = traj if fps is None else resample(traj, fps, "linear")
+        if self.stage is not None and out is not traj:  # each new frame holds the stage of the iteration it ends in
+            held = np.minimum(np.ceil(out.times / self.iteration_time - 1e-9).astype(int), traj.n_frames - 1)
+            out.stage = np.where(out.active_mask, self.stage[held], -1).astype(np.int16)
+        return out
 
 
 # The relaxed paths' pushes keep bodies this far apart (metres), and settle with up to this

@@ -504,6 +504,32 @@ class Simulator:
         scene.obstacles[index] = obs[index].during(obs[index].present[0], now)
         self._obstacles_changed()
 
+    def move_obstacle(self, index: int, to) -> int:
+        """Move obstacle ``index`` of ``scene.obstacles`` now (the live API: a barrier
+        pushed aside): ``to`` is the obstacle in its new place (a Circle, Box or Polygon)
+        or an offset (dx, dy) of the old one. Done as :meth:`remove_obstacle` then
+        :meth:`add_obstacle`, with their checks: a ValueError, changing nothing, if the
+        obstacle is not in the scene now or moves along a path, or if in its new place an
+        agent still walking would stand inside it or it covers an agent's goal. ``scene``
+        keeps the old one, standing until now, and the moved one from now on, so the audit
+        and the player see each where it stood; returns the moved one's index."""
+        obs = self.scene.obstacles
+        if isinstance(index, bool) or not isinstance(index, (int, np.integer)) or not 0 <= index < len(obs):
+            raise ValueError(f"move_obstacle: no obstacle {index!r} (indices run from 0 to {len(obs) - 1})")
+        old = obs[index]
+        if not old.present_at(self._clock()):
+            raise ValueError(f"move_obstacle: obstacle {index} is not in the scene now")
+        if old.is_moving:
+            raise ValueError(f"move_obstacle: obstacle {index} moves along its path; it cannot be moved as well")
+        new = to if isinstance(to, Obstacle) else _shifted(old, to)
+        self.remove_obstacle(index)
+        try:
+            return self.add_obstacle(new)
+        except ValueError as exc:
+            self.scene.obstacles[index] = old  # put back as it stood: nothing changed
+            self._obstacles_changed()
+            raise ValueError(str(exc).replace("add_obstacle:", f"move_obstacle: obstacle {index} moved,", 1)) from None
+
     def _clock(self) -> float:
         """The time now as frames count it (steps × dt), so windows match ``Trajectories.times``."""
         return self.steps * self.dt
@@ -835,3 +861,19 @@ def _points_region(goal: np.ndarray):
     from crowdmotion.groups import Points
 
     return Points(np.unique(goal, axis=0))
+
+
+def _shifted(obstacle: Obstacle, offset) -> Obstacle:
+    """A fresh copy of a 2D obstacle at rest, moved by ``offset`` (dx, dy)."""
+    from crowdmotion.scene import Box, Circle, Polygon
+
+    d = finite_array(offset, "move_obstacle: offset")
+    if d.shape != (2,):
+        raise ValueError(f"move_obstacle: an obstacle or an offset (dx, dy) is needed, got {offset!r}")
+    if isinstance(obstacle, Circle):
+        return Circle(obstacle.center + d, obstacle.radius)
+    if isinstance(obstacle, Box):
+        return Box(obstacle.lower + d, obstacle.upper + d)
+    if isinstance(obstacle, Polygon):
+        return Polygon(np.asarray(obstacle.geometry.exterior.coords)[:-1] + d)
+    raise ValueError(f"move_obstacle: cannot move {obstacle!r} by an offset; give it in its new place")
