@@ -27,6 +27,12 @@ def test_ray_capsule_face_end_and_parallel():
     # brushing the end cap: passes at height 0.3 beyond the end -> hits the rounded cap
     t = K._ray_capsule(1.2, 3.0, 0.0, -1.0, -1.0, 0.0, 1.0, 0.0, 0.5)
     assert t == pytest.approx(3.0 - np.sqrt(0.25 - 0.04))
+    # within r of the segment's line but beyond its end, walking away: it never touches
+    # (a negative time here once ruled out every move away from a wall's end)
+    assert K._ray_capsule(3.0, 0.3, 0.0, -1.0, -1.0, 0.0, 1.0, 0.0, 0.5) == np.inf
+    assert K._ray_capsule(3.0, -0.3, 1.0, 0.0, -1.0, 0.0, 1.0, 0.0, 0.5) == np.inf
+    # ... and walking towards the end, it meets the end cap: from x = 3 at height 0.3
+    assert K._ray_capsule(3.0, 0.3, -1.0, 0.0, -1.0, 0.0, 1.0, 0.0, 0.5) == pytest.approx(2.0 - 0.4)
 
 
 def test_obstacle_safe_moves_stops_short_of_a_disc_and_a_moving_wall():

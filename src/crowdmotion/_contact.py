@@ -83,10 +83,10 @@ def _ray_capsule(px, py, vx, vy, ax, ay, bx, by, r):
     if abs(hgt) < r and 0.0 <= s <= 1.0:
         return 0.0
     hv = vx * nx_ + vy * ny_
-    tt = INF
-    if hgt > 0.0 and hv < 0.0:
+    tt = INF  # reaching the side: from outside the band of width 2r round the line only
+    if hgt >= r and hv < 0.0:
         tt = (hgt - r) / (-hv)
-    elif hgt < 0.0 and hv > 0.0:
+    elif hgt <= -r and hv > 0.0:
         tt = (-hgt - r) / hv
     if tt < t:
         s2 = ((qx + vx * tt) * ex + (qy + vy * tt) * ey) / l2

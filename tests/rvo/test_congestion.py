@@ -107,5 +107,7 @@ def test_two_streams_in_a_corridor_form_lanes_and_pass():
         assert lanes.summary["arrival_rate"] == 1.0 and lanes.summary["agent_agent_overlaps"] == 0
         _, v, order, shuffled = E.bot_measures(lanes.traj, np.random.default_rng(0))
         _, v_mixed, order_mixed, _ = E.bot_measures(mixed.traj, np.random.default_rng(0))
-        assert order >= 1.4 * shuffled, "the streams walk in lanes"
+        # lanes: the order near its maximum of 1, well above the shuffled labels' (which is
+        # 0.6-0.7 here, with one or two neighbours in the window: a ratio to it cannot say more)
+        assert order >= 0.85 and order >= shuffled + 0.15, "the streams walk in lanes"
         assert order > order_mixed + 0.2 and v > v_mixed + 0.2, "lanes are what lets them pass"
