@@ -33,6 +33,20 @@ from crowdmotion.blender import write_addon
 CHECK = Path(__file__).resolve().parents[1] / "tests" / "io" / "blender_addon_check.py"
 
 
+def run_addon_check(blender_python: str, usd: Path, folder: Path, *args: str, timeout: float = 1800) -> dict:
+    """Install the add-on into ``folder``, import ``usd`` with it in the real ``bpy``
+    (tests/io/blender_addon_check.py with ``args``) and return the check's JSON result."""
+    (folder / "user").mkdir(parents=True, exist_ok=True)
+    addon = write_addon(folder)
+    done = subprocess.run([blender_python, str(CHECK), str(addon), str(usd), str(folder), *args],
+                          capture_output=True, text=True, timeout=timeout,
+                          env={**os.environ, "BLENDER_USER_RESOURCES": str(folder / "user")})
+    line = next((x for x in done.stdout.splitlines() if x.startswith("CROWDMOTION_JSON ")), None)
+    if line is None:
+        raise SystemExit(f"the bpy check printed no result:\n{done.stderr[-3000:]}")
+    return json.loads(line.split(" ", 1)[1])
+
+
 def play(blender_python: str, folder: Path, n: int, frames: int = 96, fps: float = 24.0) -> dict:
     """Import a run of ``n`` agents with the add-on and play it: the check's stage times and
     frame-change seconds (``play_s``: median and max)."""
@@ -45,16 +59,8 @@ def play(blender_python: str, folder: Path, n: int, frames: int = 96, fps: float
     active[frames // 2:, ::7] = False  # a seventh leave halfway (hidden from then on)
     tr = Trajectories(pos, 1 / fps, radius=[0.25] * n, group=[("a", "b", "c")[i % 3] for i in range(n)], active=active)
     folder = folder / f"n{n}"
-    (folder / "user").mkdir(parents=True)
-    path = tr.save(folder / "run.usdc")
-    addon = write_addon(folder)
-    done = subprocess.run([blender_python, str(CHECK), str(addon), str(path), str(folder), "--play", f"1:{frames}"],
-                          capture_output=True, text=True, timeout=1800,
-                          env={**os.environ, "BLENDER_USER_RESOURCES": str(folder / "user")})
-    line = next((x for x in done.stdout.splitlines() if x.startswith("CROWDMOTION_JSON ")), None)
-    if line is None:
-        raise SystemExit(f"the bpy check printed no result:\n{done.stderr[-3000:]}")
-    got = json.loads(line.split(" ", 1)[1])
+    folder.mkdir(parents=True)
+    got = run_addon_check(blender_python, tr.save(folder / "run.usdc"), folder, "--play", f"1:{frames}")
     if got["result"] != ["FINISHED"] or got["agents"] != n:
         raise SystemExit(f"the import did not finish with {n} agents: {got}")
     return got

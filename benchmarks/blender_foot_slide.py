@@ -27,32 +27,24 @@ from __future__ import annotations
 import argparse
 import json
 import os
-import subprocess
 import tempfile
 import time
 from pathlib import Path
 
 import numpy as np
 
-from crowdmotion.blender import write_addon
 from crowdmotion.io import read_locomotion, read_trajectories
 from crowdmotion.locomotion import RUN, WALK
 
-CHECK = Path(__file__).resolve().parents[1] / "tests" / "io" / "blender_addon_check.py"
+from blender_addon_play import run_addon_check  # benchmarks/: the add-on check in bpy, one way
+
 CAUSES = ("stop/start", "sideways", "turning", "speed change", "steady")
 
 
 def posed_feet(blender_python: str, usd: Path, folder: Path, frames: int) -> tuple[np.ndarray, dict]:
     """(ankles (frames, agents, 2, 3) in Blender's world, the check's JSON)."""
-    (folder / "user").mkdir(parents=True, exist_ok=True)
-    addon = write_addon(folder)
-    done = subprocess.run([blender_python, str(CHECK), str(addon), str(usd), str(folder), "--feet", f"0:{frames}"],
-                          capture_output=True, text=True, timeout=3600,
-                          env={**os.environ, "BLENDER_USER_RESOURCES": str(folder / "user")})
-    line = next((x for x in done.stdout.splitlines() if x.startswith("CROWDMOTION_JSON ")), None)
-    if line is None:
-        raise SystemExit(f"the bpy check printed no result:\n{done.stderr[-3000:]}")
-    return np.load(folder / "feet.npy").astype(float), json.loads(line.split(" ", 1)[1])
+    got = run_addon_check(blender_python, usd, folder, "--feet", f"0:{frames}", timeout=3600)
+    return np.load(folder / "feet.npy").astype(float), got
 
 
 def contacts(feet: np.ndarray, loco, traj) -> tuple[np.ndarray, np.ndarray]:
