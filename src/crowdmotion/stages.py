@@ -307,6 +307,16 @@ def flat_stages(route) -> list[tuple[str, object, int]]:
     return out
 
 
+def refuse_unfollowed(route, where: str, follows: tuple[str, ...], who: str) -> None:
+    """Refuse (ValueError naming the stage) a route with a stage whose kind is not in
+    ``follows``, the kinds a method's ``who`` ("a formation", "a PSO swarm") follows."""
+    for path, st, _ in flat_stages(route):
+        if st.kind not in follows:
+            at = path.replace("[", ".").replace("]", "")
+            raise ValueError(f"{where} {at} ({st.kind} {st.name!r}): {who} does not {st.kind}; "
+                             f"it follows {', '.join(follows)} stages")
+
+
 def route_areas(route) -> list:
     """The regions a route's agents walk to (areas, and each queue's line of places for
     ``count`` agents is added by the caller), in order, without repeats."""

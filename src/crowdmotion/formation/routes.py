@@ -15,18 +15,14 @@ import numpy as np
 from crowdmotion.formation.simulator import Simulator
 from crowdmotion.groups import Disc, Points, Rect
 from crowdmotion.routing import distance_fields
-from crowdmotion.stages import Queue, flat_stages
+from crowdmotion.stages import refuse_unfollowed
 
 STAGES = ("goto", "wait", "choose", "leave")  # the route stages a formation follows
 
 
 def check_formation_route(route, where: str) -> None:
     """Refuse a route with a queue stage (a formation does not queue), naming it."""
-    for path, st, _ in flat_stages(route):
-        if isinstance(st, Queue):
-            at = path.replace("[", ".").replace("]", "")
-            raise ValueError(f"{where} {at} ({st.kind} {st.name!r}): a formation does not queue; "
-                             f"it follows {', '.join(STAGES)} stages")
+    refuse_unfollowed(route, where, STAGES, "a formation")
 
 
 class FormationWalkers:

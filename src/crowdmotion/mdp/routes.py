@@ -19,18 +19,14 @@ from crowdmotion.mdp.goal_fill import fill_depth
 from crowdmotion.mdp.grid import GridMap
 from crowdmotion.mdp.params import MDPParams
 from crowdmotion.mdp.trajectory import Walker
-from crowdmotion.stages import Queue, flat_stages
+from crowdmotion.stages import refuse_unfollowed
 
 STAGES = ("goto", "wait", "choose", "leave")  # the route stages an MDP group follows
 
 
 def check_mdp_route(route, where: str) -> None:
     """Refuse a route with a queue stage (grid agents do not queue), naming it."""
-    for path, st, _ in flat_stages(route):
-        if isinstance(st, Queue):
-            at = path.replace("[", ".").replace("]", "")
-            raise ValueError(f"{where} {at} ({st.kind} {st.name!r}): an MDP group does not queue; "
-                             f"it follows {', '.join(STAGES)} stages")
+    refuse_unfollowed(route, where, STAGES, "an MDP group")
 
 
 class MDPWalkers:

@@ -19,18 +19,14 @@ from __future__ import annotations
 import numpy as np
 
 from crowdmotion.groups import Disc, Points, Rect
-from crowdmotion.stages import Queue, Wait, flat_stages
+from crowdmotion.stages import refuse_unfollowed
 
 STAGES = ("goto", "choose", "leave")  # the route stages a swarm follows
 
 
 def check_pso_route(route, where: str) -> None:
     """Refuse a route with a wait or queue stage (a swarm neither waits nor queues), naming it."""
-    for path, st, _ in flat_stages(route):
-        if isinstance(st, (Queue, Wait)):
-            at = path.replace("[", ".").replace("]", "")
-            raise ValueError(f"{where} {at} ({st.kind} {st.name!r}): a PSO swarm does not {st.kind}; "
-                             f"it follows {', '.join(STAGES)} stages")
+    refuse_unfollowed(route, where, STAGES, "a PSO swarm")
 
 
 def region_target(region) -> np.ndarray:
