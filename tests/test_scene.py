@@ -54,3 +54,9 @@ def test_obstacle_set_places_moving_obstacles_anew_and_keeps_the_rest():
             np.testing.assert_array_equal(getattr(got, name), getattr(fresh, name))
         assert got.circ_c[0, 0] == pytest.approx(5.0 + t) if t <= 4 else got.circ_c[0, 0] == 9.0
         assert np.allclose(got.circ_v[0], [1.0, 0.0] if t < 4 else [0.0, 0.0])
+
+
+def test_clearance_is_the_room_to_the_nearest_wall_or_static_obstacle():
+    scene = Scene(bounds=([0, 0], [10, 10]), obstacles=[Circle([5, 5], 1.0)])
+    got = scene.clearance([[1.0, 5.0], [5.0, 7.5], [9.5, 9.0]])
+    np.testing.assert_allclose(got, [1.0, 1.5, 0.5])

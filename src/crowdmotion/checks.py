@@ -60,7 +60,7 @@ def check_goal_clear(scene: Scene, k: int, group: Group) -> None:
     pts = goal.points if isinstance(goal, Points) else region_samples(scene, goal)
     if len(pts) == 0:
         raise ValueError(f"{where(k, group)} goal: {describe_region(goal)} lies outside scene.bounds")
-    clear = _clearance(scene, pts)
+    clear = scene.clearance(pts)
     if isinstance(goal, Points):
         _refuse_unfit(scene, k, group, "goal", pts, clear, "stand")
     elif not np.any(clear >= group.radius):
@@ -73,7 +73,7 @@ def spawn_room(scene: Scene, group: Group, gap: float, clearance=None) -> tuple[
     area (volume in 3D) free of obstacles there). ``clearance(points)``: distances to
     further obstacles, beyond the scene's own."""
     pts, cell_area = region_samples(scene, group.spawn, with_area=True)
-    clear = _clearance(scene, pts)
+    clear = scene.clearance(pts)
     if clearance is not None and len(pts):
         clear = np.minimum(clear, clearance(pts))
     free = float(np.sum(clear >= group.radius + gap) * cell_area)
@@ -145,7 +145,7 @@ def check_start_points(scene: Scene, groups, apart: bool = True) -> None:
         if not isinstance(g.spawn, Points):
             continue
         p = g.spawn.points
-        _refuse_unfit(scene, k, g, "spawn", p, _clearance(scene, p), "start")
+        _refuse_unfit(scene, k, g, "spawn", p, scene.clearance(p), "start")
         pts.append(p)
         rad.append(np.full(len(p), g.radius))
         owner += [(k, i) for i in range(len(p))]
@@ -191,7 +191,7 @@ def check_reachable(scene: Scene, k: int, group: Group) -> None:
     shape = tuple(int(n) for n in np.maximum(np.ceil(extent / cell - 1e-9), 1))
     idx = np.indices(shape).reshape(dim, -1).T
     centres = scene.lower + (idx + 0.5) * cell
-    free = (_clearance(scene, centres) >= group.radius - cell * np.sqrt(dim) / 2).reshape(shape)
+    free = (scene.clearance(centres) >= group.radius - cell * np.sqrt(dim) / 2).reshape(shape)
     labels, _ = ndimage.label(free, structure=np.ones((3,) * dim))
 
     def parts(points) -> set:
@@ -222,12 +222,6 @@ def region_samples(scene: Scene, region, with_area: bool = False):
     if not with_area:
         return pts
     return pts, float(np.prod((hi - lo) / n))
-
-
-def _clearance(scene: Scene, pts: np.ndarray) -> np.ndarray:
-    """Distance from each point to the nearest static obstacle or the scene's walls."""
-    walls = np.minimum(pts - scene.lower, scene.upper - pts).min(axis=1)
-    return np.minimum(walls, scene.static_obstacle_distance(pts))
 
 
 def _refuse_unfit(scene: Scene, k: int, group: Group, part: str, pts: np.ndarray, clear: np.ndarray,
@@ -286,7 +280,7 @@ def check_route_places(scene: Scene, k: int, group: Group) -> None:
                 raise ValueError(f"{at}: spacing {st.spacing:g} m is less than a body ({2 * group.radius:g} m, "
                                  f"twice the radius): people in line would overlap")
             slots = st.slots(group.count)
-            clear = _clearance(scene, slots)
+            clear = scene.clearance(slots)
             bad = np.flatnonzero(clear < group.radius)
             if len(bad):
                 i = int(bad[0])

@@ -343,6 +343,13 @@ class Scene:
             d = np.minimum(d, ob.signed_distance(p))
         return d
 
+    def clearance(self, points) -> np.ndarray:
+        """Distance from each point to the nearest static obstacle or the scene's walls
+        (its bounds): the room a body standing there has."""
+        p = as_points(points, self.dim)
+        walls = np.minimum(p - self.lower, self.upper - p).min(axis=-1)
+        return np.minimum(walls, self.static_obstacle_distance(p))
+
     def to_dict(self) -> dict:
         """Plain description for metadata and plots (JSON-serialisable)."""
         obs = []

@@ -183,13 +183,10 @@ def build_journeys(sim: Simulator, scene: Scene, groups: Sequence[Group], rng: n
         if r is not None:
             check_formation_route(r, where(k, groups[k]))
 
-    def clearance(points: np.ndarray) -> np.ndarray:
-        walls = np.minimum(points - scene.lower, scene.upper - points).min(axis=1)
-        return np.minimum(walls, scene.static_obstacle_distance(points))
-
     walkers = FormationWalkers(sim)
     journeys = Journeys(routes, np.arange(len(groups)), [g.spawn for g in groups],
-                        [g.extent for g in sim.groups], [g.pref_speed for g in sim.groups], step_key(rng), clearance)
+                        [g.extent for g in sim.groups], [g.pref_speed for g in sim.groups], step_key(rng),
+                        scene.clearance)
     journeys.update(walkers, sim.dt)
     return journeys, walkers
 

@@ -269,13 +269,9 @@ def _run_routes(scene: Scene, groups: Sequence[Group], params: MDPParams, rng: n
     walkers = MDPWalkers(walker, grid, params, dt, values, su.goal_cells, ~on_route & params.remove_on_arrival,
                          region_cells, solve_field)
 
-    def clearance(points: np.ndarray) -> np.ndarray:
-        walls = np.minimum(points - scene.lower, scene.upper - points).min(axis=1)
-        return np.minimum(walls, scene.static_obstacle_distance(points))
-
     radius = np.concatenate([np.full(g.count, g.radius) for g in groups])
     pref = np.concatenate([np.full(g.count, g.pref_speed) for g in groups])
-    journeys = Journeys(routes, field_of, [g.spawn for g in groups], radius, pref, step_key(rng), clearance)
+    journeys = Journeys(routes, field_of, [g.spawn for g in groups], radius, pref, step_key(rng), scene.clearance)
     journeys.update(walkers, dt)
     cells_out = [starts[None]]
     active_out = [np.ones((1, len(starts)), dtype=bool)]

@@ -123,12 +123,8 @@ def build_journeys(sim: Simulator, scene: Scene, groups: Sequence[Group],
     if all(r is None for r in routes):
         return None
 
-    def clearance(points: np.ndarray) -> np.ndarray:
-        walls = np.minimum(points - scene.lower, scene.upper - points).min(axis=1)
-        return np.minimum(walls, scene.static_obstacle_distance(points))
-
     journeys = Journeys(routes, sim.group, [g.spawn for g in groups], sim.params["radius"],
-                        sim.params["pref_speed"], step_key(rng), clearance)
+                        sim.params["pref_speed"], step_key(rng), scene.clearance)
     sim.add_goal_regions(journeys.regions())
     sim.journeys = journeys  # each step moves the agents on along their routes
     return journeys

@@ -709,9 +709,7 @@ class Simulator:
 
     def _clearance(self, points: np.ndarray) -> np.ndarray:
         """Metres from each point to the nearest wall or static obstacle standing now."""
-        scene = self._now
-        walls = np.minimum(points - scene.lower, scene.upper - points).min(axis=1)
-        return np.minimum(walls, scene.static_obstacle_distance(points))
+        return self._now.clearance(points)
 
     def step(self) -> None:
         """Advance every agent by one time step (all choose at once, then all move), then
