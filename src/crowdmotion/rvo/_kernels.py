@@ -197,16 +197,6 @@ def _kept_right(i, k, idx, pos, vpref, radius, wx, wy, keep_right, look_s):
     return wx, wy
 
 
-@njit(inline="always")
-def _off_axis(px, py, ax, ay, bx, by, r):
-    """Whether p lies farther than r (and a margin) from the line through a and b."""
-    ex, ey = bx - ax, by - ay
-    ln = np.sqrt(ex * ex + ey * ey)
-    if ln <= 0.0:
-        return True
-    return abs((px - ax) * ey - (py - ay) * ex) / ln > r * (1.0 + 1e-6) + 1e-6
-
-
 @njit(cache=True)
 def _choose_one(i, pos, vel, vpref, aim_dist, radius, vmax, max_nb, nb_dist, samples, safety, active,
                 cell_start, items, origin_x, origin_y, h, nx, ny, circ_c, circ_r, circ_v, seg_a, seg_b,
@@ -227,8 +217,7 @@ def _choose_one(i, pos, vel, vpref, aim_dist, radius, vmax, max_nb, nb_dist, sam
     # one farther than ``far`` changes no candidate's choice: a candidate reaches it only
     # after covering that distance, past aim_dist (so its collision does not count, and
     # neither would any obstacle's met later) and past the step (so it stays admissible).
-    # The margin covers the rounding of the ray-capsule time. A segment whose line passes
-    # within ri of p stays: ``_ray_capsule`` can give it a negative time (inadmissible).
+    # The margin covers the rounding of the ray-capsule time.
     far = max(aim_dist[i], vm * dt * (1.0 + SLACK)) * (1.0 + 1e-6) + 1e-6
     nc = 0
     for o in range(n_circ):
@@ -247,8 +236,8 @@ def _choose_one(i, pos, vel, vpref, aim_dist, radius, vmax, max_nb, nb_dist, sam
         reach = max(nb_dist[i], 2.0 * (vm + vo) * dt) + ri
         gap = _point_segment_distance(px, py, seg_a[o, 0], seg_a[o, 1], seg_b[o, 0], seg_b[o, 1])
         if gap <= reach:
-            if vo == 0.0 and gap - ri > far and _off_axis(px, py, seg_a[o, 0], seg_a[o, 1], seg_b[o, 0], seg_b[o, 1], ri):
-                continue
+            if vo == 0.0 and gap - ri > far:
+                continue  # standing beyond what any candidate counts (see far)
             near_s[ns] = o
             ns += 1
     best_pen = INF
