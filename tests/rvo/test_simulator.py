@@ -166,26 +166,37 @@ def _room_with_door():
     return cm.Scene(bounds=([0, 0], [20, 10]), obstacles=[cm.Box([9, 0], [11, 4]), cm.Box([9, 6], [11, 10])])
 
 
-def test_a_door_opened_at_20_s_lets_the_crowd_through_and_the_audit_knows_it_stood_before():
-    scene = _room_with_door()
+def _crowd_behind_the_doorway(scene):
+    """A simulator with 36 walkers west of the doorway bound east of it, the doorway
+    blocked by a box; returns it, the box's index and the recorded frames so far."""
     sim = rvo.Simulator(scene, rng=np.random.default_rng(1))
-    door = sim.add_obstacle(cm.Box([9.5, 4], [10.5, 6]))  # the doorway is shut
+    box = sim.add_obstacle(cm.Box([9.5, 4], [10.5, 6]))
     starts = np.array([[1.0 + 1.0 * (k % 6), 1.0 + 1.3 * (k // 6)] for k in range(36)])
     sim.add_agents(starts, [18, 5], radius=0.25)
-    frames, present = [sim.positions.copy()], [sim.present.copy()]
-    while sim.time < 20.0 - 1e-9:
+    return sim, box, ([sim.positions.copy()], [sim.present.copy()])
+
+
+def _step_recording(sim, record, until: float | None = None) -> None:
+    """Step until ``until`` seconds, or (None) until everyone has arrived or 120 s,
+    appending each frame's positions and who is drawn to ``record``."""
+    frames, present = record
+    while (sim.time < until - 1e-9) if until is not None else ((sim.active & ~sim.arrived).any() and sim.time < 120):
         sim.step()
         frames.append(sim.positions.copy())
         present.append(sim.present.copy())
+
+
+def test_a_door_opened_at_20_s_lets_the_crowd_through_and_the_audit_knows_it_stood_before():
+    scene = _room_with_door()
+    sim, door, record = _crowd_behind_the_doorway(scene)  # the doorway is shut
+    _step_recording(sim, record, until=20.0)
     assert (sim.positions[:, 0] < 9.5).all() and not sim.arrived.any(), "nobody got through the shut door"
     sim.remove_obstacle(door)
-    while (sim.active & ~sim.arrived).any() and sim.time < 120:
-        sim.step()
-        frames.append(sim.positions.copy())
-        present.append(sim.present.copy())
+    _step_recording(sim, record)
     assert sim.arrived.all(), "the whole crowd went through once the door was open"
     assert len(scene.obstacles) == 2 and len(sim.scene.obstacles) == 3, "the user's scene is untouched"
     assert sim.scene.obstacles[door].present == (0.0, 20.0)
+    frames, present = record
     traj = cm.Trajectories(np.array(frames), sim.dt, radius=sim.params["radius"], active=np.array(present))
     report = collision_audit(traj, sim.scene)
     assert report.agent_agent == 0 and report.agent_obstacle == 0, report.events[:3]
@@ -329,22 +340,13 @@ def test_a_route_that_does_not_fit_the_scene_is_refused_naming_the_stage_and_not
 
 def test_a_barrier_moved_aside_at_10_s_lets_the_crowd_through_and_the_audit_is_clean():
     scene = _room_with_door()
-    sim = rvo.Simulator(scene, rng=np.random.default_rng(1))
-    barrier = sim.add_obstacle(cm.Box([9.5, 4], [10.5, 6]))  # across the doorway
-    starts = np.array([[1.0 + 1.0 * (k % 6), 1.0 + 1.3 * (k // 6)] for k in range(36)])
-    sim.add_agents(starts, [18, 5], radius=0.25)
-    frames, present = [sim.positions.copy()], [sim.present.copy()]
-    while sim.time < 10.0 - 1e-9:
-        sim.step()
-        frames.append(sim.positions.copy())
-        present.append(sim.present.copy())
+    sim, barrier, record = _crowd_behind_the_doorway(scene)  # a barrier across the doorway
+    _step_recording(sim, record, until=10.0)
     assert (sim.positions[:, 0] < 9.5).all(), "nobody got past the barrier"
     moved = sim.move_obstacle(barrier, (0.0, 2.0))  # pushed aside, into the wall's end
-    while (sim.active & ~sim.arrived).any() and sim.time < 120:
-        sim.step()
-        frames.append(sim.positions.copy())
-        present.append(sim.present.copy())
+    _step_recording(sim, record)
     assert sim.arrived.all(), "the whole crowd went through once the barrier was aside"
+    frames, present = record
     obs = sim.scene.obstacles
     assert obs[barrier].present == (0.0, 10.0) and obs[moved].present == (10.0, np.inf)
     assert np.allclose(obs[moved].lower, [9.5, 6]) and len(scene.obstacles) == 2, "the user's scene is untouched"
