@@ -247,6 +247,10 @@ def _choose_one(i, pos, vel, vpref, aim_dist, radius, vmax, max_nb, nb_dist, sam
     vix, viy = vel[i, 0], vel[i, 1]
     wx, wy = _kept_right(i, k, idx, pos, vpref, radius, vpref[i, 0], vpref[i, 1], keep_right, look_s)
     w_i = safety[i]
+    # within reach of leaving on arrival (LEAVE_LOOK_S at most at vm, every candidate's top
+    # speed): farther off, no candidate counts on leaving
+    gx_, gy_ = px - goals[i, 0], py - goals[i, 1]
+    may_leave = leave_r[i] > 0.0 and gx_ * gx_ + gy_ * gy_ <= (leave_r[i] + vm * LEAVE_LOOK_S) ** 2
     # per-neighbour constants of the ray p_i + (a v' + c) t: reciprocal, a = 2 and
     # c = -v_i - v_j; or, for a neighbour we follow (ahead of us, bound our way), a = 1 and
     # c = -(its velocity anticipated ``follow[i]`` of the way to its v_pref): it will not
@@ -327,8 +331,8 @@ def _choose_one(i, pos, vel, vpref, aim_dist, radius, vmax, max_nb, nb_dist, sam
             tc = INF
         limit = -1.0 if best_pen == INF else w_i / max(best_pen - dev, 1e-300)
         gone = INF  # when the candidate brings the agent within leave_r of its goal: it leaves
-        if leave_r[i] > 0.0:
-            gone = _ray_disc(px - goals[i, 0], py - goals[i, 1], cx_, cy_, leave_r[i])
+        if may_leave:
+            gone = _ray_disc(gx_, gy_, cx_, cy_, leave_r[i])
             if gone < dt:
                 gone = dt  # it leaves at the end of the step
             elif gone > LEAVE_LOOK_S:
