@@ -58,8 +58,8 @@ def test_a_crowd_walking_together_in_a_corridor_slows_to_weidmanns_speed():
 def test_robots_among_people_are_not_slowed_by_the_crowd():
     scene = cm.Scene(bounds=([0, 0], [20, 6]))
     sim = rvo.Simulator(scene)
-    people = np.c_[np.linspace(4, 7, 8), np.tile([2.0, 3.0, 4.0, 2.5], 2)]
+    people = np.c_[np.linspace(4, 10, 16), np.tile([2.0, 3.0, 4.0, 2.5], 4)]
     sim.add_agents(people, [19, 3], radius=0.2)
     robot = sim.add_agents([[2.0, 3.0]], [[19.0, 3.0]], radius=0.5)
     sim.step()
-    assert sim.density[robot[0]] == 0.0 and (sim.density[:8] >= 0).all() and sim.density[:8].max() > 0.5
+    assert sim.density[robot[0]] == 0.0 and (sim.density[:16] >= 0).all() and sim.density[:16].max() > 0.5
