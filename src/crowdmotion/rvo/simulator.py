@@ -628,15 +628,10 @@ class Simulator(LiveObstacles):
 
     def _check_route(self, route, ids: np.ndarray) -> None:
         """A route's places checked against the scene standing now, as a scenario's are."""
-        from crowdmotion.checks import check_route_places, where
-        from crowdmotion.groups import Group
+        from crowdmotion.checks import check_live_route
 
-        probe = Group("set_route", len(ids), Points(self.positions[ids[:1]]), Points(self.positions[ids[:1]]),
-                      radius=float(self.params["radius"][ids].max()), attributes={"route": route})
-        try:
-            check_route_places(self._now, 0, probe)
-        except ValueError as exc:
-            raise ValueError(str(exc).replace(f"{where(0, probe)} ", "set_route: ")) from None
+        check_live_route(self._now, route, len(ids), float(self.params["radius"][ids].max()), self.positions[ids[0]],
+                         "set_route")
 
     def _clearance(self, points: np.ndarray) -> np.ndarray:
         """Metres from each point to the nearest wall or static obstacle standing now."""
