@@ -392,6 +392,12 @@ class ChooseStageSpec(_Model):
     among : list        the stages to choose from: goto, queue or leave tables
     weights : list      with by = "weights": one weight per stage of among
     name : str          the stage's name in summary.json
+    rechoose : float    with by = "least_crowded": seconds between two looks at the choice
+                        by agents still walking to the option they took; each switches
+                        to an option cheaper by more than rechoose_margin (default:
+                        chosen once, on entering the stage)
+    rechoose_margin : float  seconds of cost (walking time + bound / capacity) another
+                        option must save before an agent switches (default 2)
     """
 
     kind: Literal["choose"]
@@ -399,6 +405,8 @@ class ChooseStageSpec(_Model):
     among: Annotated[list[OptionSpec], Field(min_length=2)]
     weights: list[NonNegative] | None = None
     name: StageName | None = None
+    rechoose: Positive | None = None
+    rechoose_margin: NonNegative | None = None
 
     @model_validator(mode="after")
     def _weights(self):
@@ -406,6 +414,10 @@ class ChooseStageSpec(_Model):
             raise ValueError("weights go with by = \"weights\", and it needs them")
         if self.weights is not None and (len(self.weights) != len(self.among) or sum(self.weights) <= 0):
             raise ValueError(f"weights: give {len(self.among)} weights (one per stage of among), not all 0")
+        if (self.rechoose is not None or self.rechoose_margin is not None) and self.by != "least_crowded":
+            raise ValueError(f"rechoose and rechoose_margin go with by = \"least_crowded\", not by = {self.by!r}")
+        if self.rechoose_margin is not None and self.rechoose is None:
+            raise ValueError("rechoose_margin goes with rechoose (seconds between two looks at the choice)")
         return self
 
 
@@ -797,7 +809,8 @@ def _stage(spec):
         return R.Wait(time, spec.name)
     if isinstance(spec, QueueStageSpec):
         return R.Queue(spec.head, spec.rate, spec.direction, spec.line, spec.spacing, spec.name, spec.capacity)
-    return R.Choose([_stage(o) for o in spec.among], spec.by, spec.weights, spec.name)
+    margin = {} if spec.rechoose_margin is None else {"rechoose_margin": spec.rechoose_margin}
+    return R.Choose([_stage(o) for o in spec.among], spec.by, spec.weights, spec.name, spec.rechoose, **margin)
 
 
 def route_stages(route: list) -> list:
