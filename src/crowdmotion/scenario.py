@@ -19,10 +19,15 @@ from pydantic import BaseModel, ConfigDict, Field, ValidationError, field_valida
 
 from crowdmotion import groups as G
 from crowdmotion._validation import Coordinate, NonNegative, Positive, error_lines, field_names, shown
+from crowdmotion.formation.params import STAGES as FORMATION_STAGES
 from crowdmotion.formation.params import FormationAttributes, FormationParams, TemplateSpec
+from crowdmotion.mdp.params import STAGES as MDP_STAGES
 from crowdmotion.mdp.params import MDPParams
+from crowdmotion.pso.params import STAGES as PSO_STAGES
 from crowdmotion.pso.params import PSOParams
+from crowdmotion.rvo.params import STAGES as RVO_STAGES
 from crowdmotion.rvo.params import RVOAttributes, RVOParams
+from crowdmotion.stage_kinds import KINDS as STAGE_KINDS
 from crowdmotion import scene as S
 
 
@@ -36,10 +41,8 @@ ATTRIBUTES: dict[str, type[BaseModel] | None] = {"mdp": None, "rvo": RVOAttribut
                                                  "formation": FormationAttributes}
 # [[groups]] fields only one method reads
 GROUP_FIELD_METHOD = {"personality": "rvo", "formation": "formation", "enter": "rvo"}
-# the route stages each method follows
-ROUTE_SUPPORT = {"rvo": ("goto", "wait", "queue", "choose", "leave"), "mdp": ("goto", "wait", "choose", "leave"),
-                 "pso": ("goto", "choose", "leave"),
-                 "formation": ("goto", "wait", "choose", "leave")}
+# the route stages each method follows, as each method's params module says
+ROUTE_SUPPORT = {"rvo": RVO_STAGES, "mdp": MDP_STAGES, "pso": PSO_STAGES, "formation": FORMATION_STAGES}
 
 
 class _Model(BaseModel):
@@ -703,7 +706,7 @@ def _route_lines(route: Any, method: str, where: str) -> list[str]:
     lines = []
     for i, st in enumerate(route):
         kind = st.get("kind") if isinstance(st, dict) else None
-        if kind in ROUTE_SUPPORT["rvo"] and kind not in takes:
+        if kind in STAGE_KINDS and kind not in takes:
             why = "follows no route stages" if not takes else f"follows only {', '.join(takes)} stages"
             who = [repr(m) for m, kinds in ROUTE_SUPPORT.items() if kind in kinds]
             lines.append(f"{where}.{i}: a {kind!r} stage, but method {method!r} {why}; method "

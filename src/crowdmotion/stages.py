@@ -21,6 +21,7 @@ import numpy as np
 from crowdmotion._rng import uniforms
 from crowdmotion.geometry import finite_array
 from crowdmotion.groups import Disc, Points, Rect, describe_region
+from crowdmotion.stage_kinds import KINDS  # noqa: F401 (re-exported: the kinds of the stages below)
 
 SPECIFIC_FLOW = 1.3  # persons per metre of opening per second (bottleneck flow): an area's capacity by default
 QUEUE_SPACING_M = 0.65  # metres between two places in a queue
@@ -303,7 +304,6 @@ def _seconds(value, what: str, positive: bool) -> float:
 
 
 Stage = Union[GoTo, Wait, Queue, Choose, Leave]
-KINDS = ("goto", "wait", "queue", "choose", "leave")
 
 
 def check_route(route, where: str = "route") -> list:

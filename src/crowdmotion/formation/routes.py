@@ -17,9 +17,8 @@ import numpy as np
 
 from crowdmotion.groups import Disc, Points, Rect
 from crowdmotion.routing import distance_fields
+from crowdmotion.formation.params import STAGES
 from crowdmotion.stages import refuse_unfollowed
-
-STAGES = ("goto", "wait", "choose", "leave")  # the route stages a formation follows
 
 
 def check_formation_route(route, where: str) -> None:
