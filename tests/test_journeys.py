@@ -364,3 +364,94 @@ def test_a_run_with_routes_draws_its_queues_and_exits_over_time(tmp_path):
     no_route = GATE.split("[[groups.route]]")[0] + 'goal = { shape = "rect", lower = [39.0, 8.0], upper = [40.0, 12.0] }\n'
     plain = run_scenario(parse_scenario(no_route), progress=False)
     assert "journeys.png" not in {p.name for p in write_run(plain, tmp_path / "plain", plots=["paths"], pictures=None)}
+
+
+TWO_GATES = """
+name = "two gates"
+method = "rvo"
+seed = 4
+
+[scene]
+bounds = [[0.0, 0.0], [40.0, 20.0]]
+
+[[groups]]
+name = "late"
+count = 5
+radius = 0.25
+spawn = { shape = "rect", lower = [2.0, 2.0], upper = [5.0, 6.0] }
+route = [
+  { kind = "choose", by = "least_crowded", RECHOOSE among = [
+    { kind = "queue", name = "south gate", head = [30.0, 4.0], direction = [-1.0, 0.0], rate = 0.5 },
+    { kind = "queue", name = "north gate", head = [30.0, 16.0], direction = [-1.0, 0.0], rate = 0.5 },
+  ] },
+  { kind = "leave", name = "east", area = { shape = "rect", lower = [37.0, 0.5], upper = [39.5, 19.5] } },
+]
+
+[[groups]]
+name = "crowd"
+count = 14
+radius = 0.25
+spawn = { shape = "rect", lower = [20.0, 5.0], upper = [26.0, 9.0] }
+enter = { times = [3.0, 3.0, 3.0, 3.0, 3.0, 3.0, 3.0, 3.0, 3.0, 3.0, 3.0, 3.0, 3.0, 3.0] }
+route = [
+  { kind = "queue", name = "south gate", head = [30.0, 4.0], direction = [-1.0, 0.0], rate = 0.5 },
+  { kind = "leave", name = "east", area = { shape = "rect", lower = [37.0, 0.5], upper = [39.5, 19.5] } },
+]
+
+[rvo]
+max_steps = 600
+"""
+
+
+def _gates(rechoose: str):
+    result = run_scenario(parse_scenario(TWO_GATES.replace("RECHOOSE", rechoose)), progress=False)
+    queues = {q.stage.name: [int(a) for a, *_ in q.served] for q in result.extras.journeys.queues}
+    return result, queues
+
+
+def test_with_rechoose_late_agents_bound_for_a_gate_whose_queue_grows_switch_to_the_other_gate():
+    # the 5 "late" agents choose the nearer south gate while it is empty; at t = 3 s a crowd
+    # of 14 heads for it too. Chosen once, they queue behind the crowd; re-choosing every 2 s
+    # on their way, they switch to the empty north gate, once each, and are through sooner
+    once, once_queues = _gates("")
+    again, again_queues = _gates("rechoose = 2.0,")
+    late = list(range(5))
+    assert set(late) <= set(once_queues["south gate"]) and once_queues["north gate"] == []
+    assert sorted(again_queues["north gate"]) == late and not set(late) & set(again_queues["south gate"])
+    for result in (once, again):
+        assert result.summary["journeys"]["finished"] == 19
+        assert result.summary["agent_agent_overlaps"] == 0 and result.summary["agent_obstacle_penetrations"] == 0
+    stages = again.trajectories.stage[:, late]
+    ids = {row["name"]: row["id"] for row in again.summary["journeys"]["stages"]["late"]}
+    for k in late:  # south, then north: one switch, no flip-flop
+        seen = [int(s) for s in dict.fromkeys(stages[:, k].tolist()) if s >= 0]
+        assert seen == [ids["south gate"], ids["north gate"], ids["east"]], seen
+    done = lambda r: r.extras.journeys.finished_at[late].max()  # noqa: E731
+    assert done(again) < done(once) - 10.0
+
+
+@pytest.mark.parametrize("written,message", [
+    ('by = "nearest", rechoose = 2.0,', r'groups\.0\.route\.0 \(group \'late\'\): rechoose and rechoose_margin go with '
+                                        r'by = "least_crowded", not by = \'nearest\''),
+    ('by = "least_crowded", rechoose = -1.0,', r"groups\.0\.route\.0\.rechoose \(group 'late'\): Input should be "
+                                               r"greater than 0 \(got -1\.0\)"),
+    ('by = "least_crowded", rechoose = nan,', r"groups\.0\.route\.0\.rechoose \(group 'late'\): Input should be a "
+                                              r"finite number \(got nan\)"),
+    ('by = "least_crowded", rechoose_margin = 1.0,', r"groups\.0\.route\.0 \(group 'late'\): rechoose_margin goes "
+                                                     r"with rechoose"),
+])
+def test_validate_refuses_a_bad_rechoose_naming_it(written, message):
+    with pytest.raises(ScenarioError, match=message):
+        parse_scenario(TWO_GATES.replace('by = "least_crowded", RECHOOSE', written))
+
+
+def test_a_choose_stage_in_python_refuses_a_bad_rechoose_naming_it():
+    from crowdmotion.stages import Choose, Leave
+    among = [Leave(cm.Rect([0, 0], [1, 1])), Leave(cm.Rect([5, 0], [6, 1]))]
+    with pytest.raises(ValueError, match="choose.rechoose goes with by = 'least_crowded'"):
+        Choose(among, "nearest", rechoose=2.0)
+    with pytest.raises(ValueError, match=r"choose.rechoose must be a number of seconds > 0, got nan"):
+        Choose(among, "least_crowded", rechoose=float("nan"))
+    with pytest.raises(ValueError, match=r"choose.rechoose_margin must be a number of seconds >= 0, got -1"):
+        Choose(among, "least_crowded", rechoose=2.0, rechoose_margin=-1)
+    assert Choose(among, "least_crowded").rechoose is None, "chosen once by default"

@@ -59,3 +59,28 @@ def test_an_exit_takes_in_1_3_persons_per_metre_of_the_passage_it_spans_by_defau
     assert GoTo(Disc([0, 0], 1.5)).capacity == pytest.approx(1.3 * 3.0)
     assert opening_width(Points([[1, 1]])) == 0.6 and opening_width(Rect([0, 0], [0.2, 0.3])) == 0.6
     assert Leave(Rect([0, 0], [1, 1]), capacity=0.5).capacity == 0.5, "a declared capacity wins"
+
+
+@pytest.mark.parametrize("method", ["rvo", "mdp", "pso", "formation"])
+def test_validate_and_each_method_agree_on_the_stages_it_follows(method):
+    # validate reads each method's own list; the method's own route check refuses the rest
+    import importlib
+
+    from crowdmotion.scenario import ROUTE_SUPPORT
+
+    exit_ = Leave(Rect([18, 0], [20, 4]))
+    one = {"goto": [GoTo(Disc([5, 5], 1.0)), exit_], "wait": [Wait(1.0), exit_],
+           "queue": [Queue([10, 5], rate=1.0, direction=[-1, 0]), exit_],
+           "choose": [Choose([exit_, Leave(Rect([0, 0], [2, 4]))])], "leave": [exit_]}
+    check = {"mdp": "check_mdp_route", "pso": "check_pso_route", "formation": "check_formation_route"}.get(method)
+    follows = set()
+    for kind, route in one.items():
+        if check is None:  # RVO follows every stage: it has no refusal
+            follows.add(kind)
+            continue
+        try:
+            getattr(importlib.import_module(f"crowdmotion.{method}.routes"), check)(route, "here")
+            follows.add(kind)
+        except ValueError as exc:
+            assert f"does not {kind}" in str(exc)
+    assert follows == set(ROUTE_SUPPORT[method])

@@ -288,3 +288,15 @@ def check_route_places(scene: Scene, k: int, group: Group) -> None:
                                  f": a line of {group.count} (the group's count) needs room for a body of radius "
                                  f"{group.radius:g} m every {st.spacing:g} m; give the queue a line that turns "
                                  f"(line = [[x, y], ...]) or more room")
+
+
+def check_live_route(scene: Scene, route, count: int, radius: float, at, what: str) -> None:
+    """A route set while running (the live API) checked against the scene standing now as
+    a scenario's route is (:func:`check_route_places`, for ``count`` bodies of ``radius``
+    now at the point ``at``); the message begins ``what:``, then names the stage."""
+    probe = Group(what, count, Points(np.asarray(at, float).reshape(1, 2)), Points(np.asarray(at, float).reshape(1, 2)),
+                  radius=float(radius), attributes={"route": route})
+    try:
+        check_route_places(scene, 0, probe)
+    except ValueError as exc:
+        raise ValueError(str(exc).replace(f"{where(0, probe)} ", f"{what}: ")) from None

@@ -192,6 +192,9 @@ class Journeys:
         self.holder = np.full(n, -1, dtype=np.int64)  # the id(area) whose free point each agent holds (-1: none)
         self.exits: dict[str, list[float]] = {}
         self.removed = np.zeros(n, dtype=bool)    # taken out of the scene while on their route
+        self.chooser = np.full(n, -1, dtype=np.int64)  # the choose stage (id) whose option each re-weighs (-1: none)
+        self.recheck_at = np.full(n, np.inf)       # when it next re-weighs that choice (Choose.rechoose)
+        self._rechoosing = False                   # whether any agent ever entered a choose with rechoose
         self.time = 0.0
 
     # ---- routes set while running (the live API) ----------------------------------------
@@ -263,8 +266,9 @@ class Journeys:
         width = self.since.shape[1]
         self.group_of = np.append(self.group_of, np.full(k, off))
         for name, fill, dtype in (("stage", -1, np.int64), ("top", -1, np.int64), ("holder", -1, np.int64),
-                                  ("on_route", False, bool), ("begun", False, bool), ("done", False, bool),
-                                  ("expect", False, bool), ("removed", False, bool), ("wait_until", np.inf, float),
+                                  ("chooser", -1, np.int64), ("on_route", False, bool), ("begun", False, bool),
+                                  ("done", False, bool), ("expect", False, bool), ("removed", False, bool),
+                                  ("wait_until", np.inf, float), ("recheck_at", np.inf, float),
                                   ("finished_at", np.nan, float)):
             setattr(self, name, np.append(getattr(self, name), np.full(k, fill, dtype=dtype)))
         for name in ("since", "reached", "until"):
@@ -288,6 +292,8 @@ class Journeys:
                 w.set_goals(q.approaching, q.tail, goal_region=q.region, leave=False)
         self.expect[ids] = False
         self.wait_until[ids] = np.inf
+        self.chooser[ids] = -1
+        self.recheck_at[ids] = np.inf
         self._release_points(ids)
 
     # ---- what the method needs before it starts -------------------------------------
@@ -343,6 +349,10 @@ class Journeys:
             ids = np.flatnonzero(over)
             self.wait_until[ids] = np.inf
             self._next(ids, w)
+        if self._rechoosing:
+            due = self.recheck_at <= t + 1e-9
+            if due.any():
+                self._rechoose(np.flatnonzero(due), w)
         for q in self.queues:
             self._serve(q, w)
             q.sample(t, dt)
@@ -366,6 +376,8 @@ class Journeys:
         self.stage[ids] = sid
         self.since[ids, sid] = t
         self.expect[ids] = False
+        self.chooser[ids] = -1
+        self.recheck_at[ids] = np.inf
         if not isinstance(st, Wait):
             self._release_points(ids)
         pos = w.positions[ids]
@@ -402,6 +414,10 @@ class Journeys:
             picks = self._choose(ids, st, sid, w)
             for j in np.unique(picks):
                 self._enter(ids[picks == j], g, sid + 1 + int(j), w)
+            if st.rechoose is not None:
+                self._rechoosing = True
+                self.chooser[ids] = sid
+                self.recheck_at[ids] = t + st.rechoose
 
     def _arrive(self, ids: np.ndarray, w: Walkers) -> None:
         """Agents that reached the place of their stage."""
@@ -457,20 +473,73 @@ class Journeys:
         if st.by == "weights":
             u = uniforms(self.key, ids, DRAW_CHOICE + sid)
             return np.minimum(np.searchsorted(np.cumsum(st.weights), u, side="right"), len(st.among) - 1)
-        pos = w.positions[ids]
-        dist = np.column_stack([w.walking_distance(pos, self.region_of(o)) for o in st.among])
+        dist = self._distances(ids, st, w)
         if st.by == "nearest":
             return np.argmin(dist, axis=1)
         walk = dist / self.pref_speed[ids, None]
-        cap = np.array([o.capacity for o in st.among])
-        bound = np.array([self.queues[self._queue_of[o.key]].bound if isinstance(o, Queue)
-                          else self.bound.get(id(o), 0) for o in st.among], dtype=float)
+        cap, bound = self._crowding(st)
         picks = np.empty(len(ids), dtype=np.int64)
         for k in np.argsort(walk.min(axis=1), kind="stable"):  # the nearest choose first
             j = int(np.argmin(walk[k] + bound / cap))
             picks[k] = j
             bound[j] += 1
         return picks
+
+    def _distances(self, ids: np.ndarray, st: Choose, w: Walkers) -> np.ndarray:
+        """(K, m) metres from each of ``ids`` to each option of ``st``, round the walls."""
+        pos = w.positions[ids]
+        return np.column_stack([w.walking_distance(pos, self.region_of(o)) for o in st.among])
+
+    def _crowding(self, st: Choose) -> tuple[np.ndarray, np.ndarray]:
+        """(m,) each option's capacity (persons/s) and the agents bound there now."""
+        cap = np.array([o.capacity for o in st.among])
+        bound = np.array([self.queues[self._queue_of[o.key]].bound if isinstance(o, Queue)
+                          else self.bound.get(id(o), 0) for o in st.among], dtype=float)
+        return cap, bound
+
+    def _rechoose(self, ids: np.ndarray, w: Walkers) -> None:
+        """Agents ``ids`` due to weigh their choice again (``Choose.rechoose``): those
+        still walking to the option they took switch, one at a time (the largest saving
+        first, each switch counted before the next is weighed), to another option whose
+        least-crowded cost is lower than their own option's, without themselves among
+        those bound there, by more than ``rechoose_margin``; they weigh again
+        ``rechoose`` seconds later. The others stop re-weighing."""
+        walking = self.expect[ids] & (self.chooser[ids] >= 0) & w.active[ids]
+        self.recheck_at[ids[~walking]] = np.inf
+        self.chooser[ids[~walking]] = -1
+        ids = ids[walking]
+        code = self.group_of[ids] * (self.since.shape[1] + 1) + self.chooser[ids]
+        for c in np.unique(code):
+            sub = ids[code == c]
+            g, sid = int(self.group_of[sub[0]]), int(self.chooser[sub[0]])
+            st = self.flat[g][sid][1]
+            walk = self._distances(sub, st, w) / self.pref_speed[sub, None]
+            cap, bound = self._crowding(st)
+            own = self.stage[sub] - sid - 1
+            rows = np.arange(len(sub))
+            every = walk + bound / cap
+            stay = every[rows, own] - 1.0 / cap[own]
+            every[rows, own] = np.inf
+            saving = stay - every.min(axis=1)
+            maybe = np.flatnonzero(saving > st.rechoose_margin)
+            moves = []
+            for k in maybe[np.argsort(-saving[maybe], kind="stable")]:  # weighed with the switches before
+                j0 = int(own[k])
+                cost = walk[k] + bound / cap
+                stay_k = cost[j0] - 1.0 / cap[j0]
+                cost[j0] = np.inf
+                j = int(np.argmin(cost))
+                if cost[j] < stay_k - st.rechoose_margin:
+                    bound[j0] -= 1
+                    bound[j] += 1
+                    moves.append((int(sub[k]), j0, j))
+            for a, j0, j in moves:
+                one = np.array([a])
+                self.until[one, sid + 1 + j0] = self.time
+                self._drop(one, w)
+                self._enter(one, g, sid + 1 + j, w)
+            self.chooser[sub] = sid
+            self.recheck_at[sub] = self.time + st.rechoose
 
     def _free_points(self, ids: np.ndarray, area, sid: int, w: Walkers) -> np.ndarray:
         """A point of ``area`` for each agent: of FREE_POINT_TRIES drawn, the nearest it

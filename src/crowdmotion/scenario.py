@@ -19,10 +19,15 @@ from pydantic import BaseModel, ConfigDict, Field, ValidationError, field_valida
 
 from crowdmotion import groups as G
 from crowdmotion._validation import Coordinate, NonNegative, Positive, error_lines, field_names, shown
+from crowdmotion.formation.params import STAGES as FORMATION_STAGES
 from crowdmotion.formation.params import FormationAttributes, FormationParams, TemplateSpec
+from crowdmotion.mdp.params import STAGES as MDP_STAGES
 from crowdmotion.mdp.params import MDPParams
+from crowdmotion.pso.params import STAGES as PSO_STAGES
 from crowdmotion.pso.params import PSOParams
+from crowdmotion.rvo.params import STAGES as RVO_STAGES
 from crowdmotion.rvo.params import RVOAttributes, RVOParams
+from crowdmotion.stage_kinds import KINDS as STAGE_KINDS
 from crowdmotion import scene as S
 
 
@@ -36,10 +41,8 @@ ATTRIBUTES: dict[str, type[BaseModel] | None] = {"mdp": None, "rvo": RVOAttribut
                                                  "formation": FormationAttributes}
 # [[groups]] fields only one method reads
 GROUP_FIELD_METHOD = {"personality": "rvo", "formation": "formation", "enter": "rvo"}
-# the route stages each method follows
-ROUTE_SUPPORT = {"rvo": ("goto", "wait", "queue", "choose", "leave"), "mdp": ("goto", "wait", "choose", "leave"),
-                 "pso": ("goto", "choose", "leave"),
-                 "formation": ("goto", "wait", "choose", "leave")}
+# the route stages each method follows, as each method's params module says
+ROUTE_SUPPORT = {"rvo": RVO_STAGES, "mdp": MDP_STAGES, "pso": PSO_STAGES, "formation": FORMATION_STAGES}
 
 
 class _Model(BaseModel):
@@ -392,6 +395,12 @@ class ChooseStageSpec(_Model):
     among : list        the stages to choose from: goto, queue or leave tables
     weights : list      with by = "weights": one weight per stage of among
     name : str          the stage's name in summary.json
+    rechoose : float    with by = "least_crowded": seconds between two looks at the choice
+                        by agents still walking to the option they took; each switches
+                        to an option cheaper by more than rechoose_margin (default:
+                        chosen once, on entering the stage)
+    rechoose_margin : float  seconds of cost (walking time + bound / capacity) another
+                        option must save before an agent switches (default 2)
     """
 
     kind: Literal["choose"]
@@ -399,6 +408,8 @@ class ChooseStageSpec(_Model):
     among: Annotated[list[OptionSpec], Field(min_length=2)]
     weights: list[NonNegative] | None = None
     name: StageName | None = None
+    rechoose: Positive | None = None
+    rechoose_margin: NonNegative | None = None
 
     @model_validator(mode="after")
     def _weights(self):
@@ -406,6 +417,10 @@ class ChooseStageSpec(_Model):
             raise ValueError("weights go with by = \"weights\", and it needs them")
         if self.weights is not None and (len(self.weights) != len(self.among) or sum(self.weights) <= 0):
             raise ValueError(f"weights: give {len(self.among)} weights (one per stage of among), not all 0")
+        if (self.rechoose is not None or self.rechoose_margin is not None) and self.by != "least_crowded":
+            raise ValueError(f"rechoose and rechoose_margin go with by = \"least_crowded\", not by = {self.by!r}")
+        if self.rechoose_margin is not None and self.rechoose is None:
+            raise ValueError("rechoose_margin goes with rechoose (seconds between two looks at the choice)")
         return self
 
 
@@ -691,7 +706,7 @@ def _route_lines(route: Any, method: str, where: str) -> list[str]:
     lines = []
     for i, st in enumerate(route):
         kind = st.get("kind") if isinstance(st, dict) else None
-        if kind in ROUTE_SUPPORT["rvo"] and kind not in takes:
+        if kind in STAGE_KINDS and kind not in takes:
             why = "follows no route stages" if not takes else f"follows only {', '.join(takes)} stages"
             who = [repr(m) for m, kinds in ROUTE_SUPPORT.items() if kind in kinds]
             lines.append(f"{where}.{i}: a {kind!r} stage, but method {method!r} {why}; method "
@@ -797,7 +812,8 @@ def _stage(spec):
         return R.Wait(time, spec.name)
     if isinstance(spec, QueueStageSpec):
         return R.Queue(spec.head, spec.rate, spec.direction, spec.line, spec.spacing, spec.name, spec.capacity)
-    return R.Choose([_stage(o) for o in spec.among], spec.by, spec.weights, spec.name)
+    margin = {} if spec.rechoose_margin is None else {"rechoose_margin": spec.rechoose_margin}
+    return R.Choose([_stage(o) for o in spec.among], spec.by, spec.weights, spec.name, spec.rechoose, **margin)
 
 
 def route_stages(route: list) -> list:

@@ -21,12 +21,14 @@ import numpy as np
 from crowdmotion._rng import uniforms
 from crowdmotion.geometry import finite_array
 from crowdmotion.groups import Disc, Points, Rect, describe_region
+from crowdmotion.stage_kinds import KINDS  # noqa: F401 (re-exported: the kinds of the stages below)
 
 SPECIFIC_FLOW = 1.3  # persons per metre of opening per second (bottleneck flow): an area's capacity by default
 QUEUE_SPACING_M = 0.65  # metres between two places in a queue
 ARRIVE = ("anywhere", "free_point")
 CHOOSE_BY = ("nearest", "least_crowded", "weights")
 DISTRIBUTIONS = ("uniform", "normal")
+RECHOOSE_MARGIN_S = 2.0  # seconds of cost another option must save before an agent re-choosing switches
 
 
 def _area(area, what: str):
@@ -248,12 +250,23 @@ class Choose:
     """Go on with one of the stages ``among`` (go to, queue or leave), chosen per agent:
     ``"nearest"`` (the least walking distance along the guidance field),
     ``"least_crowded"`` (the least walking time plus the agents already bound there over
-    the stage's capacity, persons/s) or ``"weights"`` (at random, with ``weights``)."""
+    the stage's capacity, persons/s) or ``"weights"`` (at random, with ``weights``).
+
+    The choice is made once, on entering the stage, unless ``rechoose`` is set (seconds;
+    by = "least_crowded" only): then an agent still walking to the option it took (not
+    yet arrived, or not yet in its queue's line) weighs the options again every
+    ``rechoose`` seconds, its own option without itself among those bound there, and
+    switches to another whose cost (walking time plus bound over capacity, seconds) is
+    lower by more than ``rechoose_margin`` seconds (default RECHOOSE_MARGIN_S): as a
+    queue at one exit builds, those still on their way take another. The margin keeps an
+    agent from switching back and forth between options of about the same cost."""
 
     among: list
     by: str = "nearest"
     weights: list | None = None
     name: str | None = None
+    rechoose: float | None = None
+    rechoose_margin: float = RECHOOSE_MARGIN_S
     kind = "choose"
 
     def __post_init__(self):
@@ -273,11 +286,24 @@ class Choose:
                 raise ValueError(f"choose.weights must be {len(self.among)} numbers >= 0, not all 0, "
                                  f"got {self.weights!r}")
             self.weights = (w / w.sum()).tolist()
+        if self.rechoose is not None:
+            if self.by != "least_crowded":
+                raise ValueError(f"choose.rechoose goes with by = 'least_crowded' (the choice that changes as "
+                                 f"others choose), not by = {self.by!r}")
+            self.rechoose = _seconds(self.rechoose, "choose.rechoose", positive=True)
+        self.rechoose_margin = _seconds(self.rechoose_margin, "choose.rechoose_margin", positive=False)
         self.name = _name(self.name, f"choose {self.by}")
 
 
+def _seconds(value, what: str, positive: bool) -> float:
+    """``value`` as a finite number of seconds (> 0, or >= 0), else ValueError naming ``what``."""
+    if isinstance(value, bool) or not isinstance(value, (int, float, np.integer, np.floating)) \
+            or not np.isfinite(value) or value < 0 or (positive and value == 0):
+        raise ValueError(f"{what} must be a number of seconds {'> 0' if positive else '>= 0'}, got {value!r}")
+    return float(value)
+
+
 Stage = Union[GoTo, Wait, Queue, Choose, Leave]
-KINDS = ("goto", "wait", "queue", "choose", "leave")
 
 
 def check_route(route, where: str = "route") -> list:

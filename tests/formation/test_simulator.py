@@ -5,7 +5,7 @@ import pytest
 
 from crowdmotion import Scene, formation, metrics
 from crowdmotion.groups import Group, Points
-from crowdmotion.scene import Circle, Sphere
+from crowdmotion.scene import Box, Circle, Sphere
 
 
 def _sim(**kw):
@@ -222,3 +222,152 @@ def test_set_goal_refuses_a_goal_walled_off_from_the_group():
         sim.set_goal(gid, (40, 10))
     assert np.allclose(sim.groups[gid].goal_center, (50, 0))
     sim.step()
+
+
+# ---- the live API: obstacles and routes while running ------------------------------------------
+def _audit_clean(frames, active, sim):
+    from crowdmotion.trajectories import Trajectories
+    traj = Trajectories(np.array(frames), sim.dt, radius=sim.radius, active=np.array(active))
+    report = metrics.collision_audit(traj, sim.scene)  # sim.scene: each obstacle with the time it stood
+    assert report.agent_agent == 0 and report.agent_obstacle == 0, report.events[:3]
+
+
+def _run(sim, frames, active, until=None, limit=200.0):
+    """Step until ``until`` s (or, without it, until done or every group left), recording."""
+    while sim.time < (limit if until is None else until) - 1e-9 and (until is not None or not sim.done):
+        sim.step()
+        frames.append(sim.positions.copy())
+        active.append(sim.active.copy())
+
+
+def _doorway(door=True):
+    from crowdmotion.scene import Box
+    walls = [Box([19, 0], [21, 5]), Box([19, 9], [21, 14])] + ([Box([19.5, 5], [20.5, 9])] if door else [])
+    return Scene(((0, 0), (40, 14)), walls)
+
+
+def test_a_formation_behind_a_door_stands_until_the_door_opens_at_10_s_then_walks_through_cleanly():
+    scene = _doorway()
+    sim = formation.Simulator(scene, time_step=0.1)
+    gid = sim.add_group(formation.block(3, 3, 1.0), goal=(34, 7), start=(8, 7), radius=0.3)
+    frames, active = [sim.positions.copy()], [sim.active.copy()]
+    _run(sim, frames, active, until=10.0)
+    assert sim.cut_off() == [gid] and sim.positions[:, 0].max() < 19, "the shut door holds it back"
+    sim.remove_obstacle(2)  # the door opens
+    assert sim.cut_off() == []
+    _run(sim, frames, active)
+    assert sim.done and np.linalg.norm(sim.positions.mean(axis=0) - (34, 7)) < 0.5
+    assert sim.scene.obstacles[2].present == (-np.inf, 10.0) and len(scene.obstacles) == 3, "the user's scene is untouched"
+    _audit_clean(frames, active, sim)
+
+
+def test_a_door_shut_before_a_walking_formation_stops_it_and_pushing_the_door_aside_lets_it_on():
+    sim = formation.Simulator(_doorway(door=False), time_step=0.1)
+    gid = sim.add_group(formation.block(3, 3, 1.0), goal=(34, 7), start=(6, 7), radius=0.3)
+    frames, active = [sim.positions.copy()], [sim.active.copy()]
+    _run(sim, frames, active, until=3.0)
+    door = sim.add_obstacle(Box([19.5, 5], [20.5, 9]))  # shut while it walks
+    assert sim.cut_off() == [gid]
+    _run(sim, frames, active, until=12.0)
+    held = sim.positions.copy()
+    _run(sim, frames, active, until=14.0)
+    assert np.abs(sim.positions - held).max() < 0.05 and sim.positions[:, 0].max() < 19, "it stands at the door"
+    moved = sim.move_obstacle(door, (0.0, 4.0))  # pushed aside, into the wall's end
+    assert sim.scene.obstacles[door].present == (3.0, 14.0) and sim.scene.obstacles[moved].present == (14.0, np.inf)
+    _run(sim, frames, active)
+    assert sim.done and np.linalg.norm(sim.positions.mean(axis=0) - (34, 7)) < 0.5
+    _audit_clean(frames, active, sim)
+
+
+def test_set_route_mid_run_sends_a_formation_through_two_areas_and_out_by_the_exit():
+    from crowdmotion.groups import Disc, Rect
+    from crowdmotion.stages import GoTo, Leave
+
+    sim, gid = _sim()
+    frames, active = [sim.positions.copy()], [sim.active.copy()]
+    _run(sim, frames, active, until=5.0)
+    sim.set_route(gid, [GoTo(Disc([20, 10], 3.0), name="north"), GoTo(Rect([36, -12], [44, -6]), name="south"),
+                        Leave(Rect([56, -3], [59.5, 3]), name="east")])
+    stages = []
+    while sim.active.any() and sim.time < 200:
+        sim.step()
+        frames.append(sim.positions.copy())
+        active.append(sim.active.copy())
+        stages.append(int(sim.journeys.stage[gid]))
+    assert list(dict.fromkeys(stages)) == [0, 1, 2], "north, south, then the exit"
+    report = sim.journeys.report([g.name for g in sim.groups])
+    assert [row["reached"] for row in report["stages"]["route 1"]] == [1, 1, 1]
+    assert report["exits"]["east"]["left"] == 1 and sim.groups[gid].left_at is not None and not sim.active.any()
+    _audit_clean(frames, active, sim)
+
+
+def test_set_route_takes_over_from_a_route_being_followed_and_groups_added_later_join_in():
+    from crowdmotion.groups import Disc
+    from crowdmotion.stages import GoTo, Wait
+
+    sim, gid = _sim()
+    sim.set_route(gid, [GoTo(Disc([30, 10], 2.5)), Wait(30.0)])
+    for _ in range(30):
+        sim.step()
+    other = sim.add_group(formation.block(2, 2, 1.2), goal=(8, -10), start=(50, -10), radius=0.3)
+    sim.set_route(gid, [GoTo(Disc([40, -8], 3.0), name="there")])
+    sim.set_route(other, [GoTo(Disc([20, -10], 3.0), name="here")])
+    while not sim.done and sim.time < 150:
+        sim.step()
+    assert np.linalg.norm(sim.positions[sim.groups[gid].span].mean(axis=0) - (40, -8)) < 0.5
+    assert np.linalg.norm(sim.positions[sim.groups[other].span].mean(axis=0) - (20, -10)) < 0.5
+    assert sim.journeys.done[[gid, other]].all()
+
+
+def _bad_routes():
+    from crowdmotion.groups import Disc, Rect
+    from crowdmotion.stages import GoTo, Leave, Queue
+    out = Leave(Rect([56, -3], [59.5, 3]))
+    return [
+        (3, [out], r"formation.set_route: no group 3 \(ids run from 0 to 0\)"),
+        (True, [out], r"formation.set_route: no group True"),
+        (0, [Queue([40.0, 0.0], rate=0.5, direction=[-1.0, 0.0], name="gate"), out],
+         r"formation.set_route: route.0 \(queue 'gate'\): a formation does not queue; it follows goto, wait, "
+         r"choose, leave stages"),
+        (0, [GoTo(Rect([50, 10], [70, 12]), name="far"), out],
+         r"formation.set_route: route.0 \(goto 'far'\) area: rect \[50, 10\]-\[70, 12\] reaches outside"),
+        (0, [GoTo(Disc([25, 0.5], 1.5), name="rock"), out],
+         r"formation.set_route: route.0 \(goto 'rock'\): formation group 'group0': the goal \[25.0, 0.5\] is inside "
+         r"an obstacle"),
+        (0, [out, GoTo(Disc([20, 10], 2.0))], r"route.0 \(leave\): an agent leaves the scene there"),
+        (0, "north", r"route must be a non-empty list of stages"),
+    ]
+
+
+@pytest.mark.parametrize("group,route,message", _bad_routes())
+def test_set_route_refuses_bad_input_naming_it_and_nothing_changes(group, route, message):
+    sim, gid = _sim()
+    with pytest.raises(ValueError, match=message):
+        sim.set_route(group, route)
+    assert sim.journeys is None or not sim.journeys.on_route.any()
+    assert np.allclose(sim.groups[gid].goal_center, (50, 0))
+
+
+def test_the_live_api_refuses_a_group_that_left_and_bad_obstacle_edits_naming_them():
+    from crowdmotion.groups import Rect
+    from crowdmotion.scene import Box
+    from crowdmotion.stages import Leave
+
+    sim, gid = _sim()
+    with pytest.raises(ValueError, match=r"add_obstacle: agent \d+ at \[.*\] would stand inside"):
+        sim.add_obstacle(Box([7, -1], [9, 1]))
+    with pytest.raises(ValueError, match=r"add_obstacle: Circle.* cannot go in: formation group 'group0': the goal "
+                                         r"\[50.0, 0.0\] is inside an obstacle"):
+        sim.add_obstacle(Circle((50, 0), 1.0))
+    with pytest.raises(ValueError, match="remove_obstacle: no obstacle 7"):
+        sim.remove_obstacle(7)
+    with pytest.raises(ValueError, match="move_obstacle: offset must be finite"):
+        sim.move_obstacle(0, (np.nan, 0.0))
+    with pytest.raises(ValueError, match="Circle.center must be finite"):
+        sim.add_obstacle(Circle((np.nan, 0), 1.0))
+    assert len(sim.scene.obstacles) == 1 and sim.scene.obstacles[0].present == (-np.inf, np.inf)
+    sim.set_route(gid, [Leave(Rect([5, -8], [12, 8]))])  # it stands in the exit: it leaves at once
+    sim.step()
+    assert sim.groups[gid].left_at is not None
+    with pytest.raises(ValueError, match=r"formation.set_route: formation group 'group0' left the scene at t = 0.1 s"):
+        sim.set_route(gid, [Leave(Rect([56, -3], [59.5, 3]))])

@@ -13,6 +13,7 @@ from crowdmotion._validation import Coordinate, NonNegative, Positive
 PosFloat = Positive
 NonNeg = NonNegative
 Count = Annotated[int, Field(gt=0, le=1_000_000)]
+STAGES = ("goto", "wait", "choose", "leave")  # the route stages a formation follows (validate reads it too)
 MAX_TIME_STEP_S = 10.0  # seconds per step at most
 MAX_FPS = 1000.0  # output frames per second at most
 Fps = Annotated[float, Field(gt=0, le=MAX_FPS, allow_inf_nan=False)]

@@ -103,10 +103,10 @@ def run(scene: Scene, groups: Sequence[Group], params: FormationParams | dict | 
     params = params if isinstance(params, FormationParams) else make_params(params)
     rng = np.random.default_rng(0) if rng is None else rng
     sim = build_simulator(scene, groups, params, rng)
-    journeys, walkers = build_journeys(sim, scene, groups, rng)
+    journeys = build_journeys(sim, groups)
     frames = [sim.positions.copy()]
     present = [sim.active.copy()]
-    stages = [] if journeys is None else [_stage_frame(journeys, walkers, sim)]
+    stages = [] if journeys is None else [_stage_frame(sim)]
     facing = [sim.facing()]
     headings = [[g.heading] for g in sim.groups]
     verts = [[g.vertices.copy()] for g in sim.groups]
@@ -116,11 +116,9 @@ def run(scene: Scene, groups: Sequence[Group], params: FormationParams | dict | 
     partial = False
     try:
         for _ in range(params.max_steps):
-            sim.step()
-            if journeys is not None:  # groups bound for an exit leave there; the rest move on
-                walkers.after_step()
-                journeys.update(walkers, sim.dt)
-                stages.append(_stage_frame(journeys, walkers, sim))
+            sim.step()  # groups bound for an exit leave there; the rest move on along their routes
+            if journeys is not None:
+                stages.append(_stage_frame(sim))
             frames.append(sim.positions.copy())
             present.append(sim.active.copy())
             facing.append(sim.facing())
@@ -132,7 +130,7 @@ def run(scene: Scene, groups: Sequence[Group], params: FormationParams | dict | 
                 dislocated[k].append(g.guide.dislocated.copy())
             if progress is not None:
                 progress(1)
-            if sim.done and (journeys is None or not journeys.busy(walkers.active)):
+            if sim.done and (journeys is None or not journeys.busy(sim.walkers.active)):
                 break
     except KeyboardInterrupt:  # Ctrl-C: keep the steps so far, marked partial
         partial = True
@@ -167,33 +165,27 @@ def run(scene: Scene, groups: Sequence[Group], params: FormationParams | dict | 
                         report, journeys, active)
 
 
-def build_journeys(sim: Simulator, scene: Scene, groups: Sequence[Group], rng: np.random.Generator):
-    """The route state machine with each formation as one walker (``(journeys,
-    walkers)``, both None when no group has a route: ``rng`` is then left untouched),
-    already moved on to every group's first stage. A queue stage is refused."""
-    from crowdmotion._rng import step_key
+def build_journeys(sim: Simulator, groups: Sequence[Group]):
+    """The route state machine with each formation as one walker (``sim.journeys``, None
+    when no group has a route: the simulator's ``rng`` is then left untouched), already
+    moved on to every group's first stage; each ``sim.step()`` moves the groups on. A
+    queue stage is refused, naming it."""
     from crowdmotion.checks import where
-    from crowdmotion.formation.routes import FormationWalkers, check_formation_route
-    from crowdmotion.journeys import Journeys
+    from crowdmotion.formation.routes import check_formation_route
 
     routes = [g.attributes.get("route") for g in groups]
     if all(r is None for r in routes):
-        return None, None
+        return None
     for k, r in enumerate(routes):
         if r is not None:
             check_formation_route(r, where(k, groups[k]))
-
-    walkers = FormationWalkers(sim)
-    journeys = Journeys(routes, np.arange(len(groups)), [g.spawn for g in groups],
-                        [g.extent for g in sim.groups], [g.pref_speed for g in sim.groups], step_key(rng),
-                        scene.clearance)
-    journeys.update(walkers, sim.dt)
-    return journeys, walkers
+    sim.follow_routes(routes, [g.spawn for g in groups])
+    return sim.journeys
 
 
-def _stage_frame(journeys, walkers, sim: Simulator) -> np.ndarray:
+def _stage_frame(sim: Simulator) -> np.ndarray:
     """(N,) each agent's stage id: its group's, -1 once the group left."""
-    return journeys.frame(walkers.active)[sim.group_of]
+    return sim.journeys.frame(sim.walkers.active)[sim.group_of]
 
 
 def _group_report(sim: Simulator, k: int, g, in_field: np.ndarray, dislocated: np.ndarray) -> dict:

@@ -42,12 +42,14 @@ from crowdmotion.formation.field import PotentialField, disc_field
 from crowdmotion.formation.guidance import REBALANCE_MAX, AttractionGuide, attraction_magnitude
 from crowdmotion.formation.mesh import FormationMesh, MeshView
 from crowdmotion.formation.params import FormationParams, make_params
+from crowdmotion.formation.routes import FormationWalkers, check_formation_route
 from crowdmotion.formation.templates import Template, from_spec
 from crowdmotion.facing import MAX_TURN_RATE, wrap
 from crowdmotion.geometry import positive_number, require_finite_agents
 from crowdmotion.groups import Disc, MovingTarget, Points, Rect, as_region
 from crowdmotion.formation._kernels import edge_length_error as edge_errors
 from crowdmotion.formation._kernels import repulsion
+from crowdmotion.live_obstacles import LiveObstacles
 from crowdmotion.obstacle_primitives import ObstacleSet
 from crowdmotion.routing import DistanceFields, distance_fields
 from crowdmotion.scene import Scene
@@ -151,7 +153,7 @@ def _region_goal(goal) -> tuple[Any, np.ndarray]:
     return g, np.asarray(g.center, float)
 
 
-class Simulator:
+class Simulator(LiveObstacles):
     """Formation groups in a 2D scene, stepped together.
 
     >>> sim = Simulator(scene, time_step=0.1)
@@ -162,7 +164,12 @@ class Simulator:
     def __init__(self, scene: Scene, time_step: float = 0.1, params: FormationParams | dict | None = None,
                  rng: np.random.Generator | None = None, **overrides):
         self.params = make_params(params, time_step=time_step, **overrides)
-        self.scene = scene
+        self.scene = scene  # with every obstacle ever in it, each with the time it stood (for the audit)
+        self._now = scene  # the obstacles standing now
+        self._scene_owned = False
+        self.journeys = None  # the route state machine, once a route is set (set_route, or a scenario's)
+        self._walkers: FormationWalkers | None = None
+        self._held: set[int] = set()  # groups the route field says walls cut off now: they stand
         self.dt = float(self.params.time_step)
         self.field = PotentialField(scene, self.params.field_range, self.params.field_cell)
         self._route: DistanceFields | None = None  # routes round static walls to each group's goal
@@ -257,22 +264,19 @@ class Simulator:
         walks there; one that had arrived (or recovered) sets off again. A goal outside
         the bounds, inside an obstacle or cut off by walls raises ValueError and the
         group keeps its goal."""
-        if isinstance(group, bool) or not isinstance(group, (int, np.integer)) or not 0 <= group < len(self.groups):
-            raise ValueError(f"formation.set_goal: no group {group!r} (ids run from 0 to {len(self.groups) - 1})")
+        self._retarget(self._group(group, "formation.set_goal"), goal, refuse_cut_off=True)
+
+    def _retarget(self, group: int, goal, refuse_cut_off: bool) -> None:
+        """:meth:`set_goal`; a route's stage (``refuse_cut_off`` False) may send a group
+        where a closed door cuts it off for now: it stands until a way opens."""
         g = self.groups[group]
         what = f"formation group {g.name!r}"
-        if g.left_at is not None:
-            raise ValueError(f"formation.set_goal: {what} left the scene at t = {g.left_at:g} s")
-        region, gc = _region_goal(goal)
-        self._check_inside(gc[None], g.radius, f"{what}: goal")
-        gclear = float(self.scene.obstacle_distance(gc[None], self.time)[0])
-        if gclear < g.radius:
-            raise ValueError(f"{what}: the goal {gc.tolist()} is inside an obstacle (clearance {gclear:.3g} m)")
+        region, gc = self._goal_checked(goal, g, what)
         old = (g.goal, g.goal_center)
         g.goal, g.goal_center = region, gc
         try:
             self._build_route()
-            if group in self.cut_off():
+            if refuse_cut_off and group in self.cut_off():
                 raise ValueError(f"{what}: the goal {gc.tolist()} cannot be reached: walls close the way")
         except ValueError:
             g.goal, g.goal_center = old
@@ -281,6 +285,88 @@ class Simulator:
         g.arrived_at = g.recovered_at = g.settled_at = None
         g.facing_offset = 0.0
         g.best_progress, g.stale_steps, g.uniform_until = float("inf"), 0, float("-inf")
+
+    def _goal_checked(self, goal, g: FormationGroup, what: str) -> tuple[Any, np.ndarray]:
+        """``goal`` as (region, centre) for group ``g``: a ValueError naming ``what`` if
+        its centre, where the group recovers its shape, is outside the bounds or inside
+        an obstacle standing now."""
+        region, gc = _region_goal(goal)
+        self._check_inside(gc[None], g.radius, f"{what}: goal")
+        gclear = float(self._now.obstacle_distance(gc[None], self.time)[0])
+        if gclear < g.radius:
+            raise ValueError(f"{what}: the goal {gc.tolist()} is inside an obstacle (clearance {gclear:.3g} m)")
+        return region, gc
+
+    def _group(self, group, what: str) -> int:
+        """``group`` as the id of a group still in the scene (ValueError naming ``what`` otherwise)."""
+        if isinstance(group, bool) or not isinstance(group, (int, np.integer)) or not 0 <= group < len(self.groups):
+            raise ValueError(f"{what}: no group {group!r} (ids run from 0 to {len(self.groups) - 1})")
+        g = self.groups[group]
+        if g.left_at is not None:
+            raise ValueError(f"{what}: formation group {g.name!r} left the scene at t = {g.left_at:g} s")
+        return int(group)
+
+    def set_route(self, group: int, route) -> None:
+        """Send a group along a route of stages from now on (the live API): ``route`` is a
+        list of :mod:`crowdmotion.stages` stages (GoTo, Wait, Choose, Leave), as a
+        scenario's ``[[groups.route]]`` gives them. The group follows them as one unit,
+        keeping its shape (see :mod:`crowdmotion.formation.routes`); each step moves it on
+        (``sim.journeys``, a :class:`crowdmotion.journeys.Journeys` with one walker per
+        group, holds where each group is: ``sim.journeys.stage[group]``). A group on
+        another route leaves its stage at once.
+
+        Refused (ValueError naming the stage, ``formation.set_route: route.0 (queue
+        'gate'): a formation does not queue; ...``, nothing changed): a stage a formation
+        does not follow (queue), stages out of order, an area outside the scene or
+        covered by obstacles standing now, an area whose centre (where the group
+        recovers its shape) a body cannot stand on; and, as :meth:`set_goal`, an unknown
+        group or one that left."""
+        from crowdmotion.checks import check_live_route
+        from crowdmotion.stages import check_route, flat_stages
+
+        k = self._group(group, "formation.set_route")
+        g = self.groups[k]
+        what = "formation.set_route"
+        route = check_route(route, f"{what}: route")
+        check_formation_route(route, f"{what}:")
+        check_live_route(self._now, route, len(g.agents), g.radius, self.positions[g.span].mean(axis=0), what)
+        for path, st, _ in flat_stages(route):
+            if getattr(st, "area", None) is not None:
+                try:
+                    self._goal_checked(st.area, g, f"formation group {g.name!r}")
+                except ValueError as exc:
+                    at = path.replace("[", ".").replace("]", "")
+                    raise ValueError(f"{what}: {at} ({st.kind} {st.name!r}): {exc}") from None
+        if self.journeys is None:
+            self.follow_routes([None] * len(self.groups), [None] * len(self.groups))
+        self.journeys.set_route([k], route, self.walkers, self._extents(), [h.pref_speed for h in self.groups])
+
+    def follow_routes(self, routes: list, spawns: list) -> None:
+        """Give the groups their routes (per group a list of stages or None, checked
+        with :mod:`crowdmotion.formation.routes`) and begin them: from now on each step
+        moves the groups on along them (``sim.journeys``). ``spawns``: per group the
+        region a route that begins with a wait waits in. The scenario runner's way in;
+        :meth:`set_route` sets one group's route while running."""
+        from crowdmotion._rng import step_key
+        from crowdmotion.journeys import Journeys
+
+        self.journeys = Journeys(routes, np.arange(len(self.groups)), spawns, self._extents(),
+                                 [g.pref_speed for g in self.groups], step_key(self.rng), self._clearance)
+        self.journeys.update(self.walkers, self.dt)
+
+    @property
+    def walkers(self) -> FormationWalkers:
+        """The groups as :class:`crowdmotion.journeys.Journeys` sees them: one walker each."""
+        if self._walkers is None:
+            self._walkers = FormationWalkers(self)
+        return self._walkers
+
+    def _extents(self) -> np.ndarray:
+        return np.array([g.extent for g in self.groups], dtype=float)
+
+    def _clearance(self, points: np.ndarray) -> np.ndarray:
+        """Metres from each point to the nearest wall or static obstacle standing now."""
+        return self._now.clearance(points)
 
     def remove_group(self, group: int) -> None:
         """Take a group out of the scene (the live API; a route's leave stage on arrival):
@@ -295,6 +381,29 @@ class Simulator:
             self.velocities[g.span] = 0.0
             self._grid = None
 
+    # ---- obstacles while running (LiveObstacles: add_obstacle, remove_obstacle, move_obstacle)
+    def _bodies(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """The agents in the scene now (ids, positions, radii): no obstacle goes in on them."""
+        live = np.flatnonzero(self.active)
+        return live, self.positions[live], self.radius[live]
+
+    def _obstacles_rebuilt(self, now: Scene) -> None:
+        """Rebuild what the obstacles standing now shape: contact primitives, the
+        potential field, the route fields (solved again when next needed)."""
+        self.obstacles = ObstacleSet(now, "formation", "the guiding-mesh method")
+        self.field = PotentialField(now, self.params.field_range, self.params.field_cell)
+        self._routes_solved = {}
+        self._route_stale = True
+
+    def _obstacles_check(self) -> None:
+        """A new obstacle may not cover a group's goal (where it recovers its shape); the
+        route fields are solved again now. A group it cuts off from its goal stands where
+        it is until a way opens (:meth:`cut_off` lists it), as walkers behind a shut door do."""
+        for g in self.groups:
+            if g.left_at is None:
+                self._goal_checked(g.goal, g, f"formation group {g.name!r}")
+        self._build_route()
+
     def _check_inside(self, pos: np.ndarray, radius: float, what: str) -> None:
         lo, hi = self.scene.lower, self.scene.upper
         out = ~np.all(np.isfinite(pos), axis=1) | np.any((pos - radius < lo) | (pos + radius > hi), axis=1)
@@ -305,12 +414,12 @@ class Simulator:
 
     def _check_start(self, pos: np.ndarray, radius: float, goal: np.ndarray, what: str) -> None:
         self._check_inside(pos, radius, what)
-        clear = self.scene.obstacle_distance(pos, 0.0)
+        clear = self._now.obstacle_distance(pos, self.time)
         if np.any(clear < radius):
             i = int(np.argmin(clear))
             raise ValueError(f"{what}: agent {i} starts at {pos[i].round(3).tolist()} inside or touching an obstacle "
                              f"(clearance {clear[i]:.3g} m < radius {radius} m)")
-        gclear = float(self.scene.obstacle_distance(goal[None], 0.0)[0])
+        gclear = float(self._now.obstacle_distance(goal[None], self.time)[0])
         if gclear < radius:
             raise ValueError(f"{what}: the goal {goal.tolist()} is inside an obstacle (clearance {gclear:.3g} m)")
         pairs = cKDTree(pos).query_pairs(2 * radius, output_type="ndarray")
@@ -358,6 +467,8 @@ class Simulator:
             # the mesh waits for its agents: the attraction fades as more are dislocated
             wait = max(0.1, 1.0 - 2.0 * float(g.guide.dislocated.mean()))
             u = wait * g.pref_speed * self._route_directions(k, V, to_goal / dist) * min(1.0, dist / SLOW_DOWN)
+            if k in self._held:  # walled off from its goal (a shut door): it stands until a way opens
+                u = np.zeros(2)
             fvec, fmag = self.field.sample(V)
             others = (np.arange(len(self.groups)) != k) & np.array([h.left_at is None for h in self.groups])
             if others.any():
@@ -443,9 +554,9 @@ class Simulator:
         The potential field serves as the broad phase: a vertex that near an obstacle lies
         in a painted cell whenever the field reaches a cell's diagonal beyond ``need``, so
         only vertices in the field get the exact (per obstacle) distance."""
-        if not self.scene.static_obstacles:
+        if not self._now.static_obstacles:
             return V
-        dist = self.scene.static_obstacle_distance
+        dist = self._now.static_obstacle_distance
         look = np.arange(len(V))
         if self.params.field_range > need + self.params.field_cell * np.sqrt(2.0):
             look = np.flatnonzero(self.field.sample(V)[1] > 0)
@@ -519,9 +630,13 @@ class Simulator:
         return out
 
     def cut_off(self) -> list[int]:
-        """Groups whose every vertex the route field says cannot reach the goal."""
+        """Groups whose every vertex the route field says cannot reach the goal (walled
+        off; one a shut door cuts off stands where it is until a way opens)."""
         if self._route_stale:
             self._build_route()
+        return self._cut_off()
+
+    def _cut_off(self) -> list[int]:
         if self._route is None:
             return []
         return [k for k, g in enumerate(self.groups) if not np.isfinite(self._route.at(k, g.vertices)).any()]
@@ -529,12 +644,13 @@ class Simulator:
     def _build_route(self) -> None:
         self._route_stale = False
         self._route = None
-        if self.groups and self.scene.static_obstacles:
+        if self.groups and self._now.static_obstacles:
             goals = [g.goal if isinstance(g.goal, (Rect, Disc)) else Points([g.goal_center]) for g in self.groups]
             key = tuple((type(r).__name__, repr(r)) for r in goals)
             if key not in self._routes_solved:  # a route's stages come back to the same goals
-                self._routes_solved[key] = distance_fields(self.scene, goals, min(g.radius for g in self.groups))
+                self._routes_solved[key] = distance_fields(self._now, goals, min(g.radius for g in self.groups))
             self._route = self._routes_solved[key]
+        self._held = set(self._cut_off())  # (none without a route field)
 
     @staticmethod
     def _arrive(g: FormationGroup, V: np.ndarray, centroid: np.ndarray) -> None:
@@ -574,10 +690,10 @@ class Simulator:
         delta = (want - g.heading + np.pi) % (2 * np.pi) - np.pi
         limit = g.pref_speed / max(g.extent, 1.0) * self.dt
         turn = float(np.clip(delta, -limit, limit))
-        if self.scene.static_obstacles and turn != 0.0 and not g.cars:  # cars keep their own kinematics
+        if self._now.static_obstacles and turn != 0.0 and not g.cars:  # cars keep their own kinematics
             need = g.radius + VERTEX_CLEARANCE
             rest = g.mesh.rest - g.mesh.rest.mean(axis=0)
-            short = lambda h: float(np.maximum(need - self.scene.static_obstacle_distance(  # noqa: E731
+            short = lambda h: float(np.maximum(need - self._now.static_obstacle_distance(  # noqa: E731
                 rest @ _rotation(h - g.heading0).T + centroid), 0.0).sum())
             now = short(g.heading)
             if now > 1e-9:  # the rest shape does not fit here: follow the mesh's own orientation
@@ -752,8 +868,9 @@ class Simulator:
         return out
 
     def step(self) -> None:
-        """Advance every group and agent by one time step; a ValueError, before anything
-        moves, if an agent's position or velocity is NaN or inf (the kernels would crash)."""
+        """Advance every group and agent by one time step, then move groups on along
+        their routes (``journeys``); a ValueError, before anything moves, if an agent's
+        position or velocity is NaN or inf (the kernels would crash)."""
         require_finite_agents({"positions": self.positions, "velocities": self.velocities})
         if not self.groups:
             self.time += self.dt
@@ -785,6 +902,9 @@ class Simulator:
         self.time += self.dt
         self.steps += 1
         self._bookkeeping()
+        if self.journeys is not None:  # groups bound for an exit leave there; the rest move on
+            self.walkers.after_step()
+            self.journeys.update(self.walkers, self.dt)
 
     def _bookkeeping(self) -> None:
         for g in self.groups:

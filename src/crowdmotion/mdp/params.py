@@ -10,6 +10,7 @@ from pydantic import AliasChoices, BaseModel, ConfigDict, Field, field_validator
 from crowdmotion._validation import Positive
 
 PosFloat = Positive
+STAGES = ("goto", "wait", "choose", "leave")  # the route stages an MDP group follows (validate reads it too)
 
 
 class MDPParams(BaseModel):

@@ -19,9 +19,8 @@ from crowdmotion.mdp.goal_fill import fill_depth
 from crowdmotion.mdp.grid import GridMap
 from crowdmotion.mdp.params import MDPParams
 from crowdmotion.mdp.trajectory import Walker
+from crowdmotion.mdp.params import STAGES
 from crowdmotion.stages import refuse_unfollowed
-
-STAGES = ("goto", "wait", "choose", "leave")  # the route stages an MDP group follows
 
 
 def check_mdp_route(route, where: str) -> None:

@@ -13,6 +13,7 @@ from crowdmotion._validation import Coordinate, NonNegative, Positive, error_lin
 PosFloat = Positive
 NonNeg = NonNegative
 Coord = Annotated[list[Coordinate], Field(min_length=2, max_length=3)]
+STAGES = ("goto", "choose", "leave")  # the route stages a swarm follows (validate reads it too)
 MAX_ITERATION_TIME_S = 10.0  # seconds per iteration at most
 MAX_FPS = 1000.0  # output frames per second at most
 

@@ -19,9 +19,8 @@ from __future__ import annotations
 import numpy as np
 
 from crowdmotion.groups import Disc, Points, Rect
+from crowdmotion.pso.params import STAGES
 from crowdmotion.stages import refuse_unfollowed
-
-STAGES = ("goto", "choose", "leave")  # the route stages a swarm follows
 
 
 def check_pso_route(route, where: str) -> None:

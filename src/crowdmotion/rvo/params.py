@@ -8,8 +8,10 @@ from typing import Annotated, Literal
 from pydantic import BaseModel, ConfigDict, Field, model_validator
 
 from crowdmotion._validation import NonNegative, Positive
+from crowdmotion.stage_kinds import KINDS
 
 PosFloat = Positive
+STAGES = KINDS  # the route stages an RVO agent follows: every one (validate reads it)
 MAX_TIME_STEP_S = 10.0  # seconds: a longer step walks through walls between two looks
 # the per-agent parameters a group may set for itself (attributes) share these bounds
 MAX_NEIGHBORS = 10_000

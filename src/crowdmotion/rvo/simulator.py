@@ -16,10 +16,11 @@ from crowdmotion.rvo.lanes import lane_velocities
 from crowdmotion.routing import DistanceFields, distance_fields
 from crowdmotion.rvo.guidance import preferred_velocities
 from crowdmotion._contact import grid_for
+from crowdmotion.live_obstacles import LiveObstacles
 from crowdmotion.obstacle_primitives import ObstacleSet
 from crowdmotion.rvo.params import MAX_NEIGHBORS, MAX_SAMPLES
 from crowdmotion.rvo.personality import PARAM_KEYS, params_for_vectors, sample_personalities
-from crowdmotion.scene import Obstacle, Scene
+from crowdmotion.scene import Scene
 
 BRISK = 3.0  # an agent breaking a stand-off (yielding, detouring) changes velocity this much faster
 FOLLOW_FULL_DENSITY = 2.0  # persons/m² sensed ahead from which following is anticipated in full
@@ -53,7 +54,7 @@ def _per_agent(value, n: int, name: str, integer: bool = False, minimum: float =
     return arr.astype(np.int64) if integer else arr
 
 
-class Simulator:
+class Simulator(LiveObstacles):
     """Sampling RVO (van den Berg, Lin & Manocha 2008) with per-agent parameters.
 
     ``sim = Simulator(scene, time_step=0.25)``, then ``sim.add_agents(...)`` and
@@ -464,90 +465,20 @@ class Simulator:
         self.velocities[now] = 0.0
         self.entry_time[now] = self.time
 
-    def add_obstacle(self, obstacle: Obstacle) -> int:
-        """Put an obstacle into the scene now (the live API: a door that closes, a barrier);
-        returns its index in ``scene.obstacles``. A ValueError, changing nothing, if it is
-        not a 2D shape, any agent still walking stands within its radius of it, or it
-        covers an agent's goal."""
-        if not isinstance(obstacle, Obstacle):
-            raise ValueError(f"add_obstacle: a Circle, Box or Polygon is needed, got {obstacle!r}")
-        if obstacle.dim != 2 or obstacle.is_timed:
-            raise ValueError(f"add_obstacle: a 2D obstacle that stands from now on is needed, got {obstacle!r}")
+    def _bodies(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """The agents in the scene now (ids, positions, radii): no obstacle goes in on them."""
         live = np.flatnonzero(self.active)
-        clear = obstacle.signed_distance(self.positions[live] - obstacle.offset(self.time)) \
-            - self.params["radius"][live]
-        if len(live) and clear.min() < 0:
-            k = int(np.argmin(clear))
-            raise ValueError(f"add_obstacle: agent {int(live[k])} at {np.round(self.positions[live[k]], 3).tolist()} "
-                             f"would stand inside {obstacle!r} (penetration {-clear[k]:.3f} m)")
-        scene = self._own_scene()
-        scene.obstacles.append(obstacle.during(self._clock(), np.inf))
-        self._obstacles_changed()
-        try:
-            self._ensure_fields()  # a goal it covers, or a way it closes for good, shows here
-        except ValueError as exc:
-            scene.obstacles.pop()
-            self._obstacles_changed()
-            raise ValueError(f"add_obstacle: {obstacle!r} cannot go in: {exc}") from None
-        return len(scene.obstacles) - 1
+        return live, self.positions[live], self.params["radius"][live]
 
-    def remove_obstacle(self, index: int) -> None:
-        """Take obstacle ``index`` of ``scene.obstacles`` out of the scene now (the live API:
-        a door that opens). ``scene`` keeps it, with the time it stood, for the audit."""
-        obs = self.scene.obstacles
-        if isinstance(index, bool) or not isinstance(index, (int, np.integer)) or not 0 <= index < len(obs):
-            raise ValueError(f"remove_obstacle: no obstacle {index!r} (indices run from 0 to {len(obs) - 1})")
-        now = self._clock()
-        if not obs[index].present_at(now):
-            raise ValueError(f"remove_obstacle: obstacle {index} is not in the scene now")
-        scene = self._own_scene()
-        scene.obstacles[index] = obs[index].during(obs[index].present[0], now)
-        self._obstacles_changed()
-
-    def move_obstacle(self, index: int, to) -> int:
-        """Move obstacle ``index`` of ``scene.obstacles`` now (the live API: a barrier
-        pushed aside): ``to`` is the obstacle in its new place (a Circle, Box or Polygon)
-        or an offset (dx, dy) of the old one. Done as :meth:`remove_obstacle` then
-        :meth:`add_obstacle`, with their checks: a ValueError, changing nothing, if the
-        obstacle is not in the scene now or moves along a path, or if in its new place an
-        agent still walking would stand inside it or it covers an agent's goal. ``scene``
-        keeps the old one, standing until now, and the moved one from now on, so the audit
-        and the player see each where it stood; returns the moved one's index."""
-        obs = self.scene.obstacles
-        if isinstance(index, bool) or not isinstance(index, (int, np.integer)) or not 0 <= index < len(obs):
-            raise ValueError(f"move_obstacle: no obstacle {index!r} (indices run from 0 to {len(obs) - 1})")
-        old = obs[index]
-        if not old.present_at(self._clock()):
-            raise ValueError(f"move_obstacle: obstacle {index} is not in the scene now")
-        if old.is_moving:
-            raise ValueError(f"move_obstacle: obstacle {index} moves along its path; it cannot be moved as well")
-        new = to if isinstance(to, Obstacle) else _shifted(old, to)
-        self.remove_obstacle(index)
-        try:
-            return self.add_obstacle(new)
-        except ValueError as exc:
-            self.scene.obstacles[index] = old  # put back as it stood: nothing changed
-            self._obstacles_changed()
-            raise ValueError(str(exc).replace("add_obstacle:", f"move_obstacle: obstacle {index} moved,", 1)) from None
-
-    def _clock(self) -> float:
-        """The time now as frames count it (steps × dt), so windows match ``Trajectories.times``."""
-        return self.steps * self.dt
-
-    def _own_scene(self) -> Scene:
-        """The simulator's own copy of the scene (the caller's is never changed)."""
-        if not self._scene_owned:
-            self.scene = Scene((self.scene.lower, self.scene.upper), list(self.scene.obstacles))
-            self._scene_owned = True
-        return self.scene
-
-    def _obstacles_changed(self) -> None:
+    def _obstacles_rebuilt(self, now: Scene) -> None:
         """Rebuild what the obstacles standing now shape: primitives, guidance fields, floor."""
-        now = self.scene.at_time(self._clock())
-        self._now = now
         self.obstacles = ObstacleSet(now)
         self.density_slowing.refloor(now)
         self._fields_stale = True  # rebuilt (for the obstacles standing now) when next needed
+
+    def _obstacles_check(self) -> None:
+        """A new obstacle's guidance fields solved now: a goal it covers raises here."""
+        self._ensure_fields()
 
     def _agent_ids(self, agents, what: str) -> np.ndarray:
         """``agents`` as unique int ids of agents still in the simulation or waiting to
@@ -697,15 +628,10 @@ class Simulator:
 
     def _check_route(self, route, ids: np.ndarray) -> None:
         """A route's places checked against the scene standing now, as a scenario's are."""
-        from crowdmotion.checks import check_route_places, where
-        from crowdmotion.groups import Group
+        from crowdmotion.checks import check_live_route
 
-        probe = Group("set_route", len(ids), Points(self.positions[ids[:1]]), Points(self.positions[ids[:1]]),
-                      radius=float(self.params["radius"][ids].max()), attributes={"route": route})
-        try:
-            check_route_places(self._now, 0, probe)
-        except ValueError as exc:
-            raise ValueError(str(exc).replace(f"{where(0, probe)} ", "set_route: ")) from None
+        check_live_route(self._now, route, len(ids), float(self.params["radius"][ids].max()), self.positions[ids[0]],
+                         "set_route")
 
     def _clearance(self, points: np.ndarray) -> np.ndarray:
         """Metres from each point to the nearest wall or static obstacle standing now."""
@@ -859,19 +785,3 @@ def _points_region(goal: np.ndarray):
     from crowdmotion.groups import Points
 
     return Points(np.unique(goal, axis=0))
-
-
-def _shifted(obstacle: Obstacle, offset) -> Obstacle:
-    """A fresh copy of a 2D obstacle at rest, moved by ``offset`` (dx, dy)."""
-    from crowdmotion.scene import Box, Circle, Polygon
-
-    d = finite_array(offset, "move_obstacle: offset")
-    if d.shape != (2,):
-        raise ValueError(f"move_obstacle: an obstacle or an offset (dx, dy) is needed, got {offset!r}")
-    if isinstance(obstacle, Circle):
-        return Circle(obstacle.center + d, obstacle.radius)
-    if isinstance(obstacle, Box):
-        return Box(obstacle.lower + d, obstacle.upper + d)
-    if isinstance(obstacle, Polygon):
-        return Polygon(np.asarray(obstacle.geometry.exterior.coords)[:-1] + d)
-    raise ValueError(f"move_obstacle: cannot move {obstacle!r} by an offset; give it in its new place")
