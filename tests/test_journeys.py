@@ -95,6 +95,22 @@ def test_entry_times_refuse_a_bad_spec_naming_the_field(spec, message):
         entry_times(spec, 3)
 
 
+def test_people_entering_at_2_per_second_between_10_s_and_69_5_s_all_fit_the_window():
+    due = entry_times({"rate": 2.0, "start": 10.0, "end": 69.5}, 120)
+    assert due[0] == 10.0 and due[-1] == 69.5 and np.allclose(np.diff(due), 0.5)
+    with pytest.raises(ValueError, match=r"enter.end: 121 agents .* the window holds 120"):
+        entry_times({"rate": 2.0, "start": 10.0, "end": 69.5}, 121)
+
+
+def test_a_group_given_a_window_without_a_rate_is_spread_evenly_over_it():
+    assert entry_times({"start": 2.0, "end": 6.0}, 5).tolist() == [2.0, 3.0, 4.0, 5.0, 6.0]
+    assert entry_times({"end": 4.0}, 1).tolist() == [0.0], "one agent enters at the start"
+    with pytest.raises(ValueError, match=r"enter.end must be after start \(4 s\), got 4"):
+        entry_times({"start": 4.0, "end": 4.0}, 3)
+    with pytest.raises(ValueError, match="enter.end must be a finite number"):
+        entry_times({"end": float("nan")}, 3)
+
+
 def test_entry_times_at_a_rate_from_a_start():
     assert entry_times({"rate": 4.0, "start": 10.0}, 3).tolist() == [10.0, 10.25, 10.5]
     assert entry_times({"times": [5, 0, 2]}, 3).tolist() == [5.0, 0.0, 2.0]
@@ -103,7 +119,13 @@ def test_entry_times_at_a_rate_from_a_start():
 
 @pytest.mark.parametrize("old,new,message", [
     ("enter = { rate = 2.0 }", "enter = { rate = 2.0, times = [1.0] }", "either rate"),
-    ("enter = { rate = 2.0 }", "enter = { times = [1.0, 2.0] }", r"group 'commuters' \(groups.0\): enter.times: 2 time\(s\) for a group of 120"),
+    ("enter = { rate = 2.0 }", "enter = { times = [1.0, 2.0] }", r"groups.0.enter.times \(group 'commuters'\): 2 time\(s\) for a group of 120"),
+    ("enter = { rate = 2.0 }", "enter = { rate = 2.0, start = 5.0, end = 3.0 }",
+     r"groups.0.enter.end \(group 'commuters'\): must be after start \(5 s\), got 3"),
+    ("enter = { rate = 2.0 }", "enter = { rate = 2.0, end = 30.0 }",
+     r"groups.0.enter.end \(group 'commuters'\): 120 agents at 2 persons/s from 0 s need until 59.5 s, after "
+     r"end = 30 s: the window holds 61"),
+    ("enter = { rate = 2.0 }", "enter = { times = [1.0, 2.0], end = 3.0 }", "groups.0.enter .*either rate"),
     ("enter = { rate = 2.0 }", "enter = { rate = -1.0 }", "groups.0.enter.rate"),
     ('method = "rvo"', 'method = "pso"', r"groups.0.enter \(group 'commuters'\): only method 'rvo' reads a group's enter"),
 ])

@@ -38,25 +38,32 @@ from crowdmotion.groups import Disc, Points, Rect
 from crowdmotion.queues import ServiceQueue
 from crowdmotion.stages import Choose, GoTo, Leave, Queue, Wait, check_route, flat_stages
 
-ENTER_KEYS = ("rate", "start", "times")
+ENTER_KEYS = ("rate", "start", "end", "times", "entrances", "weights")
 
 
 def entry_times(spec, count: int, where: str = "enter") -> np.ndarray:
-    """(count,) the time (s) each agent of a group is due to enter: ``start + k / rate``
-    for k = 0 … count − 1, or the listed ``times``; zeros without a spec. ValueError
-    naming ``where`` and the bad value otherwise."""
+    """(count,) the time (s) each agent of a group is due to enter; zeros without a spec.
+
+    ``rate`` (persons/s) from ``start`` (s, default 0): ``start + k / rate`` for k = 0 …
+    count − 1; with an ``end`` (s) too, the window must hold them all (count ≤
+    floor(rate·(end − start)) + 1). ``end`` without a rate spreads the group evenly over
+    [start, end], the first at start and the last at end. ``times``: one absolute time
+    per agent. ValueError naming ``where``'s field and the bad value otherwise."""
     if spec is None:
         return np.zeros(count)
     if not isinstance(spec, dict):
-        raise ValueError(f"{where} must be a table: rate (persons/s) and start (s), or times (s), got {spec!r}")
+        raise ValueError(f"{where} must be a table: rate (persons/s), start and end (s), or times (s), got {spec!r}")
     unknown = sorted(set(spec) - set(ENTER_KEYS))
     if unknown:
-        raise ValueError(f"{where}: unknown key(s) {unknown}; expected rate and start, or times")
-    if ("rate" in spec) == ("times" in spec):
-        raise ValueError(f"{where}: give either rate (with an optional start) or times, got {spec!r}")
+        raise ValueError(f"{where}: unknown key(s) {unknown}; expected rate, start and end, or times "
+                         f"(and entrances with their weights)")
+    timed = "rate" in spec or "end" in spec
+    if timed == ("times" in spec):
+        raise ValueError(f"{where}: give either rate (with an optional start and end), start and end, or times, "
+                         f"got {_shown_times(spec)}")
     if "times" in spec:
         if "start" in spec:
-            raise ValueError(f"{where}: start goes with rate; times are absolute, got {spec!r}")
+            raise ValueError(f"{where}: start goes with rate or end; times are absolute, got {_shown_times(spec)}")
         try:
             times = np.asarray(spec["times"], dtype=float)
         except (TypeError, ValueError):
@@ -67,10 +74,72 @@ def entry_times(spec, count: int, where: str = "enter") -> np.ndarray:
         if len(bad):
             raise ValueError(f"{where}.times.{int(bad[0])} must be a number of seconds >= 0, got {times[bad[0]]}")
         return times
-    rate, start = _number(spec["rate"], f"{where}.rate"), _number(spec.get("start", 0.0), f"{where}.start")
+    start = _number(spec.get("start", 0.0), f"{where}.start")
+    end = None if "end" not in spec else _number(spec["end"], f"{where}.end")
+    if end is not None and end <= start:
+        raise ValueError(f"{where}.end must be after start ({start:g} s), got {end:g}")
+    if "rate" not in spec:  # spread evenly over [start, end]
+        return start + np.arange(count) * ((end - start) / max(count - 1, 1))
+    rate = _number(spec["rate"], f"{where}.rate")
     if rate <= 0:
         raise ValueError(f"{where}.rate must be a positive number of persons per second, got {spec['rate']!r}")
-    return start + np.arange(count) / rate
+    times = start + np.arange(count) / rate
+    if end is not None and times[-1] > end + 1e-9:
+        fit = int(np.floor((end - start) * rate + 1e-9)) + 1
+        raise ValueError(f"{where}.end: {count} agents at {rate:g} persons/s from {start:g} s need until "
+                         f"{times[-1]:g} s, after end = {end:g} s: the window holds {fit}; lower the count, "
+                         f"raise the rate to {(count - 1) / (end - start):g} or move end to {times[-1]:g}")
+    return times
+
+
+def entrances(spec, where: str = "enter") -> tuple[list, np.ndarray] | None:
+    """A group's entrances and the share of the group each takes (weights summing to 1),
+    or None when it enters at its spawn. ValueError naming ``where``'s field otherwise."""
+    if not isinstance(spec, dict) or ("entrances" not in spec and "weights" not in spec):
+        return None
+    if "entrances" not in spec:
+        raise ValueError(f"{where}.weights: weights go with entrances, one per entrance")
+    areas = spec["entrances"]
+    if not isinstance(areas, (list, tuple)) or not areas:
+        raise ValueError(f"{where}.entrances must be a list of areas (point, points, rect or disc), got {areas!r}")
+    for i, a in enumerate(areas):
+        if not isinstance(a, (Points, Rect, Disc)):
+            raise ValueError(f"{where}.entrances.{i} must be an area (point, points, rect or disc), got {a!r}")
+    w = spec.get("weights", [1.0] * len(areas))
+    try:
+        w = np.asarray(w, dtype=float)
+    except (TypeError, ValueError):
+        raise ValueError(f"{where}.weights must be a list of numbers, got {spec['weights']!r}") from None
+    if w.shape != (len(areas),):
+        raise ValueError(f"{where}.weights: {w.size} weight(s) for {len(areas)} entrance(s): give one per entrance")
+    if not np.isfinite(w).all() or (w < 0).any() or w.sum() <= 0:
+        raise ValueError(f"{where}.weights must be finite numbers >= 0, not all 0, got {w.tolist()}")
+    return list(areas), w / w.sum()
+
+
+def check_enter(spec, count: int, where: str = "enter") -> None:
+    """Refuse an ``enter`` table a group of ``count`` cannot use (ValueError naming the
+    field): its times and its entrances."""
+    entry_times(spec, count, where)
+    entrances(spec, where)
+
+
+def entrance_of(spec, count: int, rng: np.random.Generator, where: str = "enter") -> np.ndarray | None:
+    """(count,) the entrance each agent enters at (an index into ``entrances``), None
+    without entrances: each entrance takes its share of the group (largest remainders,
+    so the shares are exact up to one agent), in an order drawn from ``rng``."""
+    got = entrances(spec, where)
+    if got is None:
+        return None
+    share = got[1] * count
+    quota = np.floor(share).astype(np.int64)
+    quota[np.argsort(quota - share, kind="stable")[:count - int(quota.sum())]] += 1
+    return rng.permutation(np.repeat(np.arange(len(quota)), quota))
+
+
+def _shown_times(spec: dict) -> dict:
+    """The spec's timing keys (for a message: entrances are region objects)."""
+    return {k: v for k, v in spec.items() if k not in ("entrances", "weights")}
 
 
 def _number(value, where: str) -> float:

@@ -248,29 +248,32 @@ RegionSpec = Annotated[Union[PointRegion, PointsRegion, RectRegion, DiscRegion, 
 
 
 class EnterSpec(_Model):
-    """When the group's agents enter, instead of all at t = 0 (crowdmotion.journeys).
+    """When and where the group's agents enter, instead of all at t = 0 at the spawn
+    (crowdmotion.journeys).
 
     rate : float        persons per second, the first at ``start``
-    start : float       seconds (with rate; default 0)
-    times : list        seconds, one per agent (instead of rate and start)
+    start : float       seconds (default 0)
+    end : float         seconds, after start: with rate, the window the whole group must
+                        enter in (count ≤ floor(rate·(end − start)) + 1); without rate,
+                        the group is spread evenly over [start, end]
+    times : list        seconds, one per agent (instead of rate, start and end)
+    entrances : list    areas (point, points, rect or disc tables) the agents enter at,
+                        instead of the spawn; each agent is given one, from the seed
+    weights : list      with entrances: the share of the group each takes (default equal)
     """
 
     rate: PosFloat | None = None
     start: Annotated[float, Field(ge=0, allow_inf_nan=False)] = 0.0
+    end: Annotated[float, Field(gt=0, allow_inf_nan=False)] | None = None
     times: list[Annotated[float, Field(ge=0, allow_inf_nan=False)]] | None = None
-
-    @model_validator(mode="after")
-    def _one_way(self):
-        if (self.rate is None) == (self.times is None):
-            raise ValueError("give either rate (persons/s, with an optional start) or times (one per agent)")
-        if self.times is not None and "start" in self.model_fields_set:
-            raise ValueError("start goes with rate; times are absolute seconds")
-        return self
+    entrances: Annotated[list["AreaSpec"], Field(min_length=1)] | None = None
+    weights: list[NonNegative] | None = None
 
 
 Point2 = Annotated[list[Coordinate], Field(min_length=2, max_length=2)]
 AreaSpec = Annotated[Union[PointRegion, PointsRegion, RectRegion, DiscRegion], Field(discriminator="shape")]
 StageName = Annotated[str, Field(min_length=1)]
+EnterSpec.model_rebuild()
 
 
 class WaitTimeSpec(_Model):
@@ -443,7 +446,7 @@ class GroupSpec(_Model):
 
     name: str = Field(min_length=1)
     count: Annotated[int, Field(gt=0, le=10_000_000)]
-    spawn: RegionSpec
+    spawn: RegionSpec | None = None
     goal: RegionSpec | None = None
     radius: PosFloat = 0.25
     max_speed: Speed = 1.5
@@ -453,6 +456,20 @@ class GroupSpec(_Model):
     enter: EnterSpec | None = None
     route: Annotated[list[StageSpec], Field(min_length=1)] | None = None
     attributes: dict[str, Any] = {}
+
+    @model_validator(mode="after")
+    def _spawn_or_entrances(self):
+        entrances = self.enter is not None and self.enter.entrances is not None
+        if self.spawn is None and not entrances:
+            raise ValueError("spawn: is missing: give the group a spawn region, or enter.entrances")
+        if self.spawn is not None and entrances:
+            raise ValueError("spawn: give a spawn or enter.entrances, not both: agents entering at entrances "
+                             "start there")
+        if self.enter is not None:
+            from crowdmotion.journeys import check_enter
+
+            check_enter(enter_attribute(self.enter), self.count)
+        return self
 
     @model_validator(mode="after")
     def _goal_or_route(self):
@@ -566,6 +583,10 @@ class ScenarioSpec(_Model):
                 for c in coords:
                     if len(c) != dim:
                         raise ValueError(f"groups.{i}.{part}: coordinates {c} are not {dim}D like the scene")
+            for j, e in enumerate(g.enter.entrances if g.enter is not None and g.enter.entrances else []):
+                coords = [getattr(e, a) for a in ("position", "lower", "upper", "center") if hasattr(e, a)]
+                if any(len(c) != dim for c in coords + list(getattr(e, "points", []))):
+                    raise ValueError(f"groups.{i}.enter.entrances.{j}: coordinates are not {dim}D like the scene")
             for j, st in enumerate(g.route or []):
                 for k, o in enumerate(st.among if isinstance(st, ChooseStageSpec) else [st]):
                     area = getattr(o, "area", None)
@@ -585,7 +606,8 @@ class ScenarioSpec(_Model):
                 raise ValueError(f"groups.{i}.spawn: 'antipodal' is a goal shape, not a spawn")
             if isinstance(g.goal, AntipodalRegion) and not isinstance(g.spawn, (RingRegion, PointsRegion, PointRegion)):
                 raise ValueError(f"groups.{i}.goal: an antipodal goal needs fixed start points "
-                                 f"(spawn shape ring, points or point), got spawn shape {g.spawn.shape!r}")
+                                 f"(spawn shape ring, points or point), got "
+                                 + (f"spawn shape {g.spawn.shape!r}" if g.spawn is not None else "enter.entrances"))
         return self
 
 
@@ -704,7 +726,7 @@ _STAGE_TAG = re.compile(r"\b((?:route|among)\.\d+)\.(?:goto|wait|queue|choose|le
 _AREA_TAG = re.compile(r"\b(route\.\d+(?:\.among\.\d+)?\.area)\.(?:point|points|rect|disc)\b")
 _TIME_TAG = re.compile(r"\.time\.(?:constrained-float|function-after\[[^\]]*\])")
 # a check's own field at the head of its message: "groups.1: goal: is missing" -> "groups.1.goal: is missing"
-_OWN_PART = re.compile(r"^(groups\.\d+[\w.]*): (goal|route\.\d+|uniform|normal): ")
+_OWN_PART = re.compile(r"^(groups\.\d+[\w.]*): (goal|spawn|enter(?:\.\w+)*|route\.\d+|uniform|normal)(?:: | (?=must ))")
 
 
 def _route_error_lines(lines: list[str]) -> list[str]:
@@ -832,7 +854,16 @@ def _attributes(g: GroupSpec) -> dict:
     if g.formation is not None:
         out["formation"] = g.formation
     if g.enter is not None:
-        out["enter"] = g.enter.model_dump(exclude_none=True, exclude_unset=True)
+        out["enter"] = enter_attribute(g.enter)
+    return out
+
+
+def enter_attribute(spec: EnterSpec) -> dict:
+    """A group's ``enter`` table as ``Group.attributes["enter"]``: the keys written, with
+    entrances as regions."""
+    out = spec.model_dump(exclude_none=True, exclude_unset=True)
+    if spec.entrances is not None:
+        out["entrances"] = [_region(e) for e in spec.entrances]
     return out
 
 
@@ -922,7 +953,8 @@ def build(spec: ScenarioSpec, source: str = "scenario", max_memory: int | None =
     groups = []
     for i, g in enumerate(spec.groups):
         try:
-            spawn = _spawn(g.spawn, g.count)
+            # entering at entrances, the first stands for the spawn where one is read
+            spawn = _spawn(g.spawn, g.count) if g.spawn is not None else _region(g.enter.entrances[0])
             attributes = _attributes(g)
             if g.route is not None:
                 attributes["route"] = route_stages(g.route)
