@@ -386,3 +386,35 @@ def test_a_run_with_routes_draws_its_queues_and_exits_over_time(tmp_path):
     no_route = GATE.split("[[groups.route]]")[0] + 'goal = { shape = "rect", lower = [39.0, 8.0], upper = [40.0, 12.0] }\n'
     plain = run_scenario(parse_scenario(no_route), progress=False)
     assert "journeys.png" not in {p.name for p in write_run(plain, tmp_path / "plain", plots=["paths"], pictures=None)}
+
+
+TWO_DOORS = STREAM.replace('spawn = { shape = "rect", lower = [0.5, 4.0], upper = [2.0, 8.0] }\n', "").replace(
+    "count = 120", "count = 40").replace("enter = { rate = 2.0 }", """enter = { rate = 4.0, end = 10.0, weights = [3, 1], entrances = [
+    { shape = "rect", lower = [0.5, 1.0], upper = [2.0, 5.0] },
+    { shape = "disc", center = [10.0, 10.5], radius = 1.0 } ] }""")
+
+
+def test_a_group_with_two_entrances_uses_both_in_the_given_proportions_and_none_overlap():
+    result = run_scenario(parse_scenario(TWO_DOORS), progress=False)
+    traj, sim, summary = result.trajectories, result.extras.simulator, result.summary
+    assert np.bincount(sim.entrance).tolist() == [30, 10], "weights 3 : 1 of 40"
+    first = traj.positions[np.argmax(traj.active_mask, axis=0), np.arange(40)]  # where each came in
+    west, north = sim.entrance == 0, sim.entrance == 1
+    assert cm.Rect([0.5, 1.0], [2.0, 5.0]).contains(first[west]).all()
+    assert cm.Disc([10.0, 10.5], 1.0).contains(first[north]).all()
+    doors = summary["entry"]["commuters"]["entrances"]
+    assert [d["entered"] for d in doors] == [30, 10] and summary["entry"]["commuters"]["waiting_at_end"] == 0
+    assert summary["agent_agent_overlaps"] == 0 and summary["agent_obstacle_penetrations"] == 0
+    assert summary["arrival_rate"] == 1.0
+
+
+@pytest.mark.parametrize("old,new,message", [
+    ('{ shape = "disc", center = [10.0, 10.5], radius = 1.0 } ]', '{ shape = "disc", center = [10.0, 11.5], radius = 1.0 } ]',
+     r"enter.entrances.1: disc .* reaches outside scene.bounds"),
+    ("weights = [3, 1]", "weights = [3, 1, 1]", r"groups.0.enter.weights \(group 'commuters'\): 3 weight\(s\) for 2 entrance\(s\)"),
+    ("weights = [3, 1]", "weights = [0, 0]", r"groups.0.enter.weights \(group 'commuters'\): must be finite numbers >= 0, not all 0"),
+    ("count = 40", 'count = 40\nspawn = { shape = "point", position = [1.0, 6.0] }', "give a spawn or enter.entrances, not both"),
+])
+def test_validate_refuses_bad_entrances_naming_the_field(old, new, message):
+    with pytest.raises(ScenarioError, match=message):
+        parse_scenario(TWO_DOORS.replace(old, new))

@@ -16,7 +16,13 @@ and in Python ``Group(..., attributes={"enter": {"rate": 2.0}})``. Each agent ge
 of the spawn region; when its time comes it enters there if no one stands within its body
 of it, else it waits off-scene (not drawn, not avoided) and tries a fresh point of the
 region at each step until there is room. The delay (entry time less the time it was due)
-is reported per group. Without ``enter`` every agent starts at t = 0, as before.
+is reported per group. Without ``enter`` every agent starts at t = 0.
+
+``end`` closes the window: with a rate the whole group must fit in it, without one the
+group is spread evenly over [start, end]. ``entrances = [areas]`` (with optional
+``weights``) replace the spawn: each entrance takes its share of the group (exact to one
+agent, in an order drawn from the seed) and each agent enters at a point of its own; the
+delay is then reported per entrance too.
 
 A group may also follow a *route* of stages (:mod:`crowdmotion.stages`): go to an area,
 wait, queue, choose among next stages, leave. :class:`Journeys` is the state machine that
@@ -29,12 +35,14 @@ the agents whose stage changes.
 
 from __future__ import annotations
 
+from dataclasses import replace
 from typing import Protocol
 
 import numpy as np
 
 from crowdmotion._rng import uniforms
 from crowdmotion.groups import Disc, Points, Rect
+from crowdmotion.placement import spawn_positions
 from crowdmotion.queues import ServiceQueue
 from crowdmotion.stages import Choose, GoTo, Leave, Queue, Wait, check_route, flat_stages
 
@@ -137,6 +145,26 @@ def entrance_of(spec, count: int, rng: np.random.Generator, where: str = "enter"
     return rng.permutation(np.repeat(np.arange(len(quota)), quota))
 
 
+def entry_points(scene, group, doors: np.ndarray, gap: float, rng: np.random.Generator) -> np.ndarray:
+    """(len(doors), dim) where agents of ``group`` entering over time come in: for each,
+    a point of its entrance (``doors``: indices into ``enter.entrances``; -1: the spawn),
+    ``gap`` metres clear of obstacles. Bodies may overlap here: they come in one by one,
+    each when its place is free. A points area gives each one of its points, drawn (a
+    points spawn: the listed point of each agent, kept)."""
+    doors = np.asarray(doors, dtype=np.int64)
+    areas = (entrances(group.attributes.get("enter")) or ([], None))[0]
+    out = np.empty((len(doors), scene.dim))
+    for j in np.unique(doors):
+        own = doors == j
+        area = group.spawn if j < 0 else areas[j]
+        if isinstance(area, Points) and j >= 0:
+            out[own] = area.points[rng.integers(len(area.points), size=int(own.sum()))]
+        else:
+            out[own] = spawn_positions(scene, replace(group, spawn=area, count=int(own.sum())),
+                                       np.zeros((0, scene.dim)), np.zeros(0), gap, rng, overlap=True)
+    return out
+
+
 def _shown_times(spec: dict) -> dict:
     """The spec's timing keys (for a message: entrances are region objects)."""
     return {k: v for k, v in spec.items() if k not in ("entrances", "weights")}
@@ -149,17 +177,24 @@ def _number(value, where: str) -> float:
     return float(value)
 
 
-def entry_report(names: np.ndarray, due: np.ndarray, entered: np.ndarray) -> dict:
+def entry_report(names: np.ndarray, due: np.ndarray, entered: np.ndarray, entrance: np.ndarray | None = None) -> dict:
     """Per group: agents that entered, agents still waiting at the end, and the mean and
-    longest delay (s) between being due and entering (for summary.json)."""
+    longest delay (s) between being due and entering (for summary.json); for a group
+    with entrances (``entrance``: (N,) index, -1 none), the same per entrance, in order."""
+    def row(own: np.ndarray) -> dict:
+        ok = own & np.isfinite(entered)
+        delay = entered[ok] - due[ok]
+        return {"entered": int(ok.sum()), "waiting_at_end": int((own & ~np.isfinite(entered)).sum()),
+                "mean_delay_s": float(delay.mean()) if ok.any() else None,
+                "max_delay_s": float(delay.max()) if ok.any() else None}
+
     out = {}
     for name in dict.fromkeys(names.tolist()):
         own = names == name
-        ok = own & np.isfinite(entered)
-        delay = entered[ok] - due[ok]
-        out[str(name)] = {"entered": int(ok.sum()), "waiting_at_end": int((own & ~np.isfinite(entered)).sum()),
-                          "mean_delay_s": float(delay.mean()) if ok.any() else None,
-                          "max_delay_s": float(delay.max()) if ok.any() else None}
+        out[str(name)] = row(own)
+        doors = np.array([]) if entrance is None else entrance[own]
+        if (doors >= 0).any():
+            out[str(name)]["entrances"] = [row(own & (entrance == j)) for j in range(int(doors.max()) + 1)]
     return out
 
 

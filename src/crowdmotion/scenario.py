@@ -422,7 +422,8 @@ class GroupSpec(_Model):
 
     name : str          the group's name in outputs, reports and error messages
     count : int         number of agents
-    spawn : table       where they start: a region table (point, points, rect, disc, ring)
+    spawn : table       where they start: a region table (point, points, rect, disc, ring);
+                        left out when enter.entrances say where they come in
     goal : table        where they go: a region table (point, points, rect, disc, moving,
                         antipodal); required unless the group has a route
     radius : float      body radius, metres (bounding circle / sphere)
@@ -431,9 +432,13 @@ class GroupSpec(_Model):
     personality : str   rvo: an OCEAN pole name (O+, O-, C+, C-, E+, E-, A+, A-, N+, N-),
                         a 5-vector of traits in [-1, 1], or a distribution table
     formation : table   formation: the group's template (see "Formation templates")
-    enter : table       rvo: agents enter over time: {rate = persons/s, start = s} or
+    enter : table       rvo: agents enter over time: {rate = persons/s, start = s, end = s}
+                        (all must fit before end), {start = s, end = s} (spread evenly) or
                         {times = [s, ...]} (one per agent); each enters at a free point of
-                        the spawn region, waiting while there is no room
+                        the spawn region, waiting while there is no room; with
+                        entrances = [areas] (and weights, their shares of the group) in
+                        place of the spawn, each agent enters at a free point of its own
+                        entrance (given from the seed); the first stands for the spawn
     route : list        rvo, formation, mdp, pso: the stages the agents follow in order
                         ([[groups.route]] tables: goto, wait, queue, choose, leave;
                         formation and mdp: all but queue; pso: goto, choose, leave; see
