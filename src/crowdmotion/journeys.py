@@ -52,6 +52,7 @@ ENTER_KEYS = ("rate", "start", "end", "times", "entrances", "weights")
 def entry_times(spec, count: int, where: str = "enter") -> np.ndarray:
     """(count,) the time (s) each agent of a group is due to enter; zeros without a spec.
 
+    ``start`` alone: every agent is due then (they come in as room allows).
     ``rate`` (persons/s) from ``start`` (s, default 0): ``start + k / rate`` for k = 0 …
     count − 1; with an ``end`` (s) too, the window must hold them all (count ≤
     floor(rate·(end − start)) + 1). ``end`` without a rate spreads the group evenly over
@@ -65,7 +66,7 @@ def entry_times(spec, count: int, where: str = "enter") -> np.ndarray:
     if unknown:
         raise ValueError(f"{where}: unknown key(s) {unknown}; expected rate, start and end, or times "
                          f"(and entrances with their weights)")
-    timed = "rate" in spec or "end" in spec
+    timed = "rate" in spec or "end" in spec or "start" in spec
     if timed == ("times" in spec):
         raise ValueError(f"{where}: give either rate (with an optional start and end), start and end, or times, "
                          f"got {_shown_times(spec)}")
@@ -86,6 +87,8 @@ def entry_times(spec, count: int, where: str = "enter") -> np.ndarray:
     end = None if "end" not in spec else _number(spec["end"], f"{where}.end")
     if end is not None and end <= start:
         raise ValueError(f"{where}.end must be after start ({start:g} s), got {end:g}")
+    if "rate" not in spec and end is None:  # all due at start
+        return np.full(count, start)
     if "rate" not in spec:  # spread evenly over [start, end]
         return start + np.arange(count) * ((end - start) / max(count - 1, 1))
     rate = _number(spec["rate"], f"{where}.rate")
@@ -163,6 +166,21 @@ def entry_points(scene, group, doors: np.ndarray, gap: float, rng: np.random.Gen
             out[own] = spawn_positions(scene, replace(group, spawn=area, count=int(own.sum())),
                                        np.zeros((0, scene.dim)), np.zeros(0), gap, rng, overlap=True)
     return out
+
+
+def unit_entry_time(spec, where: str = "enter") -> float:
+    """When a group that enters as one unit (a formation) is due: ``enter = { start = s }``
+    (default 0); ValueError naming the field for anything else (a rate, an end, times,
+    entrances: a unit cannot come in over time or by several doors)."""
+    if spec is None:
+        return 0.0
+    if isinstance(spec, dict):
+        other = [k for k in spec if k != "start"]
+        if other:
+            raise ValueError(f"{where}.{other[0]}: a formation enters as one unit, all at once at its spawn: "
+                             f"give enter = {{ start = s }} only")
+        spec = {"start": spec.get("start", 0.0)}
+    return float(entry_times(spec, 1, where)[0])
 
 
 def _shown_times(spec: dict) -> dict:

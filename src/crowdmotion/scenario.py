@@ -35,7 +35,7 @@ METHODS = ("mdp", "rvo", "pso", "formation")
 ATTRIBUTES: dict[str, type[BaseModel] | None] = {"mdp": None, "rvo": RVOAttributes, "pso": None,
                                                  "formation": FormationAttributes}
 # [[groups]] fields only one method reads
-GROUP_FIELD_METHOD = {"personality": "rvo", "formation": "formation", "enter": "rvo"}
+GROUP_FIELD_METHOD = {"personality": ("rvo",), "formation": ("formation",), "enter": ("rvo", "formation")}
 # the route stages each method follows
 ROUTE_SUPPORT = {"rvo": ("goto", "wait", "queue", "choose", "leave"), "mdp": ("goto", "wait", "choose", "leave"),
                  "pso": ("goto", "choose", "leave"),
@@ -432,9 +432,12 @@ class GroupSpec(_Model):
     personality : str   rvo: an OCEAN pole name (O+, O-, C+, C-, E+, E-, A+, A-, N+, N-),
                         a 5-vector of traits in [-1, 1], or a distribution table
     formation : table   formation: the group's template (see "Formation templates")
-    enter : table       rvo: agents enter over time: {rate = persons/s, start = s, end = s}
-                        (all must fit before end), {start = s, end = s} (spread evenly) or
-                        {times = [s, ...]} (one per agent); each enters at a free point of
+    enter : table       rvo, formation: when they enter. rvo: {start = s} (all due
+                        then), {rate = persons/s, start = s, end = s} (all must fit before
+                        end), {start = s, end = s} (spread evenly) or {times = [s, ...]}
+                        (one per agent); formation: {start = s} only, the whole formation
+                        coming in at its spawn once no body stands there. rvo agents each
+                        enter at a free point of
                         the spawn region, waiting while there is no room; with
                         entrances = [areas] (and weights, their shares of the group) in
                         place of the spawn, each agent enters at a free point of its own
@@ -699,10 +702,18 @@ def _method_lines(data: Any) -> list[str]:
     for i, g in enumerate(groups if isinstance(groups, list) else []):
         if not isinstance(g, dict):
             continue
-        for key, owner in GROUP_FIELD_METHOD.items():
-            if key in g and owner != method:
-                lines.append(f"groups.{i}.{key}: only method {shown(owner)} reads a group's {key}, but method = "
+        for key, owners in GROUP_FIELD_METHOD.items():
+            if key in g and method not in owners:
+                lines.append(f"groups.{i}.{key}: only method " + " and ".join(shown(m) for m in owners)
+                             + f" {'reads' if len(owners) == 1 else 'read'} a group's {key}, but method = "
                              f"{shown(method)} (got {shown(g[key])})")
+        if method == "formation" and isinstance(g.get("enter"), dict):
+            from crowdmotion.journeys import unit_entry_time
+
+            try:
+                unit_entry_time({k: v for k, v in g["enter"].items() if k != "start"}, f"groups.{i}.enter")
+            except ValueError as exc:
+                lines.append(str(exc))
         attrs = g.get("attributes")
         if isinstance(attrs, dict):
             lines += _attribute_lines(attrs, method, f"groups.{i}.attributes")
