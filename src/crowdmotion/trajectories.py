@@ -270,8 +270,9 @@ def resample(traj: Trajectories, fps: float, kind: str = "linear") -> Trajectori
                + s**3 * p3) / 6.0
     active = stage = None
     held = np.minimum(np.ceil(u - 1e-9).astype(int), traj.n_frames - 1)  # the frame each new one ends in
-    if traj.active is not None:
-        active = traj.active[held]
+    if traj.active is not None:  # in the scene at the frames on both sides: from the frame it entered in,
+        since = np.minimum(np.floor(u + 1e-9).astype(int), traj.n_frames - 1)  # until the last it was in
+        active = traj.active[held] & traj.active[since]
     if traj.stage is not None:
         stage = traj.stage[held]
     meta = {**traj.metadata, "resampled": {"fps": fps, "kind": kind, "step_dt": traj.dt}}
