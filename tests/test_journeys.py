@@ -127,7 +127,7 @@ def test_entry_times_at_a_rate_from_a_start():
      r"end = 30 s: the window holds 61"),
     ("enter = { rate = 2.0 }", "enter = { times = [1.0, 2.0], end = 3.0 }", "groups.0.enter .*either rate"),
     ("enter = { rate = 2.0 }", "enter = { rate = -1.0 }", "groups.0.enter.rate"),
-    ('method = "rvo"', 'method = "pso"', r"groups.0.enter \(group 'commuters'\): only method 'rvo' and 'formation' read a group's enter"),
+    ('method = "rvo"', 'method = "pso"', r"groups.0.enter.rate \(group 'commuters'\): a PSO swarm enters as one unit"),
 ])
 def test_validate_refuses_a_bad_enter_table_naming_the_group(old, new, message):
     text = STREAM.replace(old, new)

@@ -168,16 +168,17 @@ def entry_points(scene, group, doors: np.ndarray, gap: float, rng: np.random.Gen
     return out
 
 
-def unit_entry_time(spec, where: str = "enter") -> float:
-    """When a group that enters as one unit (a formation) is due: ``enter = { start = s }``
-    (default 0); ValueError naming the field for anything else (a rate, an end, times,
-    entrances: a unit cannot come in over time or by several doors)."""
+def unit_entry_time(spec, where: str = "enter", unit: str = "a formation") -> float:
+    """When a group that enters as one unit (``unit``: a formation, a PSO swarm) is due:
+    ``enter = { start = s }`` (default 0); ValueError naming the field for anything else
+    (a rate, an end, times, entrances: a unit cannot come in over time or by several
+    doors)."""
     if spec is None:
         return 0.0
     if isinstance(spec, dict):
         other = [k for k in spec if k != "start"]
         if other:
-            raise ValueError(f"{where}.{other[0]}: a formation enters as one unit, all at once at its spawn: "
+            raise ValueError(f"{where}.{other[0]}: {unit} enters as one unit, all at once at its spawn: "
                              f"give enter = {{ start = s }} only")
         spec = {"start": spec.get("start", 0.0)}
     return float(entry_times(spec, 1, where)[0])

@@ -35,7 +35,10 @@ METHODS = ("mdp", "rvo", "pso", "formation")
 ATTRIBUTES: dict[str, type[BaseModel] | None] = {"mdp": None, "rvo": RVOAttributes, "pso": None,
                                                  "formation": FormationAttributes}
 # [[groups]] fields only one method reads
-GROUP_FIELD_METHOD = {"personality": ("rvo",), "formation": ("formation",), "enter": ("rvo", "formation")}
+GROUP_FIELD_METHOD = {"personality": ("rvo",), "formation": ("formation",),
+                      "enter": ("rvo", "mdp", "formation", "pso")}
+# methods whose groups enter as one unit (enter = { start = s } only), and what they call a group
+UNIT_ENTRY = {"formation": "a formation", "pso": "a PSO swarm"}
 # the route stages each method follows
 ROUTE_SUPPORT = {"rvo": ("goto", "wait", "queue", "choose", "leave"), "mdp": ("goto", "wait", "choose", "leave"),
                  "pso": ("goto", "choose", "leave"),
@@ -707,11 +710,12 @@ def _method_lines(data: Any) -> list[str]:
                 lines.append(f"groups.{i}.{key}: only method " + " and ".join(shown(m) for m in owners)
                              + f" {'reads' if len(owners) == 1 else 'read'} a group's {key}, but method = "
                              f"{shown(method)} (got {shown(g[key])})")
-        if method == "formation" and isinstance(g.get("enter"), dict):
+        if method in UNIT_ENTRY and isinstance(g.get("enter"), dict):
             from crowdmotion.journeys import unit_entry_time
 
             try:
-                unit_entry_time({k: v for k, v in g["enter"].items() if k != "start"}, f"groups.{i}.enter")
+                unit_entry_time({k: v for k, v in g["enter"].items() if k != "start"}, f"groups.{i}.enter",
+                                UNIT_ENTRY[method])
             except ValueError as exc:
                 lines.append(str(exc))
         attrs = g.get("attributes")

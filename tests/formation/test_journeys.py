@@ -154,3 +154,18 @@ def test_a_second_band_on_the_same_spawn_enters_whole_once_the_first_has_cleared
 def test_validate_refuses_a_formation_entering_over_time_naming_the_field(enter, message):
     with pytest.raises(ScenarioError, match=message):
         parse_scenario(TWO_BANDS.replace("enter = { start = 1.0 }", enter))
+
+
+def test_a_formation_entering_at_4_s_starts_its_route_when_it_enters():
+    text = SQUARE.replace('formation = { kind = "block", rows = 3, cols = 4, spacing = 1.2 }\n',
+                          'formation = { kind = "block", rows = 3, cols = 4, spacing = 1.2 }\nenter = { start = 4.0 }\n')
+    result = run_scenario(parse_scenario(text), progress=False)
+    traj, summary = result.trajectories, result.summary
+    came = int(np.argmax(traj.active_mask[:, 0]))
+    assert traj.times[came] >= 4.0 - 1e-9 and not traj.active_mask[:came].any(), "off-scene until 4 s"
+    assert (traj.stage[:came] == -1).all() and (traj.stage[came] == 0).all(), "on its way to the square from entry"
+    square = {row["name"]: row for row in summary["journeys"]["stages"]["band"]}["square"]
+    assert square["reached"] == 1
+    assert summary["journeys"]["exits"]["east"]["left"] == 1 and summary["entry"]["band"]["entered"] == 12
+    audit = collision_audit(traj, parse_scenario(text).scene)
+    assert audit.clean, audit.as_dict()

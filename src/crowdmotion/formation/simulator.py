@@ -781,6 +781,12 @@ class Simulator:
             self.steps += 1
             return
         self._admit()
+        if not self.active.any():  # every group waits off-scene (or has left): time passes
+            self.velocities[:] = 0.0
+            self.time += self.dt
+            self.steps += 1
+            self._bookkeeping()
+            return
         self.field.update(self.time)
         self._grid = None  # built once per step, on first need
         prims = self._prims = self.obstacles.at(self.time, self.dt)  # obstacles placed now
