@@ -252,7 +252,8 @@ RegionSpec = Annotated[Union[PointRegion, PointsRegion, RectRegion, DiscRegion, 
 
 class EnterSpec(_Model):
     """When and where the group's agents enter, instead of all at t = 0 at the spawn
-    (crowdmotion.journeys).
+    (crowdmotion.journeys). rvo and mdp read every key; a formation and a PSO swarm enter
+    as one unit and read ``start`` only (validate names any other key).
 
     rate : float        persons per second, the first at ``start``
     start : float       seconds (default 0)
@@ -435,16 +436,18 @@ class GroupSpec(_Model):
     personality : str   rvo: an OCEAN pole name (O+, O-, C+, C-, E+, E-, A+, A-, N+, N-),
                         a 5-vector of traits in [-1, 1], or a distribution table
     formation : table   formation: the group's template (see "Formation templates")
-    enter : table       rvo, formation: when they enter. rvo: {start = s} (all due
-                        then), {rate = persons/s, start = s, end = s} (all must fit before
-                        end), {start = s, end = s} (spread evenly) or {times = [s, ...]}
-                        (one per agent); formation: {start = s} only, the whole formation
-                        coming in at its spawn once no body stands there. rvo agents each
-                        enter at a free point of
-                        the spawn region, waiting while there is no room; with
+    enter : table       rvo, mdp, formation, pso: when (and where) they enter; off-scene
+                        (not drawn, not avoided) until then. rvo, mdp: {start = s} (all
+                        due then), {rate = persons/s, start = s, end = s} (all must fit
+                        before end), {start = s, end = s} (spread evenly) or {times =
+                        [s, ...]} (one per agent); each agent enters at a free point (rvo)
+                        or free cell (mdp) of the spawn, waiting while there is none; with
                         entrances = [areas] (and weights, their shares of the group) in
-                        place of the spawn, each agent enters at a free point of its own
-                        entrance (given from the seed); the first stands for the spawn
+                        place of the spawn, at one of its own entrance (drawn from the
+                        seed; the first stands for the spawn). formation, pso: {start = s}
+                        only, the whole formation or swarm coming in at its spawn once no
+                        body stands there. mdp counts in steps of a dt fixed ahead (see
+                        "journeys.md")
     route : list        rvo, formation, mdp, pso: the stages the agents follow in order
                         ([[groups.route]] tables: goto, wait, queue, choose, leave;
                         formation and mdp: all but queue; pso: goto, choose, leave; see
