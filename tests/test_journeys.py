@@ -95,6 +95,22 @@ def test_entry_times_refuse_a_bad_spec_naming_the_field(spec, message):
         entry_times(spec, 3)
 
 
+def test_people_entering_at_2_per_second_between_10_s_and_69_5_s_all_fit_the_window():
+    due = entry_times({"rate": 2.0, "start": 10.0, "end": 69.5}, 120)
+    assert due[0] == 10.0 and due[-1] == 69.5 and np.allclose(np.diff(due), 0.5)
+    with pytest.raises(ValueError, match=r"enter.end: 121 agents .* the window holds 120"):
+        entry_times({"rate": 2.0, "start": 10.0, "end": 69.5}, 121)
+
+
+def test_a_group_given_a_window_without_a_rate_is_spread_evenly_over_it():
+    assert entry_times({"start": 2.0, "end": 6.0}, 5).tolist() == [2.0, 3.0, 4.0, 5.0, 6.0]
+    assert entry_times({"end": 4.0}, 1).tolist() == [0.0], "one agent enters at the start"
+    with pytest.raises(ValueError, match=r"enter.end must be after start \(4 s\), got 4"):
+        entry_times({"start": 4.0, "end": 4.0}, 3)
+    with pytest.raises(ValueError, match="enter.end must be a finite number"):
+        entry_times({"end": float("nan")}, 3)
+
+
 def test_entry_times_at_a_rate_from_a_start():
     assert entry_times({"rate": 4.0, "start": 10.0}, 3).tolist() == [10.0, 10.25, 10.5]
     assert entry_times({"times": [5, 0, 2]}, 3).tolist() == [5.0, 0.0, 2.0]
@@ -103,9 +119,15 @@ def test_entry_times_at_a_rate_from_a_start():
 
 @pytest.mark.parametrize("old,new,message", [
     ("enter = { rate = 2.0 }", "enter = { rate = 2.0, times = [1.0] }", "either rate"),
-    ("enter = { rate = 2.0 }", "enter = { times = [1.0, 2.0] }", r"group 'commuters' \(groups.0\): enter.times: 2 time\(s\) for a group of 120"),
+    ("enter = { rate = 2.0 }", "enter = { times = [1.0, 2.0] }", r"groups.0.enter.times \(group 'commuters'\): 2 time\(s\) for a group of 120"),
+    ("enter = { rate = 2.0 }", "enter = { rate = 2.0, start = 5.0, end = 3.0 }",
+     r"groups.0.enter.end \(group 'commuters'\): must be after start \(5 s\), got 3"),
+    ("enter = { rate = 2.0 }", "enter = { rate = 2.0, end = 30.0 }",
+     r"groups.0.enter.end \(group 'commuters'\): 120 agents at 2 persons/s from 0 s need until 59.5 s, after "
+     r"end = 30 s: the window holds 61"),
+    ("enter = { rate = 2.0 }", "enter = { times = [1.0, 2.0], end = 3.0 }", "groups.0.enter .*either rate"),
     ("enter = { rate = 2.0 }", "enter = { rate = -1.0 }", "groups.0.enter.rate"),
-    ('method = "rvo"', 'method = "pso"', r"groups.0.enter \(group 'commuters'\): only method 'rvo' reads a group's enter"),
+    ('method = "rvo"', 'method = "pso"', r"groups.0.enter.rate \(group 'commuters'\): a PSO swarm enters as one unit"),
 ])
 def test_validate_refuses_a_bad_enter_table_naming_the_group(old, new, message):
     text = STREAM.replace(old, new)
@@ -455,3 +477,35 @@ def test_a_choose_stage_in_python_refuses_a_bad_rechoose_naming_it():
     with pytest.raises(ValueError, match=r"choose.rechoose_margin must be a number of seconds >= 0, got -1"):
         Choose(among, "least_crowded", rechoose=2.0, rechoose_margin=-1)
     assert Choose(among, "least_crowded").rechoose is None, "chosen once by default"
+
+
+TWO_DOORS = STREAM.replace('spawn = { shape = "rect", lower = [0.5, 4.0], upper = [2.0, 8.0] }\n', "").replace(
+    "count = 120", "count = 40").replace("enter = { rate = 2.0 }", """enter = { rate = 4.0, end = 10.0, weights = [3, 1], entrances = [
+    { shape = "rect", lower = [0.5, 1.0], upper = [2.0, 5.0] },
+    { shape = "disc", center = [10.0, 10.5], radius = 1.0 } ] }""")
+
+
+def test_a_group_with_two_entrances_uses_both_in_the_given_proportions_and_none_overlap():
+    result = run_scenario(parse_scenario(TWO_DOORS), progress=False)
+    traj, sim, summary = result.trajectories, result.extras.simulator, result.summary
+    assert np.bincount(sim.entrance).tolist() == [30, 10], "weights 3 : 1 of 40"
+    first = traj.positions[np.argmax(traj.active_mask, axis=0), np.arange(40)]  # where each came in
+    west, north = sim.entrance == 0, sim.entrance == 1
+    assert cm.Rect([0.5, 1.0], [2.0, 5.0]).contains(first[west]).all()
+    assert cm.Disc([10.0, 10.5], 1.0).contains(first[north]).all()
+    doors = summary["entry"]["commuters"]["entrances"]
+    assert [d["entered"] for d in doors] == [30, 10] and summary["entry"]["commuters"]["waiting_at_end"] == 0
+    assert summary["agent_agent_overlaps"] == 0 and summary["agent_obstacle_penetrations"] == 0
+    assert summary["arrival_rate"] == 1.0
+
+
+@pytest.mark.parametrize("old,new,message", [
+    ('{ shape = "disc", center = [10.0, 10.5], radius = 1.0 } ]', '{ shape = "disc", center = [10.0, 11.5], radius = 1.0 } ]',
+     r"enter.entrances.1: disc .* reaches outside scene.bounds"),
+    ("weights = [3, 1]", "weights = [3, 1, 1]", r"groups.0.enter.weights \(group 'commuters'\): 3 weight\(s\) for 2 entrance\(s\)"),
+    ("weights = [3, 1]", "weights = [0, 0]", r"groups.0.enter.weights \(group 'commuters'\): must be finite numbers >= 0, not all 0"),
+    ("count = 40", 'count = 40\nspawn = { shape = "point", position = [1.0, 6.0] }', "give a spawn or enter.entrances, not both"),
+])
+def test_validate_refuses_bad_entrances_naming_the_field(old, new, message):
+    with pytest.raises(ScenarioError, match=message):
+        parse_scenario(TWO_DOORS.replace(old, new))

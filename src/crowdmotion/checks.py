@@ -102,19 +102,29 @@ def _room_at_least(scene: Scene, group: Group, gap: float) -> int:
     return int(max(PLACEABLE_SHARE * free / body, 0.0))
 
 
-def check_inside(scene: Scene, k: int, group: Group, part: str = "spawn") -> None:
+def check_inside(scene: Scene, k: int, group: Group, part: str = "spawn", region=None) -> None:
     """Refuse a spawn or goal region (rect or disc; ``part``) that reaches outside the
-    scene's bounds, where sampled starts or goal points would lie outside the scene."""
-    region = getattr(group, part)
+    scene's bounds, where sampled starts or goal points would lie outside the scene
+    (``region``: another area to check under the name ``part``, an entrance say)."""
+    region = getattr(group, part) if region is None else region
     if not isinstance(region, (Rect, Disc)):
         return
     lo, hi = (region.lower, region.upper) if isinstance(region, Rect) else \
         (region.center - region.radius, region.center + region.radius)
     tol = 1e-9 * float(np.max(scene.upper - scene.lower))
     if np.any(lo < scene.lower - tol) or np.any(hi > scene.upper + tol):
-        what = "agents would start outside the scene" if part == "spawn" else "goal points would lie outside the scene"
+        what = "goal points would lie outside the scene" if part == "goal" else "agents would start outside the scene"
         raise ValueError(f"{where(k, group)} {part}: {describe_region(region)} reaches outside scene.bounds "
                          f"{_fmt(scene.lower)}-{_fmt(scene.upper)}: {what}")
+
+
+def check_entrances(scene: Scene, k: int, group: Group) -> None:
+    """Refuse a group's entrances (``enter.entrances``) that reach outside the scene, each
+    named."""
+    from crowdmotion.journeys import entrances
+
+    for j, area in enumerate((entrances(group.attributes.get("enter")) or ([], None))[0]):
+        check_inside(scene, k, group, f"enter.entrances.{j}", area)
 
 
 def check_spawn_capacity(scene: Scene, k: int, group: Group, gap: float) -> None:

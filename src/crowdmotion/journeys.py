@@ -16,7 +16,13 @@ and in Python ``Group(..., attributes={"enter": {"rate": 2.0}})``. Each agent ge
 of the spawn region; when its time comes it enters there if no one stands within its body
 of it, else it waits off-scene (not drawn, not avoided) and tries a fresh point of the
 region at each step until there is room. The delay (entry time less the time it was due)
-is reported per group. Without ``enter`` every agent starts at t = 0, as before.
+is reported per group. Without ``enter`` every agent starts at t = 0.
+
+``end`` closes the window: with a rate the whole group must fit in it, without one the
+group is spread evenly over [start, end]. ``entrances = [areas]`` (with optional
+``weights``) replace the spawn: each entrance takes its share of the group (exact to one
+agent, in an order drawn from the seed) and each agent enters at a point of its own; the
+delay is then reported per entrance too.
 
 A group may also follow a *route* of stages (:mod:`crowdmotion.stages`): go to an area,
 wait, queue, choose among next stages, leave. :class:`Journeys` is the state machine that
@@ -29,34 +35,44 @@ the agents whose stage changes.
 
 from __future__ import annotations
 
+from dataclasses import replace
 from typing import Protocol
 
 import numpy as np
 
 from crowdmotion._rng import uniforms
 from crowdmotion.groups import Disc, Points, Rect
+from crowdmotion.placement import spawn_positions
 from crowdmotion.queues import ServiceQueue
 from crowdmotion.stages import Choose, GoTo, Leave, Queue, Wait, check_route, flat_stages
 
-ENTER_KEYS = ("rate", "start", "times")
+ENTER_KEYS = ("rate", "start", "end", "times", "entrances", "weights")
 
 
 def entry_times(spec, count: int, where: str = "enter") -> np.ndarray:
-    """(count,) the time (s) each agent of a group is due to enter: ``start + k / rate``
-    for k = 0 … count − 1, or the listed ``times``; zeros without a spec. ValueError
-    naming ``where`` and the bad value otherwise."""
+    """(count,) the time (s) each agent of a group is due to enter; zeros without a spec.
+
+    ``start`` alone: every agent is due then (they come in as room allows).
+    ``rate`` (persons/s) from ``start`` (s, default 0): ``start + k / rate`` for k = 0 …
+    count − 1; with an ``end`` (s) too, the window must hold them all (count ≤
+    floor(rate·(end − start)) + 1). ``end`` without a rate spreads the group evenly over
+    [start, end], the first at start and the last at end. ``times``: one absolute time
+    per agent. ValueError naming ``where``'s field and the bad value otherwise."""
     if spec is None:
         return np.zeros(count)
     if not isinstance(spec, dict):
-        raise ValueError(f"{where} must be a table: rate (persons/s) and start (s), or times (s), got {spec!r}")
+        raise ValueError(f"{where} must be a table: rate (persons/s), start and end (s), or times (s), got {spec!r}")
     unknown = sorted(set(spec) - set(ENTER_KEYS))
     if unknown:
-        raise ValueError(f"{where}: unknown key(s) {unknown}; expected rate and start, or times")
-    if ("rate" in spec) == ("times" in spec):
-        raise ValueError(f"{where}: give either rate (with an optional start) or times, got {spec!r}")
+        raise ValueError(f"{where}: unknown key(s) {unknown}; expected rate, start and end, or times "
+                         f"(and entrances with their weights)")
+    timed = "rate" in spec or "end" in spec or "start" in spec
+    if timed == ("times" in spec):
+        raise ValueError(f"{where}: give either rate (with an optional start and end), start and end, or times, "
+                         f"got {_shown_times(spec)}")
     if "times" in spec:
         if "start" in spec:
-            raise ValueError(f"{where}: start goes with rate; times are absolute, got {spec!r}")
+            raise ValueError(f"{where}: start goes with rate or end; times are absolute, got {_shown_times(spec)}")
         try:
             times = np.asarray(spec["times"], dtype=float)
         except (TypeError, ValueError):
@@ -67,10 +83,110 @@ def entry_times(spec, count: int, where: str = "enter") -> np.ndarray:
         if len(bad):
             raise ValueError(f"{where}.times.{int(bad[0])} must be a number of seconds >= 0, got {times[bad[0]]}")
         return times
-    rate, start = _number(spec["rate"], f"{where}.rate"), _number(spec.get("start", 0.0), f"{where}.start")
+    start = _number(spec.get("start", 0.0), f"{where}.start")
+    end = None if "end" not in spec else _number(spec["end"], f"{where}.end")
+    if end is not None and end <= start:
+        raise ValueError(f"{where}.end must be after start ({start:g} s), got {end:g}")
+    if "rate" not in spec and end is None:  # all due at start
+        return np.full(count, start)
+    if "rate" not in spec:  # spread evenly over [start, end]
+        return start + np.arange(count) * ((end - start) / max(count - 1, 1))
+    rate = _number(spec["rate"], f"{where}.rate")
     if rate <= 0:
         raise ValueError(f"{where}.rate must be a positive number of persons per second, got {spec['rate']!r}")
-    return start + np.arange(count) / rate
+    times = start + np.arange(count) / rate
+    if end is not None and times[-1] > end + 1e-9:
+        fit = int(np.floor((end - start) * rate + 1e-9)) + 1
+        raise ValueError(f"{where}.end: {count} agents at {rate:g} persons/s from {start:g} s need until "
+                         f"{times[-1]:g} s, after end = {end:g} s: the window holds {fit}; lower the count, "
+                         f"raise the rate to {(count - 1) / (end - start):g} or move end to {times[-1]:g}")
+    return times
+
+
+def entrances(spec, where: str = "enter") -> tuple[list, np.ndarray] | None:
+    """A group's entrances and the share of the group each takes (weights summing to 1),
+    or None when it enters at its spawn. ValueError naming ``where``'s field otherwise."""
+    if not isinstance(spec, dict) or ("entrances" not in spec and "weights" not in spec):
+        return None
+    if "entrances" not in spec:
+        raise ValueError(f"{where}.weights: weights go with entrances, one per entrance")
+    areas = spec["entrances"]
+    if not isinstance(areas, (list, tuple)) or not areas:
+        raise ValueError(f"{where}.entrances must be a list of areas (point, points, rect or disc), got {areas!r}")
+    for i, a in enumerate(areas):
+        if not isinstance(a, (Points, Rect, Disc)):
+            raise ValueError(f"{where}.entrances.{i} must be an area (point, points, rect or disc), got {a!r}")
+    w = spec.get("weights", [1.0] * len(areas))
+    try:
+        w = np.asarray(w, dtype=float)
+    except (TypeError, ValueError):
+        raise ValueError(f"{where}.weights must be a list of numbers, got {spec['weights']!r}") from None
+    if w.shape != (len(areas),):
+        raise ValueError(f"{where}.weights: {w.size} weight(s) for {len(areas)} entrance(s): give one per entrance")
+    if not np.isfinite(w).all() or (w < 0).any() or w.sum() <= 0:
+        raise ValueError(f"{where}.weights must be finite numbers >= 0, not all 0, got {w.tolist()}")
+    return list(areas), w / w.sum()
+
+
+def check_enter(spec, count: int, where: str = "enter") -> None:
+    """Refuse an ``enter`` table a group of ``count`` cannot use (ValueError naming the
+    field): its times and its entrances."""
+    entry_times(spec, count, where)
+    entrances(spec, where)
+
+
+def entrance_of(spec, count: int, rng: np.random.Generator, where: str = "enter") -> np.ndarray | None:
+    """(count,) the entrance each agent enters at (an index into ``entrances``), None
+    without entrances: each entrance takes its share of the group (largest remainders,
+    so the shares are exact up to one agent), in an order drawn from ``rng``."""
+    got = entrances(spec, where)
+    if got is None:
+        return None
+    share = got[1] * count
+    quota = np.floor(share).astype(np.int64)
+    quota[np.argsort(quota - share, kind="stable")[:count - int(quota.sum())]] += 1
+    return rng.permutation(np.repeat(np.arange(len(quota)), quota))
+
+
+def entry_points(scene, group, doors: np.ndarray, gap: float, rng: np.random.Generator) -> np.ndarray:
+    """(len(doors), dim) where agents of ``group`` entering over time come in: for each,
+    a point of its entrance (``doors``: indices into ``enter.entrances``; -1: the spawn),
+    ``gap`` metres clear of obstacles. Bodies may overlap here: they come in one by one,
+    each when its place is free. A points area gives each one of its points, drawn (a
+    points spawn: the listed point of each agent, kept)."""
+    doors = np.asarray(doors, dtype=np.int64)
+    areas = (entrances(group.attributes.get("enter")) or ([], None))[0]
+    out = np.empty((len(doors), scene.dim))
+    for j in np.unique(doors):
+        own = doors == j
+        area = group.spawn if j < 0 else areas[j]
+        if isinstance(area, Points) and j >= 0:
+            out[own] = area.points[rng.integers(len(area.points), size=int(own.sum()))]
+        else:
+            out[own] = spawn_positions(scene, replace(group, spawn=area, count=int(own.sum())),
+                                       np.zeros((0, scene.dim)), np.zeros(0), gap, rng, overlap=True)
+    return out
+
+
+def unit_entry_time(spec, where: str = "enter", unit: str = "a formation") -> float:
+    """When a group that enters as one unit (``unit``: a formation, a PSO swarm) is due:
+    ``enter = { start = s }`` (default 0); ValueError naming the field for anything else
+    (a rate, an end, times, entrances: a unit cannot come in over time or by several
+    doors)."""
+    if spec is None:
+        return 0.0
+    if isinstance(spec, dict):
+        other = [k for k in spec if k != "start"]
+        if other:
+            raise ValueError(f"{where}.{other[0]}: {unit} enters as one unit, all at once at its spawn: "
+                             f"give enter = {{ start = s }} only")
+        spec = {"start": spec.get("start", 0.0)}
+    return float(entry_times(spec, 1, where)[0])
+
+
+def _shown_times(spec: dict) -> dict:
+    """The spec's timing keys (for a message: entrances are region objects)."""
+    return {k: v for k, v in spec.items() if k not in ("entrances", "weights")}
 
 
 def _number(value, where: str) -> float:
@@ -80,17 +196,24 @@ def _number(value, where: str) -> float:
     return float(value)
 
 
-def entry_report(names: np.ndarray, due: np.ndarray, entered: np.ndarray) -> dict:
+def entry_report(names: np.ndarray, due: np.ndarray, entered: np.ndarray, entrance: np.ndarray | None = None) -> dict:
     """Per group: agents that entered, agents still waiting at the end, and the mean and
-    longest delay (s) between being due and entering (for summary.json)."""
+    longest delay (s) between being due and entering (for summary.json); for a group
+    with entrances (``entrance``: (N,) index, -1 none), the same per entrance, in order."""
+    def row(own: np.ndarray) -> dict:
+        ok = own & np.isfinite(entered)
+        delay = entered[ok] - due[ok]
+        return {"entered": int(ok.sum()), "waiting_at_end": int((own & ~np.isfinite(entered)).sum()),
+                "mean_delay_s": float(delay.mean()) if ok.any() else None,
+                "max_delay_s": float(delay.max()) if ok.any() else None}
+
     out = {}
     for name in dict.fromkeys(names.tolist()):
         own = names == name
-        ok = own & np.isfinite(entered)
-        delay = entered[ok] - due[ok]
-        out[str(name)] = {"entered": int(ok.sum()), "waiting_at_end": int((own & ~np.isfinite(entered)).sum()),
-                          "mean_delay_s": float(delay.mean()) if ok.any() else None,
-                          "max_delay_s": float(delay.max()) if ok.any() else None}
+        out[str(name)] = row(own)
+        doors = np.array([]) if entrance is None else entrance[own]
+        if (doors >= 0).any():
+            out[str(name)]["entrances"] = [row(own & (entrance == j)) for j in range(int(doors.max()) + 1)]
     return out
 
 

@@ -40,7 +40,10 @@ METHODS = ("mdp", "rvo", "pso", "formation")
 ATTRIBUTES: dict[str, type[BaseModel] | None] = {"mdp": None, "rvo": RVOAttributes, "pso": None,
                                                  "formation": FormationAttributes}
 # [[groups]] fields only one method reads
-GROUP_FIELD_METHOD = {"personality": "rvo", "formation": "formation", "enter": "rvo"}
+GROUP_FIELD_METHOD = {"personality": ("rvo",), "formation": ("formation",),
+                      "enter": ("rvo", "mdp", "formation", "pso")}
+# methods whose groups enter as one unit (enter = { start = s } only), and what they call a group
+UNIT_ENTRY = {"formation": "a formation", "pso": "a PSO swarm"}
 # the route stages each method follows, as each method's params module says
 ROUTE_SUPPORT = {"rvo": RVO_STAGES, "mdp": MDP_STAGES, "pso": PSO_STAGES, "formation": FORMATION_STAGES}
 
@@ -251,29 +254,33 @@ RegionSpec = Annotated[Union[PointRegion, PointsRegion, RectRegion, DiscRegion, 
 
 
 class EnterSpec(_Model):
-    """When the group's agents enter, instead of all at t = 0 (crowdmotion.journeys).
+    """When and where the group's agents enter, instead of all at t = 0 at the spawn
+    (crowdmotion.journeys). rvo and mdp read every key; a formation and a PSO swarm enter
+    as one unit and read ``start`` only (validate names any other key).
 
     rate : float        persons per second, the first at ``start``
-    start : float       seconds (with rate; default 0)
-    times : list        seconds, one per agent (instead of rate and start)
+    start : float       seconds (default 0)
+    end : float         seconds, after start: with rate, the window the whole group must
+                        enter in (count ≤ floor(rate·(end − start)) + 1); without rate,
+                        the group is spread evenly over [start, end]
+    times : list        seconds, one per agent (instead of rate, start and end)
+    entrances : list    areas (point, points, rect or disc tables) the agents enter at,
+                        instead of the spawn; each agent is given one, from the seed
+    weights : list      with entrances: the share of the group each takes (default equal)
     """
 
     rate: PosFloat | None = None
     start: Annotated[float, Field(ge=0, allow_inf_nan=False)] = 0.0
+    end: Annotated[float, Field(gt=0, allow_inf_nan=False)] | None = None
     times: list[Annotated[float, Field(ge=0, allow_inf_nan=False)]] | None = None
-
-    @model_validator(mode="after")
-    def _one_way(self):
-        if (self.rate is None) == (self.times is None):
-            raise ValueError("give either rate (persons/s, with an optional start) or times (one per agent)")
-        if self.times is not None and "start" in self.model_fields_set:
-            raise ValueError("start goes with rate; times are absolute seconds")
-        return self
+    entrances: Annotated[list["AreaSpec"], Field(min_length=1)] | None = None
+    weights: list[NonNegative] | None = None
 
 
 Point2 = Annotated[list[Coordinate], Field(min_length=2, max_length=2)]
 AreaSpec = Annotated[Union[PointRegion, PointsRegion, RectRegion, DiscRegion], Field(discriminator="shape")]
 StageName = Annotated[str, Field(min_length=1)]
+EnterSpec.model_rebuild()
 
 
 class WaitTimeSpec(_Model):
@@ -434,7 +441,8 @@ class GroupSpec(_Model):
 
     name : str          the group's name in outputs, reports and error messages
     count : int         number of agents
-    spawn : table       where they start: a region table (point, points, rect, disc, ring)
+    spawn : table       where they start: a region table (point, points, rect, disc, ring);
+                        left out when enter.entrances say where they come in
     goal : table        where they go: a region table (point, points, rect, disc, moving,
                         antipodal); required unless the group has a route
     radius : float      body radius, metres (bounding circle / sphere)
@@ -443,9 +451,18 @@ class GroupSpec(_Model):
     personality : str   rvo: an OCEAN pole name (O+, O-, C+, C-, E+, E-, A+, A-, N+, N-),
                         a 5-vector of traits in [-1, 1], or a distribution table
     formation : table   formation: the group's template (see "Formation templates")
-    enter : table       rvo: agents enter over time: {rate = persons/s, start = s} or
-                        {times = [s, ...]} (one per agent); each enters at a free point of
-                        the spawn region, waiting while there is no room
+    enter : table       rvo, mdp, formation, pso: when (and where) they enter; off-scene
+                        (not drawn, not avoided) until then. rvo, mdp: {start = s} (all
+                        due then), {rate = persons/s, start = s, end = s} (all must fit
+                        before end), {start = s, end = s} (spread evenly) or {times =
+                        [s, ...]} (one per agent); each agent enters at a free point (rvo)
+                        or free cell (mdp) of the spawn, waiting while there is none; with
+                        entrances = [areas] (and weights, their shares of the group) in
+                        place of the spawn, at one of its own entrance (drawn from the
+                        seed; the first stands for the spawn). formation, pso: {start = s}
+                        only, the whole formation or swarm coming in at its spawn once no
+                        body stands there. mdp counts in steps of a dt fixed ahead (see
+                        "journeys.md")
     route : list        rvo, formation, mdp, pso: the stages the agents follow in order
                         ([[groups.route]] tables: goto, wait, queue, choose, leave;
                         formation and mdp: all but queue; pso: goto, choose, leave; see
@@ -458,7 +475,7 @@ class GroupSpec(_Model):
 
     name: str = Field(min_length=1)
     count: Annotated[int, Field(gt=0, le=10_000_000)]
-    spawn: RegionSpec
+    spawn: RegionSpec | None = None
     goal: RegionSpec | None = None
     radius: PosFloat = 0.25
     max_speed: Speed = 1.5
@@ -468,6 +485,20 @@ class GroupSpec(_Model):
     enter: EnterSpec | None = None
     route: Annotated[list[StageSpec], Field(min_length=1)] | None = None
     attributes: dict[str, Any] = {}
+
+    @model_validator(mode="after")
+    def _spawn_or_entrances(self):
+        entrances = self.enter is not None and self.enter.entrances is not None
+        if self.spawn is None and not entrances:
+            raise ValueError("spawn: is missing: give the group a spawn region, or enter.entrances")
+        if self.spawn is not None and entrances:
+            raise ValueError("spawn: give a spawn or enter.entrances, not both: agents entering at entrances "
+                             "start there")
+        if self.enter is not None:
+            from crowdmotion.journeys import check_enter
+
+            check_enter(enter_attribute(self.enter), self.count)
+        return self
 
     @model_validator(mode="after")
     def _goal_or_route(self):
@@ -581,6 +612,10 @@ class ScenarioSpec(_Model):
                 for c in coords:
                     if len(c) != dim:
                         raise ValueError(f"groups.{i}.{part}: coordinates {c} are not {dim}D like the scene")
+            for j, e in enumerate(g.enter.entrances if g.enter is not None and g.enter.entrances else []):
+                coords = [getattr(e, a) for a in ("position", "lower", "upper", "center") if hasattr(e, a)]
+                if any(len(c) != dim for c in coords + list(getattr(e, "points", []))):
+                    raise ValueError(f"groups.{i}.enter.entrances.{j}: coordinates are not {dim}D like the scene")
             for j, st in enumerate(g.route or []):
                 for k, o in enumerate(st.among if isinstance(st, ChooseStageSpec) else [st]):
                     area = getattr(o, "area", None)
@@ -600,7 +635,8 @@ class ScenarioSpec(_Model):
                 raise ValueError(f"groups.{i}.spawn: 'antipodal' is a goal shape, not a spawn")
             if isinstance(g.goal, AntipodalRegion) and not isinstance(g.spawn, (RingRegion, PointsRegion, PointRegion)):
                 raise ValueError(f"groups.{i}.goal: an antipodal goal needs fixed start points "
-                                 f"(spawn shape ring, points or point), got spawn shape {g.spawn.shape!r}")
+                                 f"(spawn shape ring, points or point), got "
+                                 + (f"spawn shape {g.spawn.shape!r}" if g.spawn is not None else "enter.entrances"))
         return self
 
 
@@ -687,10 +723,19 @@ def _method_lines(data: Any) -> list[str]:
     for i, g in enumerate(groups if isinstance(groups, list) else []):
         if not isinstance(g, dict):
             continue
-        for key, owner in GROUP_FIELD_METHOD.items():
-            if key in g and owner != method:
-                lines.append(f"groups.{i}.{key}: only method {shown(owner)} reads a group's {key}, but method = "
+        for key, owners in GROUP_FIELD_METHOD.items():
+            if key in g and method not in owners:
+                lines.append(f"groups.{i}.{key}: only method " + " and ".join(shown(m) for m in owners)
+                             + f" {'reads' if len(owners) == 1 else 'read'} a group's {key}, but method = "
                              f"{shown(method)} (got {shown(g[key])})")
+        if method in UNIT_ENTRY and isinstance(g.get("enter"), dict):
+            from crowdmotion.journeys import unit_entry_time
+
+            try:
+                unit_entry_time({k: v for k, v in g["enter"].items() if k != "start"}, f"groups.{i}.enter",
+                                UNIT_ENTRY[method])
+            except ValueError as exc:
+                lines.append(str(exc))
         attrs = g.get("attributes")
         if isinstance(attrs, dict):
             lines += _attribute_lines(attrs, method, f"groups.{i}.attributes")
@@ -719,7 +764,7 @@ _STAGE_TAG = re.compile(r"\b((?:route|among)\.\d+)\.(?:goto|wait|queue|choose|le
 _AREA_TAG = re.compile(r"\b(route\.\d+(?:\.among\.\d+)?\.area)\.(?:point|points|rect|disc)\b")
 _TIME_TAG = re.compile(r"\.time\.(?:constrained-float|function-after\[[^\]]*\])")
 # a check's own field at the head of its message: "groups.1: goal: is missing" -> "groups.1.goal: is missing"
-_OWN_PART = re.compile(r"^(groups\.\d+[\w.]*): (goal|route\.\d+|uniform|normal): ")
+_OWN_PART = re.compile(r"^(groups\.\d+[\w.]*): (goal|spawn|enter(?:\.\w+)*|route\.\d+|uniform|normal)(?:: | (?=must ))")
 
 
 def _route_error_lines(lines: list[str]) -> list[str]:
@@ -848,7 +893,16 @@ def _attributes(g: GroupSpec) -> dict:
     if g.formation is not None:
         out["formation"] = g.formation
     if g.enter is not None:
-        out["enter"] = g.enter.model_dump(exclude_none=True, exclude_unset=True)
+        out["enter"] = enter_attribute(g.enter)
+    return out
+
+
+def enter_attribute(spec: EnterSpec) -> dict:
+    """A group's ``enter`` table as ``Group.attributes["enter"]``: the keys written, with
+    entrances as regions."""
+    out = spec.model_dump(exclude_none=True, exclude_unset=True)
+    if spec.entrances is not None:
+        out["entrances"] = [_region(e) for e in spec.entrances]
     return out
 
 
@@ -938,7 +992,8 @@ def build(spec: ScenarioSpec, source: str = "scenario", max_memory: int | None =
     groups = []
     for i, g in enumerate(spec.groups):
         try:
-            spawn = _spawn(g.spawn, g.count)
+            # entering at entrances, the first stands for the spawn where one is read
+            spawn = _spawn(g.spawn, g.count) if g.spawn is not None else _region(g.enter.entrances[0])
             attributes = _attributes(g)
             if g.route is not None:
                 attributes["route"] = route_stages(g.route)

@@ -270,10 +270,11 @@ def resample(traj: Trajectories, fps: float, kind: str = "linear") -> Trajectori
                + s**3 * p3) / 6.0
     active = stage = None
     held = np.minimum(np.ceil(u - 1e-9).astype(int), traj.n_frames - 1)  # the frame each new one ends in
-    if traj.active is not None:
-        active = traj.active[held]
-    if traj.stage is not None:
-        stage = traj.stage[held]
+    if traj.active is not None:  # in the scene at the frames on both sides: from the frame it entered in,
+        since = np.minimum(np.floor(u + 1e-9).astype(int), traj.n_frames - 1)  # until the last it was in
+        active = traj.active[held] & traj.active[since]
+    if traj.stage is not None:  # (-1 where it is not in the scene)
+        stage = traj.stage[held] if active is None else np.where(active, traj.stage[held], -1).astype(traj.stage.dtype)
     meta = {**traj.metadata, "resampled": {"fps": fps, "kind": kind, "step_dt": traj.dt}}
     facing = None
     if traj.has_own_facing:  # turned through, the short way

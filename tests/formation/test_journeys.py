@@ -97,3 +97,75 @@ def test_a_formation_given_a_queue_in_python_is_refused_naming_the_stage():
                   attributes={"formation": {"kind": "block", "rows": 2, "cols": 2}, "route": route})
     with pytest.raises(ValueError, match=r"route.0 \(queue 'gate'\): a formation does not queue"):
         formation.run(Scene(((0, 0), (40, 20))), [group], {"max_steps": 10}, np.random.default_rng(0))
+
+
+# ---- sources: a formation enters as one unit -----------------------------------------------
+TWO_BANDS = """
+name = "bands"
+method = "formation"
+seed = 3
+
+[scene]
+bounds = [[0.0, 0.0], [40.0, 20.0]]
+
+[[groups]]
+name = "first"
+count = 6
+radius = 0.3
+spawn = { shape = "point", position = [4.0, 10.0] }
+goal = { shape = "disc", center = [32.0, 5.0], radius = 2.5 }
+formation = { kind = "block", rows = 2, cols = 3, spacing = 1.2 }
+
+[[groups]]
+name = "second"
+count = 6
+radius = 0.3
+spawn = { shape = "point", position = [4.0, 10.0] }
+goal = { shape = "disc", center = [32.0, 15.0], radius = 2.5 }
+formation = { kind = "block", rows = 2, cols = 3, spacing = 1.2 }
+enter = { start = 1.0 }
+
+[formation]
+max_steps = 1500
+"""
+
+
+def test_a_second_band_on_the_same_spawn_enters_whole_once_the_first_has_cleared_it_and_none_overlap():
+    result = run_scenario(parse_scenario(TWO_BANDS), progress=False)
+    traj, summary = result.trajectories, result.summary
+    sim = result.extras.simulator
+    first, second = sim.groups
+    assert first.entered_at == 0.0 and second.entered_at > 1.0, "due at 1 s, the spawn still taken"
+    delay = summary["entry"]["second"]["max_delay_s"]
+    assert delay == pytest.approx(second.entered_at - 1.0) and summary["entry"]["first"]["max_delay_s"] == 0.0
+    present = traj.active_mask[:, sim.group_of == 1]
+    assert np.all(present == present[:, :1]), "the band comes in whole"
+    came = int(np.argmax(present[:, 0]))
+    assert came > 0 and traj.times[came] >= second.entered_at - 1e-9, "absent from the outputs before it enters"
+    audit = collision_audit(traj, parse_scenario(TWO_BANDS).scene)
+    assert audit.clean, audit.as_dict()  # 0 overlaps, 0 penetrations
+    assert summary["all_recovered"]
+
+
+@pytest.mark.parametrize("enter,message", [
+    ("enter = { rate = 1.0 }", r"groups.1.enter.rate \(group 'second'\): a formation enters as one unit"),
+    ("enter = { start = 1.0, end = 5.0 }", r"groups.1.enter.end \(group 'second'\): a formation enters as one unit"),
+])
+def test_validate_refuses_a_formation_entering_over_time_naming_the_field(enter, message):
+    with pytest.raises(ScenarioError, match=message):
+        parse_scenario(TWO_BANDS.replace("enter = { start = 1.0 }", enter))
+
+
+def test_a_formation_entering_at_4_s_starts_its_route_when_it_enters():
+    text = SQUARE.replace('formation = { kind = "block", rows = 3, cols = 4, spacing = 1.2 }\n',
+                          'formation = { kind = "block", rows = 3, cols = 4, spacing = 1.2 }\nenter = { start = 4.0 }\n')
+    result = run_scenario(parse_scenario(text), progress=False)
+    traj, summary = result.trajectories, result.summary
+    came = int(np.argmax(traj.active_mask[:, 0]))
+    assert traj.times[came] >= 4.0 - 1e-9 and not traj.active_mask[:came].any(), "off-scene until 4 s"
+    assert (traj.stage[:came] == -1).all() and (traj.stage[came] == 0).all(), "on its way to the square from entry"
+    square = {row["name"]: row for row in summary["journeys"]["stages"]["band"]}["square"]
+    assert square["reached"] == 1
+    assert summary["journeys"]["exits"]["east"]["left"] == 1 and summary["entry"]["band"]["entered"] == 12
+    audit = collision_audit(traj, parse_scenario(text).scene)
+    assert audit.clean, audit.as_dict()

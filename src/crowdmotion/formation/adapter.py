@@ -9,6 +9,7 @@ from crowdmotion.progress import step_bar
 from crowdmotion import metrics
 from crowdmotion.formation.params import FormationParams
 from crowdmotion.formation.simulation import FormationRun, build_simulator, run
+from crowdmotion.journeys import entry_report
 
 Params = FormationParams
 
@@ -70,6 +71,10 @@ def run_scenario(scene, groups, params: FormationParams, rng, progress: bool = T
         "rules": dict(sim.stats),
         "groups": metrics.group_report(traj),
     })
+    if any("enter" in g.attributes for g in groups):  # each formation's delay, as one unit
+        due = np.array([g.enter_at for g in sim.groups])[sim.group_of]
+        entered = np.array([np.nan if g.entered_at is None else g.entered_at for g in sim.groups])[sim.group_of]
+        summary["entry"] = entry_report(traj.group, due, entered)
     return traj, result, summary
 
 

@@ -47,7 +47,7 @@ class FormationWalkers:
 
     @property
     def active(self) -> np.ndarray:
-        return np.array([g.left_at is None for g in self.sim.groups], dtype=bool)
+        return np.array([g.in_scene for g in self.sim.groups], dtype=bool)
 
     @property
     def time(self) -> float:

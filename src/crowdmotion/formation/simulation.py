@@ -81,10 +81,15 @@ def build_simulator(scene: Scene, groups: Sequence[Group], params: FormationPara
     region's centre, facing the goal."""
     if not groups:
         raise ValueError("formation: at least one group is needed")
+    from crowdmotion.checks import where
+    from crowdmotion.journeys import unit_entry_time
+
     sim = Simulator(scene, params.time_step, params, rng)
-    for g in groups:
+    for k, g in enumerate(groups):
         tpl = group_template(g)
         kw = dict(name=g.name, radius=g.radius, max_speed=g.max_speed, pref_speed=g.pref_speed)
+        if "enter" in g.attributes:
+            kw["enter_at"] = unit_entry_time(g.attributes["enter"], f"{where(k, g)}: enter")
         if "reassign" in g.attributes:
             kw["reassign"] = bool(g.attributes["reassign"])
         if isinstance(g.spawn, Points) and g.attributes.get("formation") is None:

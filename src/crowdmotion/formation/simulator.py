@@ -54,7 +54,8 @@ from crowdmotion.obstacle_primitives import ObstacleSet
 from crowdmotion.routing import DistanceFields, distance_fields
 from crowdmotion.scene import Scene
 
-GROUP_FIELDS = ("radius", "max_speed", "pref_speed", "start", "heading", "name", "reassign")
+GROUP_FIELDS = ("radius", "max_speed", "pref_speed", "start", "heading", "name", "reassign", "enter_at")
+ENTRY_GAP_M = 0.05  # clearance an entering formation needs round each of its bodies
 SLOW_DOWN = 2.0  # metres from the goal over which the attraction fades
 ARRIVAL_TURN_MAX = np.pi / 4  # a mesh that arrives turned less than this from its start heading recovers square to it
 ROUTE_LOOKAHEAD_M = 1.5  # vertices aim this far down the route to the goal
@@ -116,7 +117,14 @@ class FormationGroup:
     uniform_until: float = float("-inf")  # stall relief: uniform handles until then
     settled_at: float | None = None  # recovered and standing on its places (see Simulator._settle)
     left_at: float | None = None  # when it left the scene (a route's leave stage: Simulator.remove_group)
+    enter_at: float = 0.0  # when it is due to enter, seconds
+    entered_at: float | None = 0.0  # when it entered (None while it waits off-scene for its time or for room)
     vertex_velocity: np.ndarray | None = None  # (n, 2) each vertex's move over the last step / dt
+
+    @property
+    def in_scene(self) -> bool:
+        """Entered and not left: it moves, and the others avoid it."""
+        return self.entered_at is not None and self.left_at is None
 
     @property
     def cars(self) -> bool:
@@ -202,7 +210,11 @@ class Simulator(LiveObstacles):
         centre starts; default: the array's own positions, or the origin), ``heading``
         (radians; default: facing the goal), ``radius``, ``max_speed``, ``pref_speed``,
         ``name``, ``reassign`` (default: the simulator's; a template with pairs, cars,
-        never reassigns: a car's agents keep their vertices and each other).
+        never reassigns: a car's agents keep their vertices and each other), ``enter_at``
+        (seconds; default: now): until then, and after it while any body or obstacle
+        stands within its agents' bodies plus ENTRY_GAP_M of their start places, the group
+        waits off-scene (``active`` False: not drawn, not avoided, not stepped) and comes
+        in whole at the start of the first step it fits.
         """
         unknown = set(params) - set(GROUP_FIELDS)
         if unknown:
@@ -233,7 +245,13 @@ class Simulator(LiveObstacles):
             start_pos = tpl.placed(start, float(heading))
         self._check_inside(start_pos, radius, what)  # (first: a template of 1e300 m breaks the mesh's search)
         mesh = FormationMesh(start_pos, what)  # checks NaN, duplicates; warns on a chain
-        self._check_start(start_pos, radius, gc, what)
+        due = params.get("enter_at")
+        due = self.time if due is None else float(due) if isinstance(due, (int, float, np.integer, np.floating)) \
+            and not isinstance(due, bool) and np.isfinite(due) and due >= 0 else None
+        if due is None:
+            raise ValueError(f"{what}: enter_at must be a number of seconds >= 0, got {params.get('enter_at')!r}")
+        later = "enter_at" in params and params["enter_at"] is not None
+        self._check_start(start_pos, radius, gc, what, bodies=not later)
         p = self.params
         n = len(start_pos)
         solver = ARAPSolver(mesh, p.handle_weight, p.anchor_weight)
@@ -243,7 +261,8 @@ class Simulator(LiveObstacles):
         idx = np.arange(len(self.positions), len(self.positions) + n)
         grp = FormationGroup(name, tpl, mesh, solver, guide, start_pos.copy(), idx, region, gc, pref_speed, max_speed,
                              radius, extent, float(heading), float(heading), symmetry=rotational_symmetry(mesh.rest),
-                             vertex_velocity=np.zeros_like(start_pos))
+                             vertex_velocity=np.zeros_like(start_pos), enter_at=due,
+                             entered_at=None if later else self.time)
         self._route_stale = True
         self.groups.append(grp)
         self.positions = np.concatenate([self.positions, start_pos])
@@ -251,7 +270,7 @@ class Simulator(LiveObstacles):
         self.radius = np.concatenate([self.radius, np.full(n, radius)])
         self.max_speed = np.concatenate([self.max_speed, np.full(n, max_speed)])
         self.group_of = np.concatenate([self.group_of, np.full(n, len(self.groups) - 1)])
-        self.active = np.concatenate([self.active, np.ones(n, bool)])
+        self.active = np.concatenate([self.active, np.full(n, not later)])
         if len(tpl.pairs):
             self.pairs = np.concatenate([self.pairs, idx[tpl.pairs]])
             self.pair_length = np.concatenate([self.pair_length, np.linalg.norm(
@@ -412,7 +431,7 @@ class Simulator(LiveObstacles):
             raise ValueError(f"{what}: agent {i} at {pos[i].round(3).tolist()} is outside the scene bounds "
                              f"{lo.tolist()}-{hi.tolist()}")
 
-    def _check_start(self, pos: np.ndarray, radius: float, goal: np.ndarray, what: str) -> None:
+    def _check_start(self, pos: np.ndarray, radius: float, goal: np.ndarray, what: str, bodies: bool = True) -> None:
         self._check_inside(pos, radius, what)
         clear = self._now.obstacle_distance(pos, self.time)
         if np.any(clear < radius):
@@ -427,8 +446,10 @@ class Simulator(LiveObstacles):
             i, j = (int(v) for v in pairs[0])
             raise ValueError(f"{what}: agents {i} and {j} overlap at the start ({np.linalg.norm(pos[i] - pos[j]):.3g} m "
                              f"apart < 2 x radius {2 * radius} m); widen the template's spacing")
-        if len(self.positions):
-            d, j = cKDTree(self.positions).query(pos)
+        live = np.flatnonzero(self.active)
+        if bodies and len(live):  # (one entering later comes in when there is room)
+            d, j = cKDTree(self.positions[live]).query(pos)
+            j = live[j]
             bad = d < radius + self.radius[j]
             if bad.any():
                 i = int(np.flatnonzero(bad)[0])
@@ -470,7 +491,7 @@ class Simulator(LiveObstacles):
             if k in self._held:  # walled off from its goal (a shut door): it stands until a way opens
                 u = np.zeros(2)
             fvec, fmag = self.field.sample(V)
-            others = (np.arange(len(self.groups)) != k) & np.array([h.left_at is None for h in self.groups])
+            others = (np.arange(len(self.groups)) != k) & np.array([h.in_scene for h in self.groups])
             if others.any():
                 gv, gf = disc_field(V, centers[others], reach[others], p.field_range)
                 fvec = fvec + gv
@@ -733,7 +754,7 @@ class Simulator(LiveObstacles):
         dt = self.dt
         want = np.zeros_like(self.positions)
         for g in self.groups:
-            if g.left_at is not None:
+            if not g.in_scene:
                 continue
             o = self.positions[g.span]
             # whole-group reassignment (the least summed squared distance): in the target
@@ -876,12 +897,19 @@ class Simulator(LiveObstacles):
             self.time += self.dt
             self.steps += 1
             return
+        self._admit()
+        if not self.active.any():  # every group waits off-scene (or has left): time passes
+            self.velocities[:] = 0.0
+            self.time += self.dt
+            self.steps += 1
+            self._bookkeeping()
+            return
         self.field.update(self.time)
         self._grid = None  # built once per step, on first need
         prims = self._prims = self.obstacles.at(self.time, self.dt)  # obstacles placed now
         centers, reach = self._discs()
         for k, g in enumerate(self.groups):
-            if g.left_at is None:
+            if g.in_scene:
                 self._advance_mesh(k, g, centers, reach)
         self._agent_velocities()
         self._rigid_pairs()
@@ -906,9 +934,27 @@ class Simulator(LiveObstacles):
             self.walkers.after_step()
             self.journeys.update(self.walkers, self.dt)
 
+    def _admit(self) -> None:
+        """Let in the waiting groups that are due and fit: no body in the scene (or let in
+        before them this step) and no obstacle within their bodies plus ENTRY_GAP_M."""
+        for g in self.groups:
+            if g.entered_at is not None or g.left_at is not None or g.enter_at > self.time + 1e-9:
+                continue
+            pos = self.positions[g.span]
+            if (self.scene.obstacle_distance(pos, self.time) < g.radius + ENTRY_GAP_M).any():
+                continue
+            live = np.flatnonzero(self.active)
+            if len(live):
+                d, j = cKDTree(self.positions[live]).query(pos)
+                if (d - self.radius[live][j] - g.radius < ENTRY_GAP_M).any():
+                    continue
+            g.entered_at = self.time
+            self.active[g.span] = True
+            self._grid = None
+
     def _bookkeeping(self) -> None:
         for g in self.groups:
-            if g.left_at is not None:  # as it left
+            if not g.in_scene:  # as it left (or stands waiting to enter)
                 g.edge_error.append(g.edge_error[-1] if g.edge_error else 0.0)
                 continue
             mean, _ = edge_errors(self.positions[g.span][g.guide.slot_order], g.mesh.edges, g.mesh.rest_length)

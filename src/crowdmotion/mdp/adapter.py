@@ -6,6 +6,7 @@ import numpy as np
 from crowdmotion.progress import step_bar
 
 from crowdmotion import metrics
+from crowdmotion.journeys import entry_report
 from crowdmotion.mdp.params import MDPParams
 from crowdmotion.mdp.simulation import MDPRun, run, setup
 
@@ -32,8 +33,9 @@ def goal_test(result: MDPRun):
 
 def check_scenario(scene, groups, params: MDPParams) -> None:
     """Everything a run refuses, refused before it starts: the set-up itself (cell size,
-    goal and spawn cells, slots, room for every agent), then a goal no agent can reach."""
-    from crowdmotion.checks import describe_region, where
+    goal and spawn cells, slots, room for every agent, entry tables and entrances), then a
+    goal no agent can reach."""
+    from crowdmotion.checks import check_entrances, describe_region, where
     from crowdmotion.mdp.solvers import exact_values
 
     from crowdmotion.checks import check_route_places
@@ -42,6 +44,7 @@ def check_scenario(scene, groups, params: MDPParams) -> None:
     from crowdmotion.stages import flat_stages
 
     for k, g in enumerate(groups):
+        check_entrances(scene, k, g)
         if g.attributes.get("route") is not None:
             check_mdp_route(g.attributes["route"], where(k, g))
             check_route_places(scene, k, g)
@@ -118,6 +121,9 @@ def run_scenario(scene, groups, params: MDPParams, rng, progress: bool = True):
         "mean_final_path_distance_to_goal_m": float(np.mean(dist[np.isfinite(dist)])) if np.isfinite(dist).any() else None,
         "max_final_path_distance_to_goal_m": float(np.max(dist[np.isfinite(dist)])) if np.isfinite(dist).any() else None,
     })
+    if result.arrivals is not None:  # each group's delay (and each entrance's), seconds on the run's time base
+        a = result.arrivals
+        summary["entry"] = entry_report(traj.group, a.due, a.entered_at(result.walker), a.entrance)
     if "relaxed" in traj.metadata:  # at fps, or at the run's own steps (a large run: path_relaxation.RELAX_AT_FPS_MAX)
         summary["relaxed"] = dict(traj.metadata["relaxed"])
     return traj, result, summary

@@ -12,6 +12,7 @@ from crowdmotion.groups import Group, MovingTarget, Points
 from crowdmotion.mdp.goal_fill import fill_depth, nearest_cells
 from crowdmotion.mdp.params import MDPParams
 from crowdmotion.mdp.grid import GridMap, mark_obstacle, max_radius, min_cell_size, rasterise
+from crowdmotion.mdp.sources import Arrivals
 from crowdmotion.mdp.solvers import solve, value_iteration
 from crowdmotion.mdp.trajectory import Walker
 from crowdmotion.scene import Scene
@@ -32,6 +33,8 @@ class MDPRun:
     field_of: np.ndarray  # group (value field) index of each agent
     journeys: Any = None  # the route state machine (crowdmotion.journeys.Journeys), None without routes
     walkers: Any = None  # its view of the grid (crowdmotion.mdp.routes.MDPWalkers): fields solved, who left
+    arrivals: Arrivals | None = None  # who entered when (groups with ``enter``), None without
+    walker: Walker | None = None  # Algorithm 3's state at the end (each agent's entry frame)
 
 
 def cell_size_for(groups: Sequence[Group], params: MDPParams) -> float:
@@ -112,7 +115,9 @@ def solve_field(occupancy, goals, params: MDPParams, previous=None) -> np.ndarra
 @dataclass
 class Setup:
     """What a run starts from: the grids, each group's goal cells (and the point they
-    fill toward, for slots round a shared point), the agents' start cells and fields."""
+    fill toward, for slots round a shared point), the agents' start cells and fields, and
+    for groups that enter over time when and where each agent enters (``arrivals``; its
+    start cell is then the one it is drawn to enter at)."""
 
     cell: float
     static: GridMap
@@ -121,6 +126,7 @@ class Setup:
     toward: list[np.ndarray | None]
     starts: np.ndarray
     field_of: np.ndarray
+    arrivals: Arrivals | None = None
 
 
 def setup(scene: Scene, groups: Sequence[Group], params: MDPParams, rng: np.random.Generator) -> Setup:
@@ -145,9 +151,16 @@ def setup(scene: Scene, groups: Sequence[Group], params: MDPParams, rng: np.rand
             except ValueError as exc:
                 raise ValueError(f"group {g.name!r} goal: {exc}") from None
     taken: set = set()
-    starts = np.concatenate([spawn_cells(grid, g, taken, rng) for g in groups])
+    # groups entering over time take their cells one by one, when free (mdp.sources)
+    cells = [None if "enter" in g.attributes else spawn_cells(grid, g, taken, rng) for g in groups]
+    arrivals = None
+    if any(c is None for c in cells):
+        arrivals = Arrivals(grid, groups, step_time(groups, params, cell, np.sqrt(grid.dim)), rng, region_cells)
+        bounds = np.cumsum([0] + [g.count for g in groups])
+        cells = [arrivals.first[bounds[k]:bounds[k + 1]] if c is None else c for k, c in enumerate(cells)]
+    starts = np.concatenate(cells)
     field_of = np.repeat(np.arange(len(groups)), [g.count for g in groups])
-    return Setup(cell, static, grid, goal_cells, toward, starts, field_of)
+    return Setup(cell, static, grid, goal_cells, toward, starts, field_of, arrivals)
 
 
 def run(scene: Scene, groups: Sequence[Group], params: MDPParams, rng: np.random.Generator,
@@ -155,21 +168,26 @@ def run(scene: Scene, groups: Sequence[Group], params: MDPParams, rng: np.random
     """Run the MDP method on a scene; ``progress(steps_done)`` is called after each chunk."""
     su = setup(scene, groups, params, rng)
     cell, static, grid, goal_cells, toward = su.cell, su.static, su.grid, su.goal_cells, su.toward
-    starts, field_of = su.starts, su.field_of
+    starts, field_of, arrivals = su.starts, su.field_of, su.arrivals
     masks = []
     for gc in goal_cells:
         m = np.zeros(grid.shape, dtype=bool)
         m[tuple(gc.T)] = True
         masks.append(m)
-    dt = step_time(groups, params, cell, np.sqrt(grid.dim))  # moving obstacles are placed at step * dt
+    # moving obstacles are placed, and agents enter, at step * dt: fixed ahead for both
+    dt = step_time(groups, params, cell, np.sqrt(grid.dim))
     r_cells = max(g.radius for g in groups) / cell
-    walker = Walker(grid.occupancy, starts, masks, field_of, params.corner_cutting, min(r_cells, max_radius(1.0)))
+    walker = Walker(grid.occupancy, starts, masks, field_of, params.corner_cutting, min(r_cells, max_radius(1.0)),
+                    present=None if arrivals is None else ~arrivals.later)
     moving = scene.moving_obstacles
     if any(g.attributes.get("route") is not None for g in groups):
         return _run_routes(scene, groups, params, rng, su, walker, dt, progress)
     values = None
     cells_out = [starts[None]]
     active_out = [np.ones((1, len(starts)), dtype=bool)]
+    if arrivals is not None:  # those due at 0 come in at the first frame, as room allows
+        arrivals.admit(walker, 0, rng)
+        cells_out, active_out = [walker.cells[None]], [(walker.active == 1)[None]]
     done = 0
     partial = False
     # goal areas that keep their agents: latecomers are routed to the cells still free
@@ -178,6 +196,8 @@ def run(scene: Scene, groups: Sequence[Group], params: MDPParams, rng: np.random
     try:
         while done < params.max_steps:
             chunk = min(params.replan_every if moving or fill else 64, params.max_steps - done)
+            if arrivals is not None:  # agents enter between chunks: end one at the next frame one may
+                chunk = min(chunk, arrivals.steps_to_next(done))
             if values is None or moving:
                 occ = static.occupancy.copy()
                 for ob in moving:  # current cells and those covered over the look-ahead
@@ -206,9 +226,12 @@ def run(scene: Scene, groups: Sequence[Group], params: MDPParams, rng: np.random
             cells_out.append(c)
             active_out.append(a)
             done += chunk
+            if arrivals is not None and arrivals.pending:
+                _admit(arrivals, walker, done, rng, c[-1], a[-1])
             if progress is not None:
                 progress(done)
             if (params.stop_when_done and not moving and _all_settled(walker, masks, values)
+                    and (arrivals is None or not arrivals.pending)
                     and (np.array_equal(before, walker.cells) or not walker.can_fill_deeper().any())):
                 break
     except KeyboardInterrupt:  # Ctrl-C: keep the steps so far, marked partial
@@ -218,10 +241,11 @@ def run(scene: Scene, groups: Sequence[Group], params: MDPParams, rng: np.random
     cells = np.concatenate(cells_out)
     active = np.concatenate(active_out)
     positions = grid.centers(cells)
-    stretch = not moving and params.smoothing == "relaxed" and params.speed_limited_steps
+    # (agents entering over time keep the time base fixed ahead: their seconds map to steps)
+    stretch = not moving and arrivals is None and params.smoothing == "relaxed" and params.speed_limited_steps
     if stretch:  # the relaxed paths' own top speed sets the time base (relaxed, below)
         dt = step_time(groups, params, cell, 1.0)
-    elif not moving and len(cells) > 1:  # the longest move actually made sets the step time
+    elif not moving and arrivals is None and len(cells) > 1:  # the longest move actually made sets the step time
         made = np.abs(np.diff(cells, axis=0)).sum(axis=-1)[active[1:] & active[:-1]]
         dt = step_time(groups, params, cell, float(np.sqrt(made.max())) if made.size else 1.0)
     start_values = values[(field_of, *starts.T)] if values is not None else np.zeros(len(starts))
@@ -239,7 +263,16 @@ def run(scene: Scene, groups: Sequence[Group], params: MDPParams, rng: np.random
         traj = relaxed(traj, params, scene, max_speed, stretch)
     elif params.smoothing is not None:
         traj = resample_checked(traj, params.fps, params.smoothing, scene, max_speed)
-    return MDPRun(traj, grid, values, goal_cells, unreachable, field_of)
+    return MDPRun(traj, grid, values, goal_cells, unreachable, field_of, arrivals=arrivals, walker=walker)
+
+
+def _admit(arrivals: Arrivals, walker: Walker, frame: int, rng: np.random.Generator, cells: np.ndarray,
+           active: np.ndarray) -> None:
+    """Let in the agents due by ``frame`` that find a free cell, writing them into that
+    frame's ``cells`` and ``active`` (the last row recorded)."""
+    ids = arrivals.admit(walker, frame, rng)
+    cells[ids] = walker.cells[ids]
+    active[ids] = True
 
 
 def _run_routes(scene: Scene, groups: Sequence[Group], params: MDPParams, rng: np.random.Generator, su: Setup,
@@ -272,9 +305,12 @@ def _run_routes(scene: Scene, groups: Sequence[Group], params: MDPParams, rng: n
     radius = np.concatenate([np.full(g.count, g.radius) for g in groups])
     pref = np.concatenate([np.full(g.count, g.pref_speed) for g in groups])
     journeys = Journeys(routes, field_of, [g.spawn for g in groups], radius, pref, step_key(rng), scene.clearance)
+    arrivals = su.arrivals
+    if arrivals is not None:  # those due at 0 come in at the first frame, as room allows (they begin their routes)
+        arrivals.admit(walker, 0, rng)
     journeys.update(walkers, dt)
-    cells_out = [starts[None]]
-    active_out = [np.ones((1, len(starts)), dtype=bool)]
+    cells_out = [walker.cells[None]]
+    active_out = [(walker.active == 1)[None]]
     stages = [journeys.frame(active_out[0][0])]
     partial = False
     try:
@@ -283,12 +319,15 @@ def _run_routes(scene: Scene, groups: Sequence[Group], params: MDPParams, rng: n
             c, a = walker.advance(1, rng, params.tau, params.forbid_crossing, False)
             cells_out.append(c.copy())
             active_out.append(a)
+            if arrivals is not None and arrivals.pending:  # they enter at the end of the step, and begin their routes
+                _admit(arrivals, walker, done, rng, cells_out[-1][-1], a[-1])
             walkers.after_step()  # agents in their exit leave the scene; the rest move on
             journeys.update(walkers, dt)
             stages.append(journeys.frame(a[0]))
             if progress is not None:
                 progress(done)
             if (params.stop_when_done and not journeys.busy(walkers.active) and walkers.settled()
+                    and (arrivals is None or not arrivals.pending)
                     and (np.array_equal(before, walker.cells) or not walker.can_fill_deeper().any())):
                 break
     except KeyboardInterrupt:  # Ctrl-C: keep the steps so far, marked partial
@@ -320,7 +359,7 @@ def _run_routes(scene: Scene, groups: Sequence[Group], params: MDPParams, rng: n
     if out is not traj:  # each new frame holds the stage of the step it ends in (as resample does)
         held = np.minimum(np.ceil(out.times / dt - 1e-9).astype(int), traj.n_frames - 1)
         out.stage = np.where(out.active_mask, stage[held], -1).astype(np.int16)
-    return MDPRun(out, grid, values, su.goal_cells, unreachable, field_of, journeys, walkers)
+    return MDPRun(out, grid, values, su.goal_cells, unreachable, field_of, journeys, walkers, arrivals, walker)
 
 
 def relaxed(traj: Trajectories, params: MDPParams, scene: Scene, max_speed: np.ndarray,

@@ -33,10 +33,12 @@ class Walker:
 
     Used by :func:`generate_trajectories` and by scene runs that re-solve the values
     when obstacles move (``set_field``/``set_blocked`` between ``advance`` calls).
+    ``present`` (default: all) marks the agents in the scene from the start; the others
+    wait off-scene (inactive, on no cell) until :meth:`enter` places them.
     """
 
     def __init__(self, grid: np.ndarray, starts: np.ndarray, goal_masks: np.ndarray, field_of: np.ndarray,
-                 corner_cutting: bool, radius_cells: float):
+                 corner_cutting: bool, radius_cells: float, present: np.ndarray | None = None):
         self.shape = grid.shape
         self.dim = grid.ndim
         self.blocked, self.strides = padded(grid)
@@ -50,11 +52,13 @@ class Walker:
         self.field_of = np.asarray(field_of, dtype=np.int64)
         self.coord = np.asarray(starts, dtype=np.int64) + PAD
         self.cur = self.coord @ self.strides
-        self.active = np.ones(len(self.cur), dtype=np.uint8)
+        here = np.ones(len(self.cur), dtype=bool) if present is None else np.asarray(present, dtype=bool)
+        self.active = here.astype(np.uint8)
         self.gone_step = np.full(len(self.cur), -1, dtype=np.int64)
+        self.entered_frame = np.where(here, 0, np.iinfo(np.int64).max)  # the frame each agent appears in
         self.steps_done = 0
         self.occ = np.full(self.blocked.size, -1, dtype=np.int32)
-        self.occ[self.cur] = np.arange(len(self.cur))
+        self.occ[self.cur[here]] = np.flatnonzero(here)
         self.values = None
 
     def set_blocked(self, grid: np.ndarray) -> None:
@@ -83,6 +87,23 @@ class Walker:
         mine = self.occ[self.cur[ids]] == ids
         self.occ[self.cur[ids][mine]] = -1
 
+    def free(self, cells: np.ndarray) -> np.ndarray:
+        """(M,) whether each of ``cells`` ((M, D) grid indices) is free now: no obstacle
+        (moving ones included, as last set) and no agent on it."""
+        flat = (np.asarray(cells, dtype=np.int64) + PAD) @ self.strides
+        return (self.blocked[flat] == 0) & (self.occ[flat] < 0)
+
+    def enter(self, ids: np.ndarray, cells: np.ndarray) -> None:
+        """Agents ``ids``, waiting off-scene, enter at ``cells`` ((len(ids), D), free and
+        distinct: see :meth:`free`) after the steps done so far: they stand there in the
+        last frame and are stepped from the next step on."""
+        ids = np.asarray(ids, dtype=np.int64)
+        self.coord[ids] = np.asarray(cells, dtype=np.int64) + PAD
+        self.cur[ids] = self.coord[ids] @ self.strides
+        self.occ[self.cur[ids]] = ids
+        self.active[ids] = 1
+        self.entered_frame[ids] = self.steps_done
+
     def advance(self, steps: int, rng: np.random.Generator, tau: float, forbid_crossing: bool,
                 despawn: bool, out: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
         """Run ``steps`` steps; return ((steps, N, D) cell indices, (steps, N) active).
@@ -108,6 +129,7 @@ class Walker:
         self.steps_done += steps
         rows = self.steps_done - steps + np.arange(steps)[:, None]
         act = (self.gone_step < 0) | (rows < self.gone_step)  # gone from the step it left in
+        act &= rows + 1 >= self.entered_frame  # (row r is frame r + 1) there from the frame it entered in
         return out, act
 
     def can_fill_deeper(self) -> np.ndarray:

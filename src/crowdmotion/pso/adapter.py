@@ -9,6 +9,7 @@ import numpy as np
 from crowdmotion.progress import step_bar
 
 from crowdmotion import metrics
+from crowdmotion.journeys import entry_report
 from crowdmotion.groups import MovingTarget, Points
 from crowdmotion.pso.obstacles import ObstacleArrays
 from crowdmotion.pso.params import PSOParams
@@ -31,6 +32,7 @@ def check_scenario(scene, groups, params: PSOParams) -> None:
     faster than its group's max_speed."""
     from crowdmotion.checks import check_goal_clear, check_inside, check_reachable, check_route_places, \
         check_spawn_capacity, check_start_points, where
+    from crowdmotion.journeys import unit_entry_time
     from crowdmotion.pso.routes import check_pso_route, region_target
     from crowdmotion.stages import flat_stages
 
@@ -59,6 +61,11 @@ def check_scenario(scene, groups, params: PSOParams) -> None:
                                  f"area: its centre {point[0].tolist()}, where the swarm gathers, is covered by an "
                                  f"obstacle (clearance {clear[0]:.3g} m < radius {g.radius} m)")
     for i, g in enumerate(groups):
+        if "enter" in g.attributes:  # one swarm, one time: enter = { start = s }
+            unit_entry_time(g.attributes["enter"], f"{where(i, g)}: enter", "a PSO swarm")
+            if any(isinstance(h.goal, MovingTarget) for h in groups):
+                raise ValueError(f"{where(i, g)} enter: a swarm entering late needs fixed goals in the scene; "
+                                 f"moving targets are followed on their own: leave enter out")
         check_goal_clear(scene, i, g)
         points = g.goal.positions if isinstance(g.goal, MovingTarget) else np.asarray(g.goal.center)[None]
         clear = scene.obstacle_distance(points, 0.0)  # the swarm's target is the goal's centre
@@ -169,6 +176,8 @@ def run_scenario(scene, groups, params: PSOParams, rng, progress: bool = True):
         "groups": metrics.group_report(traj),
         **({} if result.journeys is None else {"journeys": result.journeys.report(result.group_names)}),
     })
+    if result.due is not None:  # each swarm's delay, as one unit
+        summary["entry"] = entry_report(names, result.due, result.entered_at)
     return traj, result, summary
 
 

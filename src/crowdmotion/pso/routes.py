@@ -40,9 +40,10 @@ class PSOWalkers:
     ``swarm.iterate()`` and before ``journeys.update``: particles of a swarm bound for an
     exit that have stopped there leave the scene.
 
-    ``ids`` holds, for each particle still in the swarm, its index in the run (the swarm
-    closes up its arrays when particles leave); :meth:`frame` gives the run's (N, D)
-    positions with those that left at the place they left."""
+    ``ids`` holds, for each particle in the swarm, its index in the run (the swarm closes
+    up its arrays when particles leave, and appends those that enter); :meth:`frame` gives
+    the run's (N, D) positions with those that left at the place they left, and those
+    still to enter (:meth:`hold`, :meth:`enter`) at their start."""
 
     def __init__(self, swarm):
         self.swarm = swarm
@@ -54,6 +55,8 @@ class PSOWalkers:
         self.present = np.ones(n, bool)
         self.left_arrival = np.full(n, -1, np.int64)    # the iteration each particle that left arrived at
         self.leaves = np.zeros(swarm.n_swarms, bool)
+        self.held: dict[int, tuple] = {}                 # swarm -> (run ids, velocities) while off-scene
+        self.entered_at = np.zeros(swarm.n_swarms)       # when each swarm entered (NaN while it waits)
 
     # ---- what Journeys reads ----------------------------------------------------------
     @property
@@ -117,14 +120,50 @@ class PSOWalkers:
             s.remove(out)
             self.ids = np.delete(self.ids, out)
 
+    # ---- swarms that enter late -------------------------------------------------------
+    def hold(self, swarms) -> None:
+        """Keep ``swarms`` off-scene (not stepped, drawn or avoided) until :meth:`enter`:
+        their particles stand at their starts with their first velocities kept."""
+        s = self.swarm
+        for k in np.atleast_1d(np.asarray(swarms, dtype=np.int64)):
+            rows = np.flatnonzero(s.swarm == k)
+            self.held[int(k)] = (self.ids[rows], s.v[rows].copy())
+            self.present[self.ids[rows]] = False
+            self.entered_at[k] = np.nan
+            s.remove(rows)
+            self.ids = np.delete(self.ids, rows)
+
+    def room(self, k: int, gap: float) -> bool:
+        """Whether held swarm ``k`` fits at its starts: each particle ``gap`` clear of the
+        bodies in the scene (of the largest of them, to be safe)."""
+        from scipy.spatial import cKDTree
+
+        ids = self.held[k][0]
+        s = self.swarm
+        if not s.n:
+            return True
+        d, _ = cKDTree(s.x).query(self.last[ids])
+        return bool(np.all(d >= self.radius[ids] + s.radius.max() + gap))
+
+    def enter(self, k: int, time: float) -> None:
+        """Held swarm ``k`` enters at ``time`` (seconds), whole, at its starts."""
+        ids, v = self.held.pop(k)
+        self.swarm.add(self.last[ids], v, self.swarm_of[ids], self.radius[ids])
+        self.ids = np.concatenate([self.ids, ids])
+        self.present[ids] = True
+        self.entered_at[k] = time
+
     def frame(self) -> np.ndarray:
         """(N, D) every particle of the run: where it is, or where it left."""
         self.last[self.ids] = self.swarm.x
         return self.last.copy()
 
     def stopped(self) -> np.ndarray:
-        """(N,) particles stopped now, those that left counted as stopped."""
+        """(N,) particles stopped now, those that left counted as stopped (and those
+        still waiting to enter not)."""
         out = ~self.present
+        for ids, _ in self.held.values():
+            out[ids] = False
         out[self.ids] = self.swarm.stopped
         return out
 

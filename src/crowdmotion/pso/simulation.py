@@ -28,6 +28,8 @@ class PSORun:
     scene: Scene
     group_names: list[str]
     journeys: Any = None  # the route state machine (crowdmotion.journeys.Journeys), None without routes
+    due: np.ndarray | None = None  # (N,) when each particle's swarm was due to enter (groups with enter), s
+    entered_at: np.ndarray | None = None  # (N,) when it entered (NaN: still waiting at the end), s
 
 
 def _region_box(region) -> tuple[np.ndarray, np.ndarray]:
@@ -68,6 +70,9 @@ def run(scene: Scene, groups: Sequence[Group], params: PSOParams | None = None,
     Groups with a fixed goal gather on its centre for ``params.iterations`` iterations (or
     until every particle has stopped); groups with a moving goal follow it, the target
     being read every ``params.iterations`` iterations (see :func:`crowdmotion.pso.follow`).
+    A group with ``enter = { start = s }`` is a swarm that enters whole at its spawn at
+    the first iteration at or after ``s`` seconds its particles are clear of every body
+    (:func:`_run_stepped`).
     """
     params = make_params(params) if not isinstance(params, PSOParams) else params
     rng = np.random.default_rng() if rng is None else rng
@@ -84,8 +89,8 @@ def run(scene: Scene, groups: Sequence[Group], params: PSOParams | None = None,
     except ValueError as exc:
         raise ValueError(f"pso: {exc}") from None
     swarm = Swarm(xs, sw, targets0, rs, params, used, rng)
-    if any(g.attributes.get("route") is not None for g in groups):
-        return _run_routes(swarm, groups, params, rng, progress)
+    if any(g.attributes.get("route") is not None or "enter" in g.attributes for g in groups):
+        return _run_stepped(swarm, groups, params, rng, progress)
     moving = np.array([isinstance(g.goal, MovingTarget) for g in groups])
     schedule = None
     if moving.any():
@@ -98,48 +103,81 @@ def run(scene: Scene, groups: Sequence[Group], params: PSOParams | None = None,
     return PSORun(result.trajectories(names, params.fps, max_speed=max_speed), result, used, names)
 
 
-def _run_routes(swarm: Swarm, groups: Sequence[Group], params: PSOParams, rng: np.random.Generator,
-                progress: Callable[[int], None] | None) -> PSORun:
-    """:func:`run` when a group has a route: one iteration at a time, after each the
-    route state machine moves swarms on (:mod:`crowdmotion.pso.routes`), until every
-    swarm has gathered at its route's end or left (or ``params.max_iterations``);
-    ``Trajectories.stage`` says each particle's stage per frame and ``active`` which
-    particles are still in the scene."""
+def _run_stepped(swarm: Swarm, groups: Sequence[Group], params: PSOParams, rng: np.random.Generator,
+                 progress: Callable[[int], None] | None) -> PSORun:
+    """:func:`run` when a group has a route or enters late: one iteration at a time.
+
+    A swarm with ``enter = { start = s }`` waits off-scene (not stepped, drawn or
+    avoided: :meth:`PSOWalkers.hold`) until the first iteration k with
+    k · iteration_time ≥ s at which every particle of it stands ``params.spawn_gap``
+    clear of the bodies in the scene (with ``avoid_agents``; without, at k), then enters
+    whole at its starts, its memories fresh. After each iteration the route state machine
+    moves swarms on (:mod:`crowdmotion.pso.routes`); the run ends once every swarm has
+    entered and gathered at its route's end or goal, or left: at most
+    ``params.max_iterations`` iterations with routes, else ``params.iterations`` after
+    the last swarm entered (its gathering budget). ``Trajectories.stage`` says each
+    particle's stage per frame (with routes) and ``active`` which particles are in the
+    scene."""
     from crowdmotion._rng import step_key
     from crowdmotion.checks import where
-    from crowdmotion.journeys import Journeys
+    from crowdmotion.journeys import Journeys, unit_entry_time
     from crowdmotion.pso.routes import PSOWalkers, check_pso_route
 
     routes = [g.attributes.get("route") for g in groups]
     for k, g in enumerate(groups):
         if isinstance(g.goal, MovingTarget):
-            raise ValueError(f"{where(k, g)} goal: pso routes need fixed goals; a moving target is followed "
-                             f"on its own, without routes in the scene")
+            what = "pso routes need fixed goals" if any(r is not None for r in routes) else \
+                "a swarm entering late needs a fixed goal"
+            raise ValueError(f"{where(k, g)} goal: {what}; a moving target is followed on its own, "
+                             f"without routes or enter in the scene")
         if routes[k] is not None:
             check_pso_route(routes[k], where(k, g))
+    due = np.array([unit_entry_time(g.attributes.get("enter"), f"{where(k, g)}: enter", "a PSO swarm")
+                    for k, g in enumerate(groups)])
+    it = params.iteration_time
+    due_iteration = np.ceil(due / it - 1e-9).astype(np.int64)
     walkers = PSOWalkers(swarm)
+    later = np.array(["enter" in g.attributes for g in groups])
+    walkers.hold(np.flatnonzero(later))
+    gap = params.spawn_gap if params.avoid_agents else -np.inf
+
+    def admit(iteration: int) -> None:
+        for k in sorted(walkers.held, key=lambda k: (due[k], k)):  # the earlier due first
+            if due_iteration[k] <= iteration and walkers.room(k, gap):
+                walkers.enter(k, iteration * it)
+
+    admit(0)
     journeys = Journeys(routes, np.arange(len(groups)), [g.spawn for g in groups],
-                        [float(swarm.radius[swarm.swarm == k].max()) for k in range(len(groups))],
+                        [float(walkers.radius[walkers.swarm_of == k].max()) for k in range(len(groups))],
                         [g.pref_speed for g in groups], step_key(rng))
-    journeys.update(walkers, params.iteration_time)
+    journeys.update(walkers, it)
+    routed = any(r is not None for r in routes)
 
     def stage_now():
         return np.where(walkers.present, journeys.frame(walkers.active)[walkers.swarm_of], -1).astype(np.int16)
 
+    def last_iteration() -> int:  # routes: the cap; else the gathering budget after the last entry
+        if routed:
+            return params.max_iterations
+        last = len(frames) - 1 if walkers.held else int(np.nanmax(walkers.entered_at) / it + 0.5)
+        return min(params.max_iterations, last + params.iterations)
+
     frames, targets, present, stages = [walkers.frame()], [swarm.target.copy()], [walkers.present.copy()], [stage_now()]
     partial = False
     try:
-        while len(frames) <= params.max_iterations and swarm.n:
+        while len(frames) <= last_iteration() and (swarm.n or walkers.held):
             swarm.iterate()
             walkers.after_step()  # particles at their exit leave; swarms that arrived move on
-            journeys.update(walkers, params.iteration_time)
+            admit(swarm.iteration)
+            journeys.update(walkers, it)
             frames.append(walkers.frame())
             targets.append(swarm.target.copy())
             present.append(walkers.present.copy())
             stages.append(stage_now())
             if progress is not None:
                 progress(1)
-            if swarm.done and not journeys.busy(walkers.active):
+            if swarm.done and not journeys.busy(walkers.active) and not walkers.held \
+                    and (routed or params.stop_when_done):
                 break
     except KeyboardInterrupt:  # Ctrl-C: keep the iterations so far, marked partial
         partial = True
@@ -147,11 +185,14 @@ def _run_routes(swarm: Swarm, groups: Sequence[Group], params: PSOParams, rng: n
     active, stage = np.array(present[:n]), np.array(stages[:n])
     sr = SwarmRun(np.array(frames[:n]), walkers.swarm_of.copy(), np.array(targets[:n]), walkers.stopped(),
                   walkers.arrival_iteration(), walkers.radius.copy(), swarm.scene, params, swarm.stats,
-                  params.iteration_time, partial, active=None if active.all() else active, stage=stage,
-                  stages=journeys.stage_table([g.name for g in groups]))
+                  params.iteration_time, partial, active=None if active.all() else active,
+                  stage=stage if routed else None,
+                  stages=journeys.stage_table([g.name for g in groups]) if routed else None)
     names = [g.name for g in groups]
     max_speed = np.array([g.max_speed for g in groups])[sr.swarm]
-    return PSORun(sr.trajectories(names, params.fps, max_speed=max_speed), sr, swarm.scene, names, journeys)
+    entry = (due[walkers.swarm_of], walkers.entered_at[walkers.swarm_of]) if later.any() else (None, None)
+    return PSORun(sr.trajectories(names, params.fps, max_speed=max_speed), sr, swarm.scene, names,
+                  journeys if routed else None, *entry)
 
 
 def simulate(scene: Scene, groups: Sequence[Group], params: PSOParams | None = None,

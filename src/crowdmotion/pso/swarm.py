@@ -160,14 +160,38 @@ class Swarm:
             setattr(self, name, np.ascontiguousarray(getattr(self, name)[keep]))
         self.n = int(keep.sum())
 
+    def add(self, x: np.ndarray, v: np.ndarray, swarm_of: np.ndarray, radius: np.ndarray) -> None:
+        """Put particles (positions ``x``, velocities ``v``, swarms ``swarm_of``, radii
+        ``radius``) into the scene after the rest, e.g. a swarm that entered late (see
+        :class:`crowdmotion.pso.routes.PSOWalkers`): from now on they are stepped and
+        avoided; their swarms' memories start afresh from where they stand."""
+        x = np.asarray(x, float).reshape(-1, self.dim)
+        sw = np.asarray(swarm_of, dtype=np.int64).reshape(-1)
+        k = len(x)
+        fresh = {"x": x, "v": np.asarray(v, float).reshape(-1, self.dim), "swarm": sw,
+                 "radius": np.asarray(radius, float).reshape(-1), "stopped": np.zeros(k, bool),
+                 "arrival_iteration": np.full(k, -1, np.int64), "redirected": np.zeros(k, np.int64),
+                 "pb": x.copy(), "pbd": np.full(k, np.inf)}
+        for name, value in fresh.items():
+            setattr(self, name, np.ascontiguousarray(np.concatenate([getattr(self, name), value])))
+        self.n += k
+        which = np.zeros(self.n_swarms, bool)
+        which[sw] = True
+        self.stale[which] = 0
+        self._reset_memory(which)
+
     # ---- one iteration ------------------------------------------------------------------
     @property
     def done(self) -> bool:
         return bool(self.stopped.all())
 
     def iterate(self) -> None:
-        """One PSO iteration of every swarm, with the avoidance rules the params switch on."""
+        """One PSO iteration of every swarm, with the avoidance rules the params switch on
+        (with no particle in the scene, as while every swarm waits to enter, time passes)."""
         p = self.params
+        if not self.n:
+            self.iteration += 1
+            return
         moving = ~self.stopped
         self.moved += int(moving.sum())
         self.particle_iterations += self.n

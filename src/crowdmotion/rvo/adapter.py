@@ -17,8 +17,8 @@ def check_scenario(scene, groups, params: RVOParams) -> None:
     """Everything a run refuses, refused before it starts: a 3D scene, goals an agent
     cannot stand on, spawn regions too small, then the set-up itself (placement, personality,
     guidance fields) and goals the field says no agent can reach."""
-    from crowdmotion.checks import check_dimension, check_goal_clear, check_inside, check_route_places, \
-        check_spawn_capacity, describe_region, where
+    from crowdmotion.checks import check_dimension, check_entrances, check_goal_clear, check_inside, \
+        check_route_places, check_spawn_capacity, describe_region, where
     from crowdmotion.stages import flat_stages
 
     check_dimension("rvo", scene, (2,), "use method = 'mdp' or 'pso' for 3D scenes")
@@ -26,6 +26,7 @@ def check_scenario(scene, groups, params: RVOParams) -> None:
         check_goal_clear(scene, k, g)
         check_inside(scene, k, g, "spawn")
         check_inside(scene, k, g, "goal")
+        check_entrances(scene, k, g)
         # a group entering over time need not fit all at once (build_simulator checks its enter table)
         if "enter" not in g.attributes:
             check_spawn_capacity(scene, k, g, params.spawn_gap)
@@ -86,7 +87,7 @@ def run_scenario(scene, groups, params: RVOParams, rng, progress: bool = True):
     summary["mean_time_to_goal_s"] = float(np.nanmean(taken)) if arrived.any() else None
     summary["time_to_goal_by_group_s"] = metrics.time_to_goal_by_group(traj, taken)
     if any("enter" in g.attributes for g in groups):
-        summary["entry"] = entry_report(traj.group, sim.enter_at, sim.entry_time)
+        summary["entry"] = entry_report(traj.group, sim.enter_at, sim.entry_time, sim.entrance)
     if journeys is not None:
         summary["journeys"] = journeys.report([g.name for g in groups])
     stats = sim.stats

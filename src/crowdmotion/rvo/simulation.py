@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-from dataclasses import dataclass, replace
+from dataclasses import dataclass
 from typing import Callable, Sequence
 
 import numpy as np
@@ -11,7 +11,7 @@ from crowdmotion import __version__
 from crowdmotion.checks import where
 from crowdmotion.groups import Disc, Group, MovingTarget, Points, Rect
 from crowdmotion._rng import step_key
-from crowdmotion.journeys import Journeys, entry_times
+from crowdmotion.journeys import Journeys, entrance_of, entry_points, entry_times
 from crowdmotion.placement import spawn_positions
 from crowdmotion.rvo.params import RVOParams
 from crowdmotion.rvo.personality import PARAM_KEYS, sample_personalities
@@ -77,8 +77,10 @@ def build_simulator(scene: Scene, groups: Sequence[Group], params: RVOParams, rn
             raise ValueError(f"{where(k, g)}: the RVO method is 2D, the group is {g.dim}D")
         enter = g.attributes.get("enter")
         due = None if enter is None else entry_times(enter, g.count, f"{where(k, g)}: enter")
+        doors = None if enter is None else entrance_of(enter, g.count, rng, f"{where(k, g)}: enter")
         # a group entering over time takes its places one by one: they need not all fit at once
-        starts = spawn_positions(scene, g, placed, placed_r, params.spawn_gap, rng, overlap=enter is not None)
+        starts = spawn_positions(scene, g, placed, placed_r, params.spawn_gap, rng, overlap=enter is not None) \
+            if doors is None else entry_points(scene, g, doors, params.spawn_gap, rng)
         goals = goal_points(g, starts, params.goal_assignment, rng)
         persona = g.attributes.get("personality")
         try:
@@ -89,7 +91,7 @@ def build_simulator(scene: Scene, groups: Sequence[Group], params: RVOParams, rn
             anywhere = params.goal_assignment == "nearest" and isinstance(g.goal, (Rect, Disc))
             sim.add_agents(starts, goals, radius=g.radius, max_speed=g.max_speed,
                            pref_speed=preferred_speeds(g, rng), goal_region=g.goal, enter_at=due,
-                           arrive_anywhere=anywhere, **kw)
+                           arrive_anywhere=anywhere, entrance=doors, **kw)
         except ValueError as exc:
             raise ValueError(f"{where(k, g)}: {exc}") from None
         if enter is None:
@@ -100,17 +102,15 @@ def build_simulator(scene: Scene, groups: Sequence[Group], params: RVOParams, rn
 
 def retry_entries(sim: Simulator, scene: Scene, groups: Sequence[Group], params: RVOParams,
                   rng: np.random.Generator) -> None:
-    """Agents due to enter whose place is taken try a fresh point of their group's spawn
-    region at the next step (a listed spawn point is kept)."""
+    """Agents due to enter whose place is taken try a fresh point of their entrance (or
+    their group's spawn region) at the next step (a listed spawn point is kept)."""
     due = sim.waiting & (sim.enter_at <= sim.time + 1e-9)
     if not due.any():
         return
     for k, g in enumerate(groups):
         ids = np.flatnonzero(due & (sim.group == k))
-        if len(ids) and not isinstance(g.spawn, Points):
-            pts = spawn_positions(scene, replace(g, count=len(ids)), np.zeros((0, 2)), np.zeros(0),
-                                  params.spawn_gap, rng, overlap=True)
-            sim.set_entry_points(ids, pts)
+        if len(ids) and ((sim.entrance[ids] >= 0).any() or not isinstance(g.spawn, Points)):
+            sim.set_entry_points(ids, entry_points(scene, g, sim.entrance[ids], params.spawn_gap, rng))
 
 
 def build_journeys(sim: Simulator, scene: Scene, groups: Sequence[Group],

@@ -181,6 +181,7 @@ class Simulator(LiveObstacles):
         self.anywhere = np.zeros(0, dtype=bool)  # arrives anywhere in its goal region (its goal: the nearest point)
         self.leaves = np.zeros(0, dtype=bool)    # leaves the simulation on arrival (else stays there)
         self.entry_time = np.zeros(0)   # when it entered (NaN while it waits off-scene)
+        self.entrance = np.zeros(0, dtype=np.int64)  # the entrance it enters at (-1: none named)
         self.group = np.zeros(0, dtype=np.int64)     # the add_agents call that added each agent
         self.field_of = np.zeros(0, dtype=np.int64)  # each agent's goal region (its guidance field)
         self.params = {k: np.zeros(0, dtype=np.int64 if k in ("max_neighbors", "samples") else float)
@@ -221,7 +222,8 @@ class Simulator(LiveObstacles):
 
     def add_agents(self, positions, goals, radius=0.25, max_speed=1.5, pref_speed=1.3,
                    neighbor_dist=None, max_neighbors=None, samples=None, safety=None,
-                   personality=None, goal_region=None, enter_at=None, arrive_anywhere=False) -> np.ndarray:
+                   personality=None, goal_region=None, enter_at=None, arrive_anywhere=False,
+                   entrance=None) -> np.ndarray:
         """Add agents; every parameter is a scalar or one value per agent.
 
         Parameters
@@ -246,6 +248,9 @@ class Simulator(LiveObstacles):
             and after it while someone stands on its start position, it waits off-scene
             (``waiting``): not drawn, not avoided, not stepped; it enters at the end of the
             first step after which its place is free (see :meth:`set_entry_points`).
+        entrance : which entrance each agent enters at, an index ≥ 0 the caller gives
+            meaning to (``entrance``; the scenario runner: into the group's
+            ``enter.entrances``), or -1 (default) for none named.
 
         Returns
         -------
@@ -288,6 +293,8 @@ class Simulator(LiveObstacles):
             "radius": rad, "max_speed": vmax, "pref_speed": vpref,
         }
         due = np.full(n, self.time) if enter_at is None else _per_agent(enter_at, n, "enter_at", strict=False)
+        door = np.full(n, -1, dtype=np.int64) if entrance is None else \
+            _per_agent(entrance, n, "entrance", integer=True, strict=False, minimum=-1)
         later = np.full(n, enter_at is not None)  # given times: every one enters through _admit, when free
         self._check_placement(pos, rad, ~later)
         start = self.n_agents
@@ -301,6 +308,7 @@ class Simulator(LiveObstacles):
         self.anywhere = np.concatenate([self.anywhere, np.full(n, anywhere)])
         self.leaves = np.concatenate([self.leaves, np.full(n, self.remove_on_arrival)])
         self.entry_time = np.concatenate([self.entry_time, np.where(later, np.nan, self.time)])
+        self.entrance = np.concatenate([self.entrance, door])
         self.personality = np.concatenate([self.personality, psi])
         for k, v in per.items():
             self.params[k] = np.concatenate([self.params[k], v])
