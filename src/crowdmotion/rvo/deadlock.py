@@ -21,8 +21,10 @@ break that; none touches the continuous-time guarantee, which the step's safety 
    away from the other and turned 30° to its right; once out of the way it waits until
    the other has walked past (or 10 s have gone). A one-body-wide passage thus clears.
    Two walkers (radius up to ``PERSON_MAX_RADIUS_M``) held up and standing for
-   ``ABREAST_STILL_S`` side by side, bound the same way (their v_pref within 60°) with
-   each in the other's way — wedged abreast in a door
+   ``ABREAST_STILL_S`` side by side, bound the same way (their v_pref within 60°, or
+   within 90° when the straight lines to their goals are within 60°: one beside a door
+   and one in front of it, converging on it) with each in the other's way — wedged
+   abreast in a door
    too narrow for two — settle it the same way: the
    one of lower priority steps back (half its preferred speed, back along its way and
    away from the other) while it stands in the other's way, then waits until the other
@@ -377,6 +379,7 @@ def _new_yields(cand, d, k, live, pos, wanted, radius, sight, goals, use_goals, 
                 continue
             ox, oy = _unit2(wanted[j, 0], wanted[j, 1])
             facing = fx * ox + fy * oy
+            bound = 1.0  # without goals: taken as bound for the same place
             if use_goals:
                 # rule 3, a gridlock: both standing (not creeping, as a queue does) for
                 # DETOUR_STILL_S, the blocker crossing our way from the side and bound
@@ -387,8 +390,10 @@ def _new_yields(cand, d, k, live, pos, wanted, radius, sight, goals, use_goals, 
                         and bound < 0.5):
                     detour[i] = True
             # head-on (rule 2), or wedged abreast bound the same way
-            abreast_ok = (facing > 0.5 and radius[i] <= PERSON_MAX_RADIUS_M and radius[j] <= PERSON_MAX_RADIUS_M
-                          and still[i] >= ABREAST_STILL_S and still[j] >= ABREAST_STILL_S)
+            # (converging on one door at up to 90°: only once both have stood as long as a gridlock)
+            wait = ABREAST_STILL_S if facing > 0.5 else DETOUR_STILL_S
+            abreast_ok = ((facing > 0.5 or (facing > 0.0 and bound > 0.5)) and radius[i] <= PERSON_MAX_RADIUS_M
+                          and radius[j] <= PERSON_MAX_RADIUS_M and still[i] >= wait and still[j] >= wait)
             if not ((facing < -0.5 or abreast_ok) and _blocks2(pos, wanted, radius, j, i, sight[j])
                     and _priority(j) > _priority(i)):
                 continue
