@@ -43,7 +43,7 @@ import numpy as np
 from crowdmotion._rng import uniforms
 from crowdmotion.groups import Disc, Points, Rect
 from crowdmotion.placement import spawn_positions
-from crowdmotion.queues import ServiceQueue
+from crowdmotion.queues import ServiceQueue, wait_row
 from crowdmotion.stages import Choose, GoTo, Leave, Queue, RouteMap, Wait, check_route, route_map
 
 ENTER_KEYS = ("rate", "start", "end", "times", "entrances", "weights")
@@ -312,7 +312,8 @@ class Journeys:
         self.bound: dict[int, int] = {}             # id(goto/leave stage) -> agents bound there
         self.held: dict[int, dict[int, np.ndarray]] = {}  # id(area) -> {agent: its free point}
         self.holder = np.full(n, -1, dtype=np.int64)  # the id(area) whose free point each agent holds (-1: none)
-        self.exits: dict[str, list[float]] = {}
+        self.exits: dict[str, list[float]] = {}     # exit name -> when each agent left by it
+        self.exit_agents: dict[str, list[int]] = {}  # exit name -> who, in the same order
         self.removed = np.zeros(n, dtype=bool)    # taken out of the scene while on their route
         self.chooser = np.full(n, -1, dtype=np.int64)  # the choose stage (id) whose option each re-weighs (-1: none)
         self.recheck_at = np.full(n, np.inf)       # when it next re-weighs that choice (Choose.rechoose)
@@ -567,6 +568,7 @@ class Journeys:
                 self.done[sub] = True
                 self.finished_at[sub] = t
                 self.exits.setdefault(st.name, []).extend([t] * len(sub))
+                self.exit_agents.setdefault(st.name, []).extend(int(a) for a in sub)
                 self._release_points(sub)
             else:
                 self._next(sub, w)
@@ -748,9 +750,12 @@ class Journeys:
 
     def report(self, names) -> dict:
         """For summary.json: per group and stage, the agents that reached it and the mean
-        and longest time spent in it (from beginning it to moving on, s); per queue, the
-        agents served, the waits in line and its length each second; per exit, the agents
-        that left by it, the flow (persons/s) and the evacuation time (the last left, s)."""
+        and longest time spent in it (from beginning it to moving on, s), and for a
+        choose the agents that took each option; per queue, the agents served, the waits
+        in line, its length each second, and when each was served and after how long a
+        wait; per exit, the agents that left by it, the flow (persons/s), the persons who
+        left in each second and the evacuation time (the last left, s); per group, its
+        own waits in each queue and its own use of each exit."""
         stages = {}
         for g, f in enumerate(self.flat):
             if not f:
@@ -772,7 +777,37 @@ class Journeys:
         for name, times in self.exits.items():
             t = np.sort(np.array(times))
             flow = (len(t) - 1) / (t[-1] - t[0]) if len(t) > 1 and t[-1] > t[0] else None
-            exits[name] = {"left": len(t), "flow_per_s": None if flow is None else float(flow), "first_s": float(t[0]), "evacuation_time_s": float(t[-1])}
+            exits[name] = {**exit_row(t), "flow_per_s": None if flow is None else float(flow),
+                           "left_per_s": np.bincount(np.floor(t + 1e-9).astype(np.int64)).tolist()}
         return {"stages": stages, "queues": {q.stage.name: q.report() for q in self.queues}, "exits": exits,
+                "groups": self._group_report(names),
                 "finished": int((self.on_route & self.done & ~self.removed).sum()), "on_route": int(self.on_route.sum()),
                 "removed": int((self.on_route & self.removed).sum())}
+
+    def _group_report(self, names) -> dict:
+        """Per group that used a queue or an exit: its agents' waits in each queue and
+        their use of each exit (agents, first and last out), for the per-group report.
+        Groups are those of the run (``names``); agents on routes set while running
+        count under ``route k``."""
+        out: dict = {}
+        group_name = [self._route_name(names, g) for g in range(len(self.routes))]
+        for q in self.queues:
+            if not q.served:
+                continue
+            agents, joined, released = (np.array(x) for x in zip(*q.served))
+            for g in np.unique(self.group_of[agents]):
+                own = self.group_of[agents] == g
+                out.setdefault(group_name[g], {"queues": {}, "exits": {}})["queues"][q.stage.name] = \
+                    {"served": int(own.sum()), **wait_row(released[own] - joined[own])}
+        for name, times in self.exits.items():
+            t, agents = np.array(times), np.array(self.exit_agents[name])
+            for g in np.unique(self.group_of[agents]):
+                own = self.group_of[agents] == g
+                out.setdefault(group_name[g], {"queues": {}, "exits": {}})["exits"][name] = exit_row(np.sort(t[own]))
+        return out
+
+
+def exit_row(times: np.ndarray) -> dict:
+    """Of the (sorted) times agents left by an exit: how many, the first and the
+    evacuation time (the last, s)."""
+    return {"left": len(times), "first_s": float(times[0]), "evacuation_time_s": float(times[-1])}
