@@ -408,7 +408,8 @@ class ChooseStageSpec(_Model):
     kind : str          "choose"
     by : str            "nearest" (walking distance round walls), "least_crowded" (walking
                         time + agents already bound there / the stage's capacity) or
-                        "weights" (at random)
+                        "weights" (each option its weight's share of the group, exact to
+                        one agent; who takes which drawn from the seed)
     among : list        the options to choose from: each a goto, queue or leave table, or
                         a branch: a list of stage tables followed in turn, then the stage
                         after the choose (a branch ending with a leave ends the route).

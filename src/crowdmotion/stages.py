@@ -258,7 +258,8 @@ class Choose:
     """Go on with one of the options ``among``, chosen per agent: ``"nearest"`` (the least
     walking distance along the guidance field), ``"least_crowded"`` (the least walking
     time plus the agents already bound there over the stage's capacity, persons/s) or
-    ``"weights"`` (at random, with ``weights``).
+    ``"weights"`` (each option takes its weight's share of the route's agents, exact to
+    one agent; who takes which is drawn from the run's seed).
 
     An option is one stage (go to, queue or leave) or a *branch*: a list of stages
     (any kind) the agents who take it follow in turn, then going on with the stage after
