@@ -509,3 +509,231 @@ def test_a_group_with_two_entrances_uses_both_in_the_given_proportions_and_none_
 def test_validate_refuses_bad_entrances_naming_the_field(old, new, message):
     with pytest.raises(ScenarioError, match=message):
         parse_scenario(TWO_DOORS.replace(old, new))
+
+
+# ---- what researchers measure, against hand-computed values ------------------------------
+class Teleport:
+    """Walkers (:class:`crowdmotion.journeys.Walkers`) that stand on any goal they are
+    given at once and count as arrived there after the next step: times are then
+    whole steps, worked out by hand."""
+
+    def __init__(self, n: int, dt: float):
+        self.positions, self.active, self.time, self.dt = np.zeros((n, 2)), np.ones(n, bool), 0.0, dt
+        self._sent, self._arrived, self._leave = np.zeros(n, bool), np.zeros(n, bool), np.zeros(n, bool)
+
+    @property
+    def arrived(self):
+        return self._arrived
+
+    def set_goals(self, agents, goals, goal_region=None, arrive_anywhere=False, leave=None):
+        ids = np.atleast_1d(agents)
+        self.positions[ids] = np.broadcast_to(np.asarray(goals, float).reshape(-1, 2), (len(ids), 2))
+        self._sent[ids], self._arrived[ids] = True, False
+        if leave is not None:
+            self._leave[ids] = leave
+
+    def walking_distance(self, points, region):
+        return np.linalg.norm(region.nearest(points) - points, axis=1)
+
+    def add_goal_regions(self, regions):
+        pass
+
+    def step(self, journeys):
+        self.time += self.dt
+        self._arrived |= self._sent
+        self._sent[:] = False
+        journeys.update(self, self.dt)
+        self.active &= ~(self._arrived & self._leave)  # an exit takes out who reached it
+
+
+def test_a_queue_s_waits_over_time_and_an_exit_s_flow_are_reported_as_worked_out_by_hand():
+    # 3 people queue at a counter serving 1 person/s, then leave; steps of 0.5 s. By hand:
+    # all three reach the end of the line at 0.5 s and join it (0, 1, 2 by id); service
+    # starts at once, so they are served at 1.5, 2.5 and 3.5 s (waits 1, 2 and 3 s),
+    # reach the exit a step later and leave at 2.0, 3.0 and 4.0 s
+    from crowdmotion.groups import Rect
+    from crowdmotion.journeys import Journeys
+    from crowdmotion.stages import Leave, Queue
+
+    route = [Queue([10.0, 0.0], rate=1.0, direction=[-1.0, 0.0], name="counter"),
+             Leave(Rect([20.0, -1.0], [21.0, 1.0]), name="door")]
+    w = Teleport(3, 0.5)
+    journeys = Journeys([route], [0, 0, 0], [None], np.full(3, 0.25), np.full(3, 1.3), key=1)
+    journeys.update(w, w.dt)
+    while journeys.busy(w.active):
+        w.step(journeys)
+    report = journeys.report(["visitors"])
+    counter, door = report["queues"]["counter"], report["exits"]["door"]
+    assert counter["served_s"] == [1.5, 2.5, 3.5] and counter["wait_s"] == [1.0, 2.0, 3.0]
+    assert counter["mean_wait_s"] == 2.0 and counter["max_wait_s"] == 3.0
+    assert counter["length_per_s"][:5] == [0, 3, 2, 1, 0]
+    assert door == {"left": 3, "first_s": 2.0, "evacuation_time_s": 4.0, "flow_per_s": 1.0, "left_per_s": [0, 0, 1, 1, 1]}
+    queue_row, leave_row = report["stages"]["visitors"]
+    assert queue_row["mean_time_s"] == 2.5 and queue_row["max_time_s"] == 3.5  # from 0 s to being served
+    assert leave_row["mean_time_s"] == 0.5
+    assert report["groups"]["visitors"] == {
+        "queues": {"counter": {"served": 3, "mean_wait_s": 2.0, "max_wait_s": 3.0}},
+        "exits": {"door": {"left": 3, "first_s": 2.0, "evacuation_time_s": 4.0}}}
+
+
+def test_the_report_of_a_run_with_routes_gives_each_group_its_stages_queues_and_exits(tmp_path, capsys):
+    import json
+
+    from crowdmotion.cli import main
+
+    path = tmp_path / "gate.toml"
+    path.write_text(GATE)
+    assert main(["run", str(path), "-o", str(tmp_path / "out"), "-q"]) == 0
+    summary = json.loads((tmp_path / "out" / "summary.json").read_text())["journeys"]
+    capsys.readouterr()
+    assert main(["report", str(tmp_path / "out")]) == 0
+    printed = capsys.readouterr().out
+    assert "queue gate: 30 served" in printed and "exit east: 30 left" in printed
+    riders = json.loads((tmp_path / "out" / "report.json").read_text())["riders"]["journeys"]
+    assert riders["stages"] == summary["stages"]["riders"]
+    gate = summary["queues"]["gate"]
+    assert riders["queues"]["gate"] == {"served": 30, "mean_wait_s": gate["mean_wait_s"], "max_wait_s": gate["max_wait_s"]}
+    assert riders["exits"]["east"]["left"] == 30
+    assert riders["exits"]["east"]["evacuation_time_s"] == summary["exits"]["east"]["evacuation_time_s"]
+    assert len(gate["served_s"]) == len(gate["wait_s"]) == 30 and max(gate["wait_s"]) == gate["max_wait_s"]
+
+
+# ---- choosing between whole routes (a choose's options as branches) -------------------
+SPLIT = """
+name = "fountain or straight out"
+method = "METHOD"
+seed = 1
+
+[scene]
+bounds = [[0.0, 0.0], [40.0, 20.0]]
+obstacles = [{ shape = "circle", center = [20.0, 10.0], radius = 1.0 }]
+
+[[groups]]
+name = "walkers"
+count = COUNT
+spawn = { shape = "rect", lower = [1.0, 2.0], upper = [8.0, 18.0] }
+enter = { rate = 2.0 }
+route = [
+  { kind = "choose", name = "plan", by = "weights", weights = [3, 7], among = [
+    [ { kind = "goto", name = "fountain", area = { shape = "disc", center = [20.0, 10.0], radius = 4.0 }, arrive = "free_point" },
+      { kind = "wait", name = "at the fountain", time = 5.0 },
+      { kind = "leave", name = "east", area = { shape = "rect", lower = [39.0, 8.0], upper = [40.0, 12.0] } } ],
+    { kind = "leave", name = "west", area = { shape = "rect", lower = [0.0, 8.0], upper = [0.5, 12.0] } },
+  ] },
+]
+"""
+
+
+def _split(count: int = 100, method: str = "rvo", steps: str = "[rvo]\nmax_steps = 1500\n"):
+    return parse_scenario(SPLIT.replace("METHOD", method).replace("COUNT", str(count)) + steps)
+
+
+def test_a_group_of_100_splits_30_70_between_the_fountain_route_and_the_west_exit():
+    result = _audited(run_scenario(_split(), progress=False))
+    traj, report = result.trajectories, result.summary["journeys"]
+    # stage ids, depth first: 0 the choose, 1-3 the fountain branch (goto, wait, leave east), 4 leave west
+    assert [s["path"] for s in traj.metadata["stages"]["walkers"]] == [
+        "route[0]", "route[0].among[0][0]", "route[0].among[0][1]", "route[0].among[0][2]", "route[0].among[1]"]
+    seen = [traj.stage[:, a][traj.stage[:, a] >= 0] for a in range(100)]
+    fountain = np.array([1 in s for s in seen])
+    assert 29 <= fountain.sum() <= 31, fountain.sum()
+    for s, took in zip(seen, fountain):  # the branch's stages in order, then out; or straight out west
+        assert s[np.r_[True, np.diff(s) != 0]].tolist() == ([1, 2, 3] if took else [4])
+    waited = np.flatnonzero(fountain)
+    journeys = result.extras.journeys
+    assert np.allclose(journeys.until[waited, 2] - journeys.since[waited, 2], 5.0), "each waits 5 s at the fountain"
+    at_fountain = traj.positions[traj.stage == 2]
+    assert np.linalg.norm(at_fountain - [20.0, 10.0], axis=1).max() <= 4.0 + 1.5
+    assert report["exits"]["east"]["left"] == fountain.sum() and report["exits"]["west"]["left"] == 100 - fountain.sum()
+    assert report["stages"]["walkers"][0]["chosen"] == [int(fountain.sum()), 100 - int(fountain.sum())]
+    assert result.summary["arrival_rate"] == 1.0 and report["finished"] == 100
+
+
+def test_a_branch_that_does_not_leave_goes_on_with_the_stage_after_the_choose():
+    # in Python: a third visit the fountain, the rest go straight on; then everyone leaves east
+    from crowdmotion.groups import Disc, Rect
+    from crowdmotion.stages import Choose, GoTo, Leave, Wait
+
+    east = Leave(Rect([39.0, 8.0], [40.0, 12.0]), name="east")
+    route = [Choose([[GoTo(Disc([20.0, 10.0], 4.0), arrive="free_point"), Wait(3.0)], []], by="weights",
+                    weights=[1, 2]), east]
+    scene = cm.Scene(bounds=([0, 0], [40, 20]), obstacles=[cm.Circle([20, 10], 1.0)])
+    group = cm.Group("walkers", 30, cm.groups.Rect([1, 2], [8, 18]), east.area, attributes={"route": route})
+    result = rvo.simulation.run(scene, [group], rvo.RVOParams(max_steps=1200), np.random.default_rng(2))
+    traj = result.trajectories
+    audit = collision_audit(traj, scene)
+    assert audit.agent_agent == 0 and audit.agent_obstacle == 0
+    # stage ids: 0 the choose (passed at once), 1 goto and 2 wait of the fountain branch, 3 leave east
+    seen = [set(traj.stage[:, a][traj.stage[:, a] >= 0].tolist()) for a in range(30)]
+    assert sum(s == {1, 2, 3} for s in seen) == 10 and sum(s == {3} for s in seen) == 20
+    assert result.journeys.report(["walkers"])["exits"]["east"]["left"] == 30
+
+
+def test_set_route_sends_live_agents_along_the_branch_whose_first_place_is_nearer():
+    # two branches: the west kiosk then the east exit, or the east kiosk then the west exit;
+    # by = "nearest" weighs each by its kiosk, whatever comes after
+    from crowdmotion.groups import Disc, Rect
+    from crowdmotion.stages import Choose, GoTo, Leave
+
+    west, east = Leave(Rect([0.0, 8.0], [0.5, 12.0]), name="west"), Leave(Rect([39.5, 8.0], [40.0, 12.0]), name="east")
+    route = [Choose([[GoTo(Disc([8.0, 10.0], 1.5), name="west kiosk"), east],
+                     [GoTo(Disc([32.0, 10.0], 1.5), name="east kiosk"), west]], by="nearest")]
+    sim = rvo.Simulator(cm.Scene(bounds=([0, 0], [40, 20])), remove_on_arrival=False)
+    starts = np.random.default_rng(3).uniform([12, 2], [28, 18], size=(20, 2))
+    starts = starts[np.r_[True, np.linalg.norm(np.diff(starts, axis=0), axis=1) > 0.6]]
+    ids = sim.add_agents(starts, starts)
+    sim.set_route(ids, route)
+    frames, present = [sim.positions.copy()], [sim.present.copy()]
+    while sim.journeys.busy(sim.active) and sim.time < 120:
+        sim.step()
+        frames.append(sim.positions.copy())
+        present.append(sim.present.copy())
+    traj = cm.Trajectories(np.array(frames), sim.dt, radius=sim.params["radius"], active=np.array(present))
+    audit = collision_audit(traj, sim.scene)
+    assert audit.agent_agent == 0 and audit.agent_obstacle == 0
+    to_east_kiosk = np.isfinite(sim.journeys.reached[ids, 3])  # 0 choose, 1 west kiosk, 2 east, 3 east kiosk, 4 west
+    assert np.array_equal(to_east_kiosk, starts[:, 0] > 20.0)
+    exits = sim.journeys.report([])["exits"]
+    assert exits["west"]["left"] == to_east_kiosk.sum() and exits["east"]["left"] == len(ids) - to_east_kiosk.sum()
+
+
+@pytest.mark.parametrize("old,new,message", [
+    ('time = 5.0 },', 'time = -5.0 },', r"groups.0.route.0.among.0.1.time \(group 'walkers'\): Input should be greater"),
+    ('by = "weights", weights = [3, 7]', 'by = "nearest"',
+     None),  # a branch beginning with a goto is weighed by it: accepted
+    ('{ kind = "goto", name = "fountain"', '{ kind = "wait", time = 1.0 }, { kind = "goto", name = "fountain"',
+     None),  # with weights a branch may begin with anything
+    ('by = "weights", weights = [3, 7], among = [\n    [ { kind = "goto"',
+     'by = "nearest", among = [\n    [ { kind = "wait", time = 1.0 }, { kind = "goto"',
+     r"groups.0.route.0.among.0 \(group 'walkers'\): by = 'nearest' weighs each option by the place it leads to "
+     r"first, but this branch begins with a wait"),
+    ('{ kind = "wait", name = "at the fountain", time = 5.0 },',
+     '{ kind = "leave", name = "early", area = { shape = "rect", lower = [39.0, 0.0], upper = [40.0, 2.0] } },',
+     r"groups.0.route.0.among.0.1 \(group 'walkers'\): agents leave the scene at a leave stage, so it must be the "
+     r"branch's last"),
+    ('upper = [40.0, 12.0] } } ],', 'upper = [41.0, 12.0] } } ],',
+     r"route.0.among.0.2 \(leave 'east'\) area: rect \[39, 8\]-\[41, 12\] reaches outside scene.bounds"),
+    (']\n"""', ']\n', None),
+])
+def test_validate_names_the_stage_of_a_bad_branch(old, new, message):
+    text = SPLIT.replace("METHOD", "rvo").replace("COUNT", "20").replace(old, new)
+    if message is None:
+        parse_scenario(text)
+    else:
+        with pytest.raises(ScenarioError, match=message):
+            parse_scenario(text)
+
+
+def test_a_choose_followed_by_more_stages_must_not_have_a_branch_that_leaves():
+    text = SPLIT.replace("METHOD", "rvo").replace("COUNT", "20").replace(
+        "  ] },\n]", '  ] },\n  { kind = "wait", time = 1.0 },\n]')
+    with pytest.raises(ScenarioError, match=r"groups.0.route.0 \(group 'walkers'\): agents taking among.0 leave the "
+                                            r"scene, so the choose must be the last stage"):
+        parse_scenario(text)
+
+
+def test_validate_refuses_a_wait_in_a_branch_for_a_pso_swarm_naming_it():
+    text = SPLIT.replace("METHOD", "pso").replace("COUNT", "20")
+    with pytest.raises(ScenarioError, match=r"groups.0.route.0.among.0.1 \(group 'walkers'\): a 'wait' stage, but "
+                                            r"method 'pso' follows only goto, choose, leave stages"):
+        parse_scenario(text)

@@ -360,19 +360,51 @@ def _print_report_table(rows: dict, cell) -> None:
 
 
 def _run_report(path: Path, traj) -> dict:
-    """metrics.group_report of one run, with the arrival times its summary measured."""
+    """metrics.group_report of one run, with the arrival times its summary measured and,
+    for a group on a route, its ``journeys``: the time its agents spent in each stage,
+    their waits in each queue and their use of each exit (from summary.json)."""
     from crowdmotion.metrics import group_report
 
     report = group_report(traj)
     summary_file = path.parent / "summary.json"
     if summary_file.is_file():  # arrival times the method measured (agents that stay at the goal too)
-        by_group = _read_json(summary_file, "run summary").get("time_to_goal_by_group_s", {})
+        summary = _read_json(summary_file, "run summary")
+        by_group = summary.get("time_to_goal_by_group_s", {})
         if not isinstance(by_group, dict):
             raise ValueError(f"{summary_file}: a damaged run summary: time_to_goal_by_group_s is not a table")
+        journeys = summary.get("journeys")
+        if journeys is not None and not (isinstance(journeys, dict) and isinstance(journeys.get("stages"), dict)):
+            raise ValueError(f"{summary_file}: a damaged run summary: journeys is not a table of stages")
         for name, row in report.items():
             if row["time_to_goal_s"] is None:
                 row["time_to_goal_s"] = by_group.get(name)
+            if journeys is not None and name in journeys["stages"]:
+                row["journeys"] = {"stages": journeys["stages"][name],
+                                   **journeys.get("groups", {}).get(name, {"queues": {}, "exits": {}})}
     return report
+
+
+def _print_journeys(report: dict) -> None:
+    """Per group on a route: each stage's agents and time spent, its waits per queue and
+    its exits, under the report's table."""
+    def secs(v) -> str:
+        return "-" if v is None else f"{v:.1f}"
+
+    for name, row in report.items():
+        j = row.get("journeys")
+        if j is None:
+            continue
+        print(f"\n{name}: route stages (reached, time in stage mean / longest s)")
+        for st in j["stages"]:
+            chosen = f", options taken {st['chosen']}" if "chosen" in st else ""
+            print(f"  {st['id']:3d} {st['kind']:7s} {st['name'][:40]:40s} {st['reached']:6d} "
+                  f"{secs(st['mean_time_s']):>8s} / {secs(st['max_time_s'])}{chosen}")
+        for q, v in j["queues"].items():
+            print(f"  queue {q}: {v['served']} served, wait mean {secs(v['mean_wait_s'])} s, "
+                  f"longest {secs(v['max_wait_s'])} s")
+        for e, v in j["exits"].items():
+            print(f"  exit {e}: {v['left']} left, first at {secs(v['first_s'])} s, last at "
+                  f"{secs(v['evacuation_time_s'])} s")
 
 
 def cmd_report(args) -> int:
@@ -387,6 +419,7 @@ def cmd_report(args) -> int:
     path, traj = _load_run(args.output)
     report = _run_report(path, traj)
     _print_report_table(report, lambda row, k, fmt: "-" if row[k] is None else fmt.format(row[k]))
+    _print_journeys(report)
     dest = path.parent / "report.json"
     with adding_to_run(dest.parent) as add:  # listed with the run's files: run --overwrite removes it too
         with atomic_path(dest) as tmp:

@@ -43,8 +43,8 @@ import numpy as np
 from crowdmotion._rng import uniforms
 from crowdmotion.groups import Disc, Points, Rect
 from crowdmotion.placement import spawn_positions
-from crowdmotion.queues import ServiceQueue
-from crowdmotion.stages import Choose, GoTo, Leave, Queue, Wait, check_route, flat_stages
+from crowdmotion.queues import ServiceQueue, wait_row
+from crowdmotion.stages import Choose, GoTo, Leave, Queue, RouteMap, Wait, check_route, route_map
 
 ENTER_KEYS = ("rate", "start", "end", "times", "entrances", "weights")
 
@@ -221,7 +221,7 @@ def entry_report(names: np.ndarray, due: np.ndarray, entered: np.ndarray, entran
 FREE_POINT_TRIES = 32   # candidate points an agent tries for a free point of an area
 FREE_POINT_GAP_M = 0.1  # clearance between two bodies standing at free points
 FREE_POINT_WALL_GAP_M = 0.25  # clearance between a body at a free point and an obstacle
-DRAW_CHOICE, DRAW_FREE_POINT = 1 << 20, 1 << 21  # draw numbers (per stage id) of each kind
+DRAW_CHOICE, DRAW_FREE_POINT, DRAW_SHARE = 1 << 20, 1 << 21, 1 << 22  # draw numbers (per stage id) of each kind
 
 
 class Walkers(Protocol):
@@ -274,7 +274,8 @@ class Journeys:
 
     def __init__(self, routes, group_of, spawns, radius, pref_speed, key, clearance=None):
         self.routes = [None if r is None else check_route(r, f"groups.{g}.route") for g, r in enumerate(routes)]
-        self.flat = [[] if r is None else flat_stages(r) for r in self.routes]
+        self.maps: list[RouteMap | None] = [None if r is None else route_map(r) for r in self.routes]
+        self.flat = [[] if m is None else m.stages for m in self.maps]
         self.group_of = np.asarray(group_of, dtype=np.int64)
         n = len(self.group_of)
         self.spawns = list(spawns)
@@ -284,7 +285,6 @@ class Journeys:
         self.clearance = clearance
         self.on_route = np.array([self.routes[g] is not None for g in self.group_of], dtype=bool)
         self.stage = np.full(n, -1, dtype=np.int64)
-        self.top = np.full(n, -1, dtype=np.int64)
         self.begun = np.zeros(n, dtype=bool)
         self.done = np.zeros(n, dtype=bool)
         self.expect = np.zeros(n, dtype=bool)       # walking to a stage's place: arriving moves it on
@@ -294,7 +294,6 @@ class Journeys:
         self.since = np.full((n, width), np.nan)    # when each agent began each stage
         self.reached = np.full((n, width), np.nan)  # when it reached the stage's place (joined, left)
         self.until = np.full((n, width), np.nan)    # when it moved on
-        self.top_id = [[sid for sid, (_, _, i) in enumerate(f) if sid == 0 or f[sid - 1][2] != i] for f in self.flat]
         # queues shared by every group that names the same one; places for all who may queue
         self.queues: list[ServiceQueue] = []
         self._queue_of: dict = {}
@@ -313,11 +312,14 @@ class Journeys:
         self.bound: dict[int, int] = {}             # id(goto/leave stage) -> agents bound there
         self.held: dict[int, dict[int, np.ndarray]] = {}  # id(area) -> {agent: its free point}
         self.holder = np.full(n, -1, dtype=np.int64)  # the id(area) whose free point each agent holds (-1: none)
-        self.exits: dict[str, list[float]] = {}
+        self.exits: dict[str, list[float]] = {}     # exit name -> when each agent left by it
+        self.exit_agents: dict[str, list[int]] = {}  # exit name -> who, in the same order
         self.removed = np.zeros(n, dtype=bool)    # taken out of the scene while on their route
         self.chooser = np.full(n, -1, dtype=np.int64)  # the choose stage (id) whose option each re-weighs (-1: none)
         self.recheck_at = np.full(n, np.inf)       # when it next re-weighs that choice (Choose.rechoose)
         self._rechoosing = False                   # whether any agent ever entered a choose with rechoose
+        self.chosen: dict[tuple[int, int], np.ndarray] = {}  # (group, choose's stage id) -> agents per option
+        self._share_of: dict[tuple[int, int], np.ndarray] = {}  # (group, weighted choose's id) -> option per agent
         self.time = 0.0
 
     # ---- routes set while running (the live API) ----------------------------------------
@@ -340,11 +342,12 @@ class Journeys:
             check(route, ids)
         self._take_on(n, radius, pref_speed)
         g = len(self.routes)
-        flat = flat_stages(route)
+        links = route_map(route)
+        flat = links.stages
         self.routes.append(route)
+        self.maps.append(links)
         self.flat.append(flat)
         self.spawns.append(None)
-        self.top_id.append([sid for sid, (_, _, i) in enumerate(flat) if sid == 0 or flat[sid - 1][2] != i])
         if len(flat) > self.since.shape[1]:
             more = np.full((n, len(flat) - self.since.shape[1]), np.nan)
             self.since, self.reached, self.until = (np.hstack([a, more]) for a in (self.since, self.reached, self.until))
@@ -360,7 +363,7 @@ class Journeys:
         self.group_of[ids] = g
         self.on_route[ids] = True
         self.done[ids] = self.removed[ids] = False
-        self.stage[ids] = self.top[ids] = -1
+        self.stage[ids] = -1
         self.finished_at[ids] = np.nan
         for a in (self.since, self.reached, self.until):
             a[ids] = np.nan
@@ -369,7 +372,7 @@ class Journeys:
         self.begun[inside] = True
         self.time = float(w.time)
         if len(inside):
-            self._enter_top(inside, np.zeros(len(inside), dtype=np.int64), w)
+            self._enter_at(inside, np.zeros(len(inside), dtype=np.int64), w)
 
     def _take_on(self, n: int, radius=None, pref_speed=None) -> None:
         """Grow the per-agent arrays to ``n`` agents (added to the method since), off route."""
@@ -382,13 +385,13 @@ class Journeys:
             return
         if not any(r is None for r in self.routes):
             self.routes.append(None)
+            self.maps.append(None)
             self.flat.append([])
             self.spawns.append(None)
-            self.top_id.append([])
         off = next(g for g, r in enumerate(self.routes) if r is None)
         width = self.since.shape[1]
         self.group_of = np.append(self.group_of, np.full(k, off))
-        for name, fill, dtype in (("stage", -1, np.int64), ("top", -1, np.int64), ("holder", -1, np.int64),
+        for name, fill, dtype in (("stage", -1, np.int64), ("holder", -1, np.int64),
                                   ("chooser", -1, np.int64), ("on_route", False, bool), ("begun", False, bool),
                                   ("done", False, bool), ("expect", False, bool), ("removed", False, bool),
                                   ("wait_until", np.inf, float), ("recheck_at", np.inf, float),
@@ -434,7 +437,7 @@ class Journeys:
                 add(st.area if isinstance(st, (GoTo, Leave)) else None)
                 if isinstance(st, Queue):
                     add(self.queues[self._queue_of[st.key]].region)
-            if f and isinstance(f[0][1], Wait):
+            if any(isinstance(st, Wait) and self.maps[g].hold[sid] for sid, (_, st, _) in enumerate(f)):
                 add(self.spawns[g])
         return out
 
@@ -458,7 +461,7 @@ class Journeys:
         if new.any():
             ids = np.flatnonzero(new)
             self.begun[ids] = True
-            self._enter_top(ids, np.zeros(len(ids), dtype=np.int64), w)
+            self._enter_at(ids, np.zeros(len(ids), dtype=np.int64), w)
         arrived = self.expect & w.arrived
         if arrived.any():
             self._arrive(np.flatnonzero(arrived), w)
@@ -480,18 +483,17 @@ class Journeys:
             self._serve(q, w)
             q.sample(t, dt)
 
-    def _enter_top(self, ids: np.ndarray, tops: np.ndarray, w: Walkers) -> None:
-        """Agents ``ids`` begin top-level stage ``tops`` of their routes (or finish)."""
+    def _enter_at(self, ids: np.ndarray, sids: np.ndarray, w: Walkers) -> None:
+        """Agents ``ids`` begin stages ``sids`` (stage ids) of their routes; a stage id
+        past the route's last means the route is done."""
         for g in np.unique(self.group_of[ids]):
-            for i in np.unique(tops[self.group_of[ids] == g]):
-                sub = ids[(self.group_of[ids] == g) & (tops == i)]
-                self.top[sub] = i
-                if i >= len(self.routes[g]):  # the route is done: they stay where they are
+            for sid in np.unique(sids[self.group_of[ids] == g]):
+                sub = ids[(self.group_of[ids] == g) & (sids == sid)]
+                if sid >= len(self.flat[g]):  # the route is done: they stay where they are
                     self.done[sub] = True
                     self.finished_at[sub] = self.time
                     continue
-                sid = self.top_id[g][i]
-                self._enter(sub, g, sid, w)
+                self._enter(sub, int(g), int(sid), w)
 
     def _enter(self, ids: np.ndarray, g: int, sid: int, w: Walkers) -> None:
         st = self.flat[g][sid][1]
@@ -507,7 +509,7 @@ class Journeys:
         if isinstance(st, Wait):
             self.reached[ids, sid] = t
             self.wait_until[ids] = t + st.durations(self.key, ids, sid)
-            if self.top[ids[0]] == 0:  # nothing before it: they wait where they entered
+            if self.maps[g].hold[sid]:  # no place before it: they wait where they entered
                 spawn = self.spawns[g]
                 w.set_goals(ids, pos, goal_region=spawn, arrive_anywhere=isinstance(spawn, (Rect, Disc)), leave=False)
         elif isinstance(st, (GoTo, Leave)):
@@ -534,9 +536,9 @@ class Journeys:
         else:  # Choose: pick per agent, then begin the option picked
             self.reached[ids, sid] = t
             self.until[ids, sid] = t
-            picks = self._choose(ids, st, sid, w)
-            for j in np.unique(picks):
-                self._enter(ids[picks == j], g, sid + 1 + int(j), w)
+            picks = self._choose(ids, g, st, sid, w)
+            self._count_choice((g, sid), st, picks)
+            self._enter_at(ids, np.asarray(self.maps[g].options[sid])[picks], w)
             if st.rechoose is not None:
                 self._rechoosing = True
                 self.chooser[ids] = sid
@@ -566,14 +568,18 @@ class Journeys:
                 self.done[sub] = True
                 self.finished_at[sub] = t
                 self.exits.setdefault(st.name, []).extend([t] * len(sub))
+                self.exit_agents.setdefault(st.name, []).extend(int(a) for a in sub)
                 self._release_points(sub)
             else:
                 self._next(sub, w)
 
     def _next(self, ids: np.ndarray, w: Walkers) -> None:
-        """Agents that finished their stage go on to the next top-level one."""
+        """Agents that finished their stage go on to the stage after it (the next of its
+        route or branch; after a branch's last, the one after its choose)."""
         self.until[ids, self.stage[ids]] = self.time
-        self._enter_top(ids, self.top[ids] + 1, w)
+        after = np.array([self.maps[g].after[sid] for g, sid in zip(self.group_of[ids], self.stage[ids])],
+                         dtype=np.int64)
+        self._enter_at(ids, after, w)
 
     def _serve(self, q: ServiceQueue, w: Walkers) -> None:
         freed = q.release(self.time)
@@ -591,11 +597,10 @@ class Journeys:
         """The region agents at stage ``st`` (goto, queue or leave) are sent to."""
         return self.queues[self._queue_of[st.key]].region if isinstance(st, Queue) else st.area
 
-    def _choose(self, ids: np.ndarray, st: Choose, sid: int, w: Walkers) -> np.ndarray:
-        """(K,) the option each of ``ids`` takes."""
+    def _choose(self, ids: np.ndarray, g: int, st: Choose, sid: int, w: Walkers) -> np.ndarray:
+        """(K,) the option each of ``ids`` (on route ``g``, at its choose ``sid``) takes."""
         if st.by == "weights":
-            u = uniforms(self.key, ids, DRAW_CHOICE + sid)
-            return np.minimum(np.searchsorted(np.cumsum(st.weights), u, side="right"), len(st.among) - 1)
+            return self._shares(g, sid, st)[ids]
         dist = self._distances(ids, st, w)
         if st.by == "nearest":
             return np.argmin(dist, axis=1)
@@ -608,16 +613,46 @@ class Journeys:
             bound[j] += 1
         return picks
 
+    def _shares(self, g: int, sid: int, st: Choose) -> np.ndarray:
+        """(N,) the option each agent on route ``g`` takes at its weighted choose ``sid``
+        (-1 for others): each option takes its weight's share of the route's agents,
+        exact to one agent (systematic sampling: the agents in an order drawn per agent,
+        laid along the cumulated shares from a start drawn once), so one agent alone
+        takes each option with its weight's probability. Set on first use, whoever
+        reaches the choose first."""
+        got = self._share_of.get((g, sid))
+        if got is None:
+            members = np.flatnonzero(self.group_of == g)
+            order = members[np.argsort(uniforms(self.key, members, DRAW_CHOICE + sid), kind="stable")]
+            start = uniforms(self.key, np.array([g]), DRAW_SHARE + sid)[0]
+            edges = np.cumsum(st.weights) * len(members)
+            got = np.full(len(self.group_of), -1, dtype=np.int64)
+            got[order] = np.minimum(np.searchsorted(edges, np.arange(len(members)) + start, side="right"),
+                                    len(st.among) - 1)
+            self._share_of[(g, sid)] = got
+        return got
+
+    def _count_choice(self, key: tuple, st: Choose, picks: np.ndarray, dropped: np.ndarray | None = None) -> None:
+        """Count the options taken at choose ``key`` (group, stage id), and those given up
+        (``dropped``) by agents choosing again."""
+        m = len(st.among)
+        counts = self.chosen.setdefault((int(key[0]), int(key[1])), np.zeros(m, dtype=np.int64))
+        counts += np.bincount(picks, minlength=m)
+        if dropped is not None:
+            counts -= np.bincount(dropped, minlength=m)
+
     def _distances(self, ids: np.ndarray, st: Choose, w: Walkers) -> np.ndarray:
-        """(K, m) metres from each of ``ids`` to each option of ``st``, round the walls."""
+        """(K, m) metres from each of ``ids`` to the place each option of ``st`` leads to
+        first (a branch's first stage), round the walls."""
         pos = w.positions[ids]
-        return np.column_stack([w.walking_distance(pos, self.region_of(o)) for o in st.among])
+        return np.column_stack([w.walking_distance(pos, self.region_of(o)) for o in st.heads])
 
     def _crowding(self, st: Choose) -> tuple[np.ndarray, np.ndarray]:
-        """(m,) each option's capacity (persons/s) and the agents bound there now."""
-        cap = np.array([o.capacity for o in st.among])
+        """(m,) each option's capacity (persons/s) and the agents bound there now, those
+        of the stage it begins with."""
+        cap = np.array([o.capacity for o in st.heads])
         bound = np.array([self.queues[self._queue_of[o.key]].bound if isinstance(o, Queue)
-                          else self.bound.get(id(o), 0) for o in st.among], dtype=float)
+                          else self.bound.get(id(o), 0) for o in st.heads], dtype=float)
         return cap, bound
 
     def _rechoose(self, ids: np.ndarray, w: Walkers) -> None:
@@ -638,7 +673,8 @@ class Journeys:
             st = self.flat[g][sid][1]
             walk = self._distances(sub, st, w) / self.pref_speed[sub, None]
             cap, bound = self._crowding(st)
-            own = self.stage[sub] - sid - 1
+            first = np.asarray(self.maps[g].options[sid])
+            own = np.argmax(self.stage[sub][:, None] == first[None], axis=1)  # the option each is on
             rows = np.arange(len(sub))
             every = walk + bound / cap
             stay = every[rows, own] - 1.0 / cap[own]
@@ -658,9 +694,10 @@ class Journeys:
                     moves.append((int(sub[k]), j0, j))
             for a, j0, j in moves:
                 one = np.array([a])
-                self.until[one, sid + 1 + j0] = self.time
+                self.until[one, first[j0]] = self.time
                 self._drop(one, w)
-                self._enter(one, g, sid + 1 + j, w)
+                self._enter(one, g, int(first[j]), w)
+                self._count_choice((g, sid), st, np.array([j]), np.array([j0]))
             self.chooser[sub] = sid
             self.recheck_at[sub] = self.time + st.rechoose
 
@@ -713,9 +750,12 @@ class Journeys:
 
     def report(self, names) -> dict:
         """For summary.json: per group and stage, the agents that reached it and the mean
-        and longest time spent in it (from beginning it to moving on, s); per queue, the
-        agents served, the waits in line and its length each second; per exit, the agents
-        that left by it, the flow (persons/s) and the evacuation time (the last left, s)."""
+        and longest time spent in it (from beginning it to moving on, s), and for a
+        choose the agents that took each option; per queue, the agents served, the waits
+        in line, its length each second, and when each was served and after how long a
+        wait; per exit, the agents that left by it, the flow (persons/s), the persons who
+        left in each second and the evacuation time (the last left, s); per group, its
+        own waits in each queue and its own use of each exit."""
         stages = {}
         for g, f in enumerate(self.flat):
             if not f:
@@ -725,16 +765,49 @@ class Journeys:
             for sid, (path, st, _) in enumerate(f):
                 spent = (self.until[own, sid] - self.since[own, sid])
                 spent = spent[np.isfinite(spent)]
-                rows.append({"id": sid, "path": path, "kind": st.kind, "name": st.name,
-                             "reached": int(np.isfinite(self.reached[own, sid]).sum()),
-                             "mean_time_s": float(spent.mean()) if len(spent) else None,
-                             "max_time_s": float(spent.max()) if len(spent) else None})
+                row = {"id": sid, "path": path, "kind": st.kind, "name": st.name,
+                       "reached": int(np.isfinite(self.reached[own, sid]).sum()),
+                       "mean_time_s": float(spent.mean()) if len(spent) else None,
+                       "max_time_s": float(spent.max()) if len(spent) else None}
+                if isinstance(st, Choose):
+                    row["chosen"] = self.chosen.get((g, sid), np.zeros(len(st.among), dtype=np.int64)).tolist()
+                rows.append(row)
             stages[self._route_name(names, g)] = rows
         exits = {}
         for name, times in self.exits.items():
             t = np.sort(np.array(times))
             flow = (len(t) - 1) / (t[-1] - t[0]) if len(t) > 1 and t[-1] > t[0] else None
-            exits[name] = {"left": len(t), "flow_per_s": None if flow is None else float(flow), "first_s": float(t[0]), "evacuation_time_s": float(t[-1])}
+            exits[name] = {**exit_row(t), "flow_per_s": None if flow is None else float(flow),
+                           "left_per_s": np.bincount(np.floor(t + 1e-9).astype(np.int64)).tolist()}
         return {"stages": stages, "queues": {q.stage.name: q.report() for q in self.queues}, "exits": exits,
+                "groups": self._group_report(names),
                 "finished": int((self.on_route & self.done & ~self.removed).sum()), "on_route": int(self.on_route.sum()),
                 "removed": int((self.on_route & self.removed).sum())}
+
+    def _group_report(self, names) -> dict:
+        """Per group that used a queue or an exit: its agents' waits in each queue and
+        their use of each exit (agents, first and last out), for the per-group report.
+        Groups are those of the run (``names``); agents on routes set while running
+        count under ``route k``."""
+        out: dict = {}
+        group_name = [self._route_name(names, g) for g in range(len(self.routes))]
+        for q in self.queues:
+            if not q.served:
+                continue
+            agents, joined, released = (np.array(x) for x in zip(*q.served))
+            for g in np.unique(self.group_of[agents]):
+                own = self.group_of[agents] == g
+                out.setdefault(group_name[g], {"queues": {}, "exits": {}})["queues"][q.stage.name] = \
+                    {"served": int(own.sum()), **wait_row(released[own] - joined[own])}
+        for name, times in self.exits.items():
+            t, agents = np.array(times), np.array(self.exit_agents[name])
+            for g in np.unique(self.group_of[agents]):
+                own = self.group_of[agents] == g
+                out.setdefault(group_name[g], {"queues": {}, "exits": {}})["exits"][name] = exit_row(np.sort(t[own]))
+        return out
+
+
+def exit_row(times: np.ndarray) -> dict:
+    """Of the (sorted) times agents left by an exit: how many, the first and the
+    evacuation time (the last, s)."""
+    return {"left": len(times), "first_s": float(times[0]), "evacuation_time_s": float(times[-1])}

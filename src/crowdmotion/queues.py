@@ -11,6 +11,12 @@ from crowdmotion.stages import Queue
 REACH_SLACK_M = 0.1  # service starts once the first in line is within one spacing (and this) of the head
 
 
+def wait_row(waits: np.ndarray) -> dict:
+    """The mean and longest of some waits in line (s), None without any."""
+    return {"mean_wait_s": float(waits.mean()) if len(waits) else None,
+            "max_wait_s": float(waits.max()) if len(waits) else None}
+
+
 class ServiceQueue:
     """One queue of a run: its places, the agents in line (``members``, first the head,
     in the order they joined) and those walking to its end (``approaching``).
@@ -118,11 +124,12 @@ class ServiceQueue:
 
     def report(self) -> dict:
         """For summary.json: agents served, the mean and longest wait in line (joining
-        to release, s), the service interval (s) and the line's length each second."""
+        to release, s), the service interval (s), the line's length each second, and the
+        waits over time: when each agent was served (``served_s``) and how long it had
+        waited in line (``wait_s``), in service order."""
         waits = np.array([r - j for _, j, r in self.served])
         released = np.array([r for _, _, r in self.served])
-        return {"served": len(self.served), "still_in_line": len(self.members),
-                "mean_wait_s": float(waits.mean()) if len(waits) else None,
-                "max_wait_s": float(waits.max()) if len(waits) else None,
+        return {"served": len(self.served), "still_in_line": len(self.members), **wait_row(waits),
                 "mean_service_interval_s": float(np.diff(released).mean()) if len(released) > 1 else None,
-                "length_per_s": [n for _, n in self.lengths]}
+                "length_per_s": [n for _, n in self.lengths],
+                "served_s": released.tolist(), "wait_s": waits.tolist()}

@@ -15,7 +15,7 @@ from pathlib import Path
 from typing import Annotated, Any, Literal, Union
 
 import numpy as np
-from pydantic import BaseModel, ConfigDict, Field, ValidationError, field_validator, model_validator
+from pydantic import BaseModel, ConfigDict, Discriminator, Field, Tag, ValidationError, field_validator, model_validator
 
 from crowdmotion import groups as G
 from crowdmotion._validation import Coordinate, NonNegative, Positive, error_lines, field_names, shown
@@ -391,6 +391,16 @@ class LeaveStageSpec(_Model):
 OptionSpec = Annotated[Union[GotoStageSpec, QueueStageSpec, LeaveStageSpec], Field(discriminator="kind")]
 
 
+def _option_tag(value: Any) -> str:
+    """A choose option as written: a list of stages is a branch, anything else one stage."""
+    return "branch" if isinstance(value, list) else "stage"
+
+
+# one stage (goto, queue, leave), or a branch: a list of stages followed in turn
+ChoiceSpec = Annotated[Union[Annotated[OptionSpec, Tag("stage")], Annotated[list["StageSpec"], Tag("branch")]],
+                       Discriminator(_option_tag)]
+
+
 class ChooseStageSpec(_Model):
     """Route stage: go on with one of several stages, chosen per agent
     (crowdmotion.stages.Choose).
@@ -398,8 +408,14 @@ class ChooseStageSpec(_Model):
     kind : str          "choose"
     by : str            "nearest" (walking distance round walls), "least_crowded" (walking
                         time + agents already bound there / the stage's capacity) or
-                        "weights" (at random)
-    among : list        the stages to choose from: goto, queue or leave tables
+                        "weights" (each option its weight's share of the group, exact to
+                        one agent; who takes which drawn from the seed)
+    among : list        the options to choose from: each a goto, queue or leave table, or
+                        a branch: a list of stage tables followed in turn, then the stage
+                        after the choose (a branch ending with a leave ends the route).
+                        nearest and least_crowded weigh a branch by its first stage (a
+                        goto, queue or leave); with weights a branch may begin with any
+                        stage, or be empty (straight on)
     weights : list      with by = "weights": one weight per stage of among
     name : str          the stage's name in summary.json
     rechoose : float    with by = "least_crowded": seconds between two looks at the choice
@@ -412,7 +428,7 @@ class ChooseStageSpec(_Model):
 
     kind: Literal["choose"]
     by: Literal["nearest", "least_crowded", "weights"] = "nearest"
-    among: Annotated[list[OptionSpec], Field(min_length=2)]
+    among: Annotated[list[ChoiceSpec], Field(min_length=2)]
     weights: list[NonNegative] | None = None
     name: StageName | None = None
     rechoose: Positive | None = None
@@ -428,11 +444,64 @@ class ChooseStageSpec(_Model):
             raise ValueError(f"rechoose and rechoose_margin go with by = \"least_crowded\", not by = {self.by!r}")
         if self.rechoose_margin is not None and self.rechoose is None:
             raise ValueError("rechoose_margin goes with rechoose (seconds between two looks at the choice)")
+        for j, o in enumerate(self.among):
+            head = o[0] if isinstance(o, list) and o else o
+            if self.by != "weights" and not isinstance(head, (GotoStageSpec, QueueStageSpec, LeaveStageSpec)):
+                raise ValueError(f"among.{j}: by = {self.by!r} weighs each option by the place it leads to first, "
+                                 f"but this branch " + ("is empty" if isinstance(head, list) else
+                                                        f"begins with a {head.kind}")
+                                 + ": begin it with a goto, queue or leave stage, or choose by weights")
         return self
+
+    @property
+    def branches(self) -> list[list]:
+        """Each option as a list of stage specs (one stage as a branch of one)."""
+        return [o if isinstance(o, list) else [o] for o in self.among]
 
 
 StageSpec = Annotated[Union[GotoStageSpec, WaitStageSpec, QueueStageSpec, ChooseStageSpec, LeaveStageSpec],
                       Field(discriminator="kind")]
+ChooseStageSpec.model_rebuild()
+
+
+def _leaves(spec) -> bool:
+    """Whether agents may leave the scene at a stage spec: a leave, or a choose with an
+    option that ends with one."""
+    if isinstance(spec, LeaveStageSpec):
+        return True
+    return isinstance(spec, ChooseStageSpec) and any(b and _leaves(b[-1]) for b in spec.branches)
+
+
+def _stage_specs(route: list, where: str = "route"):
+    """Every stage spec of a route with its field path, depth first: ``route.2``, then a
+    choose's options ``route.2.among.0`` (one stage) or ``route.2.among.1.0`` (a branch's)."""
+    for i, st in enumerate(route):
+        yield f"{where}.{i}", st
+        if isinstance(st, ChooseStageSpec):
+            for j, o in enumerate(st.among):
+                if isinstance(o, list):
+                    yield from _stage_specs(o, f"{where}.{i}.among.{j}")
+                else:
+                    yield f"{where}.{i}.among.{j}", o
+
+
+def _leave_last_lines(stages: list, where: str) -> list[str]:
+    """A stage list's stages where agents leave the scene that are not its last."""
+    out = []
+    whose = "route's" if where == "route" else "branch's"
+    for i, st in enumerate(stages):
+        if isinstance(st, ChooseStageSpec):
+            for j, o in enumerate(st.among):
+                if isinstance(o, list):
+                    out += _leave_last_lines(o, f"{where}.{i}.among.{j}")
+        if i != len(stages) - 1 and _leaves(st):
+            if isinstance(st, LeaveStageSpec):
+                out.append(f"{where}.{i}: agents leave the scene at a leave stage, so it must be the {whose} last")
+            else:
+                j = next(j for j, b in enumerate(st.branches) if b and _leaves(b[-1]))
+                out.append(f"{where}.{i}: agents taking among.{j} leave the scene, so the choose must be the last "
+                           f"stage: move the stages after it to the end of the options that go on")
+    return out
 ROUTE_STAGES = (GotoStageSpec, WaitStageSpec, QueueStageSpec, ChooseStageSpec, LeaveStageSpec, WaitTimeSpec)
 
 
@@ -505,12 +574,9 @@ class GroupSpec(_Model):
         if self.goal is None and self.route is None:
             raise ValueError("goal: is missing: give the group a goal, or a route of stages")
         if self.route is not None:
-            last = len(self.route) - 1
-            for i, st in enumerate(self.route):
-                options = st.among if isinstance(st, ChooseStageSpec) else [st]
-                if i != last and any(isinstance(o, LeaveStageSpec) for o in options):
-                    raise ValueError(f"route.{i}: agents leave the scene at a leave stage, so it must be the "
-                                     f"route's last")
+            lines = _leave_last_lines(self.route, "route")
+            if lines:
+                raise ValueError(lines[0])
         return self
 
     @field_validator("personality")
@@ -616,14 +682,12 @@ class ScenarioSpec(_Model):
                 coords = [getattr(e, a) for a in ("position", "lower", "upper", "center") if hasattr(e, a)]
                 if any(len(c) != dim for c in coords + list(getattr(e, "points", []))):
                     raise ValueError(f"groups.{i}.enter.entrances.{j}: coordinates are not {dim}D like the scene")
-            for j, st in enumerate(g.route or []):
-                for k, o in enumerate(st.among if isinstance(st, ChooseStageSpec) else [st]):
-                    area = getattr(o, "area", None)
-                    coords = [getattr(area, a) for a in ("position", "lower", "upper", "center") if hasattr(area, a)]
-                    coords += list(getattr(area, "points", []))
-                    where = f"groups.{i}.route.{j}" + (f".among.{k}" if isinstance(st, ChooseStageSpec) else "")
-                    if any(len(c) != dim for c in coords):
-                        raise ValueError(f"{where}.area: coordinates are not {dim}D like the scene")
+            for where, st in _stage_specs(g.route or [], f"groups.{i}.route"):
+                area = getattr(st, "area", None)
+                coords = [getattr(area, a) for a in ("position", "lower", "upper", "center") if hasattr(area, a)]
+                coords += list(getattr(area, "points", []))
+                if any(len(c) != dim for c in coords):
+                    raise ValueError(f"{where}.area: coordinates are not {dim}D like the scene")
         return self
 
     @model_validator(mode="after")
@@ -744,27 +808,37 @@ def _method_lines(data: Any) -> list[str]:
 
 
 def _route_lines(route: Any, method: str, where: str) -> list[str]:
-    """A route's stages the scenario's method does not follow, each named."""
+    """A route's (or a branch's) stages the scenario's method does not follow, each named."""
     if not isinstance(route, list):
         return []
+    return [line for i, st in enumerate(route) for line in _stage_lines(st, method, f"{where}.{i}")]
+
+
+def _stage_lines(stage: Any, method: str, at: str) -> list[str]:
+    """A stage (at field path ``at``), and a choose's options, that the method does not follow."""
     takes = ROUTE_SUPPORT[method]
+    kind = stage.get("kind") if isinstance(stage, dict) else None
     lines = []
-    for i, st in enumerate(route):
-        kind = st.get("kind") if isinstance(st, dict) else None
-        if kind in STAGE_KINDS and kind not in takes:
-            why = "follows no route stages" if not takes else f"follows only {', '.join(takes)} stages"
-            who = [repr(m) for m, kinds in ROUTE_SUPPORT.items() if kind in kinds]
-            lines.append(f"{where}.{i}: a {kind!r} stage, but method {method!r} {why}; method "
-                         + " and ".join(who) + (" follows" if len(who) == 1 else " follow") + f" {kind} stages")
+    if kind in STAGE_KINDS and kind not in takes:
+        why = "follows no route stages" if not takes else f"follows only {', '.join(takes)} stages"
+        who = [repr(m) for m, kinds in ROUTE_SUPPORT.items() if kind in kinds]
+        lines.append(f"{at}: a {kind!r} stage, but method {method!r} {why}; method "
+                     + " and ".join(who) + (" follows" if len(who) == 1 else " follow") + f" {kind} stages")
+    among = stage.get("among") if kind == "choose" else None
+    for j, o in enumerate(among if isinstance(among, list) else []):
+        lines += _route_lines(o, method, f"{at}.among.{j}") if isinstance(o, list) else \
+            _stage_lines(o, method, f"{at}.among.{j}")
     return lines
 
 
-# a union's branch in an error's place: groups.0.route.2.queue.rate -> groups.0.route.2.rate
-_STAGE_TAG = re.compile(r"\b((?:route|among)\.\d+)\.(?:goto|wait|queue|choose|leave)\b")
-_AREA_TAG = re.compile(r"\b(route\.\d+(?:\.among\.\d+)?\.area)\.(?:point|points|rect|disc)\b")
+# a union's branch in an error's place: groups.0.route.2.queue.rate -> groups.0.route.2.rate,
+# route.0.among.1.branch.2.wait.time -> route.0.among.1.2.time
+_OPTION_TAG = re.compile(r"\b(among\.\d+)\.(?:stage|branch)\b")
+_STAGE_TAG = re.compile(r"\b((?:route|among)\.\d+(?:\.\d+)?)\.(?:goto|wait|queue|choose|leave)\b")
+_AREA_TAG = re.compile(r"\b(route(?:\.(?:\d+|among))*\.area)\.(?:point|points|rect|disc)\b")
 _TIME_TAG = re.compile(r"\.time\.(?:constrained-float|function-after\[[^\]]*\])")
 # a check's own field at the head of its message: "groups.1: goal: is missing" -> "groups.1.goal: is missing"
-_OWN_PART = re.compile(r"^(groups\.\d+[\w.]*): (goal|spawn|enter(?:\.\w+)*|route\.\d+|uniform|normal)(?:: | (?=must ))")
+_OWN_PART = re.compile(r"^(groups\.\d+[\w.]*): (goal|spawn|enter(?:\.\w+)*|route(?:\.\w+)+|among\.\d+|uniform|normal)(?:: | (?=must ))")
 
 
 def _route_error_lines(lines: list[str]) -> list[str]:
@@ -777,7 +851,7 @@ def _route_error_lines(lines: list[str]) -> list[str]:
             continue  # a table was written: the number branch's complaint is noise
         if ".time.function-after" in line and "valid dictionary or instance of WaitTimeSpec" in line:
             continue  # a number was written: likewise the table branch's
-        line = _TIME_TAG.sub(".time", _AREA_TAG.sub(r"\1", _STAGE_TAG.sub(r"\1", line)))
+        line = _TIME_TAG.sub(".time", _AREA_TAG.sub(r"\1", _STAGE_TAG.sub(r"\1", _OPTION_TAG.sub(r"\1", line))))
         out.append(_OWN_PART.sub(r"\1.\2: ", line))
     return out
 
@@ -844,41 +918,47 @@ def _region(spec) -> Any:
     return G.MovingTarget(spec.times, spec.positions)
 
 
-def _stage(spec):
-    """A route stage's spec as a :mod:`crowdmotion.stages` stage."""
+def _stage(spec, where: str):
+    """A route stage's spec (at field path ``where``) as a :mod:`crowdmotion.stages`
+    stage; ValueError naming the stage (``route.2.among.1.0: ...``)."""
     from crowdmotion import stages as R
 
-    if isinstance(spec, GotoStageSpec):
-        return R.GoTo(_region(spec.area), spec.arrive, spec.name, spec.capacity)
-    if isinstance(spec, LeaveStageSpec):
-        return R.Leave(_region(spec.area), spec.name, spec.capacity)
-    if isinstance(spec, WaitStageSpec):
-        time = spec.time if not isinstance(spec.time, WaitTimeSpec) else spec.time.model_dump(exclude_none=True)
-        return R.Wait(time, spec.name)
-    if isinstance(spec, QueueStageSpec):
-        return R.Queue(spec.head, spec.rate, spec.direction, spec.line, spec.spacing, spec.name, spec.capacity)
-    margin = {} if spec.rechoose_margin is None else {"rechoose_margin": spec.rechoose_margin}
-    return R.Choose([_stage(o) for o in spec.among], spec.by, spec.weights, spec.name, spec.rechoose, **margin)
+    among = None
+    if isinstance(spec, ChooseStageSpec):  # its options first, each named by its own path
+        among = [_stages(o, f"{where}.among.{j}") if isinstance(o, list) else _stage(o, f"{where}.among.{j}")
+                 for j, o in enumerate(spec.among)]
+    try:
+        if isinstance(spec, GotoStageSpec):
+            return R.GoTo(_region(spec.area), spec.arrive, spec.name, spec.capacity)
+        if isinstance(spec, LeaveStageSpec):
+            return R.Leave(_region(spec.area), spec.name, spec.capacity)
+        if isinstance(spec, WaitStageSpec):
+            time = spec.time if not isinstance(spec.time, WaitTimeSpec) else spec.time.model_dump(exclude_none=True)
+            return R.Wait(time, spec.name)
+        if isinstance(spec, QueueStageSpec):
+            return R.Queue(spec.head, spec.rate, spec.direction, spec.line, spec.spacing, spec.name, spec.capacity)
+        margin = {} if spec.rechoose_margin is None else {"rechoose_margin": spec.rechoose_margin}
+        return R.Choose(among, spec.by, spec.weights, spec.name, spec.rechoose, **margin)
+    except ValueError as exc:
+        raise ValueError(f"{where}: {exc}") from None
+
+
+def _stages(specs: list, where: str) -> list:
+    """A list of stage specs (a route, or a branch at ``where``) as stages."""
+    return [_stage(st, f"{where}.{i}") for i, st in enumerate(specs)]
 
 
 def route_stages(route: list) -> list:
     """A group's route specs as stages; ValueError naming the stage (``route.2: ...``)."""
-    out = []
-    for i, st in enumerate(route):
-        try:
-            out.append(_stage(st))
-        except ValueError as exc:
-            raise ValueError(f"route.{i}: {exc}") from None
-    return out
+    return _stages(route, "route")
 
 
 def _first_place(stages: list, spawn) -> Any:
     """Where a route leads first (its group's goal for the checks and reports that read
-    one): the first area or queue head on it, else the spawn."""
-    from crowdmotion.stages import Choose, Queue
+    one): the first area or queue head on it (depth first), else the spawn."""
+    from crowdmotion.stages import Queue, flat_stages
 
-    for st in stages:
-        st = st.among[0] if isinstance(st, Choose) else st
+    for _, st, _ in flat_stages(stages):
         if isinstance(st, Queue):
             return G.Points(st.head[None])
         if hasattr(st, "area"):

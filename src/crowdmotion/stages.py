@@ -6,9 +6,16 @@ attributes={"route": [GoTo(Disc([20, 10], 3)), Wait(5.0), Leave(Rect(...))]})``,
 scenario's ``[[groups.route]]`` tables, see :mod:`crowdmotion.scenario`). The stages hold
 no state: :class:`crowdmotion.journeys.Journeys` walks agents along them.
 
+A ``choose`` option is one stage (go to, queue, leave) or a *branch*: a list of stages
+the agents who take it follow in turn, ``Choose([[GoTo(fountain), Wait(20), Leave(east)],
+Leave(west)], by="weights", weights=[3, 7])``. An agent that finishes a branch goes on
+with the stage after the choose (a branch that ends with a leave ends the route there).
+
 Each stage of a route has a number, its *stage id*, counted depth first: ``route[0]`` is
-0, and a ``choose`` is followed by its options (``route[1]`` = 1, ``route[1].among[0]`` =
-2, ...). Trajectories record the stage id of each agent per frame (-1 off route).
+0, and a ``choose`` is followed by its options, a branch by its stages in order
+(``route[1]`` = 1, ``route[1].among[0]`` = 2, ``route[1].among[1][0]`` = 3,
+``route[1].among[1][1]`` = 4, ...). Trajectories record the stage id of each agent per
+frame (-1 off route).
 """
 
 from __future__ import annotations
@@ -242,24 +249,35 @@ class Queue:
         return ("queue", tuple(self._line.ravel().round(9)), self.rate, self.spacing)
 
 
-Option = Union[GoTo, Queue, Leave]
+PLACES = (GoTo, Queue, Leave)  # stages with a place to walk to: a choose's one-stage options
+Option = Union[GoTo, Queue, Leave, list]  # a list: a branch of stages
 
 
 @dataclass(eq=False)
 class Choose:
-    """Go on with one of the stages ``among`` (go to, queue or leave), chosen per agent:
-    ``"nearest"`` (the least walking distance along the guidance field),
-    ``"least_crowded"`` (the least walking time plus the agents already bound there over
-    the stage's capacity, persons/s) or ``"weights"`` (at random, with ``weights``).
+    """Go on with one of the options ``among``, chosen per agent: ``"nearest"`` (the least
+    walking distance along the guidance field), ``"least_crowded"`` (the least walking
+    time plus the agents already bound there over the stage's capacity, persons/s) or
+    ``"weights"`` (each option takes its weight's share of the route's agents, exact to
+    one agent; who takes which is drawn from the run's seed).
+
+    An option is one stage (go to, queue or leave) or a *branch*: a list of stages
+    (any kind) the agents who take it follow in turn, then going on with the stage after
+    the choose; a branch that ends with a leave ends the route there, so a choose with
+    such a branch must be its route's (or its branch's) last stage. ``nearest`` and
+    ``least_crowded`` weigh a branch by the stage it begins with (a go to, queue or
+    leave); with ``weights`` a branch may begin with any stage, or be empty (those who
+    take it go straight on).
 
     The choice is made once, on entering the stage, unless ``rechoose`` is set (seconds;
     by = "least_crowded" only): then an agent still walking to the option it took (not
-    yet arrived, or not yet in its queue's line) weighs the options again every
-    ``rechoose`` seconds, its own option without itself among those bound there, and
-    switches to another whose cost (walking time plus bound over capacity, seconds) is
-    lower by more than ``rechoose_margin`` seconds (default RECHOOSE_MARGIN_S): as a
-    queue at one exit builds, those still on their way take another. The margin keeps an
-    agent from switching back and forth between options of about the same cost."""
+    yet arrived at its first stage, or not yet in its queue's line) weighs the options
+    again every ``rechoose`` seconds, its own option without itself among those bound
+    there, and switches to another whose cost (walking time plus bound over capacity,
+    seconds) is lower by more than ``rechoose_margin`` seconds (default
+    RECHOOSE_MARGIN_S): as a queue at one exit builds, those still on their way take
+    another. The margin keeps an agent from switching back and forth between options of
+    about the same cost."""
 
     among: list
     by: str = "nearest"
@@ -270,16 +288,26 @@ class Choose:
     kind = "choose"
 
     def __post_init__(self):
-        self.among = list(self.among)
+        self.among = [list(o) if isinstance(o, (list, tuple)) else o for o in self.among]
         if len(self.among) < 2:
-            raise ValueError(f"choose.among must list at least two stages, got {len(self.among)}")
-        for j, s in enumerate(self.among):
-            if not isinstance(s, (GoTo, Queue, Leave)):
-                raise ValueError(f"choose.among.{j} must be a goto, queue or leave stage, got {s!r}")
+            raise ValueError(f"choose.among must list at least two stages or branches, got {len(self.among)}")
+        for j, o in enumerate(self.among):
+            if isinstance(o, list):
+                _check_stages(o, f"choose.among.{j}", empty=True)
+            elif not isinstance(o, PLACES):
+                raise ValueError(f"choose.among.{j} must be a goto, queue or leave stage, or a list of stages "
+                                 f"(a branch), got {o!r}")
         if self.by not in CHOOSE_BY:
             raise ValueError(f"choose.by must be one of {', '.join(CHOOSE_BY)}, got {self.by!r}")
         if (self.by == "weights") != (self.weights is not None):
             raise ValueError("choose: weights go with by = 'weights' (and it needs them)")
+        if self.by != "weights":
+            for j, head in enumerate(self.heads):
+                if not isinstance(head, PLACES):
+                    raise ValueError(f"choose.among.{j}: by = {self.by!r} weighs each option by the place it leads "
+                                     f"to first, but this branch " + ("is empty" if head is None else
+                                                                      f"begins with a {head.kind}")
+                                     + ": begin it with a goto, queue or leave stage, or choose by weights")
         if self.weights is not None:
             w = np.asarray(self.weights, dtype=float)
             if w.shape != (len(self.among),) or not np.all(np.isfinite(w)) or np.any(w < 0) or w.sum() <= 0:
@@ -294,6 +322,17 @@ class Choose:
         self.rechoose_margin = _seconds(self.rechoose_margin, "choose.rechoose_margin", positive=False)
         self.name = _name(self.name, f"choose {self.by}")
 
+    @property
+    def branches(self) -> list[list]:
+        """Each option as a list of stages (a one-stage option as a branch of one)."""
+        return [o if isinstance(o, list) else [o] for o in self.among]
+
+    @property
+    def heads(self) -> list:
+        """The stage each option begins with (its place weighs it for ``nearest`` and
+        ``least_crowded``); None for an empty branch."""
+        return [b[0] if b else None for b in self.branches]
+
 
 def _seconds(value, what: str, positive: bool) -> float:
     """``value`` as a finite number of seconds (> 0, or >= 0), else ValueError naming ``what``."""
@@ -306,31 +345,113 @@ def _seconds(value, what: str, positive: bool) -> float:
 Stage = Union[GoTo, Wait, Queue, Choose, Leave]
 
 
-def check_route(route, where: str = "route") -> list:
-    """``route`` as a list of stages, refused (ValueError naming the stage) unless it is a
-    non-empty list of GoTo, Wait, Queue, Choose and Leave, with a leave only last (or a
-    choose of leaves last)."""
-    if not isinstance(route, (list, tuple)) or not route:
-        raise ValueError(f"{where} must be a non-empty list of stages, got {route!r}")
-    for i, s in enumerate(route):
+def leaves(stage) -> bool:
+    """Whether agents may leave the scene at ``stage``: a leave, or a choose with an
+    option that ends with one."""
+    if isinstance(stage, Leave):
+        return True
+    return isinstance(stage, Choose) and any(b and leaves(b[-1]) for b in stage.branches)
+
+
+def _places(stages) -> bool:
+    """Whether every way through ``stages`` passes a stage with a place (goto, queue, leave)."""
+    return any(isinstance(s, PLACES) or (isinstance(s, Choose) and all(_places(b) for b in s.branches))
+               for s in stages)
+
+
+def _check_stages(stages, where: str, empty: bool = False) -> list:
+    """``stages`` (a route, or a choose's branch at ``where``) as a list, refused
+    (ValueError naming the stage) unless each is a stage and one where agents leave the
+    scene comes last; an empty list only where ``empty``."""
+    if not isinstance(stages, (list, tuple)) or (not stages and not empty):
+        raise ValueError(f"{where} must be a non-empty list of stages, got {stages!r}")
+    for i, s in enumerate(stages):
         if not isinstance(s, (GoTo, Wait, Queue, Choose, Leave)):
             raise ValueError(f"{where}.{i} must be a GoTo, Wait, Queue, Choose or Leave stage, got {s!r}")
-        leaves = isinstance(s, Leave) or (isinstance(s, Choose) and any(isinstance(o, Leave) for o in s.among))
-        if leaves and i != len(route) - 1:
-            raise ValueError(f"{where}.{i} ({s.kind}): an agent leaves the scene there, so it must be the last stage")
-    return list(route)
+        if leaves(s) and i != len(stages) - 1:
+            if isinstance(s, Leave):
+                raise ValueError(f"{where}.{i} ({s.kind}): an agent leaves the scene there, so it must be the last "
+                                 f"stage")
+            j = next(j for j, b in enumerate(s.branches) if b and leaves(b[-1]))
+            raise ValueError(f"{where}.{i} ({s.kind}): agents taking among.{j} leave the scene, so the choose must "
+                             f"be the last stage: move the stages after it to the end of the options that go on")
+    return list(stages)
+
+
+def check_route(route, where: str = "route") -> list:
+    """``route`` as a list of stages, refused (ValueError naming the stage) unless it is a
+    non-empty list of GoTo, Wait, Queue, Choose and Leave, with a stage where agents
+    leave the scene (a leave, or a choose with an option ending in one) only last."""
+    return _check_stages(route, where)
+
+
+def field_path(path: str) -> str:
+    """A stage's path as a scenario field: ``route[2].among[1][0]`` -> ``route.2.among.1.0``."""
+    return path.replace("[", ".").replace("]", "")
+
+
+@dataclass(frozen=True)
+class RouteMap:
+    """A route's stages by stage id, and how an agent moves between them.
+
+    stages : per stage id, (path, stage, index of its top-level stage), depth first
+    after : per stage id, the stage id an agent goes on to when done with it
+        (``len(stages)``: the route's end)
+    options : per choose's stage id, the stage id each of its options begins at (an
+        empty branch: the choose's ``after``)
+    hold : per stage id, True where some way from the route's start reaches it without
+        passing a place (a wait there stands where the agent entered)
+    """
+
+    stages: list
+    after: list
+    options: dict
+    hold: list
+
+
+def route_map(route) -> RouteMap:
+    """The :class:`RouteMap` of ``route``: stage ids counted depth first (``route[i]``,
+    then a choose's options ``route[i].among[j]`` (one stage) or ``route[i].among[j][k]``
+    (a branch's stages), each followed by what it holds)."""
+    flat: list = []
+
+    def number(stages, prefix: str, top: int | None, single: bool) -> list:
+        ids = []
+        for k, s in enumerate(stages):
+            path = prefix if single else f"{prefix}[{k}]"
+            t = k if top is None else top
+            sid = len(flat)
+            flat.append((path, s, t))
+            kids = [number(b, f"{path}.among[{j}]", t, not isinstance(o, list))
+                    for j, (o, b) in enumerate(zip(s.among, s.branches))] if isinstance(s, Choose) else []
+            ids.append((sid, kids))
+        return ids
+
+    tree = number(list(route), "route", None, False)
+    after = [len(flat)] * len(flat)
+    options: dict = {}
+    hold = [False] * len(flat)
+
+    def link(ids: list, then: int, placed: bool) -> None:
+        for k, (sid, kids) in enumerate(ids):
+            after[sid] = ids[k + 1][0] if k + 1 < len(ids) else then
+            st = flat[sid][1]
+            hold[sid] = not placed
+            if isinstance(st, Choose):
+                options[sid] = [kid[0][0] if kid else after[sid] for kid in kids]
+                for kid in kids:
+                    link(kid, after[sid], placed)
+            placed = placed or _places([st])
+
+    link(tree, len(flat), False)
+    return RouteMap(flat, after, options, hold)
 
 
 def flat_stages(route) -> list[tuple[str, object, int]]:
     """Every stage of ``route`` with its stage id (the list index): (path, stage, index
     of its top-level stage), depth first: ``route[i]``, then a choose's options
-    ``route[i].among[j]``."""
-    out = []
-    for i, s in enumerate(route):
-        out.append((f"route[{i}]", s, i))
-        if isinstance(s, Choose):
-            out += [(f"route[{i}].among[{j}]", o, i) for j, o in enumerate(s.among)]
-    return out
+    ``route[i].among[j]``, a branch's stages ``route[i].among[j][k]`` (see :func:`route_map`)."""
+    return route_map(route).stages
 
 
 def refuse_unfollowed(route, where: str, follows: tuple[str, ...], who: str) -> None:
@@ -338,8 +459,7 @@ def refuse_unfollowed(route, where: str, follows: tuple[str, ...], who: str) -> 
     ``follows``, the kinds a method's ``who`` ("a formation", "a PSO swarm") follows."""
     for path, st, _ in flat_stages(route):
         if st.kind not in follows:
-            at = path.replace("[", ".").replace("]", "")
-            raise ValueError(f"{where} {at} ({st.kind} {st.name!r}): {who} does not {st.kind}; "
+            raise ValueError(f"{where} {field_path(path)} ({st.kind} {st.name!r}): {who} does not {st.kind}; "
                              f"it follows {', '.join(follows)} stages")
 
 

@@ -169,3 +169,36 @@ def test_a_formation_entering_at_4_s_starts_its_route_when_it_enters():
     assert summary["journeys"]["exits"]["east"]["left"] == 1 and summary["entry"]["band"]["entered"] == 12
     audit = collision_audit(traj, parse_scenario(text).scene)
     assert audit.clean, audit.as_dict()
+
+
+def test_a_formation_takes_the_branch_whose_first_place_is_nearer_and_follows_it_in_shape():
+    # a choose between two whole routes: the square, a wait and the east exit; or the south-east exit
+    text = SQUARE.replace('''[[groups.route]]
+kind = "goto"
+name = "square"
+area = { shape = "disc", center = [30.0, 15.0], radius = 3.0 }
+
+[[groups.route]]
+kind = "wait"
+time = 5.0
+
+[[groups.route]]
+kind = "choose"
+by = "nearest"
+among = [
+  { kind = "leave", name = "east", area = { shape = "rect", lower = [55.0, 12.0], upper = [59.5, 18.0] } },
+  { kind = "leave", name = "west", area = { shape = "rect", lower = [0.5, 2.0], upper = [3.0, 8.0] } },
+]''', '''route = [{ kind = "choose", by = "nearest", among = [
+  [ { kind = "goto", name = "square", area = { shape = "disc", center = [30.0, 15.0], radius = 3.0 } },
+    { kind = "wait", time = 5.0 },
+    { kind = "leave", name = "east", area = { shape = "rect", lower = [55.0, 12.0], upper = [59.5, 18.0] } } ],
+  { kind = "leave", name = "south-east", area = { shape = "rect", lower = [55.0, 0.5], upper = [59.5, 3.0] } },
+] }]''')
+    result = run_scenario(parse_scenario(text), progress=False)
+    summary = result.summary
+    assert collision_audit(result.trajectories, parse_scenario(text).scene).clean
+    rows = summary["journeys"]["stages"]["band"]
+    assert rows[0]["chosen"] == [1, 0]  # the square (22 m off) is nearer than the south-east exit (51 m)
+    assert [r["reached"] for r in rows[1:]] == [1, 1, 1, 0]
+    assert rows[2]["mean_time_s"] == pytest.approx(5.0, abs=result.trajectories.dt + 1e-9)
+    assert summary["journeys"]["exits"]["east"]["left"] == 1 and summary["journeys"]["finished"] == 1

@@ -142,3 +142,17 @@ def test_validate_refuses_a_queue_stage_for_an_mdp_group_naming_it():
                                             r"'mdp' follows only goto, wait, choose, leave stages; method 'rvo' "
                                             r"follows queue stages"):
         parse_scenario(text)
+
+
+def test_twenty_grid_agents_split_30_70_between_the_fountain_route_and_the_west_exit():
+    # a choose whose first option is a whole route (goto, wait, leave east): 6 of 20 take it
+    from tests.test_journeys import SPLIT
+
+    text = SPLIT.replace("METHOD", "mdp").replace("COUNT", "20").replace("enter = { rate = 2.0 }\n", "")
+    result = run_scenario(parse_scenario(text), progress=False)
+    summary = result.summary
+    assert summary["agent_agent_overlaps"] == 0 and summary["agent_obstacle_penetrations"] == 0
+    journeys = summary["journeys"]
+    assert journeys["stages"]["walkers"][0]["chosen"] == [6, 14]
+    assert journeys["exits"]["east"]["left"] == 6 and journeys["exits"]["west"]["left"] == 14
+    assert journeys["finished"] == 20

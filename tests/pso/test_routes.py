@@ -100,3 +100,44 @@ def test_a_route_area_whose_centre_is_covered_is_refused():
     with pytest.raises(ScenarioError, match=r"route.0 \(goto 'square'\) area: its centre \[20.0, 10.0\], where the "
                                             r"swarm gathers, is covered"):
         parse_scenario(text)
+
+
+BRANCHES = """
+name = "swarm branches"
+method = "pso"
+seed = 1
+
+[scene]
+bounds = [[0.0, 0.0], [40.0, 20.0]]
+
+[[groups]]
+name = "swarm"
+count = 10
+radius = 0.3
+spawn = { shape = "rect", lower = [2.0, 8.0], upper = [6.0, 12.0] }
+route = [
+  { kind = "choose", by = "nearest", among = [
+    [ { kind = "goto", name = "square", area = { shape = "rect", lower = [16.0, 8.0], upper = [20.0, 12.0] } },
+      { kind = "leave", name = "east", area = { shape = "rect", lower = [37.0, 8.0], upper = [40.0, 12.0] } } ],
+    [ { kind = "goto", name = "far square", area = { shape = "rect", lower = [30.0, 8.0], upper = [34.0, 12.0] } },
+      { kind = "leave", name = "north", area = { shape = "rect", lower = [18.0, 17.0], upper = [22.0, 20.0] } } ],
+  ] },
+]
+
+[pso]
+v_max = [0.5, 0.5]
+"""
+
+
+def test_a_swarm_takes_the_branch_whose_first_place_is_nearer_and_follows_it_out():
+    import warnings
+
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", UserWarning)  # v_max above max_speed: not the point here
+        result = run_scenario(parse_scenario(BRANCHES), progress=False)
+    summary = result.summary
+    assert summary["agent_agent_overlaps"] == 0 and summary["agent_obstacle_penetrations"] == 0
+    rows = summary["journeys"]["stages"]["swarm"]
+    assert rows[0]["chosen"] == [1, 0] and [r["reached"] for r in rows[1:]] == [1, 1, 0, 0]
+    assert list(summary["journeys"]["exits"]) == ["east"] and summary["journeys"]["finished"] == 1
+    assert not result.trajectories.active_mask[-1].any(), "every particle left by the east exit"

@@ -328,7 +328,8 @@ class Simulator(LiveObstacles):
     def set_route(self, group: int, route) -> None:
         """Send a group along a route of stages from now on (the live API): ``route`` is a
         list of :mod:`crowdmotion.stages` stages (GoTo, Wait, Choose, Leave), as a
-        scenario's ``[[groups.route]]`` gives them. The group follows them as one unit,
+        scenario's ``[[groups.route]]`` gives them (a Choose's options may be branches:
+        lists of stages). The group follows them as one unit,
         keeping its shape (see :mod:`crowdmotion.formation.routes`); each step moves it on
         (``sim.journeys``, a :class:`crowdmotion.journeys.Journeys` with one walker per
         group, holds where each group is: ``sim.journeys.stage[group]``). A group on
@@ -341,7 +342,7 @@ class Simulator(LiveObstacles):
         recovers its shape) a body cannot stand on; and, as :meth:`set_goal`, an unknown
         group or one that left."""
         from crowdmotion.checks import check_live_route
-        from crowdmotion.stages import check_route, flat_stages
+        from crowdmotion.stages import check_route, field_path, flat_stages
 
         k = self._group(group, "formation.set_route")
         g = self.groups[k]
@@ -354,8 +355,7 @@ class Simulator(LiveObstacles):
                 try:
                     self._goal_checked(st.area, g, f"formation group {g.name!r}")
                 except ValueError as exc:
-                    at = path.replace("[", ".").replace("]", "")
-                    raise ValueError(f"{what}: {at} ({st.kind} {st.name!r}): {exc}") from None
+                    raise ValueError(f"{what}: {field_path(path)} ({st.kind} {st.name!r}): {exc}") from None
         if self.journeys is None:
             self.follow_routes([None] * len(self.groups), [None] * len(self.groups))
         self.journeys.set_route([k], route, self.walkers, self._extents(), [h.pref_speed for h in self.groups])

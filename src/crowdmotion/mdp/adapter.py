@@ -41,7 +41,7 @@ def check_scenario(scene, groups, params: MDPParams) -> None:
     from crowdmotion.checks import check_route_places
     from crowdmotion.mdp.routes import check_mdp_route
     from crowdmotion.mdp.simulation import region_cells
-    from crowdmotion.stages import flat_stages
+    from crowdmotion.stages import field_path, flat_stages
 
     for k, g in enumerate(groups):
         check_entrances(scene, k, g)
@@ -58,7 +58,7 @@ def check_scenario(scene, groups, params: MDPParams) -> None:
             area = getattr(st, "area", None)
             if area is None:
                 continue
-            at = f"{where(k, g)} {path.replace('[', '.').replace(']', '')} ({st.kind} {st.name!r})"
+            at = f"{where(k, g)} {field_path(path)} ({st.kind} {st.name!r})"
             cells = region_cells(su.grid, area, f"{at} area")
             values = exact_values(su.grid.occupancy, [tuple(c) for c in cells], params.corner_cutting)
             if not np.isfinite(values[tuple(starts.T)]).any():

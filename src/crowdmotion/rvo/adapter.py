@@ -19,7 +19,7 @@ def check_scenario(scene, groups, params: RVOParams) -> None:
     guidance fields) and goals the field says no agent can reach."""
     from crowdmotion.checks import check_dimension, check_entrances, check_goal_clear, check_inside, \
         check_route_places, check_spawn_capacity, describe_region, where
-    from crowdmotion.stages import flat_stages
+    from crowdmotion.stages import field_path, flat_stages
 
     check_dimension("rvo", scene, (2,), "use method = 'mdp' or 'pso' for 3D scenes")
     for k, g in enumerate(groups):
@@ -44,7 +44,7 @@ def check_scenario(scene, groups, params: RVOParams) -> None:
             for path, st, _ in flat_stages(g.attributes.get("route") or []):
                 region = journeys.region_of(st) if st.kind in ("goto", "queue", "leave") else None
                 if region is not None and not np.isfinite(sim.walking_distance(starts, region)).any():
-                    raise ValueError(f"{where(k, g)} {path.replace('[', '.').replace(']', '')} ({st.kind} "
+                    raise ValueError(f"{where(k, g)} {field_path(path)} ({st.kind} "
                                      f"{st.name!r}): cannot be reached from the spawn {describe_region(g.spawn)}: "
                                      f"obstacles close the way for a body of radius {g.radius:g} m")
     stranded = sim.unreachable()

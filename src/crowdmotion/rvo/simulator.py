@@ -613,7 +613,8 @@ class Simulator(LiveObstacles):
     def set_route(self, agents, route) -> None:
         """Send agents along a route of stages from now on (the live API): ``route`` is a
         list of :mod:`crowdmotion.stages` stages (GoTo, Wait, Queue, Choose, Leave), as a
-        scenario's ``[[groups.route]]`` gives them. Each step then moves the agents on
+        scenario's ``[[groups.route]]`` gives them (a Choose's options may be branches:
+        lists of stages). Each step then moves the agents on
         along it (``sim.journeys``, a :class:`crowdmotion.journeys.Journeys`, holds where
         each is: ``sim.journeys.stage``). Agents on another route leave its stage at once
         (a queue closes up behind them); agents still waiting to enter begin it on entering.
