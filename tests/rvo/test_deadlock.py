@@ -126,6 +126,34 @@ def test_a_gridlock_detour_only_for_crossing_streams_bound_elsewhere():
     assert not _standing_pair([-1.3, 0.0], [-10.0, 0.0])
 
 
+def _converging_pair(seconds, goal_1=(8.0, 0.0), dt=0.1):
+    """Two walkers pressed at a door at x = 0.3 (its mouth at y = 0): agent 0 beside the
+    mouth against the wall heads along it into the mouth, agent 1 in front of the mouth
+    heads straight in, 63° apart, each in the other's way, both standing for
+    ``seconds``. Returns whom each yields to (-1: nobody)."""
+    from crowdmotion.rvo.deadlock import Deadlock
+
+    dl = Deadlock(keep_right=0.0, patience=2.0)
+    dl.grow(2)
+    pos = np.array([[0.09, 0.23], [-0.24, 0.0]])
+    wanted = np.array([[0.38, -0.93], [1.0, -0.09]]) * 1.3
+    goals = np.array([[8.0, 0.0], goal_1])
+    one = np.ones(2)
+    for _ in range(int(round(seconds / dt))):
+        dl.update(pos, wanted, np.zeros((2, 2)), 1.3 * one, 0.2 * one, 5.0 * one, np.ones(2, bool), dt, goals)
+    return dl.yield_to.tolist()
+
+
+def test_two_converging_on_one_door_from_beside_and_in_front_settle_it_once_they_have_stood_3_s():
+    # the four-body wedge of a 0.8 m bottleneck (seed 3 stood 111 s in its mouth): the
+    # one of lower priority (agent 0) yields to the other
+    assert _converging_pair(3.5) == [1, -1]
+    # not while a pause could still clear on its own
+    assert _converging_pair(2.5) == [-1, -1]
+    # bound for different places (their ways to their goals 90° apart): not a wedge at one door
+    assert _converging_pair(3.5, goal_1=(-0.24, -8.0)) == [-1, -1]
+
+
 def test_a_crowd_bound_for_one_goal_point_steps_in_as_each_leaves():
     # 150 bodies of 0.5 m converge on one point and leave within 0.5 m of it (SteerSuite's
     # bottleneck-squeeze in small): leaving agents do not brake for those beyond the point,

@@ -21,14 +21,15 @@ break that; none touches the continuous-time guarantee, which the step's safety 
    away from the other and turned 30° to its right; once out of the way it waits until
    the other has walked past (or 10 s have gone). A one-body-wide passage thus clears.
    Two walkers (radius up to ``PERSON_MAX_RADIUS_M``) held up and standing for
-   ``ABREAST_STILL_S`` side by side, bound the same way (their v_pref within 60°, or
-   within 90° when the straight lines to their goals are within 60°: one beside a door
-   and one in front of it, converging on it) with each in the other's way — wedged
-   abreast in a door
+   ``ABREAST_STILL_S`` side by side, bound the same way (their v_pref within 60°) with
+   each in the other's way — wedged abreast in a door
    too narrow for two — settle it the same way: the
    one of lower priority steps back (half its preferred speed, back along its way and
    away from the other) while it stands in the other's way, then waits until the other
-   is a body ahead of it (or ``ABREAST_MAX_S`` have gone).
+   is a body ahead of it (or ``ABREAST_MAX_S`` have gone). Two walkers converging on
+   one door, one from beside it along the wall and one from in front (v_pref 60-90°
+   apart, the straight lines to their goals within 60°), each in the other's way and both
+   standing for ``DETOUR_STILL_S``, settle it as a head-on pair does.
 
 3. **Gridlock detour**: an agent standing (below 5 % of its preferred speed) for
    ``DETOUR_STILL_S`` seconds, held up by an agent in its way that stands as long, comes
@@ -190,6 +191,8 @@ class Deadlock:
         mutual = (self.stuck[j] >= self.patience / 2) | (self.yield_to[j] >= 0)
         facing = np.einsum("ij,ij->i", _unit(wanted[i]), _unit(wanted[j]))
         blocked = (i != j) & _blocks(pos, wanted, radius, i, j, sight[i]) & mutual
+        persons = (radius[i] <= PERSON_MAX_RADIUS_M) & (radius[j] <= PERSON_MAX_RADIUS_M)
+        converging = np.zeros(len(i), dtype=bool)
         if goals is not None:
             # rule 3, a gridlock: both standing (not creeping, as a queue does) for
             # DETOUR_STILL_S, the blocker crossing our way from the side and bound elsewhere
@@ -197,11 +200,12 @@ class Deadlock:
             bound = np.einsum("ij,ij->i", _unit(goals[i] - pos[i]), _unit(goals[j] - pos[j]))
             long = (self.still[i] >= DETOUR_STILL_S) & (self.still[j] >= DETOUR_STILL_S)
             self.detour[i[blocked & long & (np.abs(facing) < 0.5) & (bound < 0.5)]] = True
+            # two converging on one door at up to 90°, standing as long as a gridlock
+            converging = (facing > 0.0) & (bound > 0.5) & persons & long
         # head-on (rule 2), or wedged abreast bound the same way
-        walkers = ((radius[i] <= PERSON_MAX_RADIUS_M) & (radius[j] <= PERSON_MAX_RADIUS_M)
-                   & (self.still[i] >= ABREAST_STILL_S) & (self.still[j] >= ABREAST_STILL_S))
-        keep = (blocked & ((facing < -0.5) | ((facing > 0.5) & walkers)) & _blocks(pos, wanted, radius, j, i, sight[j])
-                & (self.priority(j) > self.priority(i)))
+        walkers = persons & (self.still[i] >= ABREAST_STILL_S) & (self.still[j] >= ABREAST_STILL_S)
+        keep = (blocked & ((facing < -0.5) | ((facing > 0.5) & walkers) | converging)
+                & _blocks(pos, wanted, radius, j, i, sight[j]) & (self.priority(j) > self.priority(i)))
         i, j, gap, facing = i[keep], j[keep], gap[keep], facing[keep]
         if len(i) == 0:
             return 0
@@ -379,7 +383,7 @@ def _new_yields(cand, d, k, live, pos, wanted, radius, sight, goals, use_goals, 
                 continue
             ox, oy = _unit2(wanted[j, 0], wanted[j, 1])
             facing = fx * ox + fy * oy
-            bound = 1.0  # without goals: taken as bound for the same place
+            bound = 0.0  # (without goals, not known to be bound for the same place)
             if use_goals:
                 # rule 3, a gridlock: both standing (not creeping, as a queue does) for
                 # DETOUR_STILL_S, the blocker crossing our way from the side and bound
