@@ -173,22 +173,8 @@ def test_a_formation_entering_at_4_s_starts_its_route_when_it_enters():
 
 def test_a_formation_takes_the_branch_whose_first_place_is_nearer_and_follows_it_in_shape():
     # a choose between two whole routes: the square, a wait and the east exit; or the south-east exit
-    text = SQUARE.replace('''[[groups.route]]
-kind = "goto"
-name = "square"
-area = { shape = "disc", center = [30.0, 15.0], radius = 3.0 }
-
-[[groups.route]]
-kind = "wait"
-time = 5.0
-
-[[groups.route]]
-kind = "choose"
-by = "nearest"
-among = [
-  { kind = "leave", name = "east", area = { shape = "rect", lower = [55.0, 12.0], upper = [59.5, 18.0] } },
-  { kind = "leave", name = "west", area = { shape = "rect", lower = [0.5, 2.0], upper = [3.0, 8.0] } },
-]''', '''route = [{ kind = "choose", by = "nearest", among = [
+    route_tables = SQUARE[SQUARE.index("[[groups.route]]"):SQUARE.index("\n\n[formation]")]
+    text = SQUARE.replace(route_tables, '''route = [{ kind = "choose", by = "nearest", among = [
   [ { kind = "goto", name = "square", area = { shape = "disc", center = [30.0, 15.0], radius = 3.0 } },
     { kind = "wait", time = 5.0 },
     { kind = "leave", name = "east", area = { shape = "rect", lower = [55.0, 12.0], upper = [59.5, 18.0] } } ],
