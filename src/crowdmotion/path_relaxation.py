@@ -145,6 +145,113 @@ def separate(X, active, radius, margin, h, sweeps):
 
 
 @njit(cache=True, parallel=True)
+def separate_swept(X, active, radius, margin, h, sweeps):
+    """Push apart every two bodies whose straight moves between frames f and f + 1 bring
+    them nearer than r_i + r_j + ``margin`` (the continuous-time audit's view of a frame
+    interval, where :func:`separate` sees the frames alone): at the pair's closest
+    approach, at the share u of the interval, each body moves by half the shortfall
+    along the line between them, frame f by (1 - u) of it and frame f + 1 by u. Even
+    intervals, then odd ones (so that no two at once move one frame), each up to
+    ``sweeps`` times; a uniform grid of cell ≥ ``h`` plus the longest move on the first two
+    axes. Returns the number of pushes made."""
+    T, N, D = X.shape
+    pushes = np.zeros(T, np.int64)
+    for parity in range(2):
+        for f in prange(T - 1):
+            if f % 2 != parity:
+                continue
+            idx = np.empty(N, np.int64)
+            k = 0
+            for i in range(N):
+                if active[f, i] and active[f + 1, i]:
+                    idx[k] = i
+                    k += 1
+            if k < 2:
+                continue
+            push0 = np.zeros((N, D))
+            push1 = np.zeros((N, D))
+            cell = np.empty(k, np.int64)
+            items = np.empty(k, np.int64)
+            for _ in range(sweeps):
+                move = 0.0
+                for a in range(k):
+                    i = idx[a]
+                    m2 = 0.0
+                    for d in range(D):
+                        m2 += (X[f + 1, i, d] - X[f, i, d]) ** 2
+                    move = max(move, np.sqrt(m2))
+                hf = h + move
+                lox, loy, hix, hiy = np.inf, np.inf, -np.inf, -np.inf
+                for a in range(k):
+                    i = idx[a]
+                    lox, hix = min(lox, X[f, i, 0]), max(hix, X[f, i, 0])
+                    loy, hiy = min(loy, X[f, i, 1]), max(hiy, X[f, i, 1])
+                nx, ny = int((hix - lox) / hf) + 1, int((hiy - loy) / hf) + 1
+                while nx * ny > 4 * k + 16:
+                    hf = hf * 1.5
+                    nx, ny = int((hix - lox) / hf) + 1, int((hiy - loy) / hf) + 1
+                start = np.zeros(nx * ny + 1, np.int64)
+                for a in range(k):
+                    i = idx[a]
+                    cell[a] = min(int((X[f, i, 0] - lox) / hf), nx - 1) * ny + min(int((X[f, i, 1] - loy) / hf), ny - 1)
+                    start[cell[a] + 1] += 1
+                for c in range(nx * ny):
+                    start[c + 1] += start[c]
+                fill = start[:-1].copy()
+                for a in range(k):
+                    items[fill[cell[a]]] = idx[a]
+                    fill[cell[a]] += 1
+                touched = 0
+                for a in range(k):
+                    i = idx[a]
+                    cx, cy = cell[a] // ny, cell[a] % ny
+                    for gx in range(max(cx - 1, 0), min(cx + 2, nx)):
+                        for gy in range(max(cy - 1, 0), min(cy + 2, ny)):
+                            c = gx * ny + gy
+                            for s in range(start[c], start[c + 1]):
+                                j = items[s]
+                                if j <= i:
+                                    continue
+                                # relative position r(u) = r0 + u (r1 - r0), u in [0, 1]
+                                rd = 0.0
+                                dd = 0.0
+                                for d in range(D):
+                                    r0 = X[f, j, d] - X[f, i, d]
+                                    e = (X[f + 1, j, d] - X[f + 1, i, d]) - r0
+                                    rd += r0 * e
+                                    dd += e * e
+                                u = 0.0 if dd <= 0.0 else min(max(-rd / dd, 0.0), 1.0)
+                                q2 = 0.0
+                                for d in range(D):
+                                    r0 = X[f, j, d] - X[f, i, d]
+                                    q2 += (r0 + u * ((X[f + 1, j, d] - X[f + 1, i, d]) - r0)) ** 2
+                                need = radius[i] + radius[j] + margin
+                                if q2 >= need * need or q2 == 0.0:
+                                    continue
+                                dist = np.sqrt(q2)
+                                corr = 0.5 * (need - dist) / dist
+                                for d in range(D):
+                                    r0 = X[f, j, d] - X[f, i, d]
+                                    w = (r0 + u * ((X[f + 1, j, d] - X[f + 1, i, d]) - r0)) * corr
+                                    push0[i, d] -= (1.0 - u) * w
+                                    push0[j, d] += (1.0 - u) * w
+                                    push1[i, d] -= u * w
+                                    push1[j, d] += u * w
+                                touched += 1
+                if touched == 0:
+                    break
+                pushes[f] += touched
+                for a in range(k):
+                    i = idx[a]
+                    for d in range(D):
+                        X[f, i, d] += push0[i, d]
+                        X[f + 1, i, d] += push1[i, d]
+                        push0[i, d] = 0.0
+                        push1[i, d] = 0.0
+    return pushes.sum()
+
+
+@njit(cache=True, parallel=True)
 def limit_steps(X, first, last, max_step, sweeps):
     """Shorten every step of agent i (frames first[i] .. last[i]) longer than
     ``max_step[i]``: its two frames move towards each other by the excess, half each (all
@@ -296,7 +403,8 @@ def obstacle_arrays(scene: Scene | None, times: np.ndarray):
 
 def relax(positions: np.ndarray, active: np.ndarray, radius: np.ndarray, dt: float, scene: Scene | None,
           window_s: float = 1.0, iterations: int = 40, weight: float = 0.5, margin: float = 0.01,
-          sweeps: int = 4, passes: int = PASSES, settle: int = 0, max_speed: np.ndarray | None = None) -> np.ndarray:
+          sweeps: int = 4, passes: int = PASSES, settle: int = 0, max_speed: np.ndarray | None = None,
+          swept: bool = False) -> np.ndarray:
     """Relaxed paths (module docstring): ``positions`` (T, N, D) at ``dt`` seconds, each
     agent active over one run of frames (``active``), smoothed over ``window_s`` seconds
     by ``iterations`` rounds of averaging (``passes`` box passes, each round moving a frame
@@ -306,7 +414,10 @@ def relax(positions: np.ndarray, active: np.ndarray, radius: np.ndarray, dt: flo
     averaging of the last round leaves some nearer than ``margin``, and a round's agent
     pushes can move a body back towards an obstacle), ending on the obstacles' push.
     With ``max_speed`` (N,) m/s, each round also shortens every step that would outrun it
-    (:func:`limit_steps`: the pushes can speed a body up). Returns a new array."""
+    (:func:`limit_steps`: the pushes can speed a body up). ``swept``: the agent pushes
+    also keep bodies apart along the straight moves between frames
+    (:func:`separate_swept`; frames far apart in time can be clear while the moves between
+    them cross). Returns a new array."""
     X = np.array(positions, dtype=np.float64)
     act = np.ascontiguousarray(active, dtype=np.bool_)
     T, N, D = X.shape
@@ -328,10 +439,15 @@ def relax(positions: np.ndarray, active: np.ndarray, radius: np.ndarray, dt: flo
         if len(obstacles[0]):
             push_out_of_obstacles(X, act, radius, margin, *obstacles)
         separate(X, act, radius, margin, h, sweeps)
+        if swept:
+            separate_swept(X, act, radius, margin, h, sweeps)
     for _ in range(settle):
         slowed = 0 if max_step is None else limit_steps(X, first, last, max_step, sweeps)
         pushed = push_out_of_obstacles(X, act, radius, margin, *obstacles) if len(obstacles[0]) else 0
-        if separate(X, act, radius, margin, h, sweeps) == 0 and pushed == 0 and slowed == 0:
+        apart = separate(X, act, radius, margin, h, sweeps)
+        if swept:
+            apart += separate_swept(X, act, radius, margin, h, sweeps)
+        if apart == 0 and pushed == 0 and slowed == 0:
             break
     else:
         if settle and len(obstacles[0]):
@@ -340,12 +456,18 @@ def relax(positions: np.ndarray, active: np.ndarray, radius: np.ndarray, dt: flo
 
 
 # Relaxed paths cost about 40 rounds over every agent's every frame plus continuous audits
-# of them: 2,000 agents for 384 s at 24 fps (18 million agent-frames) took over 20 minutes.
-# A run with more agent-frames at ``fps`` than this is relaxed at its own steps instead (one
-# frame per step, STEP_RATE_ITERATIONS rounds over a window of three steps) and written at
-# that rate: its players and exports resample it along the B-spline of its frames.
+# of them: 2,000 agents for 384 s at 24 fps (18 million agent-frames) took 9 minutes on one
+# core, and in a crowd that dense the audit's fallbacks cascade (each step put back on its
+# straight move meets relaxed neighbours) until every step is straight. A run with more
+# agent-frames at ``fps`` than this is relaxed at its own steps instead (one frame per step,
+# STEP_RATE_ITERATIONS rounds over a window of three steps) and written at that rate: its
+# players and exports resample it along the B-spline of its frames. Frames that far apart
+# are kept apart along the straight moves between them (:func:`separate_swept`, the audit's
+# view), within each agent's speed, and settled by up to STEP_RATE_SETTLE rounds of those
+# pushes, so that no step needs to fall back.
 RELAX_AT_FPS_MAX = 1_000_000
 STEP_RATE_ITERATIONS = 10
+STEP_RATE_SETTLE = 20
 
 
 def relaxed_trajectories(traj, fps: float | None, window_s: float, scene: Scene | None, max_speed: np.ndarray,
@@ -356,10 +478,12 @@ def relaxed_trajectories(traj, fps: float | None, window_s: float, scene: Scene 
     then audited in continuous time: a step where they still touch, or outrun an agent's
     ``max_speed`` (N,), keeps the run's straight move, eased in and out
     (:func:`crowdmotion.smoothing.keep_clean`). A run with more than ``RELAX_AT_FPS_MAX``
-    agent-frames at ``fps`` is relaxed and kept at its own steps. ``metadata["relaxed"]``
-    says which, and ``metadata["resampled"]`` how many steps fell back. ``keep_speed``:
-    the relaxation itself keeps every agent within its ``max_speed`` (or its own fastest
-    step, where that is faster), so that few steps need to fall back for speed."""
+    agent-frames at ``fps`` is relaxed and kept at its own steps, its bodies kept apart
+    along the straight moves between them too, within their speed, and settled (see
+    ``RELAX_AT_FPS_MAX``). ``metadata["relaxed"]`` says which, and
+    ``metadata["resampled"]`` how many steps fell back. ``keep_speed``: the relaxation
+    itself keeps every agent within its ``max_speed`` (or its own fastest step, where that
+    is faster), so that few steps need to fall back for speed."""
     from crowdmotion.smoothing import keep_clean
     from crowdmotion.trajectories import Trajectories, resample
 
@@ -370,12 +494,13 @@ def relaxed_trajectories(traj, fps: float | None, window_s: float, scene: Scene 
     if traj.n_frames < 2:
         return linear
     top = None
-    if keep_speed:  # a hair under the audit's limit (keep_clean): the settling pushes may add a little
+    if keep_speed or (by_steps and fps is not None):  # a hair under the audit's limit (keep_clean): the settling pushes may add a little
         top = 0.999 * np.maximum(max_speed, np.linalg.norm(np.diff(traj.positions, axis=0), axis=-1).max(axis=0)
                                  / traj.dt)
     if by_steps and fps is not None:  # a run this large: minutes saved, see RELAX_AT_FPS_MAX
         pos = relax(traj.positions, traj.active_mask, traj.radius, traj.dt, scene, window_s,
-                    iterations=STEP_RATE_ITERATIONS, passes=1, margin=margin, settle=settle, max_speed=top)
+                    iterations=STEP_RATE_ITERATIONS, passes=1, margin=margin, settle=max(settle, STEP_RATE_SETTLE),
+                    max_speed=top, swept=True)
     else:
         pos = relax(linear.positions, linear.active_mask, traj.radius, linear.dt, scene, window_s, margin=margin,
                     settle=settle, max_speed=top)

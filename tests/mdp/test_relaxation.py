@@ -69,6 +69,43 @@ def test_relaxed_bodies_keep_apart_and_out_of_obstacles():
     assert np.nanmax(tr.speed[:-1][tr.active_mask[:-1] & tr.active_mask[1:]]) <= 1.5 + 1e-9
 
 
+def test_bodies_clear_at_their_frames_are_kept_apart_along_the_moves_between_them():
+    # two bodies of radius 0.25 swap sides 0.3 m apart: 1.04 m apart at both frames, but the
+    # straight moves between them meet (the audit sees 0.3 m at half the interval)
+    from crowdmotion.path_relaxation import separate_swept
+    from crowdmotion.trajectories import Trajectories
+
+    X = np.array([[[0.0, 0.0], [1.0, 0.3]], [[1.0, 0.0], [0.0, 0.3]]])
+    radius = np.full(2, 0.25)
+    active = np.ones((2, 2), dtype=bool)
+    assert not collision_audit(Trajectories(X.copy(), 0.5, radius=radius), None).clean
+    separate_swept(X, active, radius, 0.01, 0.51, 50)
+    assert collision_audit(Trajectories(X, 0.5, radius=radius), None).clean
+    assert np.allclose(X.mean(axis=1), [[0.5, 0.15], [0.5, 0.15]])  # pushed apart, not moved on
+
+
+def test_a_run_relaxed_at_its_own_steps_keeps_every_step_smooth(monkeypatch):
+    # a run too large for fps (RELAX_AT_FPS_MAX) is relaxed at its steps: bodies kept apart
+    # along the moves too, so that no step falls back to the plan's straight zig-zag
+    from crowdmotion import path_relaxation
+    from crowdmotion.metrics import root_motion
+
+    monkeypatch.setattr(path_relaxation, "RELAX_AT_FPS_MAX", 1000)
+    scene = cm.Scene([[0.0, 0.0], [20.0, 10.0]], [cm.Circle([10.0, 5.0], 1.0)])
+    groups = [cm.Group("east", 12, spawn=cm.Rect([1.0, 2.0], [4.0, 8.0]), goal=cm.Rect([16.0, 2.0], [19.0, 8.0]),
+                       radius=0.3),
+              cm.Group("west", 12, spawn=cm.Rect([16.0, 2.0], [19.0, 8.0]), goal=cm.Rect([1.0, 2.0], [4.0, 8.0]),
+                       radius=0.3)]
+    tr = run(scene, groups, mdp.MDPParams(remove_on_arrival=True), np.random.default_rng(1)).trajectories
+    assert tr.metadata["relaxed"]["at"] == "steps"
+    assert tr.metadata["resampled"]["straight_segments"] == 0
+    assert collision_audit(tr, scene).clean
+    ok = tr.active_mask[:-1] & tr.active_mask[1:]
+    assert np.nanmax(tr.speed[:-1][ok]) <= 1.5 + 1e-9
+    rm = root_motion(tr)
+    assert rm["acceleration_mps2"]["p95"] <= 2.0 and rm["deviation_from_1s_average_m"]["p95"] <= 0.05, rm
+
+
 @pytest.mark.parametrize("value", [float("nan"), -1.0, 0.0])
 def test_smoothing_window_must_be_a_positive_number_of_seconds(value):
     with pytest.raises(ValueError, match="smoothing_window"):

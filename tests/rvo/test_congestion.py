@@ -101,13 +101,19 @@ def test_two_streams_in_a_corridor_form_lanes_and_pass():
     from crowdmotion import empirical as E
     from crowdmotion.cases import simulate
 
-    for seed in (0, 1):
+    runs = []  # lane order and speed with the counterflow term, and without it
+    for seed in range(4):
         lanes = simulate("rvo", _bot_counterflow(20.0), seed)
         mixed = simulate("rvo", _bot_counterflow(0.0), seed)
         assert lanes.summary["arrival_rate"] == 1.0 and lanes.summary["agent_agent_overlaps"] == 0
         _, v, order, shuffled = E.bot_measures(lanes.traj, np.random.default_rng(0))
         _, v_mixed, order_mixed, _ = E.bot_measures(mixed.traj, np.random.default_rng(0))
-        # lanes: the order near its maximum of 1, well above the shuffled labels' (which is
-        # 0.6-0.7 here, with one or two neighbours in the window: a ratio to it cannot say more)
-        assert order >= 0.85 and order >= shuffled + 0.15, "the streams walk in lanes"
-        assert order > order_mixed + 0.2 and v > v_mixed + 0.2, "lanes are what lets them pass"
+        # lanes: the order well above the shuffled labels' (which is 0.5-0.7 here, with one or
+        # two neighbours in the window: a ratio to it cannot say more)
+        assert order >= shuffled + 0.15, "the streams walk in lanes"
+        runs.append((order, v, order_mixed, v_mixed))
+    # on average over the seeds (one run's order spreads by about ±0.07: 0.76-0.97 over seeds
+    # 0-13): the order near its maximum of 1, and lanes are what lets them pass
+    order, v, order_mixed, v_mixed = np.mean(runs, axis=0)
+    assert order >= 0.85, runs
+    assert order > order_mixed + 0.2 and v > v_mixed + 0.2, runs
