@@ -28,7 +28,7 @@ def test_knn_matches_ckdtree(m, dmax):
         assert np.allclose(np.sqrt(d2[:k]), [d for d, _ in ref])
 
 
-def _choose(pos, vel, vpref, samples=20, safety=5.0, segs=None, comfort=0.0, goals=None, leave_r=0.0, key=7):
+def _choose(pos, vel, vpref, samples=20, safety=5.0, segs=None, comfort=0.0, goals=None, leave_r=0.0):
     n = len(pos)
     active = np.ones(n, dtype=bool)
     h = 5.0
@@ -41,7 +41,7 @@ def _choose(pos, vel, vpref, samples=20, safety=5.0, segs=None, comfort=0.0, goa
     K.choose_velocities(pos, vel, vpref, np.full(n, 100.0), np.full(n, 0.5), np.full(n, 1.5), np.full(n, 10),
                         np.full(n, 10.0), np.full(n, samples), np.full(n, safety), active, start, items,
                         lo[0], lo[1], h, nx, ny, np.zeros((0, 2)), np.zeros(0), np.zeros((0, 2)), seg_a, seg_b,
-                        np.zeros_like(seg_a), 0.25, np.uint64(key), out, np.zeros(n, dtype=bool), 0.0, 5.0, np.zeros(n),
+                        np.zeros_like(seg_a), 0.25, np.uint64(7), out, np.zeros(n, dtype=bool), 0.0, 5.0, np.zeros(n),
                         np.full(n, comfort), pos + 100.0 if goals is None else goals, np.full(n, leave_r))
     return out
 
@@ -75,32 +75,16 @@ def test_a_harder_change_is_taken_when_the_comfortable_ones_lead_into_a_neighbou
     assert np.linalg.norm(out[0] - vel[0]) > 0.2 + 1e-9
 
 
-def test_a_swerve_is_no_harder_than_the_least_one_a_dense_search_finds():
-    # walking at 1.3 m/s onto one standing 1 m ahead: the least swerve that clears it, found
-    # among 5000 candidates, changes the velocity by 0.33 m/s; the best of 50 random ones is
-    # up to the sunflower's spacing (0.4 m/s) off it, and the refinement round it closes most
-    # of that gap (without it the median excess over 40 steps is 0.12 m/s)
-    pos = np.array([[0.0, 0.0], [2.0, 0.0]])
-    vel = np.array([[1.3, 0.0], [0.0, 0.0]])
-    vpref = np.array([[1.3, 0.0], [0.0, 0.0]])
-    least = np.linalg.norm(_choose(pos, vel, vpref, samples=5000, comfort=0.2)[0] - vel[0])
-    change = [np.linalg.norm(_choose(pos, vel, vpref, samples=50, comfort=0.2, key=k)[0] - vel[0]) for k in range(40)]
-    assert least == pytest.approx(0.33, abs=0.01)
-    assert np.min(change) >= least - 0.01
-    assert np.median(change) <= least + 0.06
-
-
 def test_an_agent_about_to_leave_steps_in_past_a_neighbour_beyond_its_goal():
     # agent 0 is 0.7 m from the goal point it leaves at (within 0.5 m); agent 1, bound for
-    # the same point, comes from 1.25 m beyond it: eq. (3) alone turns 0 aside (its minimum,
-    # sampled with 5000 candidates, swerves by 0.47 m/s), but the collision it fears would
-    # come only after 0 has left
+    # the same point, comes from 1.25 m beyond it: eq. (3) alone turns 0 aside short of the
+    # arrival disc, but the collision it fears would come only after 0 has left
     pos = np.array([[0.0, 0.0], [1.95, 0.0]])
     vel = np.array([[1.0, 0.0], [-0.5, 0.0]])
     vpref = np.array([[1.3, 0.0], [-1.3, 0.0]])
     goals = np.array([[0.7, 0.0], [0.7, 0.0]])
     stays = _choose(pos, vel, vpref, samples=50, goals=goals, leave_r=0.0)
     leaves = _choose(pos, vel, vpref, samples=50, goals=goals, leave_r=0.5)
-    assert abs(stays[0, 1]) > 0.3
+    assert np.linalg.norm(pos[0] + stays[0] * 0.25 - goals[0]) > 0.5
     assert np.linalg.norm(pos[0] + leaves[0] * 0.25 - goals[0]) <= 0.5
     assert np.allclose(leaves[0], vpref[0])

@@ -23,10 +23,6 @@ SLACK = 1e-6
 # penalty (m/s of eq. (3)'s deviation) per m/s of velocity change beyond the comfortable one
 COMFORT_WEIGHT = 2.0
 RING = 8  # candidates on the circle of comfortable changes round the current velocity
-# levels of the line search that refines a random candidate winning the choice with more
-# than the comfortable change: two candidates each along that change (a harder one and a
-# gentler one), half the sunflower's spacing away, then halving
-REFINE_LEVELS = 3
 LEAVE_LOOK_S = 1.0  # an agent counts on leaving at its goal when it would get there within this many seconds
 # lane choice leaves out a neighbour whose weight at every offset is below exp(−LANE_TRUNCATE)
 # of its own: 2e-16, under the rounding of the sums it would join
@@ -120,13 +116,7 @@ def choose_velocities(pos, vel, vpref, aim_dist, radius, vmax, max_nb, nb_dist, 
 
     For agent i the candidates are v_pref, the current velocity, standing still and
     ``samples[i]`` random velocities in the disc of radius ``vmax[i]`` (stratified: a
-    randomly turned and shifted sunflower pattern). Where a random one is the best and
-    changes a walker's velocity by more than ``comfort[i]``, a line search along that
-    change refines it (``REFINE_LEVELS`` levels of a harder and a gentler change, from half
-    the sunflower's spacing, halving): the best of a few random samples lies up to their
-    spacing (0.4 m/s at v_max 1.6 m/s and 50 samples) from the least penalty in its
-    direction, and a brake or swerve that overshoots by a random amount each step makes a
-    dense crowd stop and go. For each
+    randomly turned and shifted sunflower pattern). For each
     candidate v′, tc is the least time to collision over the ≤ M nearest neighbours within
     D — along the reciprocal velocity 2v′ − v_i − v_j against the disc r_i + r_j — and over
     obstacles along v′ (relative to the obstacle's own velocity); an obstacle that v′ would
@@ -301,23 +291,8 @@ def _choose_one(i, pos, vel, vpref, aim_dist, radius, vmax, max_nb, nb_dist, sam
     if reach_i > 0.0 and en > reach_i:
         gx, gy = vix + ex * reach_i / en, viy + ey * reach_i / en
     n_ring = RING if reach_i > 0.0 else 0
-    n_set = n_s + 4 + n_ring  # the candidates above; then the refinement round the best of them
-    spacing = 0.0  # half the spacing of the random samples while one of them is the best (0: not refined)
-    ux, uy = 1.0, 0.0  # the refinement's direction: along the best's change of velocity
-    for cnd in range(n_set + 2 * REFINE_LEVELS):
-        if cnd >= n_set:  # refinement: a line search along the best random winner's change of velocity
-            r_ = cnd - n_set
-            if r_ == 0:
-                ux, uy = bx - vix, by - viy
-                un_ = np.sqrt(ux * ux + uy * uy)
-                if best_pen == INF or spacing == 0.0 or un_ <= reach_i:
-                    break  # no random winner, or one within the comfortable change: kept
-                ux, uy = ux / un_, uy / un_
-            s_ = spacing * 0.5 ** (r_ // 2)  # half the sunflower's spacing, then halving
-            if r_ % 2 == 1:
-                s_ = -s_
-            cx_, cy_ = bx + s_ * ux, by + s_ * uy  # round the best so far: a harder or a gentler change
-        elif cnd == 0:
+    for cnd in range(n_s + 4 + n_ring):
+        if cnd == 0:
             cx_, cy_ = wx, wy
         elif cnd == 1:
             cx_, cy_ = vix, viy
@@ -392,10 +367,6 @@ def _choose_one(i, pos, vel, vpref, aim_dist, radius, vmax, max_nb, nb_dist, sam
         if t_static >= dt * (1.0 + SLACK):
             if t_moving >= dt * (1.0 + SLACK) and pen < best_pen:
                 best_pen, bx, by = pen, cx_, cy_
-                if cnd < 4 + n_ring:
-                    spacing = 0.0  # v_pref, the current velocity, standing, a comfortable change: kept as they are
-                elif cnd < n_set and reach_i > 0.0:  # walkers only: eq. (3) alone is kept for the others
-                    spacing = 0.5 * vm * np.sqrt(np.pi / n_s)  # half the sunflower's spacing
             if pen < best_any:
                 best_any, ax_, ay_ = pen, cx_, cy_
     if best_pen < INF:
