@@ -11,7 +11,7 @@ from crowdmotion.scenario import load_scenario, run_scenario
 from tests.io.readers import assert_sqlite_opens_in_pedpy_and_jupedsim, assert_usd_obstacles_where_the_scene_has_them
 
 SCENES = {p.stem: p for p in builtin_scenarios()}
-# 2000 people for 285 s: its exports alone take a minute; 2000 MDP agents: relaxing their paths takes 20 s
+# 2000 people for 266 s: its exports alone take a minute; 2000 MDP agents: relaxing their paths takes 20 s
 LARGE = {"rvo_stand_evacuation", "mdp_doorway_2000"}
 # known misses of the walkers' root-motion limits, with today's p95 figures:
 # rvo_stand_exits: 2.02 m/s², 2.01 rad/s, 5.6 cm (400 pressing to three 2 m exits; docs/journeys.md)
