@@ -739,3 +739,10 @@ def test_validate_refuses_a_wait_in_a_branch_for_a_pso_swarm_naming_it():
     with pytest.raises(ScenarioError, match=r"groups.0.route.0.among.0.1 \(group 'walkers'\): a 'wait' stage, but "
                                             r"method 'pso' follows only goto, choose, leave stages"):
         parse_scenario(text)
+
+
+def test_validate_warns_when_people_are_due_after_the_run_ends():
+    # 120 at 2 per second need until 59.5 s; 100 steps of 0.25 s end the run at 25 s
+    with pytest.warns(UserWarning, match=r"group 'commuters' \(groups\.0\) enter: 69 of 120 agents are due after "
+                                         r"the run ends at 25 s \(\[rvo\] max_steps x time_step\), the last at 59\.5 s"):
+        parse_scenario(STREAM.replace("max_steps = 1200", "max_steps = 100"))

@@ -127,6 +127,25 @@ def check_entrances(scene: Scene, k: int, group: Group) -> None:
         check_inside(scene, k, group, f"enter.entrances.{j}", area)
 
 
+def warn_late_entries(k: int, group: Group, run_end_s: float, setting: str) -> None:
+    """Warn (UserWarning) when some of a group's agents are due to enter after the run
+    ends (``run_end_s`` seconds, from ``setting``, e.g. "[rvo] max_steps x time_step"):
+    they would never enter."""
+    import warnings
+
+    from crowdmotion.journeys import entry_times
+
+    spec = group.attributes.get("enter")
+    if spec is None:
+        return
+    due = entry_times(spec, group.count)
+    late = int((due > run_end_s).sum())
+    if late:
+        warnings.warn(f"{where(k, group)} enter: {late} of {group.count} agents are due after the run ends at "
+                      f"{run_end_s:g} s ({setting}), the last at {due.max():g} s; they never enter. Raise the run's "
+                      f"length or enter them sooner", UserWarning, stacklevel=2)
+
+
 def check_spawn_capacity(scene: Scene, k: int, group: Group, gap: float) -> None:
     """Refuse a spawn region that cannot hold the group's bodies ``gap`` apart (by area)."""
     spawn = group.spawn

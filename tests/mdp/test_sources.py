@@ -124,3 +124,10 @@ def test_validate_refuses_an_mdp_entrance_outside_the_scene_naming_it():
     bad = TWO_DOORS.replace("lower = [4.0, 0.0], upper = [6.0, 1.0]", "lower = [4.0, -1.0], upper = [6.0, 1.0]")
     with pytest.raises(ScenarioError, match=r"enter.entrances.1: rect .* reaches outside scene.bounds"):
         parse_scenario(bad)
+
+
+def test_validate_warns_when_mdp_agents_are_due_after_the_run_ends():
+    # 20 at 1 per second from 2 s: the last is due at 21 s, after 10 steps
+    with pytest.warns(UserWarning, match=r"enter: \d+ of 20 agents are due after the run ends at .* \(\[mdp\] "
+                                         r"max_steps x its step time\), the last at 21 s"):
+        parse_scenario(STREAM.replace("max_steps = 400", "max_steps = 10"))

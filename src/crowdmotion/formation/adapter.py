@@ -18,10 +18,12 @@ def check_scenario(scene, groups, params: FormationParams) -> None:
     """Problems a scenario can be refused for before running: a goal outside the bounds
     or where a body cannot stand, a 3D scene, a template that does not match the count,
     duplicate or blocked starts, a goal that walls cut off from the formation's start."""
-    from crowdmotion.checks import check_goal_clear, check_inside, check_route_places, describe_region, where
+    from crowdmotion.checks import check_goal_clear, check_inside, check_route_places, describe_region, \
+        warn_late_entries, where
     from crowdmotion.formation.routes import check_formation_route
 
     for k, g in enumerate(groups):
+        warn_late_entries(k, g, params.max_steps * params.time_step, "[formation] max_steps x time_step")
         if g.dim == scene.dim:  # (a 3D group is refused, by name, as the simulator is built)
             check_goal_clear(scene, k, g)
             check_inside(scene, k, g, "goal")

@@ -35,7 +35,7 @@ def check_scenario(scene, groups, params: MDPParams) -> None:
     """Everything a run refuses, refused before it starts: the set-up itself (cell size,
     goal and spawn cells, slots, room for every agent, entry tables and entrances), then a
     goal no agent can reach."""
-    from crowdmotion.checks import check_entrances, describe_region, where
+    from crowdmotion.checks import check_entrances, describe_region, warn_late_entries, where
     from crowdmotion.mdp.solvers import exact_values
 
     from crowdmotion.checks import check_route_places
@@ -45,6 +45,8 @@ def check_scenario(scene, groups, params: MDPParams) -> None:
 
     for k, g in enumerate(groups):
         check_entrances(scene, k, g)
+        if "enter" in g.attributes:
+            warn_late_entries(k, g, params.max_steps * step_seconds(groups, params), "[mdp] max_steps x its step time")
         if g.attributes.get("route") is not None:
             check_mdp_route(g.attributes["route"], where(k, g))
             check_route_places(scene, k, g)

@@ -18,7 +18,7 @@ def check_scenario(scene, groups, params: RVOParams) -> None:
     cannot stand on, spawn regions too small, then the set-up itself (placement, personality,
     guidance fields) and goals the field says no agent can reach."""
     from crowdmotion.checks import check_dimension, check_entrances, check_goal_clear, check_inside, \
-        check_route_places, check_spawn_capacity, describe_region, where
+        check_route_places, check_spawn_capacity, describe_region, warn_late_entries, where
     from crowdmotion.stages import field_path, flat_stages
 
     check_dimension("rvo", scene, (2,), "use method = 'mdp' or 'pso' for 3D scenes")
@@ -27,6 +27,7 @@ def check_scenario(scene, groups, params: RVOParams) -> None:
         check_inside(scene, k, g, "spawn")
         check_inside(scene, k, g, "goal")
         check_entrances(scene, k, g)
+        warn_late_entries(k, g, params.max_steps * params.time_step, "[rvo] max_steps x time_step")
         # a group entering over time need not fit all at once (build_simulator checks its enter table)
         if "enter" not in g.attributes:
             check_spawn_capacity(scene, k, g, params.spawn_gap)
