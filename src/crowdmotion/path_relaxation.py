@@ -67,6 +67,36 @@ def smooth_toward_average(X, first, last, half, passes, weight):
                 X[a + f, i, d] += weight * (cur[f, d] - X[a + f, i, d])
 
 
+@njit(cache=True)
+def _bin_frame(X, f, idx, k, h, cell, items):
+    """Counting sort of the ``k`` bodies ``idx`` of frame ``f`` into a uniform grid of cell
+    ≥ ``h`` over their bounding box on the first two axes (wider cells in a sparse frame,
+    at most 4k + 16 of them): fills ``cell`` (each body's cell) and ``items`` (the bodies,
+    cell by cell); returns (the cells' starts into ``items``, the grid's nx, ny)."""
+    lox, loy, hix, hiy = np.inf, np.inf, -np.inf, -np.inf
+    for a in range(k):
+        i = idx[a]
+        lox, hix = min(lox, X[f, i, 0]), max(hix, X[f, i, 0])
+        loy, hiy = min(loy, X[f, i, 1]), max(hiy, X[f, i, 1])
+    hf = h
+    nx, ny = int((hix - lox) / hf) + 1, int((hiy - loy) / hf) + 1
+    while nx * ny > 4 * k + 16:  # a sparse frame: fewer, wider cells
+        hf = hf * 1.5
+        nx, ny = int((hix - lox) / hf) + 1, int((hiy - loy) / hf) + 1
+    start = np.zeros(nx * ny + 1, np.int64)
+    for a in range(k):
+        i = idx[a]
+        cell[a] = min(int((X[f, i, 0] - lox) / hf), nx - 1) * ny + min(int((X[f, i, 1] - loy) / hf), ny - 1)
+        start[cell[a] + 1] += 1
+    for c in range(nx * ny):
+        start[c + 1] += start[c]
+    fill = start[:-1].copy()
+    for a in range(k):
+        items[fill[cell[a]]] = idx[a]
+        fill[cell[a]] += 1
+    return start, nx, ny
+
+
 @njit(cache=True, parallel=True)
 def separate(X, active, radius, margin, h, sweeps):
     """Push apart, in each frame, every two active bodies nearer than r_i + r_j + ``margin``
@@ -88,27 +118,7 @@ def separate(X, active, radius, margin, h, sweeps):
         cell = np.empty(k, np.int64)
         items = np.empty(k, np.int64)
         for _ in range(sweeps):
-            hf = h + 0.0  # this frame's cell (a name of its own: ``h *= ...`` in a prange body is a reduction)
-            lox, loy, hix, hiy = np.inf, np.inf, -np.inf, -np.inf
-            for a in range(k):
-                i = idx[a]
-                lox, hix = min(lox, X[f, i, 0]), max(hix, X[f, i, 0])
-                loy, hiy = min(loy, X[f, i, 1]), max(hiy, X[f, i, 1])
-            nx, ny = int((hix - lox) / hf) + 1, int((hiy - loy) / hf) + 1
-            while nx * ny > 4 * k + 16:  # a sparse frame: fewer, wider cells
-                hf = hf * 1.5
-                nx, ny = int((hix - lox) / hf) + 1, int((hiy - loy) / hf) + 1
-            start = np.zeros(nx * ny + 1, np.int64)
-            for a in range(k):
-                i = idx[a]
-                cell[a] = min(int((X[f, i, 0] - lox) / hf), nx - 1) * ny + min(int((X[f, i, 1] - loy) / hf), ny - 1)
-                start[cell[a] + 1] += 1
-            for c in range(nx * ny):
-                start[c + 1] += start[c]
-            fill = start[:-1].copy()
-            for a in range(k):
-                items[fill[cell[a]]] = idx[a]
-                fill[cell[a]] += 1
+            start, nx, ny = _bin_frame(X, f, idx, k, h, cell, items)
             touched = 0
             for a in range(k):
                 i = idx[a]
@@ -181,26 +191,7 @@ def separate_swept(X, active, radius, margin, h, sweeps):
                         m2 += (X[f + 1, i, d] - X[f, i, d]) ** 2
                     move = max(move, np.sqrt(m2))
                 hf = h + move
-                lox, loy, hix, hiy = np.inf, np.inf, -np.inf, -np.inf
-                for a in range(k):
-                    i = idx[a]
-                    lox, hix = min(lox, X[f, i, 0]), max(hix, X[f, i, 0])
-                    loy, hiy = min(loy, X[f, i, 1]), max(hiy, X[f, i, 1])
-                nx, ny = int((hix - lox) / hf) + 1, int((hiy - loy) / hf) + 1
-                while nx * ny > 4 * k + 16:
-                    hf = hf * 1.5
-                    nx, ny = int((hix - lox) / hf) + 1, int((hiy - loy) / hf) + 1
-                start = np.zeros(nx * ny + 1, np.int64)
-                for a in range(k):
-                    i = idx[a]
-                    cell[a] = min(int((X[f, i, 0] - lox) / hf), nx - 1) * ny + min(int((X[f, i, 1] - loy) / hf), ny - 1)
-                    start[cell[a] + 1] += 1
-                for c in range(nx * ny):
-                    start[c + 1] += start[c]
-                fill = start[:-1].copy()
-                for a in range(k):
-                    items[fill[cell[a]]] = idx[a]
-                    fill[cell[a]] += 1
+                start, nx, ny = _bin_frame(X, f, idx, k, hf, cell, items)
                 touched = 0
                 for a in range(k):
                     i = idx[a]
