@@ -89,3 +89,12 @@ def test_validate_refuses_a_late_swarm_beside_a_moving_target():
                         'goal = { shape = "moving", times = [0.0, 20.0], positions = [[14.0, 1.0], [14.0, -5.0]] }')
     with pytest.raises(ScenarioError, match=r"group 'east' \(groups.1\) enter: a swarm entering late needs fixed goals"):
         parse_scenario(text)
+
+
+def test_a_late_swarm_s_time_to_goal_counts_from_its_entry():
+    result = run_scenario(parse_scenario(YARD), progress=False)
+    run, summary = result.extras, result.summary
+    east = result.trajectories.group == "east"
+    arrived_s = run.swarm_run.arrival_iteration[east] * run.swarm_run.iteration_time
+    assert np.all(run.entered_at[east] == 5.0) and np.all(arrived_s > 5.0)
+    assert summary["time_to_goal_by_group_s"]["east"] == pytest.approx(np.mean(arrived_s - 5.0))

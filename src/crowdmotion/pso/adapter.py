@@ -160,15 +160,16 @@ def run_scenario(scene, groups, params: PSOParams, rng, progress: bool = True):
     summary = metrics.summary(traj, result.scene)
     names = np.array(result.group_names, dtype=object)[sr.swarm]
     arrived = sr.arrival_iteration >= 0
+    # seconds from entering (t = 0 for swarms there from the start) to the goal
+    entered = np.zeros(len(arrived)) if result.entered_at is None else np.nan_to_num(result.entered_at)
+    taken = np.where(arrived, sr.arrival_iteration * sr.iteration_time - entered, np.nan)
     summary.update({
         "method": "pso",
         "iterations": int(sr.paths.shape[0] - 1),
         "arrival_rate": sr.arrival_rate,
         "within_threshold_rate": float(sr.within_threshold().mean()),
-        "mean_time_to_goal_s": float(sr.arrival_iteration[arrived].mean() * sr.iteration_time) if arrived.any()
-        else None,
-        "time_to_goal_by_group_s": metrics.time_to_goal_by_group(
-            traj, np.where(arrived, sr.arrival_iteration * sr.iteration_time, np.nan)),
+        "mean_time_to_goal_s": float(taken[arrived].mean()) if arrived.any() else None,
+        "time_to_goal_by_group_s": metrics.time_to_goal_by_group(traj, taken),
         "groups_gathered": {n: bool(sr.stopped[names == n].all()) for n in result.group_names},
         "rules": dict(sr.stats),
         "generated_obstacles": len(result.scene.obstacles) - len(scene.obstacles),
