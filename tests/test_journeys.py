@@ -716,6 +716,11 @@ def test_set_route_sends_live_agents_along_the_branch_whose_first_place_is_neare
     ('upper = [40.0, 12.0] } } ],', 'upper = [41.0, 12.0] } } ],',
      r"route.0.among.0.2 \(leave 'east'\) area: rect \[39, 8\]-\[41, 12\] reaches outside scene.bounds"),
     (']\n"""', ']\n', None),
+    # a wait written as an option by itself: validate says to put it in a branch
+    ('{ kind = "leave", name = "west", area = { shape = "rect", lower = [0.0, 8.0], upper = [0.5, 12.0] } },',
+     '{ kind = "wait", time = 2.0 },',
+     r"groups.0.route.0.among.1 \(group 'walkers'\): a wait stage is no option by itself .*; put it in a branch "
+     r"after the place it happens at"),
 ])
 def test_validate_names_the_stage_of_a_bad_branch(old, new, message):
     text = SPLIT.replace("METHOD", "rvo").replace("COUNT", "20").replace(old, new)

@@ -434,6 +434,20 @@ class ChooseStageSpec(_Model):
     rechoose: Positive | None = None
     rechoose_margin: NonNegative | None = None
 
+    @model_validator(mode="before")
+    @classmethod
+    def _bare_options(cls, data):
+        """A wait or choose written as an option by itself: say how to write it."""
+        if isinstance(data, dict) and isinstance(data.get("among"), list):
+            for j, option in enumerate(data["among"]):
+                kind = option.get("kind") if isinstance(option, dict) else None
+                if kind in ("wait", "choose"):
+                    raise ValueError(f"among.{j}: a {kind} stage is no option by itself (an option is a goto, "
+                                     f"queue or leave, or a branch: a list of stages); put it in a branch after "
+                                     f"the place it happens at: among = [[{{ kind = \"goto\", ... }}, "
+                                     f"{{ kind = \"{kind}\", ... }}], ...]")
+        return data
+
     @model_validator(mode="after")
     def _weights(self):
         if (self.by == "weights") != (self.weights is not None):
