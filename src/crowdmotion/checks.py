@@ -121,9 +121,9 @@ def check_inside(scene: Scene, k: int, group: Group, part: str = "spawn", region
 def check_entrances(scene: Scene, k: int, group: Group) -> None:
     """Refuse a group's entrances (``enter.entrances``) that reach outside the scene, each
     named."""
-    from crowdmotion.journeys import entrances
+    from crowdmotion.journeys import entrance_areas
 
-    for j, area in enumerate((entrances(group.attributes.get("enter")) or ([], None))[0]):
+    for j, area in enumerate(entrance_areas(group.attributes.get("enter"))):
         check_inside(scene, k, group, f"enter.entrances.{j}", area)
 
 
@@ -323,8 +323,8 @@ def check_live_route(scene: Scene, route, count: int, radius: float, at, what: s
     """A route set while running (the live API) checked against the scene standing now as
     a scenario's route is (:func:`check_route_places`, for ``count`` bodies of ``radius``
     now at the point ``at``); the message begins ``what:``, then names the stage."""
-    probe = Group(what, count, Points(np.asarray(at, float).reshape(1, 2)), Points(np.asarray(at, float).reshape(1, 2)),
-                  radius=float(radius), attributes={"route": route})
+    here = np.asarray(at, float).reshape(1, 2)
+    probe = Group(what, count, Points(here), Points(here), radius=float(radius), attributes={"route": route})
     try:
         check_route_places(scene, 0, probe)
     except ValueError as exc:

@@ -128,6 +128,12 @@ def entrances(spec, where: str = "enter") -> tuple[list, np.ndarray] | None:
     return list(areas), w / w.sum()
 
 
+def entrance_areas(spec, where: str = "enter") -> list:
+    """A group's entrance areas ([] when it enters at its spawn); see :func:`entrances`."""
+    got = entrances(spec, where)
+    return [] if got is None else got[0]
+
+
 def check_enter(spec, count: int, where: str = "enter") -> None:
     """Refuse an ``enter`` table a group of ``count`` cannot use (ValueError naming the
     field): its times and its entrances."""
@@ -155,7 +161,7 @@ def entry_points(scene, group, doors: np.ndarray, gap: float, rng: np.random.Gen
     each when its place is free. A points area gives each one of its points, drawn (a
     points spawn: the listed point of each agent, kept)."""
     doors = np.asarray(doors, dtype=np.int64)
-    areas = (entrances(group.attributes.get("enter")) or ([], None))[0]
+    areas = entrance_areas(group.attributes.get("enter"))
     out = np.empty((len(doors), scene.dim))
     for j in np.unique(doors):
         own = doors == j
@@ -358,7 +364,7 @@ class Journeys:
                 else:
                     self._queue_of[st.key] = len(self.queues)
                     self.queues.append(ServiceQueue(st, len(ids)))
-        w.add_goal_regions([r for r in self.regions() if r is not None])
+        w.add_goal_regions(self.regions())
         self._drop(ids[self.on_route[ids] & self.begun[ids] & ~self.done[ids]], w)
         self.group_of[ids] = g
         self.on_route[ids] = True
@@ -412,10 +418,7 @@ class Journeys:
             if isinstance(st, (GoTo, Leave)) and self.expect[a]:
                 self.bound[id(st)] -= 1
         for q in self.queues:
-            if q.remove(ids) and q.members:
-                w.set_goals(np.array(q.members), q.places(), goal_region=q.region, leave=False)
-            if len(q.approaching):
-                w.set_goals(q.approaching, q.tail, goal_region=q.region, leave=False)
+            self._close_up(q, w, q.remove(ids))
         self.expect[ids] = False
         self.wait_until[ids] = np.inf
         self.chooser[ids] = -1
@@ -581,13 +584,19 @@ class Journeys:
                          dtype=np.int64)
         self._enter_at(ids, after, w)
 
+    @staticmethod
+    def _close_up(q: ServiceQueue, w: Walkers, moved: bool) -> None:
+        """Send a queue's line (when it ``moved``) to its places and those on the way to
+        it to its tail."""
+        if moved and q.members:
+            w.set_goals(np.array(q.members), q.places(), goal_region=q.region, leave=False)
+        if len(q.approaching):
+            w.set_goals(q.approaching, q.tail, goal_region=q.region, leave=False)
+
     def _serve(self, q: ServiceQueue, w: Walkers) -> None:
         freed = q.release(self.time)
         if freed is not None:
-            if q.members:  # the line moves up a place
-                w.set_goals(np.array(q.members), q.places(), goal_region=q.region, leave=False)
-            if len(q.approaching):
-                w.set_goals(q.approaching, q.tail, goal_region=q.region, leave=False)
+            self._close_up(q, w, True)  # the line moves up a place
             self._next(np.array([freed]), w)
         if q.members and not q.serving:
             q.start(self.time, w.positions[q.members[0]], freed is not None)

@@ -43,6 +43,10 @@ class LiveObstacles:
         """The scene as it stands now: the obstacles present now, each for good."""
         return self._now
 
+    def _clearance(self, points: np.ndarray) -> np.ndarray:
+        """Metres from each point to the nearest wall or static obstacle standing now."""
+        return self._now.clearance(points)
+
     def add_obstacle(self, obstacle: Obstacle) -> int:
         """Put an obstacle into the scene now (the live API: a door that closes, a barrier);
         returns its index in ``scene.obstacles``. A ValueError, changing nothing, if it is

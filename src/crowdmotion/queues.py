@@ -61,12 +61,13 @@ class ServiceQueue:
         head being served is no longer. True if the line itself changed."""
         agents = np.asarray(agents, dtype=np.int64)
         self.approaching = self.approaching[~np.isin(self.approaching, agents)]
-        out = [a for a in self.members if a in set(agents.tolist())]
+        drop = set(agents.tolist())
+        out = [a for a in self.members if a in drop]
         if not out:
             return False
-        if self.serving and self.members[0] in out:
+        if self.serving and self.members[0] in drop:
             self.serving = False
-        self.members = [a for a in self.members if a not in out]
+        self.members = [a for a in self.members if a not in drop]
         for a in out:
             self.joined_at.pop(a, None)
         return True

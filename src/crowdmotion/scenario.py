@@ -486,6 +486,13 @@ def _leaves(spec) -> bool:
     return isinstance(spec, ChooseStageSpec) and any(b and _leaves(b[-1]) for b in spec.branches)
 
 
+def _coords(region) -> list:
+    """Every coordinate a region table writes (its position, corners, centre, points), to
+    check against the scene's dimension ([] for None)."""
+    coords = [getattr(region, a) for a in ("position", "lower", "upper", "center") if hasattr(region, a)]
+    return coords + list(getattr(region, "points", [])) + list(getattr(region, "positions", []))
+
+
 def _stage_specs(route: list, where: str = "route"):
     """Every stage spec of a route with its field path, depth first: ``route.2``, then a
     choose's options ``route.2.among.0`` (one stage) or ``route.2.among.1.0`` (a branch's)."""
@@ -686,21 +693,14 @@ class ScenarioSpec(_Model):
         dim = len(self.scene.bounds[0])
         for i, g in enumerate(self.groups):
             for part in ("spawn", "goal"):
-                region = getattr(g, part)
-                coords = [getattr(region, a) for a in ("position", "lower", "upper", "center") if hasattr(region, a)]
-                coords += list(getattr(region, "points", [])) + list(getattr(region, "positions", []))
-                for c in coords:
+                for c in _coords(getattr(g, part)):
                     if len(c) != dim:
                         raise ValueError(f"groups.{i}.{part}: coordinates {c} are not {dim}D like the scene")
             for j, e in enumerate(g.enter.entrances if g.enter is not None and g.enter.entrances else []):
-                coords = [getattr(e, a) for a in ("position", "lower", "upper", "center") if hasattr(e, a)]
-                if any(len(c) != dim for c in coords + list(getattr(e, "points", []))):
+                if any(len(c) != dim for c in _coords(e)):
                     raise ValueError(f"groups.{i}.enter.entrances.{j}: coordinates are not {dim}D like the scene")
             for where, st in _stage_specs(g.route or [], f"groups.{i}.route"):
-                area = getattr(st, "area", None)
-                coords = [getattr(area, a) for a in ("position", "lower", "upper", "center") if hasattr(area, a)]
-                coords += list(getattr(area, "points", []))
-                if any(len(c) != dim for c in coords):
+                if any(len(c) != dim for c in _coords(getattr(st, "area", None))):
                     raise ValueError(f"{where}.area: coordinates are not {dim}D like the scene")
         return self
 

@@ -383,10 +383,6 @@ class Simulator(LiveObstacles):
     def _extents(self) -> np.ndarray:
         return np.array([g.extent for g in self.groups], dtype=float)
 
-    def _clearance(self, points: np.ndarray) -> np.ndarray:
-        """Metres from each point to the nearest wall or static obstacle standing now."""
-        return self._now.clearance(points)
-
     def remove_group(self, group: int) -> None:
         """Take a group out of the scene (the live API; a route's leave stage on arrival):
         its agents stop, keep their last positions, no longer count as bodies or

@@ -35,12 +35,10 @@ def check_scenario(scene, groups, params: MDPParams) -> None:
     """Everything a run refuses, refused before it starts: the set-up itself (cell size,
     goal and spawn cells, slots, room for every agent, entry tables and entrances), then a
     goal no agent can reach."""
-    from crowdmotion.checks import check_entrances, describe_region, warn_late_entries, where
-    from crowdmotion.mdp.solvers import exact_values
-
-    from crowdmotion.checks import check_route_places
+    from crowdmotion.checks import check_entrances, check_route_places, describe_region, warn_late_entries, where
     from crowdmotion.mdp.routes import check_mdp_route
     from crowdmotion.mdp.simulation import region_cells
+    from crowdmotion.mdp.solvers import exact_values
     from crowdmotion.stages import field_path, flat_stages
 
     for k, g in enumerate(groups):
@@ -99,10 +97,11 @@ def run_scenario(scene, groups, params: MDPParams, rng, progress: bool = True):
     with step_bar(params.max_steps, "mdp steps", progress) as bar:
         result = run(scene, groups, params, rng, progress=bar.done)
     traj = result.trajectories
-    summary = metrics.summary(traj, scene, goal_test(result))
+    at_goal = goal_test(result)
+    summary = metrics.summary(traj, scene, at_goal)
     journeys = result.journeys
     if journeys is not None:  # an agent on a route arrives where its route ends (or it leaves)
-        got, when = metrics.arrival(traj, goal_test(result))
+        got, when = metrics.arrival(traj, at_goal)
         arrived = np.where(journeys.on_route, journeys.done, got)
         finished = np.where(journeys.on_route, journeys.finished_at, when)
         summary["arrival_rate"] = float(arrived.mean())

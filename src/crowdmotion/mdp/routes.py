@@ -17,9 +17,8 @@ import numpy as np
 from crowdmotion.groups import Disc, Points, Rect
 from crowdmotion.mdp.goal_fill import fill_depth
 from crowdmotion.mdp.grid import GridMap
-from crowdmotion.mdp.params import MDPParams
+from crowdmotion.mdp.params import STAGES, MDPParams
 from crowdmotion.mdp.trajectory import Walker
-from crowdmotion.mdp.params import STAGES
 from crowdmotion.stages import refuse_unfollowed
 
 
@@ -58,14 +57,10 @@ class MDPWalkers:
         self._region_cells, self._solve = region_cells, solve
         self.walker, self.grid, self.params, self.dt = walker, grid, params, float(dt)
         self.values = list(values)   # raw state values of each field (walking distance = -v × cell)
-        self.masks = []
         self._index: dict[bytes, int] = {}  # goal cells -> field: each area solved once
         self._of_region: dict[int, tuple] = {}  # id(region) -> (region, field)
         for k, gc in enumerate(goal_cells):
             self._index.setdefault(self._key(gc), k)
-            m = np.zeros(grid.shape, dtype=bool)
-            m[tuple(gc.T)] = True
-            self.masks.append(m)
         self.solves = 0  # fields solved for route areas (the groups' own goals not counted)
         self.leaves = np.asarray(leaves, dtype=bool).copy()
         self.left = np.zeros(len(self.leaves), dtype=bool)
@@ -110,7 +105,6 @@ class MDPWalkers:
             mask[tuple(cells.T)] = True
             self._index[key] = self.walker.add_field(v + depth, mask)
             self.values.append(v)
-            self.masks.append(mask)
         self._of_region[id(region)] = (region, self._index[key])
         return self._index[key]
 

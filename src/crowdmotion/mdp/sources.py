@@ -23,7 +23,7 @@ import numpy as np
 
 from crowdmotion.checks import where
 from crowdmotion.groups import Group, Points
-from crowdmotion.journeys import entrance_of, entrances, entry_times
+from crowdmotion.journeys import entrance_areas, entrance_of, entry_times
 from crowdmotion.mdp.grid import GridMap
 from crowdmotion.mdp.trajectory import Walker
 
@@ -84,7 +84,7 @@ class Arrivals:
             doors = entrance_of(spec, g.count, rng, at)
             if doors is not None:
                 self.entrance[own] = doors
-            areas = (entrances(spec, at) or ([], None))[0]
+            areas = entrance_areas(spec, at)
             ids = np.arange(own.start, own.stop)
             for j in np.unique(self.entrance[own]):
                 mine = ids[self.entrance[own] == j]

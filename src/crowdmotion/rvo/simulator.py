@@ -642,10 +642,6 @@ class Simulator(LiveObstacles):
         check_live_route(self._now, route, len(ids), float(self.params["radius"][ids].max()), self.positions[ids[0]],
                          "set_route")
 
-    def _clearance(self, points: np.ndarray) -> np.ndarray:
-        """Metres from each point to the nearest wall or static obstacle standing now."""
-        return self._now.clearance(points)
-
     def step(self) -> None:
         """Advance every agent by one time step (all choose at once, then all move), then
         move agents on along their routes (``journeys``). A ValueError, before anything
