@@ -63,3 +63,21 @@ def test_robots_among_people_are_not_slowed_by_the_crowd():
     robot = sim.add_agents([[2.0, 3.0]], [[19.0, 3.0]], radius=0.5)
     sim.step()
     assert sim.density[robot[0]] == 0.0 and (sim.density[:16] >= 0).all() and sim.density[:16].max() > 0.5
+
+
+@pytest.mark.parametrize("their_goal, counted", [([0.0, 3.0], False), ([19.0, 3.0], True)])
+def test_a_stream_coming_towards_us_does_not_slow_us_one_going_our_way_does(their_goal, counted):
+    # eq. (3) slows a walker for the oncoming (a relative velocity); the slowing density
+    # counts those who stand or go its way
+    sim = rvo.Simulator(cm.Scene(bounds=([0, 0], [20, 6])), lane_choice=False)
+    walker = sim.add_agents([[2.0, 3.0]], [[19.0, 3.0]], radius=0.2)[0]
+    block = np.c_[np.repeat([5.0, 5.6, 6.2, 6.8], 4), np.tile([2.1, 2.7, 3.3, 3.9], 4)]
+    sim.add_agents(block, their_goal, radius=0.2)
+    sim.velocities[1:] = np.sign(their_goal[0] - 5.0) * np.array([1.3, 0.0])
+    sim.step()
+    sensing = sim.density_slowing
+    assert sensing.density[walker] > 1.0
+    if counted:
+        assert sensing.density_with[walker] == pytest.approx(sensing.density[walker])
+    else:
+        assert sensing.density_with[walker] == 0.0

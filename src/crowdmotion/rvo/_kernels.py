@@ -462,19 +462,24 @@ def _cell_box(cx, cy, reach, origin_x, origin_y, h, nx, ny):
 
 
 @threaded
-def density_ahead(centre, own, pos, cell_start, items, origin_x, origin_y, h, nx, ny, sigma, out):
+def density_ahead(centre, own, pos, vel, head, oncoming_speed, cell_start, items, origin_x, origin_y, h, nx, ny,
+                  sigma, out, out_with):
     """Gaussian-weighted count of the agents in the grid round each point ``centre[k]``:
     Σ_j exp(−|p_j − c_k|² / 2σ²) over the agents within 3σ of it but agent ``own[k]``, the
-    one sensing. Divided by the kernel's area (:mod:`crowdmotion.rvo.density`)
-    it is the density there, persons/m²."""
+    one sensing, into ``out``; into ``out_with`` the same count with each agent weighted by
+    how far it goes our way: 1 when standing or going along ``head[k]``, falling linearly
+    to 0 as it comes towards us at ``oncoming_speed``. Divided by the kernel's area
+    (:mod:`crowdmotion.rvo.density`) it is the density there, persons/m²."""
     n = centre.shape[0]
     reach = 3.0 * sigma
     r2 = reach * reach
     inv = 1.0 / (2.0 * sigma * sigma)
     for k in prange(n):
         cx, cy = centre[k, 0], centre[k, 1]
+        hx, hy = head[k, 0], head[k, 1]
         gx0, gx1, gy0, gy1 = _cell_box(cx, cy, reach, origin_x, origin_y, h, nx, ny)
         s = 0.0
+        sw = 0.0
         for gx in range(gx0, gx1 + 1):
             for gy in range(gy0, gy1 + 1):
                 c = gx * ny + gy
@@ -486,8 +491,14 @@ def density_ahead(centre, own, pos, cell_start, items, origin_x, origin_y, h, nx
                     dy = pos[j, 1] - cy
                     d2 = dx * dx + dy * dy
                     if d2 < r2:
-                        s += np.exp(-d2 * inv)
+                        g = np.exp(-d2 * inv)
+                        s += g
+                        along = vel[j, 0] * hx + vel[j, 1] * hy
+                        w = 1.0 + along / oncoming_speed if along < 0.0 else 1.0
+                        if w > 0.0:
+                            sw += g * w
         out[k] = s
+        out_with[k] = sw
 
 
 # ---- escape from moving obstacles after the safety pass ----------------------------------------

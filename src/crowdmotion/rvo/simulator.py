@@ -665,7 +665,7 @@ class Simulator(LiveObstacles):
         p = self.params
         dl = self.deadlock
         grid = self._grid()
-        slow = self.density_slowing.factors(self.positions, wanted, p["radius"], self.active, grid, self.dt)
+        slow = self.density_slowing.factors(self.positions, self.velocities, wanted, p["radius"], self.active, grid, self.dt)
         vpref = dl.yielding_velocities(self.positions, wanted, p["pref_speed"], p["radius"], self.active)
         if self.lane_choice:
             vpref = lane_velocities(self.positions, self.velocities, vpref, p["radius"], p["safety"], self.density,
