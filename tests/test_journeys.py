@@ -549,6 +549,32 @@ class Teleport:
         self.active &= ~(self._arrived & self._leave)  # an exit takes out who reached it
 
 
+def test_one_leaving_a_line_moves_that_line_up_and_sends_no_one_else_new_goals():
+    # agents 0-2 queue at counter A; agent 3, bound for counter B, is still on its way
+    # (it never arrives): taking agent 0 out moves A's line up and leaves 3 alone
+    from crowdmotion.journeys import Journeys
+    from crowdmotion.stages import Queue
+
+    class Slow(Teleport):
+        @property
+        def arrived(self):
+            return self._arrived & (np.arange(4) != 3)
+
+    routes = [[Queue([10.0, 0.0], rate=0.01, direction=[-1.0, 0.0], name="A")],
+              [Queue([10.0, 20.0], rate=0.01, direction=[-1.0, 0.0], name="B")]]
+    w = Slow(4, 0.5)
+    journeys = Journeys(routes, [0, 0, 0, 1], [None, None], np.full(4, 0.25), np.full(4, 1.3), key=1)
+    journeys.update(w, w.dt)
+    w.step(journeys)
+    line = list(journeys.queues[0].members)
+    assert sorted(line) == [0, 1, 2] and list(journeys.queues[1].approaching) == [3]
+    sent = []
+    w.set_goals = lambda agents, goals, **kw: sent.append(np.atleast_1d(agents).tolist())
+    w.active[line[0]] = False
+    w.step(journeys)
+    assert sent and sorted(sum(sent, [])) == sorted(line[1:]), sent  # A's line moves up, nobody else
+
+
 def test_a_queue_s_waits_over_time_and_an_exit_s_flow_are_reported_as_worked_out_by_hand():
     # 3 people queue at a counter serving 1 person/s, then leave; steps of 0.5 s. By hand:
     # all three reach the end of the line at 0.5 s and join it (0, 1, 2 by id); service

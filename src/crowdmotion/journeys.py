@@ -309,12 +309,13 @@ class Journeys:
             for _, st, _ in f:
                 if isinstance(st, Queue):
                     places[st.key] = places.get(st.key, 0) + count
-        for g, f in enumerate(self.flat):
+        first: dict = {}
+        for f in self.flat:
             for _, st, _ in f:
                 if isinstance(st, Queue):
-                    if st.key not in self._queue_of:
-                        self._queue_of[st.key] = len(self.queues)
-                        self.queues.append(ServiceQueue(st, places[st.key]))
+                    first.setdefault(st.key, st)
+        for key, st in first.items():
+            self._add_queue(st, places[key])
         self.bound: dict[int, int] = {}             # id(goto/leave stage) -> agents bound there
         self.held: dict[int, dict[int, np.ndarray]] = {}  # id(area) -> {agent: its free point}
         self.holder = np.full(n, -1, dtype=np.int64)  # the id(area) whose free point each agent holds (-1: none)
@@ -359,11 +360,7 @@ class Journeys:
             self.since, self.reached, self.until = (np.hstack([a, more]) for a in (self.since, self.reached, self.until))
         for _, st, _ in flat:
             if isinstance(st, Queue):
-                if st.key in self._queue_of:
-                    self.queues[self._queue_of[st.key]].grow(len(ids))
-                else:
-                    self._queue_of[st.key] = len(self.queues)
-                    self.queues.append(ServiceQueue(st, len(ids)))
+                self._add_queue(st, len(ids))
         w.add_goal_regions(self.regions())
         self._drop(ids[self.on_route[ids] & self.begun[ids] & ~self.done[ids]], w)
         self.group_of[ids] = g
@@ -406,6 +403,15 @@ class Journeys:
         for name in ("since", "reached", "until"):
             setattr(self, name, np.vstack([getattr(self, name), np.full((k, width), np.nan)]))
 
+    def _add_queue(self, st: Queue, places: int) -> None:
+        """Lay out ``places`` more places in the queue ``st`` names, making it on first
+        mention (groups naming the same queue share it)."""
+        if st.key in self._queue_of:
+            self.queues[self._queue_of[st.key]].grow(places)
+        else:
+            self._queue_of[st.key] = len(self.queues)
+            self.queues.append(ServiceQueue(st, places))
+
     def _drop(self, ids: np.ndarray, w: Walkers) -> None:
         """Agents ``ids`` leave the stage they are in (rerouted or taken out of the scene):
         no longer bound to its area, out of its queue (the line closes up), their free
@@ -418,7 +424,8 @@ class Journeys:
             if isinstance(st, (GoTo, Leave)) and self.expect[a]:
                 self.bound[id(st)] -= 1
         for q in self.queues:
-            self._close_up(q, w, q.remove(ids))
+            if q.remove(ids):  # its line closes up; a queue that lost nobody from it keeps its goals
+                self._close_up(q, w, True)
         self.expect[ids] = False
         self.wait_until[ids] = np.inf
         self.chooser[ids] = -1
