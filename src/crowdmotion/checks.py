@@ -292,10 +292,10 @@ def check_route_places(scene: Scene, k: int, group: Group) -> None:
     stage is named: ``group 'riders' (groups.0) route.1 (queue 'gate'): ...``."""
     from dataclasses import replace
 
-    from crowdmotion.stages import Queue, field_path, flat_stages
+    from crowdmotion.stages import Queue, flat_stages, stage_label
 
     for path, st, _ in flat_stages(group.attributes.get("route") or []):
-        at = f"{where(k, group)} {field_path(path)} ({st.kind} {st.name!r})"
+        at = f"{where(k, group)} {stage_label(path, st)}"
         area = getattr(st, "area", None)
         if area is not None:
             probe = replace(group, goal=area)

@@ -390,6 +390,11 @@ def field_path(path: str) -> str:
     return path.replace("[", ".").replace("]", "")
 
 
+def stage_label(path: str, st) -> str:
+    """A stage as an error names it: its field and what it is, ``route.2 (queue 'gate')``."""
+    return f"{field_path(path)} ({st.kind} {st.name!r})"
+
+
 @dataclass(frozen=True)
 class RouteMap:
     """A route's stages by stage id, and how an agent moves between them.
@@ -459,7 +464,7 @@ def refuse_unfollowed(route, where: str, follows: tuple[str, ...], who: str) -> 
     ``follows``, the kinds a method's ``who`` ("a formation", "a PSO swarm") follows."""
     for path, st, _ in flat_stages(route):
         if st.kind not in follows:
-            raise ValueError(f"{where} {field_path(path)} ({st.kind} {st.name!r}): {who} does not {st.kind}; "
+            raise ValueError(f"{where} {stage_label(path, st)}: {who} does not {st.kind}; "
                              f"it follows {', '.join(follows)} stages")
 
 

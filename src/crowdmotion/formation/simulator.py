@@ -342,7 +342,7 @@ class Simulator(LiveObstacles):
         recovers its shape) a body cannot stand on; and, as :meth:`set_goal`, an unknown
         group or one that left."""
         from crowdmotion.checks import check_live_route
-        from crowdmotion.stages import check_route, field_path, flat_stages
+        from crowdmotion.stages import check_route, flat_stages, stage_label
 
         k = self._group(group, "formation.set_route")
         g = self.groups[k]
@@ -355,7 +355,7 @@ class Simulator(LiveObstacles):
                 try:
                     self._goal_checked(st.area, g, f"formation group {g.name!r}")
                 except ValueError as exc:
-                    raise ValueError(f"{what}: {field_path(path)} ({st.kind} {st.name!r}): {exc}") from None
+                    raise ValueError(f"{what}: {stage_label(path, st)}: {exc}") from None
         if self.journeys is None:
             self.follow_routes([None] * len(self.groups), [None] * len(self.groups))
         self.journeys.set_route([k], route, self.walkers, self._extents(), [h.pref_speed for h in self.groups])

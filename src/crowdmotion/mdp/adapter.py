@@ -39,7 +39,7 @@ def check_scenario(scene, groups, params: MDPParams) -> None:
     from crowdmotion.mdp.routes import check_mdp_route
     from crowdmotion.mdp.simulation import region_cells
     from crowdmotion.mdp.solvers import exact_values
-    from crowdmotion.stages import field_path, flat_stages
+    from crowdmotion.stages import flat_stages, stage_label
 
     for k, g in enumerate(groups):
         check_entrances(scene, k, g)
@@ -58,7 +58,7 @@ def check_scenario(scene, groups, params: MDPParams) -> None:
             area = getattr(st, "area", None)
             if area is None:
                 continue
-            at = f"{where(k, g)} {field_path(path)} ({st.kind} {st.name!r})"
+            at = f"{where(k, g)} {stage_label(path, st)}"
             cells = region_cells(su.grid, area, f"{at} area")
             values = exact_values(su.grid.occupancy, [tuple(c) for c in cells], params.corner_cutting)
             if not np.isfinite(values[tuple(starts.T)]).any():

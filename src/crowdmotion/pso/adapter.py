@@ -34,7 +34,7 @@ def check_scenario(scene, groups, params: PSOParams) -> None:
         check_spawn_capacity, check_start_points, where
     from crowdmotion.journeys import unit_entry_time
     from crowdmotion.pso.routes import check_pso_route, region_target
-    from crowdmotion.stages import field_path, flat_stages
+    from crowdmotion.stages import flat_stages, stage_label
 
     ObstacleArrays.from_scene(scene)
     params.axis_vmax(scene.dim)
@@ -57,7 +57,7 @@ def check_scenario(scene, groups, params: PSOParams) -> None:
             point = region_target(area)[None]
             clear = scene.obstacle_distance(point, 0.0)
             if clear[0] < g.radius:
-                raise ValueError(f"{where(i, g)} {field_path(path)} ({st.kind} {st.name!r}) "
+                raise ValueError(f"{where(i, g)} {stage_label(path, st)} "
                                  f"area: its centre {point[0].tolist()}, where the swarm gathers, is covered by an "
                                  f"obstacle (clearance {clear[0]:.3g} m < radius {g.radius} m)")
     for i, g in enumerate(groups):

@@ -19,7 +19,7 @@ def check_scenario(scene, groups, params: RVOParams) -> None:
     guidance fields) and goals the field says no agent can reach."""
     from crowdmotion.checks import check_dimension, check_entrances, check_goal_clear, check_inside, \
         check_route_places, check_spawn_capacity, describe_region, warn_late_entries, where
-    from crowdmotion.stages import field_path, flat_stages
+    from crowdmotion.stages import flat_stages, stage_label
 
     check_dimension("rvo", scene, (2,), "use method = 'mdp' or 'pso' for 3D scenes")
     for k, g in enumerate(groups):
@@ -45,9 +45,8 @@ def check_scenario(scene, groups, params: RVOParams) -> None:
             for path, st, _ in flat_stages(g.attributes.get("route") or []):
                 region = journeys.region_of(st) if st.kind in ("goto", "queue", "leave") else None
                 if region is not None and not np.isfinite(sim.walking_distance(starts, region)).any():
-                    raise ValueError(f"{where(k, g)} {field_path(path)} ({st.kind} "
-                                     f"{st.name!r}): cannot be reached from the spawn {describe_region(g.spawn)}: "
-                                     f"obstacles close the way for a body of radius {g.radius:g} m")
+                    raise ValueError(f"{where(k, g)} {stage_label(path, st)}: cannot be reached from the spawn "
+                                     f"{describe_region(g.spawn)}: obstacles close the way for a body of radius {g.radius:g} m")
     stranded = sim.unreachable()
     if stranded.any():
         i = int(np.flatnonzero(stranded)[0])
