@@ -230,6 +230,14 @@ class Trajectories:
 RESAMPLE_KINDS = ("linear", "catmull-rom", "b-spline")
 
 
+def held_stages(stage: np.ndarray, times: np.ndarray, step_dt: float, active: np.ndarray) -> np.ndarray:
+    """(T', N) int16 stages at new frame ``times`` (s) of a run stepped every ``step_dt``
+    s: each new frame holds the stage of the step it ends in, -1 where ``active`` says
+    the agent is not in the scene."""
+    held = np.minimum(np.ceil(times / step_dt - 1e-9).astype(int), len(stage) - 1)
+    return np.where(active, stage[held], -1).astype(np.int16)
+
+
 def resample(traj: Trajectories, fps: float, kind: str = "linear") -> Trajectories:
     """Resample one-frame-per-step trajectories to ``fps`` frames per second (any method).
 

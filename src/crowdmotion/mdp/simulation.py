@@ -18,7 +18,7 @@ from crowdmotion.mdp.trajectory import Walker
 from crowdmotion.scene import Scene
 from crowdmotion.path_relaxation import RELAX_AT_FPS_MAX, STEP_RATE_ITERATIONS, relaxed_trajectories  # noqa: F401
 from crowdmotion.smoothing import resample_checked
-from crowdmotion.trajectories import Trajectories
+from crowdmotion.trajectories import Trajectories, held_stages
 
 
 @dataclass
@@ -357,8 +357,7 @@ def _run_routes(scene: Scene, groups: Sequence[Group], params: MDPParams, rng: n
     else:
         out = traj
     if out is not traj:  # each new frame holds the stage of the step it ends in (as resample does)
-        held = np.minimum(np.ceil(out.times / dt - 1e-9).astype(int), traj.n_frames - 1)
-        out.stage = np.where(out.active_mask, stage[held], -1).astype(np.int16)
+        out.stage = held_stages(stage, out.times, dt, out.active_mask)
     return MDPRun(out, grid, values, su.goal_cells, unreachable, field_of, journeys, walkers, arrivals, walker)
 
 

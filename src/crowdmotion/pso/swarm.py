@@ -35,7 +35,7 @@ from crowdmotion.pso import _kernels as K
 from crowdmotion.pso.obstacles import ObstacleArrays, obstacle_field
 from crowdmotion.pso.params import PSOParams, make_params
 from crowdmotion.scene import Obstacle, Scene
-from crowdmotion.trajectories import Trajectories
+from crowdmotion.trajectories import Trajectories, held_stages
 
 COUNTER_NAMES = ("obstacle_redirects", "degenerate_redirects", "agent_redirects", "rule_conflicts",
                  "separation_truncations", "separation_stops", "obstacle_stops", "joins")
@@ -340,8 +340,7 @@ class SwarmRun:
         else:
             out = traj if fps is None else resample(traj, fps, "linear")
         if self.stage is not None and out is not traj:  # each new frame holds the stage of the iteration it ends in
-            held = np.minimum(np.ceil(out.times / self.iteration_time - 1e-9).astype(int), traj.n_frames - 1)
-            out.stage = np.where(out.active_mask, self.stage[held], -1).astype(np.int16)
+            out.stage = held_stages(self.stage, out.times, self.iteration_time, out.active_mask)
         return out
 
 
