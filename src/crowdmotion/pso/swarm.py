@@ -39,6 +39,8 @@ from crowdmotion.trajectories import Trajectories, held_stages
 
 COUNTER_NAMES = ("obstacle_redirects", "degenerate_redirects", "agent_redirects", "rule_conflicts",
                  "separation_truncations", "separation_stops", "obstacle_stops", "joins")
+# the Swarm's per-particle arrays: remove and add keep them in step
+PER_PARTICLE = ("x", "v", "swarm", "radius", "stopped", "arrival_iteration", "redirected", "pb", "pbd")
 IMPROVEMENT = 1e-6  # metres: a swarm best nearer by less than this has not improved
 
 
@@ -156,7 +158,7 @@ class Swarm:
         (velocities, bests, draws); indices of the rest close up, in order."""
         keep = np.ones(self.n, bool)
         keep[np.asarray(which, dtype=np.int64)] = False
-        for name in ("x", "v", "swarm", "radius", "stopped", "arrival_iteration", "redirected", "pb", "pbd"):
+        for name in PER_PARTICLE:
             setattr(self, name, np.ascontiguousarray(getattr(self, name)[keep]))
         self.n = int(keep.sum())
 
@@ -172,8 +174,8 @@ class Swarm:
                  "radius": np.asarray(radius, float).reshape(-1), "stopped": np.zeros(k, bool),
                  "arrival_iteration": np.full(k, -1, np.int64), "redirected": np.zeros(k, np.int64),
                  "pb": x.copy(), "pbd": np.full(k, np.inf)}
-        for name, value in fresh.items():
-            setattr(self, name, np.ascontiguousarray(np.concatenate([getattr(self, name), value])))
+        for name in PER_PARTICLE:
+            setattr(self, name, np.ascontiguousarray(np.concatenate([getattr(self, name), fresh[name]])))
         self.n += k
         which = np.zeros(self.n_swarms, bool)
         which[sw] = True
