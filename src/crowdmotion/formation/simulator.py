@@ -937,7 +937,7 @@ class Simulator(LiveObstacles):
             if g.entered_at is not None or g.left_at is not None or g.enter_at > self.time + 1e-9:
                 continue
             pos = self.positions[g.span]
-            if (self.scene.obstacle_distance(pos, self.time) < g.radius + ENTRY_GAP_M).any():
+            if (self._now.obstacle_distance(pos, self.time) < g.radius + ENTRY_GAP_M).any():
                 continue
             live = np.flatnonzero(self.active)
             if len(live):
