@@ -61,7 +61,7 @@ def test_report_on_a_sweep_folder_gives_intervals_and_claims(tmp_path, capsys):
 
 
 # docs/rvo.md, "The paper's §6 observations, measured": the verdicts over seeds 0-19
-DOCUMENTED = {"O+ walks spread wider than O-": "holds", "E+ walks spread wider than E-": "not shown",
+DOCUMENTED = {"O+ walks spread wider than O-": "holds", "E+ walks spread wider than E-": "holds",
               "C+ changes direction less than C-": "holds",
               "C+ keeps closer to its straight line than C-": "contradicted",
               "A+ mixes into the other group more than A-": "holds",
