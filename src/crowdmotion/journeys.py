@@ -425,7 +425,7 @@ class Journeys:
                 self.bound[id(st)] -= 1
         for q in self.queues:
             if q.remove(ids):  # its line closes up; a queue that lost nobody from it keeps its goals
-                self._close_up(q, w, True)
+                self._close_up(q, w)
         self.expect[ids] = False
         self.wait_until[ids] = np.inf
         self.chooser[ids] = -1
@@ -592,10 +592,10 @@ class Journeys:
         self._enter_at(ids, after, w)
 
     @staticmethod
-    def _close_up(q: ServiceQueue, w: Walkers, moved: bool) -> None:
-        """Send a queue's line (when it ``moved``) to its places and those on the way to
-        it to its tail."""
-        if moved and q.members:
+    def _close_up(q: ServiceQueue, w: Walkers) -> None:
+        """Send a queue's line, which changed, to its places and those on the way to it
+        to its tail."""
+        if q.members:
             w.set_goals(np.array(q.members), q.places(), goal_region=q.region, leave=False)
         if len(q.approaching):
             w.set_goals(q.approaching, q.tail, goal_region=q.region, leave=False)
@@ -603,7 +603,7 @@ class Journeys:
     def _serve(self, q: ServiceQueue, w: Walkers) -> None:
         freed = q.release(self.time)
         if freed is not None:
-            self._close_up(q, w, True)  # the line moves up a place
+            self._close_up(q, w)  # the line moves up a place
             self._next(np.array([freed]), w)
         if q.members and not q.serving:
             q.start(self.time, w.positions[q.members[0]], freed is not None)

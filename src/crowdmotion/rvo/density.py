@@ -142,8 +142,11 @@ class DensitySlowing:
         sensed = np.zeros(len(pos), dtype=bool)
         sensed[s] = True
         a = min(1.0, dt / RELAX_S)
-        self.density = np.where(self._fresh, raw, self.density + a * (raw - self.density))
-        self.density_with = np.where(self._fresh, raw_with, self.density_with + a * (raw_with - self.density_with))
+
+        def relax(old, new):  # a fresh agent takes what it senses at once
+            return np.where(self._fresh, new, old + a * (new - old))
+
+        self.density, self.density_with = relax(self.density, raw), relax(self.density_with, raw_with)
         self._fresh &= ~sensed
         return self.density
 
