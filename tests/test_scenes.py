@@ -13,11 +13,19 @@ from tests.io.readers import assert_sqlite_opens_in_pedpy_and_jupedsim, assert_u
 SCENES = {p.stem: p for p in builtin_scenarios()}
 # 2000 people for 266 s: its exports alone take a minute; 2000 MDP agents: relaxing their paths takes 20 s
 LARGE = {"rvo_stand_evacuation", "mdp_doorway_2000"}
-# known misses of the walkers' root-motion limits, with today's p95 figures:
+# walkers' root motion as a DCC plays it: p95 limits (issue 28)
+WALKER_LIMITS = {"acceleration_mps2": 2.0, "turn_rate_rad_s": 2.0, "deviation_from_1s_average_m": 0.05}
+# known misses of those limits, with today's p95 figures:
 # rvo_stand_exits: 2.04 m/s², 2.00 rad/s, 5.7 cm (400 pressing to three 2 m exits; docs/journeys.md)
 # rvo_stand_evacuation: 5.03 cm from the 1 s average, on the limit (4.97-5.03 over seeds 1-3;
-# its stop-and-go; docs/rvo.md)
-ROOT_MOTION_MISSED = {"rvo_stand_exits", "rvo_stand_evacuation"}
+# its stop-and-go; docs/rvo.md); its acceleration and turn rate hold
+ROOT_MOTION_MISSED = {"rvo_stand_exits": set(WALKER_LIMITS), "rvo_stand_evacuation": {"deviation_from_1s_average_m"}}
+
+
+def _assert_walkers_play_smoothly(name, rm):
+    for key, limit in WALKER_LIMITS.items():
+        if key not in ROOT_MOTION_MISSED.get(name, ()):
+            assert rm[key]["p95"] <= limit, (key, rm)
 
 
 @pytest.mark.parametrize("name", [pytest.param(n, marks=pytest.mark.slow) if n in LARGE else n for n in sorted(SCENES)])
@@ -44,11 +52,8 @@ def test_builtin_scene_is_clean_gathers_and_opens_in_the_readers(name, tmp_path)
         ok = traj.active_mask[:-1] & traj.active_mask[1:]
         top = np.concatenate([np.full(g.count, g.max_speed) for g in result.scenario.groups])
         assert (traj.speed[:-1] <= top + 1e-9)[ok].all(), s["max_speed_mps"]
-        if traj.dim == 2 and name not in ROOT_MOTION_MISSED:
-            rm = root_motion(traj)
-            assert rm["acceleration_mps2"]["p95"] <= 2.0, rm
-            assert rm["turn_rate_rad_s"]["p95"] <= 2.0, rm
-            assert rm["deviation_from_1s_average_m"]["p95"] <= 0.05, rm
+        if traj.dim == 2:
+            _assert_walkers_play_smoothly(name, root_motion(traj))
     elif result.scenario.method == "rvo":  # everyone reaches their own goal point
         assert s["arrival_rate"] == 1.0, s
         assert set(s["groups"]) == {g.name for g in result.scenario.groups}
@@ -57,11 +62,8 @@ def test_builtin_scene_is_clean_gathers_and_opens_in_the_readers(name, tmp_path)
         from crowdmotion.rvo.density import PERSON_MAX_RADIUS_M
 
         people = np.flatnonzero(traj.radius <= PERSON_MAX_RADIUS_M)
-        if len(people) and name not in ROOT_MOTION_MISSED:
-            rm = root_motion(traj.select(agents=people))
-            assert rm["acceleration_mps2"]["p95"] <= 2.0, rm
-            assert rm["turn_rate_rad_s"]["p95"] <= 2.0, rm
-            assert rm["deviation_from_1s_average_m"]["p95"] <= 0.05, rm
+        if len(people):
+            _assert_walkers_play_smoothly(name, root_motion(traj.select(agents=people)))
     elif result.scenario.method == "pso":  # every group gathers (threshold or the group arrival rule)
         assert s["arrival_rate"] == 1.0, s
         assert all(s["groups_gathered"].values()), s["groups_gathered"]
