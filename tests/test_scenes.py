@@ -15,17 +15,11 @@ SCENES = {p.stem: p for p in builtin_scenarios()}
 LARGE = {"rvo_stand_evacuation", "mdp_doorway_2000"}
 # walkers' root motion as a DCC plays it: p95 limits (issue 28)
 WALKER_LIMITS = {"acceleration_mps2": 2.0, "turn_rate_rad_s": 2.0, "deviation_from_1s_average_m": 0.05}
-# known misses of those limits, with today's p95 figures:
-# rvo_stand_exits: 2.04 m/s², 2.00 rad/s, 5.7 cm (400 pressing to three 2 m exits; docs/journeys.md)
-# rvo_stand_evacuation: 5.03 cm from the 1 s average, on the limit (4.97-5.03 over seeds 1-3;
-# its stop-and-go; docs/rvo.md); its acceleration and turn rate hold
-ROOT_MOTION_MISSED = {"rvo_stand_exits": set(WALKER_LIMITS), "rvo_stand_evacuation": {"deviation_from_1s_average_m"}}
 
 
 def _assert_walkers_play_smoothly(name, rm):
     for key, limit in WALKER_LIMITS.items():
-        if key not in ROOT_MOTION_MISSED.get(name, ()):
-            assert rm[key]["p95"] <= limit, (key, rm)
+        assert rm[key]["p95"] <= limit, (name, key, rm)
 
 
 @pytest.mark.parametrize("name", [pytest.param(n, marks=pytest.mark.slow) if n in LARGE else n for n in sorted(SCENES)])

@@ -122,3 +122,16 @@ def keep_clean(smooth: Trajectories, linear: Trajectories, traj: Trajectories, s
                       f"{n} of {straight.size} path segments: those keep straight moves", stacklevel=2)
     out.metadata["resampled"] = {**out.metadata.get("resampled", {}), "kind": kind, "straight_segments": n, "segments": straight.size}
     return out
+
+
+def smoothing_report(traj: Trajectories, kind: str, window_s: float) -> dict:
+    """How a method's paths were smoothed, for its summary: ``kind`` ("relaxed", "linear",
+    "none"), and for relaxed paths the window (s), where they were relaxed (at ``fps`` or
+    at the run's steps) and how many path steps the continuous audit made keep their own
+    straight move."""
+    out = {"kind": kind}
+    if kind == "relaxed":
+        done = traj.metadata.get("resampled", {})
+        out.update({"window_s": window_s, **traj.metadata.get("relaxed", {}),
+                    "straight_segments": done.get("straight_segments"), "segments": done.get("segments")})
+    return out

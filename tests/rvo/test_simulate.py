@@ -175,3 +175,42 @@ def test_arrive_anywhere_needs_a_rect_or_disc_goal_region():
     sim = rvo.Simulator(cm.Scene(bounds=([0, 0], [10, 10])))
     with pytest.raises(ValueError, match="arrive_anywhere needs a Rect or Disc goal_region"):
         sim.add_agents([[1, 1]], [5, 5], arrive_anywhere=True)
+
+
+def _door_crowd(**params):
+    """60 walkers pressing through a 1 m door: stop and go at the door's mouth."""
+    from crowdmotion.rvo.simulation import run
+
+    scene = cm.Scene(bounds=([0, 0], [12, 12]), obstacles=[cm.Box([0, 6], [5.5, 6.3]), cm.Box([6.5, 6], [12, 6.3])])
+    group = cm.Group("crowd", 60, spawn=cm.Rect([1, 0.5], [11, 5]), goal=cm.Rect([4, 9], [8, 11.5]), radius=0.25,
+                     pref_speed=1.3, max_speed=1.5)
+    return scene, run(scene, [group], rvo.RVOParams(**params), np.random.default_rng(3))
+
+
+def test_a_run_is_relaxed_for_characters_keeping_the_simulated_steps_beside_it():
+    from crowdmotion.metrics import root_motion
+
+    scene, relaxed = _door_crowd()
+    _, plain = _door_crowd(smoothing="none")
+    # the same simulation: the steps as simulated are the plain run's frames
+    np.testing.assert_array_equal(relaxed.steps.positions, plain.trajectories.positions)
+    tr, steps = relaxed.trajectories, relaxed.steps
+    assert tr.n_frames == steps.n_frames and tr.dt == steps.dt
+    # everyone starts and ends where the simulation has them, and still reaches its goal
+    act = tr.active_mask
+    first, last = np.argmax(act, axis=0), tr.n_frames - 1 - np.argmax(act[::-1], axis=0)
+    ids = np.arange(tr.n_agents)
+    np.testing.assert_allclose(tr.positions[first, ids], steps.positions[first, ids], atol=1e-9)
+    np.testing.assert_allclose(tr.positions[last, ids], steps.positions[last, ids], atol=1e-9)
+    assert relaxed.simulator.arrived.all()
+    # as clean as the steps in continuous time, never faster than max_speed
+    assert collision_audit(steps, scene).agent_agent == 0
+    audit = collision_audit(tr, scene)
+    assert audit.agent_agent == 0 and audit.agent_obstacle == 0
+    ok = act[:-1] & act[1:]
+    assert tr.speed[:-1][ok].max() <= 1.5 + 1e-9
+    # the door's stop-and-go, smoothed: the wobble about the 1 s average at least a third less
+    wobble = {k: root_motion(t)["deviation_from_1s_average_m"]["p95"] for k, t in (("relaxed", tr), ("steps", steps))}
+    assert wobble["relaxed"] < 2 / 3 * wobble["steps"], wobble
+    assert tr.metadata["relaxed"]["at"] == "steps" and "straight_segments" in tr.metadata["resampled"]
+    assert plain.steps is plain.trajectories and "relaxed" not in plain.trajectories.metadata

@@ -14,6 +14,7 @@ from crowdmotion.groups import MovingTarget, Points
 from crowdmotion.pso.obstacles import ObstacleArrays
 from crowdmotion.pso.params import PSOParams
 from crowdmotion.pso.simulation import PSORun, run
+from crowdmotion.smoothing import smoothing_report
 
 Params = PSOParams
 
@@ -173,25 +174,13 @@ def run_scenario(scene, groups, params: PSOParams, rng, progress: bool = True):
         "groups_gathered": {n: bool(sr.stopped[names == n].all()) for n in result.group_names},
         "rules": dict(sr.stats),
         "generated_obstacles": len(result.scene.obstacles) - len(scene.obstacles),
-        "smoothing": smoothing_report(traj, params),
+        "smoothing": smoothing_report(traj, params.smoothing, params.smoothing_window),
         "groups": metrics.group_report(traj),
         **({} if result.journeys is None else {"journeys": result.journeys.report(result.group_names)}),
     })
     if result.due is not None:  # each swarm's delay, as one unit
         summary["entry"] = entry_report(names, result.due, result.entered_at)
     return traj, result, summary
-
-
-def smoothing_report(traj, params: PSOParams) -> dict:
-    """How the paths were smoothed: ``kind`` ("relaxed" or "linear"), the window, and for
-    relaxed paths where (at ``fps`` or the iterations) and how many path steps (between two
-    iterates) the continuous audit made keep their straight move."""
-    out = {"kind": params.smoothing}
-    if params.smoothing == "relaxed":
-        done = traj.metadata.get("resampled", {})
-        out.update({"window_s": params.smoothing_window, **traj.metadata.get("relaxed", {}),
-                    "straight_segments": done.get("straight_segments"), "segments": done.get("segments")})
-    return out
 
 
 def write_plots(scene, result: PSORun, out, which, title: str = "") -> list:

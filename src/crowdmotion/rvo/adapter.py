@@ -9,6 +9,7 @@ from crowdmotion import metrics
 from crowdmotion.journeys import entry_report
 from crowdmotion.rvo.params import RVOParams
 from crowdmotion.rvo.simulation import RVORun, build_journeys, build_simulator, run
+from crowdmotion.smoothing import smoothing_report
 
 Params = RVOParams
 
@@ -97,7 +98,8 @@ def run_scenario(scene, groups, params: RVOParams, rng, progress: bool = True):
         "steps": sim.steps,
         "safety_stop_rate": stats["safety_stops"] / steps,
         "forced_choice_rate": stats["forced_choices"] / steps,
-        "groups": metrics.group_report(traj),
+        "groups": metrics.group_report(result.steps),  # the model's motion, as paper §6 compares it
+        "smoothing": smoothing_report(traj, params.smoothing, params.smoothing_window),
     })
     return traj, result, summary
 

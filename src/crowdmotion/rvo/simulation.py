@@ -12,6 +12,7 @@ from crowdmotion.checks import where
 from crowdmotion.groups import Disc, Group, MovingTarget, Points, Rect
 from crowdmotion._rng import step_key
 from crowdmotion.journeys import Journeys, entrance_of, entry_points, entry_times
+from crowdmotion.path_relaxation import relaxed_steps
 from crowdmotion.placement import spawn_positions
 from crowdmotion.rvo.params import RVOParams
 from crowdmotion.rvo.personality import PARAM_KEYS, sample_personalities
@@ -132,17 +133,26 @@ def build_journeys(sim: Simulator, scene: Scene, groups: Sequence[Group],
 
 @dataclass
 class RVORun:
-    """A finished RVO run: the trajectories, the simulator in its final state, and the
-    route state machine (None without routes)."""
+    """A finished RVO run: the trajectories (relaxed for characters, ``params.smoothing``),
+    the simulator in its final state, the route state machine (None without routes), and
+    the steps as simulated (``trajectories`` itself when they are not relaxed): the
+    model's motion, which the paper's §6 measures compare."""
 
     trajectories: Trajectories
     simulator: Simulator
     journeys: Journeys | None = None
+    steps: Trajectories | None = None
+
+    def __post_init__(self):
+        if self.steps is None:
+            self.steps = self.trajectories
 
 
 def run(scene: Scene, groups: Sequence[Group], params: RVOParams, rng: np.random.Generator,
         progress: Callable[[int], None] | None = None) -> RVORun:
-    """Step until every agent has arrived (or ``max_steps``); frames are the steps."""
+    """Step until every agent has arrived (or ``max_steps``); frames are the steps, relaxed
+    for the characters that play them (``params.smoothing``; the live :class:`Simulator`
+    gives the steps as simulated)."""
     sim = build_simulator(scene, groups, params, rng)
     journeys = build_journeys(sim, scene, groups, rng)
     if journeys is not None:
@@ -179,7 +189,10 @@ def run(scene: Scene, groups: Sequence[Group], params: RVOParams, rng: np.random
         active=None if active.all() else active, metadata=metadata,
         stage=None if journeys is None else np.array(stages[:n]),
     )
-    return RVORun(traj, sim, journeys)
+    steps = traj
+    if params.smoothing == "relaxed" and not partial:  # Ctrl-C: the steps so far, at once
+        traj = relaxed_steps(traj, params.smoothing_window, scene, sim.params["max_speed"])
+    return RVORun(traj, sim, journeys, steps)
 
 
 def simulate(scene: Scene, groups: Sequence[Group], params: RVOParams | None = None,
