@@ -55,7 +55,8 @@ import numpy as np
 from numba import njit
 from scipy.spatial import cKDTree
 
-from crowdmotion.rvo._kernels import held_up_time
+from crowdmotion._contact import grid_for
+from crowdmotion.rvo._kernels import _knn, held_up_time
 from crowdmotion.rvo.density import PERSON_MAX_RADIUS_M
 
 BLOCKER_CANDIDATES = 6  # nearest neighbours searched for the one in an agent's way
@@ -147,12 +148,12 @@ class Deadlock:
         if n_cand == 0:
             return 0
         cand = cand[:n_cand]
-        live = np.flatnonzero(active)
-        # the blocker is among an agent's nearest neighbours within its D
-        d, k = cKDTree(pos[live]).query(pos[cand], k=min(BLOCKER_CANDIDATES + 1, len(live)),
-                                        distance_upper_bound=float(sight.max()))
-        d, k = np.atleast_2d(d).reshape(len(cand), -1), np.atleast_2d(k).reshape(len(cand), -1)
-        return _new_yields(cand, d, np.ascontiguousarray(k, dtype=np.int64), live, pos, wanted, radius, sight,
+        # the blocker is among an agent's nearest neighbours within its D (on a grid of
+        # the agents where they now stand; its cell size only sets the search's speed)
+        d = np.empty((n_cand, BLOCKER_CANDIDATES))
+        k = np.empty((n_cand, BLOCKER_CANDIDATES), dtype=np.int64)
+        _nearest(cand, pos, float(sight.max()), *grid_for(pos, active, radius, pref_speed, dt), d, k)
+        return _new_yields(cand, d, k, np.arange(len(pos)), pos, wanted, radius, sight,
                            goals if goals is not None else pos, goals is not None, self.patience, self.stuck,
                            self.yield_to, self.yield_left, self.still, self.detour, self.abreast)
 
@@ -352,6 +353,25 @@ def _settle(wanted, chosen, pos, pref_speed, radius, active, dt, patience, stuck
             cand[n_cand] = i
             n_cand += 1
     return n_cand
+
+
+@njit(cache=True)
+def _nearest(cand, pos, dmax, cell_start, items, origin_x, origin_y, h, nx, ny, d, k):
+    """Each candidate's ``d.shape[1]`` nearest other agents within ``dmax`` (as cKDTree's
+    query of the agents would give them, less the agent itself): their distances, nearest
+    first, into ``d`` (inf where fewer), their ids into ``k``."""
+    m = d.shape[1]
+    idx = np.empty(m, dtype=np.int64)
+    d2 = np.empty(m)
+    for r in range(cand.shape[0]):
+        found = _knn(cand[r], pos, m, dmax, cell_start, items, origin_x, origin_y, h, nx, ny, idx, d2)
+        for q in range(m):
+            if q < found:
+                d[r, q] = np.sqrt(d2[q])
+                k[r, q] = idx[q]
+            else:
+                d[r, q] = np.inf
+                k[r, q] = 0
 
 
 @njit(cache=True)
