@@ -204,6 +204,8 @@ def test_ctrl_c_stops_cleanly_and_keeps_the_frames_so_far(tmp_path, capsys, monk
     summary = json.loads((out / "summary.json").read_text())
     assert summary["partial"] is True and summary["frames"] > 1
     assert (out / "trajectories.parquet").is_file()
+    if method == "rvo":  # the steps so far as simulated, at once: not relaxed, and said so
+        assert summary["smoothing"] == {"kind": "none"}
 
 
 def test_a_pso_clamp_faster_than_the_groups_max_speed_is_said_not_silent(tmp_path, capsys):

@@ -99,7 +99,9 @@ def run_scenario(scene, groups, params: RVOParams, rng, progress: bool = True):
         "safety_stop_rate": stats["safety_stops"] / steps,
         "forced_choice_rate": stats["forced_choices"] / steps,
         "groups": metrics.group_report(result.steps),  # the model's motion, as paper §6 compares it
-        "smoothing": smoothing_report(traj, params.smoothing, params.smoothing_window),
+        # a run stopped early (Ctrl-C) keeps its steps as simulated
+        "smoothing": smoothing_report(traj, "none" if traj.metadata.get("partial") else params.smoothing,
+                                      params.smoothing_window),
     })
     return traj, result, summary
 
