@@ -23,7 +23,7 @@ def test_a_stop_and_go_walk_is_smoothed_keeping_its_ends_and_its_speed_limit():
     jerk = lambda q: np.abs(np.diff(q[:, 0], 2)).max()  # noqa: E731: the largest change of step
     assert jerk(p[4:-4]) < 0.25 * jerk(pos[4:-4, 0])
     assert (np.abs(np.diff(p[:, 0])) <= 2.0 * dt + 1e-9).all()
-    assert out.metadata["resampled"]["straight_segments"] == 0
+    assert out.metadata["relaxed"]["straight_segments"] == 0
 
 
 def test_an_agent_that_leaves_and_comes_back_keeps_its_own_path():

@@ -259,8 +259,10 @@ def cmd_validate(args) -> int:
     sc = load_scenario(path, max_memory=args.max_memory)
     out = _output_folder(args, sc)
     check_output_folder(out, args.overwrite)
-    print(f"{path}: OK: {sc.scene.dim}D scene, {len(sc.scene.obstacles)} obstacles, "
-          f"{len(sc.groups)} groups, method {sc.method}; {_size_estimate(sc)}; output folder {out}")
+    n_obs, n_groups = len(sc.scene.obstacles), len(sc.groups)
+    print(f"{path}: OK: {sc.scene.dim}D scene, {n_obs} obstacle{'' if n_obs == 1 else 's'}, "
+          f"{n_groups} group{'' if n_groups == 1 else 's'}, method {sc.method}; {_size_estimate(sc)}; "
+          f"output folder {out}")
     return 0
 
 

@@ -18,6 +18,7 @@ except ImportError:  # pragma: no cover - Windows: no folder lock
 from crowdmotion import __version__
 from crowdmotion._precompile import cores
 from crowdmotion.io.atomic import TEMP_NAME, WriteError, atomic_path, remove_stale_temps
+from crowdmotion.io.longform import json_text
 from crowdmotion.registry import get_method
 
 # what ``crowdmotion run`` and the commands that read a run folder write into it
@@ -384,7 +385,7 @@ def write_run(result, out, plots=None, pictures=None) -> list[Path]:
         written = [result.trajectories.save(out / f"trajectories.{fmt}") for fmt in spec.output.formats]
         summary = {"scenario": spec.name, "seed": result.seed, **result.summary}
         with atomic_path(out / "summary.json") as tmp:
-            tmp.write_text(json.dumps(summary, indent=2, default=str))
+            tmp.write_text(json_text(summary, indent=2))
         written.append(out / "summary.json")
         drawn = pictures.result() if pictures is not None else draw_pictures(*run, plots, spec.name)
         names = [p.name for p in written + drawn] + [n for n in planned if n.endswith(".meta.json")]

@@ -540,5 +540,12 @@ def relaxed_steps(traj, window_s: float, scene: Scene | None, max_speed: np.ndar
                           metadata={**traj.metadata})
     out = keep_clean(smooth, traj, traj, scene, max_speed, "relaxed", warn=False)
     out.stage = traj.stage  # the same frames: each agent in the same stage
-    out.metadata["relaxed"] = {"at": "steps", "fps": 1.0 / traj.dt, "iterations": iterations}
+    # nothing was resampled: the audit's count goes with the relaxation, where a later
+    # resampling (an export at 24 fps) does not overwrite it
+    done = out.metadata.pop("resampled")
+    if "resampled" in traj.metadata:
+        out.metadata["resampled"] = traj.metadata["resampled"]
+    out.metadata["relaxed"] = {"at": "steps", "fps": 1.0 / traj.dt, "window_s": float(window_s),
+                               "iterations": iterations, "straight_segments": done["straight_segments"],
+                               "segments": done["segments"]}
     return out

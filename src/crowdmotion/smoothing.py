@@ -131,7 +131,8 @@ def smoothing_report(traj: Trajectories, kind: str, window_s: float) -> dict:
     straight move."""
     out = {"kind": kind}
     if kind == "relaxed":
-        done = traj.metadata.get("resampled", {})
-        out.update({"window_s": window_s, **traj.metadata.get("relaxed", {}),
+        relaxed = traj.metadata.get("relaxed", {})
+        done = relaxed if "straight_segments" in relaxed else traj.metadata.get("resampled", {})
+        out.update({"window_s": window_s, **relaxed,
                     "straight_segments": done.get("straight_segments"), "segments": done.get("segments")})
     return out

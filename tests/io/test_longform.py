@@ -9,6 +9,7 @@ import pyarrow as pa
 import pytest
 
 from crowdmotion.io.longform import _arrow, _tiled_strings
+from crowdmotion.trajectories import Trajectories
 
 
 @pytest.mark.parametrize("values", [
@@ -43,3 +44,20 @@ print("pandas" in sys.modules)
 """
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
     assert out.stdout.strip() == "False"
+
+
+def test_metadata_is_strict_json_that_any_reader_parses():
+    # an RVO run without personalities carries NaN per agent; JSON has no NaN
+    import json
+
+    from crowdmotion.io.longform import json_text, metadata_json
+
+    traj = Trajectories(np.zeros((3, 2, 2)), 0.25, metadata={"personality": np.full((2, 5), np.nan).tolist(),
+                                                               "best": np.float64(np.inf), "count": np.int64(3)})
+
+    def refuse(name):
+        raise ValueError(f"not JSON: {name}")
+
+    meta = json.loads(metadata_json(traj), parse_constant=refuse)
+    assert meta["personality"] == [[None] * 5] * 2 and meta["best"] is None and meta["count"] == 3
+    assert json.loads(json_text({"a": (1.5, float("nan"))}), parse_constant=refuse) == {"a": [1.5, None]}

@@ -212,5 +212,19 @@ def test_a_run_is_relaxed_for_characters_keeping_the_simulated_steps_beside_it()
     # the door's stop-and-go, smoothed: the wobble about the 1 s average at least a third less
     wobble = {k: root_motion(t)["deviation_from_1s_average_m"]["p95"] for k, t in (("relaxed", tr), ("steps", steps))}
     assert wobble["relaxed"] < 2 / 3 * wobble["steps"], wobble
-    assert tr.metadata["relaxed"]["at"] == "steps" and "straight_segments" in tr.metadata["resampled"]
+    assert tr.metadata["relaxed"]["at"] == "steps" and tr.metadata["relaxed"]["window_s"] == 1.0
+    assert 0 <= tr.metadata["relaxed"]["straight_segments"] < 0.05 * tr.metadata["relaxed"]["segments"]
+    assert "resampled" not in tr.metadata  # nothing was resampled: a later export's resampling has the key
     assert plain.steps is plain.trajectories and "relaxed" not in plain.trajectories.metadata
+
+
+def test_params_may_be_a_dict_and_anything_else_is_refused_by_name():
+    scene = cm.Scene(bounds=([0, 0], [10, 4]))
+    group = cm.Group("a", 2, spawn=cm.Points([[1, 1], [1, 3]]), goal=cm.Points([[9, 1], [9, 3]]))
+    traj = rvo.simulate(scene, [group], {"smoothing": None, "time_step": 0.25})
+    assert "relaxed" not in traj.metadata and traj.dt == 0.25
+    assert rvo.RVOParams(smoothing=None).smoothing == "none"
+    with pytest.raises(TypeError, match="params must be an RVOParams or a dict"):
+        rvo.simulate(scene, [group], 3)
+    with pytest.raises(ValueError, match="smoothing_window"):
+        rvo.simulate(scene, [group], {"smoothing_window": -1.0})

@@ -191,15 +191,30 @@ def metadata_json(traj: Trajectories, loco: Locomotion | None = None) -> str:
     needs to use the numbers: frame rate, dimension, units and axes (and, given ``loco``,
     the ``locomotion`` entry of :func:`locomotion_metadata`)."""
     extra = {} if loco is None else {"locomotion": locomotion_metadata(traj, loco)}
-    return json.dumps({**traj.metadata, "dt": traj.dt, "fps": traj.fps, "dim": traj.dim,
-                       "units": {"length": "m", "time": "s", "speed": "m/s", "turn_rate": "rad/s",
-                                 "gait_phase": "strides"},
-                       "axes": "x east, y north, z up; 2D runs lie on the ground plane", **extra}, default=_plain)
+    return json_text({**traj.metadata, "dt": traj.dt, "fps": traj.fps, "dim": traj.dim,
+                      "units": {"length": "m", "time": "s", "speed": "m/s", "turn_rate": "rad/s",
+                                "gait_phase": "strides"},
+                      "axes": "x east, y north, z up; 2D runs lie on the ground plane", **extra})
 
 
-def _plain(obj):
+def json_text(obj, **options) -> str:
+    """``obj`` as strict JSON, which every reader parses: numpy values as plain lists and
+    numbers, NaN and infinities (not JSON) as null, anything else unknown as its text.
+    ``options`` go to :func:`json.dumps` (``indent``, say)."""
+    return json.dumps(_finite(obj), allow_nan=False, **options)
+
+
+def _finite(obj):
+    if isinstance(obj, dict):
+        return {k: _finite(v) for k, v in obj.items()}
+    if isinstance(obj, (list, tuple)):
+        return [_finite(v) for v in obj]
     if isinstance(obj, np.ndarray):
-        return obj.tolist()
+        return _finite(obj.tolist())
     if isinstance(obj, np.generic):
-        return obj.item()
+        return _finite(obj.item())
+    if isinstance(obj, float):
+        return obj if np.isfinite(obj) else None
+    if obj is None or isinstance(obj, (str, int, bool)):
+        return obj
     return str(obj)

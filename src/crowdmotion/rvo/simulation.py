@@ -195,9 +195,16 @@ def run(scene: Scene, groups: Sequence[Group], params: RVOParams, rng: np.random
     return RVORun(traj, sim, journeys, steps)
 
 
-def simulate(scene: Scene, groups: Sequence[Group], params: RVOParams | None = None,
+def simulate(scene: Scene, groups: Sequence[Group], params: RVOParams | dict | None = None,
              rng: np.random.Generator | None = None) -> Trajectories:
-    """The RVO method end to end: ``rvo.simulate(scene, groups, params, rng) -> Trajectories``."""
-    params = RVOParams() if params is None else params
+    """The RVO method end to end: ``rvo.simulate(scene, groups, params, rng) -> Trajectories``;
+    ``params`` an RVOParams or a dict of its fields (validated as the scenario's [rvo])."""
+    if isinstance(params, dict):
+        params = RVOParams(**params)
+    elif params is None:
+        params = RVOParams()
+    elif not isinstance(params, RVOParams):
+        raise TypeError(f"rvo.simulate: params must be an RVOParams or a dict of its fields, "
+                        f"got {type(params).__name__}")
     rng = np.random.default_rng(0) if rng is None else rng
     return run(scene, groups, params, rng).trajectories
