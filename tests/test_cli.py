@@ -232,7 +232,7 @@ plots = []
 
 def start_long_run(tmp_path, out):
     """``crowdmotion run`` of LONG into ``out`` as a process of its own, returned with its
-    stderr so far once its progress bar shows frames simulated."""
+    stderr so far once its progress line shows frames simulated."""
     import os
     import re
     import select
@@ -252,7 +252,7 @@ def start_long_run(tmp_path, out):
             if not chunk:
                 break
             err += chunk
-            if re.search(rb"\| *[1-9]\d*/300000 \[", err):
+            if re.search(rb"steps: [1-9][\d,]*/300,000 steps", err):  # a log's progress line (stderr is a pipe)
                 return proc, err.decode(errors="replace")
     proc.kill()
     proc.wait()

@@ -2,14 +2,20 @@
 
 import io
 
-from crowdmotion.progress import FIRST, step_bar
+from crowdmotion import progress
+from crowdmotion.progress import FIRST, LineBar, step_bar
 from crowdmotion.pso.adapter import expected_steps
 from crowdmotion.scenario import load_scenario
 from crowdmotion.cli import builtin_scenarios
 
 
+class Terminal(io.StringIO):
+    def isatty(self):
+        return True
+
+
 def test_the_bar_says_compiling_until_the_first_step_then_counts_from_it():
-    out = io.StringIO()
+    out = Terminal()
     with step_bar(200, "rvo steps", file=out) as bar:
         assert FIRST in bar.bar.postfix
         bar.done(10)  # the first chunk, compile included: the clock restarts here
@@ -25,3 +31,26 @@ def test_pso_bars_have_a_total():
     assert expected_steps(gathering.groups, gathering.params) == gathering.params.iterations
     following = load_scenario(scenes["pso_following"])
     assert expected_steps(following.groups, following.params) > following.params.iterations
+
+
+def test_a_log_gets_whole_lines_now_and_then_not_a_bar_redrawn_in_place(monkeypatch):
+    clock = {"t": 100.0}
+    monkeypatch.setattr(progress.time, "monotonic", lambda: clock["t"])
+    log = io.StringIO()  # a file or a pipe: not a terminal
+    with step_bar(2000, "rvo steps", file=log) as bar:
+        assert isinstance(bar, LineBar)
+        bar.done(10)  # the first step (kernels loaded): the clock starts, and a line says so
+        assert log.getvalue() == "rvo steps: 10/2,000 steps (0 %) in 0 s\n"
+        clock["t"] += 4.0
+        bar.done(200)  # under LINE_EVERY_S since the last line: nothing
+        clock["t"] += progress.LINE_EVERY_S
+        bar.advance(200)
+    assert log.getvalue().splitlines()[1:] == ["rvo steps: 400/2,000 steps (20 %) in 14 s"]
+    assert "\r" not in log.getvalue()
+
+
+def test_a_disabled_bar_writes_nothing():
+    log = io.StringIO()
+    with step_bar(10, "rvo steps", enabled=False, file=log) as bar:
+        bar.done(5)
+    assert log.getvalue() == ""

@@ -183,10 +183,10 @@ def test_the_scenario_reference_explains_every_field_in_toml_terms():
     ("formation", "[formation]\nmax_steps = 400\n"),
 ])
 def test_ctrl_c_stops_cleanly_and_keeps_the_frames_so_far(tmp_path, capsys, monkeypatch, method, extra):
-    from crowdmotion.progress import StepBar
+    from crowdmotion.progress import LineBar
 
     calls = {"n": 0}
-    done = StepBar.done
+    done = LineBar.done  # pytest's stderr is not a terminal: the run reports progress in lines
 
     def press_ctrl_c(self, n):  # the user presses Ctrl-C during the run
         calls["n"] += 1
@@ -194,7 +194,7 @@ def test_ctrl_c_stops_cleanly_and_keeps_the_frames_so_far(tmp_path, capsys, monk
             raise KeyboardInterrupt
         done(self, n)
 
-    monkeypatch.setattr(StepBar, "done", press_ctrl_c)
+    monkeypatch.setattr(LineBar, "done", press_ctrl_c)
     group = 'formation = { kind = "block", rows = 3, cols = 3, spacing = 1.2 }\n' if method == "formation" else ""
     path = scenario(tmp_path, method, extra=extra)
     path.write_text(path.read_text().replace("count = 9\n", "count = 9\n" + group))

@@ -4,6 +4,8 @@ read hours."""
 
 from __future__ import annotations
 
+import sys
+import time
 from contextlib import contextmanager
 from typing import Iterator
 
@@ -14,6 +16,7 @@ FIRST = "first step: loading its kernels (compiled on a first run, then cached)"
 # could not compile its kernels on all cores (crowdmotion._precompile forks only a
 # process without other threads). Our bars update every step: they need no monitor.
 tqdm.monitor_interval = 0
+LINE_EVERY_S = 10.0  # a log (output that is not a terminal) gets a progress line this often at most
 
 
 class StepBar:
@@ -37,6 +40,51 @@ class StepBar:
         self.done(self.bar.n + k)
 
 
+class LineBar:
+    """``StepBar``'s interface for output that is not a terminal (a log file, a pipe, a
+    render farm's job log): a bar redrawn in place would leave a stale line there, so this
+    writes a whole line at the first step reported (the kernels are loaded, the clock
+    starts) and then at most every ``LINE_EVERY_S`` seconds."""
+
+    def __init__(self, total: int | None, desc: str, unit: str, file):
+        self.total, self.desc, self.unit, self.file = total, desc, unit, file
+        self.n = 0
+        self.start: float | None = None
+        self.last = 0.0
+
+    def done(self, n: int) -> None:
+        now = time.monotonic()
+        first = self.start is None
+        if first:  # the first report (kernels loaded): the clock starts here, and a line says so
+            self.start = self.last = now
+        self.n = n
+        if first or now - self.last >= LINE_EVERY_S:
+            self.last = now
+            print(self.line(now), file=self.file, flush=True)
+
+    def advance(self, k: int = 1) -> None:
+        self.done(self.n + k)
+
+    def line(self, now: float) -> str:
+        """``rvo steps: 400/2,000 steps (20 %) in 12 s``"""
+        of = "" if not self.total else f"/{self.total:,}"
+        share = "" if not self.total else f" ({100 * self.n / self.total:.0f} %)"
+        return f"{self.desc}: {self.n:,}{of} {self.unit}s{share} in {now - (self.start or now):.0f} s"
+
+
+def _terminal(stream) -> bool:
+    """Whether ``stream`` shows a bar redrawn in place: a terminal, or a notebook (whose
+    tqdm draws a widget)."""
+    from tqdm.autonotebook import tqdm as chosen  # the notebook's bar inside a notebook kernel
+
+    if "notebook" in chosen.__module__:
+        return True
+    try:
+        return bool(stream.isatty())
+    except (AttributeError, ValueError):
+        return False
+
+
 # step loops (a method's run inside its step bar) under way and finished in this process
 _LOOPS = {"open": 0, "finished": 0}
 
@@ -48,12 +96,18 @@ def step_loops() -> tuple[int, int]:
 
 
 @contextmanager
-def step_bar(total: int | None, desc: str, enabled: bool = True, unit: str = "step", file=None) -> Iterator[StepBar]:
+def step_bar(total: int | None, desc: str, enabled: bool = True, unit: str = "step",
+             file=None) -> Iterator[StepBar | LineBar]:
     """A bar of ``total`` steps (shown after a second; on ``file``, default stderr) that
-    says it is loading its kernels until the first step is reported. The method's step
-    loop runs inside it (counted by :func:`step_loops`)."""
+    says it is loading its kernels until the first step is reported; where ``file`` is
+    not a terminal, a :class:`LineBar` instead. The method's step loop runs inside it
+    (counted by :func:`step_loops`)."""
     _LOOPS["open"] += 1
     try:
+        stream = sys.stderr if file is None else file
+        if enabled and not _terminal(stream):
+            yield LineBar(total, desc, unit, stream)
+            return
         with tqdm(total=total, desc=desc, unit=unit, disable=not enabled, delay=1.0, leave=False, file=file) as bar:
             bar.set_postfix_str(FIRST, refresh=False)
             yield StepBar(bar)
