@@ -145,7 +145,7 @@ def _begin_compiling(path, quiet: bool = False) -> None:
         return
     seconds = _precompile.cold_seconds(method)
     if seconds and not quiet:
-        print(f"crowdmotion: a first {method} run here: compiling its kernels ({seconds:.0f} s of compiling, "
+        print(f"crowdmotion: a first {method} run here: compiling its kernels ({seconds:.0f} s of one core's compiling, "
               f"shared over {_precompile.cores()} cores); later runs load them from numba's cache", file=sys.stderr,
               flush=True)
     _precompile.begin(method)
