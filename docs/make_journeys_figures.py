@@ -34,12 +34,14 @@ def last_out(traj) -> float:
 
 def stand_variants(text: str) -> dict[str, str]:
     """rvo_stand_exits to a random point of the concourse (no route), the nearest exit,
-    the least crowded exit (the built-in's)."""
+    the least crowded exit chosen once, and weighed again on the way (the built-in's)."""
     a, b = text.index("[[groups.route]]"), text.index("[rvo]")
+    once = "\n".join(line for line in text.splitlines() if not line.startswith("rechoose")) + "\n"
     return {"random point of the concourse (`goal_assignment = \"sample\"`)":
             text[:a].replace("attributes =", CONCOURSE) + text[b:] + 'goal_assignment = "sample"\n',
-            "nearest exit (`by = \"nearest\"`)": text.replace('by = "least_crowded"', 'by = "nearest"'),
-            "least crowded exit (`by = \"least_crowded\"`, the built-in's)": text}
+            "nearest exit (`by = \"nearest\"`)": once.replace('by = "least_crowded"', 'by = "nearest"'),
+            "least crowded exit, chosen once (`by = \"least_crowded\"`)": once,
+            "least crowded exit, weighed again every 2 s (`rechoose = 2.0`, the built-in's)": text}
 
 
 def main() -> None:
