@@ -54,3 +54,14 @@ def test_a_disabled_bar_writes_nothing():
     with step_bar(10, "rvo steps", enabled=False, file=log) as bar:
         bar.done(5)
     assert log.getvalue() == ""
+
+
+def test_bars_over_scenes_and_runs_write_lines_to_a_log():
+    from crowdmotion.progress import counter, tracked
+
+    log = io.StringIO()
+    with counter(3, "demo", "scene", file=log) as bar:
+        bar.write("rvo_doorway: 120 agents", file=log)  # a line of the caller's own, as it is
+        bar.update(1)  # the first: the clock starts, and a line says so
+    assert log.getvalue().splitlines() == ["rvo_doorway: 120 agents", "demo: 1/3 scenes (33 %) in 0 s"]
+    assert list(tracked([1, 2, 3], "report runs", "run", enabled=False)) == [1, 2, 3]

@@ -437,9 +437,9 @@ def _sweep_report(folder: Path) -> int:
     import json
 
     import pyarrow.parquet as pq
-    from tqdm.auto import tqdm
 
     from crowdmotion.io.atomic import atomic_path
+    from crowdmotion.progress import tracked
     from crowdmotion.rvo.claims import check_claims, format_claims, mean_ci
 
     try:
@@ -451,7 +451,7 @@ def _sweep_report(folder: Path) -> int:
     if not all(isinstance(row.get("file"), str) for row in table):
         raise ValueError(f"{folder / 'sweep.parquet'}: a damaged sweep table: a row names no trajectory file")
     runs = []
-    for row in tqdm(table, desc="report runs", unit="run", leave=False):
+    for row in tracked(table, "report runs", "run"):
         path = Path(row["file"])
         if not path.is_file():  # the sweep folder was moved: its runs/ sits beside sweep.parquet
             path = folder / "runs" / path.name
@@ -654,17 +654,16 @@ def cmd_sweep(args) -> int:
 def cmd_verify(args) -> int:
     import json
 
-    from tqdm.auto import tqdm
-
     from crowdmotion import verify
     from crowdmotion.io.atomic import atomic_path
+    from crowdmotion.progress import counter
     from crowdmotion.workers import default_jobs, map_in_workers
 
     pairs = verify.select(quick=args.quick, names=args.case, methods=args.method, empirical=args.empirical)
     out = Path(args.output)
     out.mkdir(parents=True, exist_ok=True)
     jobs = min(args.jobs or default_jobs(len(pairs)), len(pairs))
-    with tqdm(total=len(pairs), desc="verify", unit="case", disable=args.quiet, leave=False) as bar:
+    with counter(len(pairs), "verify", "case", not args.quiet) as bar:
         if jobs > 1:  # the long cases (those not in --quick) start first, the table keeps its order
             order = sorted(range(len(pairs)), key=lambda i: pairs[i][0].quick)
             done = map_in_workers(verify.run_named, [(pairs[i][0].name, pairs[i][1], str(out)) for i in order], jobs,

@@ -98,14 +98,13 @@ def run_parallel(scenes: list[DemoScene], root: Path, jobs: int, progress: bool 
     """Run ``scenes`` in ``jobs`` worker processes, each into ``root / <scene name>``;
     prints one line per scene as it finishes (with a bar over the scenes when
     ``progress``). Returns the outcomes in finishing order."""
-    from tqdm.auto import tqdm
-
     from crowdmotion.outputs import folder_inside
+    from crowdmotion.progress import counter
 
     file = sys.stdout if file is None else file
     order = interleave(scenes)
     done: list[SceneDone] = []
-    with tqdm(total=len(order), desc="demo", unit="scene", disable=not progress, leave=False) as bar:
+    with counter(len(order), "demo", "scene", progress) as bar:
         def report(_, outcome: SceneDone) -> None:
             done.append(outcome)
             line = (f"{outcome.name}: {outcome.headline} ({outcome.seconds:.1f} s)" if outcome.error is None

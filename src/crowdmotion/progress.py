@@ -65,6 +65,12 @@ class LineBar:
     def advance(self, k: int = 1) -> None:
         self.done(self.n + k)
 
+    update = advance  # tqdm's name, for the bars over scenes, cases and runs (:func:`counter`)
+
+    def write(self, text: str, file=None) -> None:
+        """A line of the caller's own (tqdm's ``write``): on a log it goes as it is."""
+        print(text, file=self.file if file is None else file, flush=True)
+
     def line(self, now: float) -> str:
         """``rvo steps: 400/2,000 steps (20 %) in 12 s``"""
         of = "" if not self.total else f"/{self.total:,}"
@@ -83,6 +89,29 @@ def _terminal(stream) -> bool:
         return bool(stream.isatty())
     except (AttributeError, ValueError):
         return False
+
+
+@contextmanager
+def counter(total: int | None, desc: str, unit: str, enabled: bool = True, leave: bool = False,
+            file=None) -> Iterator:
+    """A bar over ``total`` things done one by one (scenes, cases, runs, frames), with
+    tqdm's ``update`` and ``write``: tqdm's bar on a terminal or in a notebook, a
+    :class:`LineBar` on a log (on ``file``, default stderr), nothing when not ``enabled``."""
+    stream = sys.stderr if file is None else file
+    if enabled and not _terminal(stream):
+        yield LineBar(total, desc, unit, stream)
+        return
+    with tqdm(total=total, desc=desc, unit=unit, disable=not enabled, leave=leave, file=file) as bar:
+        yield bar
+
+
+def tracked(items, desc: str, unit: str, total: int | None = None, enabled: bool = True):
+    """``items`` one by one, counted by a :func:`counter`."""
+    total = len(items) if total is None and hasattr(items, "__len__") else total
+    with counter(total, desc, unit, enabled) as bar:
+        for item in items:
+            yield item
+            bar.update(1)
 
 
 # step loops (a method's run inside its step bar) under way and finished in this process

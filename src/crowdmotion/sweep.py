@@ -15,7 +15,7 @@ from typing import Any, Iterable, Sequence
 
 import pyarrow as pa
 import pyarrow.parquet as pq
-from tqdm.auto import tqdm
+from crowdmotion.progress import counter
 
 from crowdmotion._validation import shown
 from crowdmotion.io.atomic import atomic_path
@@ -131,7 +131,7 @@ def sweep(scenario: Scenario | str | Path, seeds: Iterable[int] = range(8),
     try:
         futures = [client.submit(run_one, data, seed, setting, str(out / "runs" / f"{_run_name(seed, setting)}.parquet"),
                                  pure=False) for data, seed, setting in runs]
-        with tqdm(total=len(futures), desc="sweep runs", unit="run", disable=not progress) as bar:
+        with counter(len(futures), "sweep runs", "run", progress, leave=True) as bar:
             for fut in as_completed(futures):
                 rows.append(fut.result())
                 bar.update(1)

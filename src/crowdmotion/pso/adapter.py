@@ -154,7 +154,7 @@ def expected_frames(groups, params: PSOParams) -> int:
 
 
 def run_scenario(scene, groups, params: PSOParams, rng, progress: bool = True):
-    with step_bar(expected_steps(groups, params), "pso iterations", progress, unit="it") as bar:
+    with step_bar(expected_steps(groups, params), "pso", progress, unit="iteration") as bar:
         result = run(scene, groups, params, rng, progress=bar.advance)
     sr = result.swarm_run
     traj = result.trajectories

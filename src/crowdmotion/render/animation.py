@@ -14,7 +14,7 @@ import matplotlib.pyplot as plt  # noqa: E402
 from matplotlib import patches  # noqa: E402
 import numpy as np  # noqa: E402
 from matplotlib.collections import EllipseCollection, LineCollection  # noqa: E402
-from tqdm.auto import tqdm  # noqa: E402
+from crowdmotion.progress import tracked  # noqa: E402
 
 from crowdmotion.io.atomic import atomic_path  # noqa: E402
 from crowdmotion.render.plots import (_draw_obstacles_2d, _group_colours, _save, blit_frame, gif_image,  # noqa: E402
@@ -69,7 +69,7 @@ def animate(traj: Trajectories, path, fps: float | None = None, trail_s: float =
         else:
             gif_frames = []
             palette = gif_palette(first, _group_colours(traj).values())
-        rest = tqdm(images, desc="rendering", unit="frame", total=len(frames) - 1, disable=not progress, leave=False)
+        rest = tracked(images, "rendering", "frame", total=len(frames) - 1, enabled=progress)
         for rgb in itertools.chain([first], rest):
             if kind == ".mp4":
                 sink.send(rgb)
