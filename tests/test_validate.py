@@ -259,10 +259,10 @@ def test_validate_refuses_a_run_larger_than_max_memory_before_placing_anyone(tmp
     monkeypatch.setattr(adapter, "check_scenario", never)
     path = scenario(tmp_path, count=1_000_000, spawn='{ shape = "rect", lower = [0, 0], upper = [30, 20] }',
                     bounds="[[0, 0], [3000, 2000]]")
-    err = refused(capsys, ["validate", str(path), "--max-memory", "1G"], str(path), "29.8 GiB of trajectories",
+    err = refused(capsys, ["validate", str(path), "--max-memory", "1G"], str(path), "59.6 GiB of trajectories",
                   "1,000,000 agents x 2,000 steps", "1.0 GiB", "rvo.max_steps")
     assert "Traceback" not in err
-    refused(capsys, ["run", str(path), "--max-memory", "1G", "-o", str(tmp_path / "o")], "29.8 GiB")
+    refused(capsys, ["run", str(path), "--max-memory", "1G", "-o", str(tmp_path / "o")], "59.6 GiB")
     assert not (tmp_path / "o").exists()
 
 
@@ -271,8 +271,8 @@ def test_validate_refuses_a_run_larger_than_the_available_memory(tmp_path, capsy
 
     monkeypatch.setattr(crowdmotion.memory, "available_memory", lambda: 1 << 20)
     path = scenario(tmp_path, count=50, spawn='{ shape = "rect", lower = [2, 2], upper = [12, 18] }')
-    refused(capsys, ["validate", str(path)], "1.5 MiB of trajectories", "1.0 MiB, the memory available now")
-    assert main(["validate", str(path), "--max-memory", "2M"]) == 0
+    refused(capsys, ["validate", str(path)], "3.1 MiB of trajectories", "1.0 MiB, the memory available now")
+    assert main(["validate", str(path), "--max-memory", "4M"]) == 0  # the steps and their relaxed frames
 
 
 def test_the_size_estimate_counts_resampled_frames(tmp_path):
@@ -282,6 +282,16 @@ def test_the_size_estimate_counts_resampled_frames(tmp_path):
     est = size_estimate(load_scenario(path))
     assert (est.steps, est.frames, est.seconds) == (100, 601, 25.0)  # 100 iterations of 0.25 s at 24 fps
     assert est.bytes == (101 + 601) * 10 * 2 * 8
+
+
+def test_the_size_estimate_counts_an_rvo_runs_relaxed_frames_beside_its_steps(tmp_path):
+    from crowdmotion.scenario import load_scenario, size_estimate
+
+    relaxed = size_estimate(load_scenario(scenario(tmp_path, "rvo", count=10, extra="[rvo]\nmax_steps = 100\n")))
+    plain = size_estimate(load_scenario(scenario(tmp_path, "rvo", count=10, name="plain",
+                                                 extra='[rvo]\nmax_steps = 100\nsmoothing = "none"\n')))
+    assert (relaxed.frames, plain.frames) == (101, 101)
+    assert (relaxed.bytes, plain.bytes) == (2 * 101 * 10 * 2 * 8, 101 * 10 * 2 * 8)
 
 
 @pytest.mark.parametrize("size", ["lots", "0", "-1G", "1e400"])

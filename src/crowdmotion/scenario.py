@@ -1023,8 +1023,8 @@ MAX_DURATION_S = 86_400.0  # simulated seconds a run may last at most: a day
 class SizeEstimate:
     """Upper bounds of a run, from the groups' counts and the method's parameters alone:
     ``agents``, ``steps`` simulated, ``seconds`` simulated, ``frames`` in its trajectories
-    and the ``bytes`` its positions take in memory (the raw steps and, when resampled, the
-    output frames)."""
+    and the ``bytes`` its positions take in memory (the raw steps and, when resampled or
+    relaxed, the output frames)."""
 
     agents: int
     steps: int
@@ -1043,7 +1043,9 @@ def size_estimate(scenario: Scenario) -> SizeEstimate:
     steps = int(module.expected_steps(scenario.groups, params))
     seconds = steps * float(module.step_seconds(scenario.groups, params))
     frames = int(module.expected_frames(scenario.groups, params))
-    held = steps + 1 + (frames if frames != steps + 1 else 0)
+    copy = getattr(module, "output_copy", None)  # output frames kept beside the steps, at the steps' rate
+    separate = frames != steps + 1 or (copy is not None and copy(params))
+    held = steps + 1 + (frames if separate else 0)
     return SizeEstimate(n, steps, seconds, frames, held * n * scenario.scene.dim * 8)
 
 

@@ -73,6 +73,11 @@ def expected_frames(groups, params: RVOParams) -> int:
     return params.max_steps + 1
 
 
+def output_copy(params: RVOParams) -> bool:
+    """Whether the run returns its frames relaxed (``smoothing``) beside the steps it keeps."""
+    return params.smoothing == "relaxed"
+
+
 def run_scenario(scene, groups, params: RVOParams, rng, progress: bool = True):
     with step_bar(params.max_steps, "rvo steps", progress) as bar:
         result = run(scene, groups, params, rng, progress=bar.done)
