@@ -324,3 +324,29 @@ def test_a_bad_number_on_the_command_line_is_an_argparse_error_not_a_traceback(t
     assert exc.value.code == 2
     err = capsys.readouterr().err
     assert f"argument {option}" in err and "Traceback" not in err, err
+
+
+def test_report_measures_an_rvo_run_s_groups_on_its_steps_not_the_relaxed_frames(tmp_path, capsys):
+    # the paper's §6 observations are about the model's motion: summary.json and report agree,
+    # whether from the run folder or a sweep of it
+    import pyarrow.parquet as pq
+
+    from crowdmotion import Trajectories
+    from crowdmotion.metrics import group_report
+    from tests.test_scenario import RVO
+
+    path = tmp_path / "street.toml"
+    path.write_text(RVO.replace("max_steps = 50", "max_steps = 400"))
+    out = tmp_path / "out"
+    assert main(["run", str(path), "-o", str(out), "-q"]) == 0
+    assert main(["report", str(out)]) == 0
+    summary = json.loads((out / "summary.json").read_text())
+    report = json.loads((out / "report.json").read_text())
+    relaxed = group_report(Trajectories.load(out / "trajectories.parquet"))
+    key = "heading_change_rate_rad_s"
+    assert report["a"][key] == summary["groups"]["a"][key] != relaxed["a"][key]
+    assert main(["sweep", str(path), "--seeds", "0:2", "-o", str(tmp_path / "sw"), "-q"]) == 0
+    row = pq.read_table(tmp_path / "sw" / "sweep.parquet").to_pylist()[0]
+    assert json.loads(row["groups"])["a"][key] != group_report(Trajectories.load(row["file"]))["a"][key]
+    capsys.readouterr()
+    assert main(["report", str(tmp_path / "sw")]) == 0 and "mixing" in capsys.readouterr().out

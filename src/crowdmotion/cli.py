@@ -361,16 +361,20 @@ def _print_report_table(rows: dict, cell) -> None:
         print(f"{name:12s}" + "".join(f"{cell(row, k, fmt):>15s}" for k, _, fmt in REPORT_COLUMNS))
 
 
-def _run_report(path: Path, traj) -> dict:
+def _run_report(path: Path, traj, groups: dict | None = None) -> dict:
     """metrics.group_report of one run, with the arrival times its summary measured and,
     for a group on a route, its ``journeys``: the time its agents spent in each stage,
-    their waits in each queue and their use of each exit (from summary.json)."""
+    their waits in each queue and their use of each exit (from summary.json). The group
+    measures are the run's own where it gave them (``groups``, or summary.json's
+    ``groups``): an RVO run takes them on its steps as simulated, the model's motion,
+    not on the frames relaxed for characters that its file holds."""
     from crowdmotion.metrics import group_report
 
-    report = group_report(traj)
     summary_file = path.parent / "summary.json"
+    summary = _read_json(summary_file, "run summary") if summary_file.is_file() else {}
+    own = _own_groups(groups if groups is not None else summary.get("groups"))
+    report = group_report(traj) if own is None else own
     if summary_file.is_file():  # arrival times the method measured (agents that stay at the goal too)
-        summary = _read_json(summary_file, "run summary")
         by_group = summary.get("time_to_goal_by_group_s", {})
         if not isinstance(by_group, dict):
             raise ValueError(f"{summary_file}: a damaged run summary: time_to_goal_by_group_s is not a table")
@@ -384,6 +388,15 @@ def _run_report(path: Path, traj) -> dict:
                 row["journeys"] = {"stages": journeys["stages"][name],
                                    **journeys.get("groups", {}).get(name, {"queues": {}, "exits": {}})}
     return report
+
+
+def _own_groups(groups) -> dict | None:
+    """A run's own per-group measures (name -> {column: value}) where they hold every
+    column of the report, else None (a run written before they were kept: measured again
+    from its file)."""
+    ok = isinstance(groups, dict) and all(isinstance(row, dict) and all(k in row for k, _, _ in REPORT_COLUMNS)
+                                          for row in groups.values())
+    return {name: dict(row) for name, row in groups.items()} if ok else None
 
 
 def _print_journeys(report: dict) -> None:
@@ -431,6 +444,17 @@ def cmd_report(args) -> int:
     return 0
 
 
+def _sweep_groups(text, folder: Path) -> dict:
+    """A sweep row's ``groups`` cell (JSON) as a table."""
+    import json
+
+    try:
+        return json.loads(text)
+    except (TypeError, ValueError):
+        raise ValueError(f"{folder / 'sweep.parquet'}: a damaged sweep table: a run's group measures are not JSON") \
+            from None
+
+
 def _sweep_report(folder: Path) -> int:
     """A sweep's runs: every group's measures as mean ± 95 % confidence interval over the
     runs, and the personality paper's §6 claims its groups allow (crowdmotion.rvo.claims)."""
@@ -455,7 +479,8 @@ def _sweep_report(folder: Path) -> int:
         path = Path(row["file"])
         if not path.is_file():  # the sweep folder was moved: its runs/ sits beside sweep.parquet
             path = folder / "runs" / path.name
-        runs.append(_run_report(path, _load_trajectories(path)))
+        own = row.get("groups")  # the run's own group measures (older sweep tables have none)
+        runs.append(_run_report(path, _load_trajectories(path), None if own is None else _sweep_groups(own, folder)))
     groups = list(dict.fromkeys(g for r in runs for g in r))
     stats = {g: {k: mean_ci([r[g][k] for r in runs if g in r and r[g][k] is not None])
                  for k, _, _ in REPORT_COLUMNS} for g in groups}

@@ -15,6 +15,7 @@ from typing import Any, Iterable, Sequence
 
 import pyarrow as pa
 import pyarrow.parquet as pq
+from crowdmotion.io.longform import json_text
 from crowdmotion.progress import counter
 
 from crowdmotion._validation import shown
@@ -83,6 +84,9 @@ def run_one(data: dict, seed: int, setting: dict, path: str) -> dict:
     for k in SUMMARY_KEYS:  # every row has every column (null where a method has no such metric)
         v = s.get(k)
         row[k] = float(v) if isinstance(v, (int, float)) and not isinstance(v, bool) else v
+    # the per-group measures as the run's summary took them (RVO: on its steps as simulated,
+    # not the relaxed frames the file holds), for crowdmotion report
+    row["groups"] = json_text(s["groups"]) if isinstance(s.get("groups"), dict) else None
     return row
 
 
