@@ -521,8 +521,9 @@ def relaxed_steps(traj, window_s: float, scene: Scene | None, max_speed: np.ndar
     audited in continuous time: a step where bodies touch that did not in ``traj``, or that
     outruns ``max_speed``, keeps the run's own move, eased in and out
     (:func:`crowdmotion.smoothing.keep_clean`). An agent active over more than one run of
-    frames keeps its own path. ``metadata["relaxed"]`` and ``metadata["resampled"]`` say
-    what was done."""
+    frames keeps its own path. ``metadata["relaxed"]`` says what was done: the window, the
+    iterations and how many path steps (``straight_segments`` of ``segments``) kept their
+    own move."""
     from crowdmotion.smoothing import keep_clean
     from crowdmotion.trajectories import Trajectories
 
