@@ -98,10 +98,42 @@ def test_a_goal_inside_a_wall_is_refused_and_every_agent_keeps_its_goal():
     sim = rvo.Simulator(_walled())
     sim.add_agents([[2, 5], [3, 5]], [18, 5])
     sim.step()  # the guidance fields exist from here on
-    with pytest.raises(ValueError, match="no cell free of obstacles"):
+    with pytest.raises(ValueError, match=r"goals: \[10.0, 2.0\] \(the 1st of 1\) lies inside an obstacle"):
         sim.set_goals([0], [10, 2])
     assert np.allclose(sim.goals, [18, 5])
     sim.step()
+
+
+def test_goals_no_body_can_reach_are_refused_when_added_and_the_simulation_goes_on():
+    # a goal inside a wall, added mid-run, used to be accepted and then refuse every later
+    # step (its guidance field unsolvable); one outside the bounds was walked at forever
+    sim = rvo.Simulator(_walled())
+    sim.add_agents([[2, 5], [3, 5]], [18, 5])
+    sim.step()
+    with pytest.raises(ValueError, match="lies inside an obstacle"):
+        sim.add_agents([[2, 8]], [10, 2])
+    with pytest.raises(ValueError, match=r"\[50.0, 5.0\] \(the 2nd of 2\) lies outside the scene bounds"):
+        sim.add_agents([[2, 8], [2, 2]], [[18, 8], [50, 5]])
+    with pytest.raises(ValueError, match="outside the scene bounds"):
+        sim.set_goals([1], [18, -3])
+    assert sim.n_agents == 2 and np.allclose(sim.goals, [18, 5])
+    sim.step()
+
+
+def test_agents_added_together_with_their_own_goals_each_follow_their_own_field():
+    # one call, two goal points on either side of a wall: each agent is guided to its own
+    # goal, not to the nearer of the two (as agents added in two calls are)
+    scene = cm.Scene(bounds=([0, 0], [30, 20]), obstacles=[cm.Box([10, 2], [12, 12])])
+    together = rvo.Simulator(scene)
+    together.add_agents([[5, 7], [2, 2]], [[20, 7], [5, 18]])
+    apart = rvo.Simulator(scene)
+    apart.add_agents([[5, 7]], [20, 7])
+    apart.add_agents([[2, 2]], [5, 18])
+    for sim in (together, apart):
+        while not sim.arrived[0] and sim.steps < 400:
+            sim.step()
+    assert together.arrived[0] and together.time == apart.time
+    assert together.field_of[0] != together.field_of[1]
 
 
 def test_the_same_goal_given_again_reuses_its_guidance_field():

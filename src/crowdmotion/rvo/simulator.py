@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import warnings
+
 import numpy as np
 from scipy.spatial import cKDTree
 
@@ -29,6 +31,9 @@ ESCAPE_HEADINGS = 32  # headings an agent in a moving obstacle's way tries after
 # O pair (mid-way between O+ and O−), rounded
 ENTRY_GAP_M = 0.05  # clearance an entering agent needs round its body
 ENTRY_NEIGHBOURS = 8  # bodies nearest its place an entering agent is checked against
+# different goal points given in one call without a goal_region get a guidance field each,
+# up to this many (a field is a grid of the scene; more share one field of all the points)
+OWN_FIELDS_MAX = 16
 DEFAULTS = {"max_neighbors": 10, "neighbor_dist": 10.0, "samples": 50, "safety": 5.0}
 
 
@@ -61,7 +66,11 @@ class Simulator(LiveObstacles):
     ``sim.step()``. Positions and velocities are (N, 2) arrays over every agent ever
     added; ``sim.active`` says who is still walking. Between steps, ``set_goals`` sends
     agents elsewhere and ``remove_agents`` takes them out (the live API; read the arrays,
-    do not write them).
+    do not write them). The steps are as simulated: in a dense crowd they stop and go
+    (acceleration p95 above 2 m/s² at a busy door), which a character bound to them shows;
+    ``rvo.simulate`` and the scenario runner return runs relaxed for characters
+    (``RVOParams.smoothing``), which needs the frames after each one, so a game that steps
+    live smooths the drawn position on its side. ``sim.dt`` is the time step.
 
     Parameters
     ----------
@@ -297,6 +306,7 @@ class Simulator(LiveObstacles):
             _per_agent(entrance, n, "entrance", integer=True, strict=False, minimum=-1)
         later = np.full(n, enter_at is not None)  # given times: every one enters through _admit, when free
         self._check_placement(pos, rad, ~later)
+        fields = self._field_indices(goal, goal_region, solve=False)  # may refuse the goals: before any change
         start = self.n_agents
         ids = np.arange(start, start + n)
         self.positions = np.concatenate([self.positions, pos])
@@ -312,7 +322,7 @@ class Simulator(LiveObstacles):
         self.personality = np.concatenate([self.personality, psi])
         for k, v in per.items():
             self.params[k] = np.concatenate([self.params[k], v])
-        self.field_of = np.concatenate([self.field_of, np.full(n, self._region_index(goal, goal_region, solve=False))])
+        self.field_of = np.concatenate([self.field_of, fields])
         self.group = np.concatenate([self.group, np.full(n, self._batches)])
         self._batches += 1
         self.deadlock.grow(n)
@@ -349,7 +359,7 @@ class Simulator(LiveObstacles):
         self._ensure_fields()
         if arrive_anywhere and not isinstance(goal_region, (Rect, Disc)):
             raise ValueError(f"arrive_anywhere needs a Rect or Disc goal_region, got {goal_region!r}")
-        field = self._region_index(goal, goal_region)
+        field = self._field_indices(goal, goal_region)
         self._release_targets(ids)
         if target is not None:
             self._targets.append((target, ids))
@@ -410,6 +420,21 @@ class Simulator(LiveObstacles):
         if goal.shape != (n, 2):
             raise ValueError(f"goals must be (2,) or ({n}, 2), got shape {goal.shape}")
         return goal, None
+
+    def _check_goal_points(self, goal: np.ndarray) -> None:
+        """Refuse goal points that are their own goal region (no ``goal_region`` given) and
+        that no body can reach: outside the bounds (walked at forever) or inside an obstacle
+        (its guidance field unsolvable, every later step refused)."""
+        n = len(goal)
+        out = np.flatnonzero(np.any((goal < self.scene.lower) | (goal > self.scene.upper), axis=1))
+        if len(out):
+            i = int(out[0])
+            raise ValueError(f"goals: {goal[i].tolist()} (the {_ordinal(i)} of {n}) lies outside the scene bounds "
+                             f"{self.scene.lower.tolist()}-{self.scene.upper.tolist()}")
+        inside = np.flatnonzero(self._now.static_obstacle_distance(goal) < 0)
+        if len(inside):
+            i = int(inside[0])
+            raise ValueError(f"goals: {goal[i].tolist()} (the {_ordinal(i)} of {n}) lies inside an obstacle")
 
     def _release_targets(self, ids: np.ndarray) -> None:
         """Agents ``ids`` no longer chase the moving targets they did."""
@@ -509,6 +534,28 @@ class Simulator(LiveObstacles):
         if len(bad):
             raise ValueError(f"{what}: no agent {int(bad[0])} (ids run from 0 to {self.n_agents - 1})")
         return ids
+
+    def _field_indices(self, goal: np.ndarray, goal_region, solve: bool = True) -> np.ndarray:
+        """(n,) the guidance field each of ``goal``'s agents follows: the region's, or
+        without one, each goal point's own (up to ``OWN_FIELDS_MAX`` different points in
+        one call; more share one field of all the points, with a warning: where its goal is
+        out of sight an agent then heads for the nearest of them)."""
+        n = len(goal)
+        if goal_region is not None or n == 0:
+            return np.full(n, self._region_index(goal, goal_region, solve))
+        self._check_goal_points(goal)
+        points, which = np.unique(goal, axis=0, return_inverse=True)
+        if len(points) == 1:
+            return np.full(n, self._region_index(goal, None, solve))
+        if len(points) > OWN_FIELDS_MAX:
+            if self._use_field():
+                warnings.warn(f"{len(points)} different goal points in one call share one guidance field (more than "
+                              f"{OWN_FIELDS_MAX}): where its own goal is out of sight an agent heads for the nearest "
+                              "of them; give a goal_region, or add the agents in calls of fewer goal points",
+                              stacklevel=3)
+            return np.full(n, self._region_index(goal, None, solve))
+        own = np.array([self._region_index(pt[None, :], None, solve) for pt in points])
+        return own[np.ravel(which)]
 
     def _region_index(self, goal: np.ndarray, goal_region, solve: bool = True) -> int:
         """The index of the goal region (``goal_region``, or the goal points) among those
@@ -784,6 +831,13 @@ class Simulator(LiveObstacles):
     def present(self) -> np.ndarray:
         """Agents to draw in the current frame: still walking, or arriving this very step."""
         return self.active | (self.arrival_time == self.time)
+
+
+def _ordinal(i: int) -> str:
+    """0 -> "1st", 1 -> "2nd", 10 -> "11th": the i-th (from 0) of a call's values, in words."""
+    k = i + 1
+    suffix = "th" if 10 <= k % 100 <= 20 else {1: "st", 2: "nd", 3: "rd"}.get(k % 10, "th")
+    return f"{k}{suffix}"
 
 
 def _points_region(goal: np.ndarray):
