@@ -109,7 +109,7 @@ def test_agents_may_stay_at_their_goal():
 
 
 @pytest.mark.parametrize("kwargs,words", [
-    ({"radius": -0.2}, "radius must be > 0, got -0.2 for agent 0"),
+    ({"radius": -0.2}, "radius must be > 0, got -0.2 for the 1st of the 2 agents given"),
     ({"max_speed": float("nan")}, "max_speed"),
     ({"pref_speed": 2.0, "max_speed": 1.0}, "pref_speed 2.0 exceeds max_speed 1.0"),
     ({"personality": "Z-"}, "unknown personality trait 'Z-'"),
@@ -117,7 +117,7 @@ def test_agents_may_stay_at_their_goal():
     ({"personality": "O+", "safety": 2.0}, "give either a personality or those parameters"),
     ({"samples": 2.5}, "samples must be > 0 whole"),
     ({"samples": 1e8}, "samples must be > 0 whole and at most 10000, got 100000000.0"),
-    ({"max_neighbors": [5, 20_000]}, "max_neighbors must be >= 0 whole and at most 10000, got 20000.0 for agent 1"),
+    ({"max_neighbors": [5, 20_000]}, "max_neighbors must be >= 0 whole and at most 10000, got 20000.0 for the 2nd of the 2 agents given"),
 ])
 def test_bad_agent_parameters_are_named(kwargs, words):
     sim = rvo.Simulator(cm.Scene(bounds=([0, 0], [10, 10])))

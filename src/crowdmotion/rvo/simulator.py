@@ -44,9 +44,9 @@ def _per_agent(value, n: int, name: str, integer: bool = False, minimum: float =
     try:
         arr = np.asarray(value, dtype=float)
     except (TypeError, ValueError):
-        raise ValueError(f"{name} must be a number or {n} numbers, got {value!r}") from None
+        raise ValueError(f"{name} must be a number or one number per agent ({n}), got {value!r}") from None
     if arr.ndim > 1 or (arr.ndim == 1 and arr.shape[0] != n):
-        raise ValueError(f"{name} must be a number or {n} numbers (one per agent), got shape {arr.shape}")
+        raise ValueError(f"{name} must be a number or one number per agent ({n}), got shape {arr.shape}")
     arr = np.broadcast_to(arr, (n,)).copy()
     bad = ~np.isfinite(arr) | ((arr <= minimum) if strict else (arr < minimum)) | (arr > maximum)
     if integer:
@@ -55,7 +55,7 @@ def _per_agent(value, n: int, name: str, integer: bool = False, minimum: float =
         i = int(np.flatnonzero(bad)[0])
         need = f"{'>' if strict else '>='} {minimum:g}" + (" whole" if integer else "") \
             + (f" and at most {maximum:g}" if maximum < np.inf else "")
-        raise ValueError(f"{name} must be {need}, got {float(arr[i])!r} for agent {i}")
+        raise ValueError(f"{name} must be {need}, got {float(arr[i])!r} for the {_ordinal(i)} of the {n} agents given")
     return arr.astype(np.int64) if integer else arr
 
 
@@ -281,7 +281,8 @@ class Simulator(LiveObstacles):
         over = np.flatnonzero(vpref > vmax)
         if len(over):
             i = int(over[0])
-            raise ValueError(f"pref_speed {vpref[i]} exceeds max_speed {vmax[i]} for agent {i}")
+            raise ValueError(f"pref_speed {vpref[i]} exceeds max_speed {vmax[i]} for the {_ordinal(i)} of the {n} "
+                             "agents given")
         given = {"neighbor_dist": neighbor_dist, "max_neighbors": max_neighbors, "samples": samples,
                  "safety": safety}
         if personality is not None:
