@@ -475,7 +475,7 @@ def relaxed_trajectories(traj, fps: float | None, window_s: float, scene: Scene 
     ``metadata["resampled"]`` how many steps fell back. ``keep_speed``: the relaxation
     itself keeps every agent within its ``max_speed`` (or its own fastest step, where that
     is faster), so that few steps need to fall back for speed."""
-    from crowdmotion.smoothing import keep_clean
+    from crowdmotion.smoothing import keep_clean, speed_limits
     from crowdmotion.trajectories import Trajectories, resample
 
     rate = 1.0 / traj.dt if fps is None else fps
@@ -486,8 +486,7 @@ def relaxed_trajectories(traj, fps: float | None, window_s: float, scene: Scene 
         return linear
     top = None
     if keep_speed or (by_steps and fps is not None):  # a hair under the audit's limit (keep_clean): the settling pushes may add a little
-        top = 0.999 * np.maximum(max_speed, np.linalg.norm(np.diff(traj.positions, axis=0), axis=-1).max(axis=0)
-                                 / traj.dt)
+        top = 0.999 * speed_limits(traj, max_speed)
     if by_steps and fps is not None:  # a run this large: minutes saved, see RELAX_AT_FPS_MAX
         pos = relax(traj.positions, traj.active_mask, traj.radius, traj.dt, scene, window_s,
                     iterations=STEP_RATE_ITERATIONS, passes=1, margin=margin, settle=max(settle, STEP_RATE_SETTLE),
@@ -524,14 +523,13 @@ def relaxed_steps(traj, window_s: float, scene: Scene | None, max_speed: np.ndar
     frames keeps its own path. ``metadata["relaxed"]`` says what was done: the window, the
     iterations and how many path steps (``straight_segments`` of ``segments``) kept their
     own move."""
-    from crowdmotion.smoothing import keep_clean
+    from crowdmotion.smoothing import keep_clean, speed_limits
     from crowdmotion.trajectories import Trajectories
 
     if traj.n_frames < 3 or traj.n_agents == 0:
         return traj
     act = traj.active_mask
-    top = 0.999 * np.maximum(max_speed, np.linalg.norm(np.diff(traj.positions, axis=0), axis=-1).max(axis=0)
-                             / traj.dt)
+    top = 0.999 * speed_limits(traj, max_speed)  # a hair under the audit's limit, as above
     pos = relax(traj.positions, act, traj.radius, traj.dt, scene, window_s, iterations=iterations, passes=1,
                 max_speed=top)
     runs = act[0].astype(int) + (act[1:] & ~act[:-1]).sum(axis=0)

@@ -46,6 +46,12 @@ def resample_checked(traj: Trajectories, fps: float, kind: str, scene: Scene | N
     return keep_clean(resample(traj, fps, kind), linear, traj, scene, max_speed, kind)
 
 
+def speed_limits(traj: Trajectories, max_speed: np.ndarray) -> np.ndarray:
+    """(N,) each agent's speed limit for a smoothing of ``traj``: its ``max_speed``, or its
+    own fastest step where that is faster (m/s)."""
+    return np.maximum(max_speed, np.linalg.norm(np.diff(traj.positions, axis=0), axis=-1).max(axis=0) / traj.dt)
+
+
 def keep_clean(smooth: Trajectories, linear: Trajectories, traj: Trajectories, scene: Scene | None,
                max_speed: np.ndarray | None, kind: str, warn: bool = True) -> Trajectories:
     """``smooth`` (any smoothing of ``traj`` at ``linear``'s frame rate, ``linear`` its
@@ -57,7 +63,7 @@ def keep_clean(smooth: Trajectories, linear: Trajectories, traj: Trajectories, s
     straight = np.zeros((traj.n_frames - 1, traj.n_agents), dtype=bool)
     limit = None
     if max_speed is not None:  # never faster than the agent's max_speed, or its own fastest step
-        limit = np.maximum(max_speed, np.linalg.norm(np.diff(traj.positions, axis=0), axis=-1).max(axis=0) / traj.dt)
+        limit = speed_limits(traj, max_speed)
 
     def outrun(tr: Trajectories) -> bool:
         """Flag both ends' segments of every interval that outruns the agent's limit."""

@@ -15,11 +15,11 @@ from typing import Any, Iterable, Sequence
 
 import pyarrow as pa
 import pyarrow.parquet as pq
-from crowdmotion.io.longform import json_text
-from crowdmotion.progress import counter
 
 from crowdmotion._validation import shown
 from crowdmotion.io.atomic import atomic_path
+from crowdmotion.io.longform import json_text
+from crowdmotion.progress import counter
 from crowdmotion.scenario import Scenario, build, load_scenario, validate_spec
 
 SUMMARY_KEYS = ("agents", "frames", "duration_s", "mean_path_length_m", "mean_speed_mps", "max_speed_mps",
