@@ -350,3 +350,19 @@ def test_report_measures_an_rvo_run_s_groups_on_its_steps_not_the_relaxed_frames
     assert json.loads(row["groups"])["a"][key] != group_report(Trajectories.load(row["file"]))["a"][key]
     capsys.readouterr()
     assert main(["report", str(tmp_path / "sw")]) == 0 and "mixing" in capsys.readouterr().out
+
+
+def test_a_sweep_report_of_one_run_is_strict_json(tmp_path, capsys):
+    # with one run a measure's confidence interval is infinite: JSON has no Infinity
+    from tests.test_scenario import RVO
+
+    path = tmp_path / "street.toml"
+    path.write_text(RVO.replace("max_steps = 50", "max_steps = 400"))
+    assert main(["sweep", str(path), "--seeds", "0:1", "-o", str(tmp_path / "sw"), "-q"]) == 0
+    assert main(["report", str(tmp_path / "sw")]) == 0
+
+    def refuse(name):
+        raise ValueError(f"not JSON: {name}")
+
+    report = json.loads((tmp_path / "sw" / "report.json").read_text(), parse_constant=refuse)
+    assert report["runs"] == 1

@@ -423,9 +423,8 @@ def _print_journeys(report: dict) -> None:
 
 
 def cmd_report(args) -> int:
-    import json
-
     from crowdmotion.io.atomic import atomic_path
+    from crowdmotion.io.longform import json_text
     from crowdmotion.outputs import adding_to_run
 
     folder = Path(args.output)
@@ -438,7 +437,7 @@ def cmd_report(args) -> int:
     dest = path.parent / "report.json"
     with adding_to_run(dest.parent) as add:  # listed with the run's files: run --overwrite removes it too
         with atomic_path(dest) as tmp:
-            tmp.write_text(json.dumps(report, indent=2))
+            tmp.write_text(json_text(report, indent=2))
         add(dest)
     print(f"wrote {dest}")
     return 0
@@ -458,11 +457,10 @@ def _sweep_groups(text, folder: Path) -> dict:
 def _sweep_report(folder: Path) -> int:
     """A sweep's runs: every group's measures as mean ± 95 % confidence interval over the
     runs, and the personality paper's §6 claims its groups allow (crowdmotion.rvo.claims)."""
-    import json
-
     import pyarrow.parquet as pq
 
     from crowdmotion.io.atomic import atomic_path
+    from crowdmotion.io.longform import json_text
     from crowdmotion.progress import tracked
     from crowdmotion.rvo.claims import check_claims, format_claims, mean_ci
 
@@ -501,8 +499,8 @@ def _sweep_report(folder: Path) -> int:
         print(format_claims(claims))
     dest = folder / "report.json"
     with atomic_path(dest) as tmp:
-        tmp.write_text(json.dumps({"runs": len(runs), "groups": stats, "claims": claims, "per_run": runs},
-                                  indent=2))
+        tmp.write_text(json_text({"runs": len(runs), "groups": stats, "claims": claims, "per_run": runs},
+                                 indent=2))
     print(f"wrote {dest}")
     return 0
 
@@ -677,10 +675,9 @@ def cmd_sweep(args) -> int:
 
 
 def cmd_verify(args) -> int:
-    import json
-
     from crowdmotion import verify
     from crowdmotion.io.atomic import atomic_path
+    from crowdmotion.io.longform import json_text
     from crowdmotion.progress import counter
     from crowdmotion.workers import default_jobs, map_in_workers
 
@@ -701,7 +698,7 @@ def cmd_verify(args) -> int:
                 bar.update(1)
     print(verify.table(verdicts))
     with atomic_path(out / "verify.json") as tmp:
-        tmp.write_text(json.dumps([v.as_dict() for v in verdicts], indent=2))
+        tmp.write_text(json_text([v.as_dict() for v in verdicts], indent=2))
     failed = [f"{v.case}/{v.method}" for v in verdicts if not v.passed]
     print(f"{len(verdicts) - len(failed)}/{len(verdicts)} passed; pictures and verify.json in {out}/"
           + (f"; failed: {', '.join(failed)}" if failed else ""))
