@@ -153,7 +153,7 @@ class Deadlock:
         d = np.empty((n_cand, BLOCKER_CANDIDATES))
         k = np.empty((n_cand, BLOCKER_CANDIDATES), dtype=np.int64)
         _nearest(cand, pos, float(sight.max()), *grid_for(pos, active, radius, pref_speed, dt), d, k)
-        return _new_yields(cand, d, k, np.arange(len(pos)), pos, wanted, radius, sight,
+        return _new_yields(cand, d, k, pos, wanted, radius, sight,
                            goals if goals is not None else pos, goals is not None, self.patience, self.stuck,
                            self.yield_to, self.yield_left, self.still, self.detour, self.abreast)
 
@@ -375,10 +375,10 @@ def _nearest(cand, pos, dmax, cell_start, items, origin_x, origin_y, h, nx, ny, 
 
 
 @njit(cache=True)
-def _new_yields(cand, d, k, live, pos, wanted, radius, sight, goals, use_goals, patience, stuck, yield_to,
+def _new_yields(cand, d, k, pos, wanted, radius, sight, goals, use_goals, patience, stuck, yield_to,
                 yield_left, still, detour, abreast):
     """The second part of :meth:`Deadlock.update`: of the candidates' nearest neighbours
-    (``d``, ``k`` as cKDTree's query gives them, rows of ``live``), detours round gridlocks
+    (``d``, ``k`` as :func:`_nearest` gives them: distances, agent ids), detours round gridlocks
     and new yields, each yielder to its nearest blocker. All decisions read the state from
     before any of them; returns how many yields began."""
     half = patience / 2
@@ -394,7 +394,7 @@ def _new_yields(cand, d, k, live, pos, wanted, radius, sight, goals, use_goals, 
         for c in range(m):
             if not np.isfinite(d[r, c]):
                 continue
-            j = live[k[r, c]]
+            j = k[r, c]
             if i == j:
                 continue
             if not ((stuck[j] >= half) or (yield_to[j] >= 0)):
