@@ -101,3 +101,56 @@ def test_an_interrupt_before_the_simulation_leaves_nothing(tmp_path, monkeypatch
     assert main(["run", str(path), "-o", str(out), "-q"]) == 143
     assert "SIGTERM: stopped; no file of this run is left" in capsys.readouterr().err
     assert not out.exists()
+
+
+def _kernel_interrupted_on(monkeypatch, step: int, cause: BaseException) -> None:
+    """The RVO simulator's ``step`` call number ``step`` fails as a compiled kernel does when
+    a signal lands as it returns: CPython raises SystemError from the handler's exception."""
+    from crowdmotion.rvo.simulator import Simulator
+
+    real, calls = Simulator.step, []
+
+    def step_(self, *args, **kwargs):
+        calls.append(1)
+        if len(calls) == step:
+            try:
+                raise cause
+            except BaseException as exc:
+                raise SystemError("CPUDispatcher(<function build_grid>) returned a result with an exception set") \
+                    from exc
+        return real(self, *args, **kwargs)
+
+    monkeypatch.setattr(Simulator, "step", step_)
+
+
+RVO_RUN = GOOD.replace('method = "mdp"', 'method = "rvo"').replace("[mdp]", "[rvo]")
+
+
+def test_ctrl_c_landing_in_a_compiled_kernel_keeps_the_frames_so_far(tmp_path, monkeypatch, capsys):
+    path = tmp_path / "s.toml"
+    path.write_text(RVO_RUN)
+    out = tmp_path / "out"
+    _kernel_interrupted_on(monkeypatch, 6, KeyboardInterrupt())
+    assert main(["run", str(path), "-o", str(out), "-q", "--plots", "none"]) == 130
+    err = capsys.readouterr().err
+    assert "kept the 6 frames simulated so far" in err and "internal error" not in err, err
+    summary = json.loads((out / "summary.json").read_text())
+    assert summary["partial"] is True and summary["frames"] == 6
+
+
+def test_ctrl_c_landing_in_a_compiled_kernel_keeps_the_frames_in_the_python_api(monkeypatch):
+    from crowdmotion.scenario import parse_scenario
+    from crowdmotion import rvo
+
+    sc = parse_scenario(RVO_RUN)
+    _kernel_interrupted_on(monkeypatch, 4, KeyboardInterrupt())
+    traj = rvo.simulate(sc.scene, sc.groups, sc.params)
+    assert traj.metadata["partial"] is True and traj.positions.shape[0] == 4
+
+
+def test_a_system_error_of_ours_is_still_an_internal_error(tmp_path, monkeypatch, capsys):
+    path = tmp_path / "s.toml"
+    path.write_text(RVO_RUN)
+    _kernel_interrupted_on(monkeypatch, 3, ValueError("a kernel's own failure"))
+    assert main(["run", str(path), "-o", str(tmp_path / "out"), "-q", "--plots", "none"]) == 1
+    assert "internal error: SystemError" in capsys.readouterr().err

@@ -155,7 +155,7 @@ def cmd_run(args) -> int:
     path = scenario_path(args.scenario)
     _begin_compiling(path, args.quiet)
     from crowdmotion import _precompile
-    from crowdmotion.interrupts import Interrupts
+    from crowdmotion.interrupts import Interrupts, is_interrupt
     from crowdmotion.metrics import headline
     from crowdmotion.outputs import MANIFEST, claim_output_folder, write_run
     from crowdmotion.render.background import PictureProcess
@@ -176,7 +176,9 @@ def cmd_run(args) -> int:
                       f"({stop.again()})", file=sys.stderr, flush=True)
             with stop.writing():
                 files = write_run(result, out, plots=plots, pictures=pictures)
-        except KeyboardInterrupt:
+        except (KeyboardInterrupt, SystemError) as exc:
+            if not is_interrupt(exc):
+                raise
             print(f"crowdmotion: {stop.name or 'interrupted'}: stopped; no file of this run is left in {out}",
                   file=sys.stderr)
             return stop.exit_code or 130
@@ -732,7 +734,7 @@ def _user_message(exc: BaseException) -> str:
 def main(argv=None) -> int:
     """The command; returns its exit status (EXIT_STATUS): 0 done, 2 refused (the message
     says why), 3 a run that ends with collisions, 130/143 interrupted, 1 an internal error."""
-    from crowdmotion.interrupts import Interrupts
+    from crowdmotion.interrupts import Interrupts, is_interrupt
 
     args = build_parser().parse_args(argv)
     warnings.showwarning = _one_line_warning
@@ -745,13 +747,20 @@ def main(argv=None) -> int:
         except (ValueError, FileNotFoundError, MemoryError, OSError, RecursionError) as exc:
             print(f"crowdmotion: error: {_user_message(exc)}", file=sys.stderr)
             return 2
-        except KeyboardInterrupt:
+        except (KeyboardInterrupt, SystemError) as exc:
+            if not is_interrupt(exc):  # SystemError: a bug of ours
+                return _internal_error(exc)
             print(f"crowdmotion: interrupted{f' ({stop.name})' if stop.name else ''}", file=sys.stderr)
             return stop.exit_code or 130
-        except Exception as exc:  # a bug of ours: one line, and how to see the rest
-            print(f"crowdmotion: internal error: {type(exc).__name__}: {_user_message(exc)} (run again with --debug "
-                  f"for the traceback, and please report it)", file=sys.stderr)
-            return 1
+        except Exception as exc:  # a bug of ours
+            return _internal_error(exc)
+
+
+def _internal_error(exc: Exception) -> int:
+    """A bug of ours as one line, and how to see the rest."""
+    print(f"crowdmotion: internal error: {type(exc).__name__}: {_user_message(exc)} (run again with --debug "
+          f"for the traceback, and please report it)", file=sys.stderr)
+    return 1
 
 
 EXIT_STATUS = """\

@@ -10,7 +10,7 @@ Ctrl-C, 143 after SIGTERM.
 
 The command installs the handlers for its lifetime and restores the earlier ones after;
 the library installs none (its step loops keep their frames on KeyboardInterrupt, as
-Python raises it on Ctrl-C by default).
+Python raises it on Ctrl-C by default, through :func:`step_loop`).
 """
 
 from __future__ import annotations
@@ -22,6 +22,35 @@ from contextlib import contextmanager
 from typing import Iterator
 
 NAMES = {signal.SIGINT: "Ctrl-C", signal.SIGTERM: "SIGTERM"}
+
+
+def is_interrupt(exc: BaseException | None) -> bool:
+    """Whether ``exc`` is Ctrl-C (or SIGTERM under :class:`Interrupts`): a KeyboardInterrupt,
+    or the SystemError CPython raises from it when the interrupt lands as a compiled
+    kernel returns ("CPUDispatcher(...) returned a result with an exception set")."""
+    while isinstance(exc, SystemError):
+        exc = exc.__cause__ or exc.__context__
+    return isinstance(exc, KeyboardInterrupt)
+
+
+class Stopped:
+    """What :func:`step_loop` saw: ``stopped`` is True once an interrupt ended the loop."""
+
+    stopped = False
+
+
+@contextmanager
+def step_loop() -> Iterator[Stopped]:
+    """``with step_loop() as loop:`` around a simulation's step loop: an interrupt ends
+    the block (``loop.stopped`` is then True) and the steps so far are kept; any other
+    error goes on."""
+    loop = Stopped()
+    try:
+        yield loop
+    except (KeyboardInterrupt, SystemError) as exc:
+        if not is_interrupt(exc):
+            raise
+        loop.stopped = True
 
 
 class Interrupts:

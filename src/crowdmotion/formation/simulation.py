@@ -14,6 +14,7 @@ from crowdmotion.formation.params import FormationParams, make_params
 from crowdmotion.formation.simulator import Simulator
 from crowdmotion.formation.templates import Template, from_spec
 from crowdmotion.groups import Group, Points
+from crowdmotion.interrupts import step_loop
 from crowdmotion.metrics import edge_length_error, kabsch_rms
 from crowdmotion.scene import Scene
 from crowdmotion.trajectories import Trajectories, resample
@@ -118,8 +119,7 @@ def run(scene: Scene, groups: Sequence[Group], params: FormationParams | dict | 
     torn = [[g.mesh.torn.copy()] for g in sim.groups]
     field_steps = [[False] for _ in sim.groups]
     dislocated = [[np.zeros(len(g.agents), bool)] for g in sim.groups]
-    partial = False
-    try:
+    with step_loop() as loop:  # Ctrl-C: keep the steps so far, marked partial
         for _ in range(params.max_steps):
             sim.step()  # groups bound for an exit leave there; the rest move on along their routes
             if journeys is not None:
@@ -137,8 +137,7 @@ def run(scene: Scene, groups: Sequence[Group], params: FormationParams | dict | 
                 progress(1)
             if sim.done and (journeys is None or not journeys.busy(sim.walkers.active)):
                 break
-    except KeyboardInterrupt:  # Ctrl-C: keep the steps so far, marked partial
-        partial = True
+    partial = loop.stopped
     n = min(len(frames), len(facing), len(present), len(stages) if journeys is not None else len(frames),
             *(len(x) for lists in (verts, torn, field_steps, dislocated) for x in lists))
     active = np.array(present[:n])

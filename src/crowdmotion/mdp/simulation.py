@@ -9,6 +9,7 @@ import numpy as np
 
 from crowdmotion.checks import describe_region
 from crowdmotion.groups import Group, MovingTarget, Points
+from crowdmotion.interrupts import step_loop
 from crowdmotion.mdp.goal_fill import fill_depth, nearest_cells
 from crowdmotion.mdp.params import MDPParams
 from crowdmotion.mdp.grid import GridMap, mark_obstacle, max_radius, min_cell_size, rasterise
@@ -189,11 +190,10 @@ def run(scene: Scene, groups: Sequence[Group], params: MDPParams, rng: np.random
         arrivals.admit(walker, 0, rng)
         cells_out, active_out = [walker.cells[None]], [(walker.active == 1)[None]]
     done = 0
-    partial = False
     # goal areas that keep their agents: latecomers are routed to the cells still free
     fill = not params.remove_on_arrival and not moving and any(len(gc) > 1 for gc in goal_cells)
     taken_before = None
-    try:
+    with step_loop() as loop:  # Ctrl-C: keep the steps so far, marked partial
         while done < params.max_steps:
             chunk = min(params.replan_every if moving or fill else 64, params.max_steps - done)
             if arrivals is not None:  # agents enter between chunks: end one at the next frame one may
@@ -234,8 +234,7 @@ def run(scene: Scene, groups: Sequence[Group], params: MDPParams, rng: np.random
                     and (arrivals is None or not arrivals.pending)
                     and (np.array_equal(before, walker.cells) or not walker.can_fill_deeper().any())):
                 break
-    except KeyboardInterrupt:  # Ctrl-C: keep the steps so far, marked partial
-        partial = True
+    partial = loop.stopped
     n = min(len(cells_out), len(active_out))
     cells_out, active_out = cells_out[:n], active_out[:n]
     cells = np.concatenate(cells_out)
@@ -312,8 +311,7 @@ def _run_routes(scene: Scene, groups: Sequence[Group], params: MDPParams, rng: n
     cells_out = [walker.cells[None]]
     active_out = [(walker.active == 1)[None]]
     stages = [journeys.frame(active_out[0][0])]
-    partial = False
-    try:
+    with step_loop() as loop:  # Ctrl-C: keep the steps so far, marked partial
         for done in range(1, params.max_steps + 1):
             before = walker.cells.copy()
             c, a = walker.advance(1, rng, params.tau, params.forbid_crossing, False)
@@ -330,8 +328,7 @@ def _run_routes(scene: Scene, groups: Sequence[Group], params: MDPParams, rng: n
                     and (arrivals is None or not arrivals.pending)
                     and (np.array_equal(before, walker.cells) or not walker.can_fill_deeper().any())):
                 break
-    except KeyboardInterrupt:  # Ctrl-C: keep the steps so far, marked partial
-        partial = True
+    partial = loop.stopped
     if not partial and (active_out[-1][-1] & ~walkers.active).any():  # the last to leave, gone in a frame more
         cells_out.append(walker.cells[None])
         active_out.append(walkers.active[None])

@@ -9,6 +9,7 @@ from typing import Any, Callable, Sequence
 import numpy as np
 
 from crowdmotion.groups import Disc, Group, MovingTarget, Points, Rect
+from crowdmotion.interrupts import step_loop
 from crowdmotion.placement import spawn_groups
 from crowdmotion.pso.obstacles import obstacle_field
 from crowdmotion.pso.params import PSOParams, make_params
@@ -163,8 +164,7 @@ def _run_stepped(swarm: Swarm, groups: Sequence[Group], params: PSOParams, rng: 
         return min(params.max_iterations, last + params.iterations)
 
     frames, targets, present, stages = [walkers.frame()], [swarm.target.copy()], [walkers.present.copy()], [stage_now()]
-    partial = False
-    try:
+    with step_loop() as loop:  # Ctrl-C: keep the iterations so far, marked partial
         while len(frames) <= last_iteration() and (swarm.n or walkers.held):
             swarm.iterate()
             walkers.after_step()  # particles at their exit leave; swarms that arrived move on
@@ -179,8 +179,7 @@ def _run_stepped(swarm: Swarm, groups: Sequence[Group], params: PSOParams, rng: 
             if swarm.done and not journeys.busy(walkers.active) and not walkers.held \
                     and (routed or params.stop_when_done):
                 break
-    except KeyboardInterrupt:  # Ctrl-C: keep the iterations so far, marked partial
-        partial = True
+    partial = loop.stopped
     n = min(len(frames), len(targets), len(present), len(stages))
     active, stage = np.array(present[:n]), np.array(stages[:n])
     sr = SwarmRun(np.array(frames[:n]), walkers.swarm_of.copy(), np.array(targets[:n]), walkers.stopped(),

@@ -30,6 +30,7 @@ import numpy as np
 from crowdmotion._rng import step_key
 from crowdmotion.geometry import finite_array
 from crowdmotion.groups import Group, MovingTarget, Points, Rect
+from crowdmotion.interrupts import step_loop
 from crowdmotion.placement import spawn_groups
 from crowdmotion.pso import _kernels as K
 from crowdmotion.pso.obstacles import ObstacleArrays, obstacle_field
@@ -396,7 +397,7 @@ def drive(swarm: Swarm, schedule=None, targets_at: Callable[[float], np.ndarray]
     """
     p = swarm.params
     frames, targets = [swarm.x.copy()], [swarm.target.copy()]
-    try:
+    with step_loop() as loop:  # Ctrl-C: keep the iterations so far, marked partial
         if schedule is None:
             until = (lambda s: s.done) if p.stop_when_done else None
             if not (until and swarm.done):
@@ -408,12 +409,9 @@ def drive(swarm: Swarm, schedule=None, targets_at: Callable[[float], np.ndarray]
                 _record(swarm, min(p.iterations, p.max_iterations + 1 - len(frames)), frames, targets, progress)
                 if len(frames) > p.max_iterations:
                     break
-    except KeyboardInterrupt:  # Ctrl-C: keep the iterations so far, marked partial
-        partial = True
-        n = min(len(frames), len(targets))
-        frames, targets = frames[:n], targets[:n]
-    else:
-        partial = False
+    partial = loop.stopped
+    n = min(len(frames), len(targets))  # a step cut short
+    frames, targets = frames[:n], targets[:n]
     return SwarmRun(np.array(frames), swarm.swarm.copy(), np.array(targets), swarm.stopped.copy(),
                     swarm.arrival_iteration.copy(), swarm.radius.copy(), swarm.scene, p, swarm.stats,
                     p.iteration_time, partial)

@@ -11,6 +11,7 @@ from crowdmotion import __version__
 from crowdmotion.checks import where
 from crowdmotion.groups import Disc, Group, MovingTarget, Points, Rect
 from crowdmotion._rng import step_key
+from crowdmotion.interrupts import step_loop
 from crowdmotion.journeys import Journeys, entrance_of, entry_points, entry_times
 from crowdmotion.path_relaxation import relaxed_steps
 from crowdmotion.placement import spawn_positions
@@ -160,8 +161,7 @@ def run(scene: Scene, groups: Sequence[Group], params: RVOParams, rng: np.random
     frames = [sim.positions.copy()]
     present = [sim.present.copy()]
     stages = [] if journeys is None else [journeys.frame(present[0])]
-    partial = False
-    try:
+    with step_loop() as loop:  # Ctrl-C: keep the frames so far, marked partial
         entering = any("enter" in g.attributes for g in groups)
         while sim.steps < params.max_steps and ((sim.active & ~sim.arrived).any() or sim.waiting.any()
                                                 or (journeys is not None and journeys.busy(sim.active))):
@@ -174,8 +174,7 @@ def run(scene: Scene, groups: Sequence[Group], params: RVOParams, rng: np.random
             present.append(sim.present.copy())
             if progress is not None and sim.steps % 10 == 0:
                 progress(sim.steps)
-    except KeyboardInterrupt:  # Ctrl-C: keep the frames so far, marked partial
-        partial = True
+    partial = loop.stopped
     n = min(len(frames), len(present), len(stages) if journeys is not None else len(frames))
     names = np.array([g.name for g in groups], dtype=object)
     active = np.array(present[:n])
