@@ -1,12 +1,28 @@
-"""The generated scenario reference matches the schema the loader uses."""
+"""The docs hold: the generated scenario reference matches the schema the loader uses,
+and the Python examples a user copies from the README and the method pages run as
+written."""
 
+import re
 import runpy
 from pathlib import Path
 
+import pytest
+
 DOCS = Path(__file__).parent.parent / "docs"
+# pages whose examples run top to bottom on their own (the others show fragments of a run)
+RUNNABLE = ("README.md", "getting-started.md", "rvo.md", "formation.md", "pso.md")
 
 
 def test_scenario_reference_is_up_to_date():
     make = runpy.run_path(str(DOCS / "make_scenario_reference.py"))
     assert (DOCS / "scenario-reference.md").read_text() == make["render"](), \
         "docs/scenario-reference.md is stale: run python docs/make_scenario_reference.py"
+
+
+@pytest.mark.parametrize("page", RUNNABLE)
+def test_the_python_examples_of_a_page_run_as_written(page, tmp_path, monkeypatch):
+    path = DOCS.parent / page if page == "README.md" else DOCS / page
+    code = "\n".join(re.findall(r"```python\n(.*?)```", path.read_text(), re.S))
+    assert code, f"{page} has no Python example"
+    monkeypatch.chdir(tmp_path)  # whatever an example writes lands here
+    exec(compile(code, str(path), "exec"), {"__name__": "__example__"})

@@ -21,6 +21,12 @@ class ObstaclePrimitives:
     seg_b: np.ndarray
     seg_v: np.ndarray
 
+    def with_discs(self, centres: np.ndarray, radii: np.ndarray, velocities: np.ndarray) -> ObstaclePrimitives:
+        """These primitives and more discs (centre, radius, velocity per step), after the
+        others: agents a caller moves itself, for the ones the crowd steers."""
+        return ObstaclePrimitives(np.concatenate([self.circ_c, centres]), np.concatenate([self.circ_r, radii]),
+                                  np.concatenate([self.circ_v, velocities]), self.seg_a, self.seg_b, self.seg_v)
+
 
 def outline_segments(ob: Obstacle) -> np.ndarray:
     """(k, 2, 2) boundary segments of a box or polygon in its rest frame."""

@@ -408,3 +408,95 @@ def test_a_move_onto_an_agent_or_its_goal_is_refused_and_nothing_changes(to, mes
         sim.move_obstacle(9, (1, 0))
     sim.step()
     assert sim.active.all()
+
+
+# ---- the live API: agents the caller moves itself (a game's player, a robot) -------------------
+def _street_with_player():
+    """40 walkers heading west along a 30 × 10 m street; a player (radius 0.3) at its
+    west end, driven east at 1.5 m/s straight through them."""
+    sim = rvo.Simulator(cm.Scene(bounds=([0, 0], [30, 10])), time_step=0.25)
+    starts = np.array([[x, y] for x in (20, 22, 24, 26, 28) for y in np.linspace(1, 9, 8)])
+    sim.add_agents(starts, np.c_[np.full(len(starts), 1.0), starts[:, 1]], radius=0.25)
+    player = sim.add_agents([[2, 5]], [[2, 5]], radius=0.3, max_speed=3.0, pref_speed=1.5)
+    sim.drive(player, [1.5, 0.0])
+    return sim, int(player[0])
+
+
+def _stepped(sim, steps):
+    """``steps`` steps of ``sim`` from now, recorded as Trajectories (with the start)."""
+    frames, present = [], []
+    _record(sim, frames, present)
+    for _ in range(steps):
+        sim.step()
+        _record(sim, frames, present)
+    return cm.Trajectories(np.array(frames), sim.dt, radius=sim.params["radius"], active=np.array(present))
+
+
+def test_a_driven_player_walks_exactly_as_driven_and_the_crowd_steps_out_of_its_way():
+    sim, player = _street_with_player()
+    traj = _stepped(sim, 72)
+    path = traj.positions[:, player]
+    assert np.allclose(path[:, 0], 2.0 + 1.5 * sim.dt * np.arange(73)) and np.allclose(path[:, 1], 5.0)
+    report = collision_audit(traj, sim.scene)
+    assert report.agent_agent == 0 and report.agent_obstacle == 0, report  # nobody it met was hit
+    assert not sim.arrived[player], "a driven agent does not arrive (its goal is behind it)"
+
+
+def test_a_driven_agent_handed_back_walks_to_its_goal_again():
+    sim = rvo.Simulator(cm.Scene(bounds=([0, 0], [20, 10])))
+    ids = sim.add_agents([[2, 5]], [[18, 5]], radius=0.3)
+    sim.drive(ids, [0.0, 1.0])  # north, away from the goal in the east
+    for _ in range(8):
+        sim.step()
+    assert np.allclose(sim.positions[0], [2.0, 7.0])
+    sim.drive(ids, None)
+    while sim.time < 30 and not sim.arrived[0]:
+        sim.step()
+    assert sim.arrived[0]
+
+
+def test_a_player_pushing_through_a_dense_standing_crowd_never_pushes_two_others_together():
+    sim = rvo.Simulator(cm.Scene(bounds=([0, 0], [30, 10])), remove_on_arrival=False)
+    spots = np.array([[x, y] for x in np.arange(10, 20, 0.8) for y in np.arange(1, 9.01, 0.8)])
+    sim.add_agents(spots, spots, radius=0.25)  # 1.6 /m², standing on their spots
+    player = int(sim.add_agents([[2, 5.1]], [[2, 5.1]], radius=0.3)[0])
+    sim.drive([player], [1.2, 0.0])
+    report = collision_audit(_stepped(sim, 80), sim.scene)
+    assert all(player in (e.a, e.b) for e in report.events), "the crowd keeps clear of itself"
+
+
+def test_place_teleports_an_agent_and_refuses_a_place_no_body_fits():
+    sim = rvo.Simulator(cm.Scene(bounds=([0, 0], [20, 10]), obstacles=[cm.Box([9, 0], [11, 4])]))
+    ids = sim.add_agents([[2, 5], [4, 5]], [[18, 5], [18, 5]], radius=0.3)
+    sim.place(ids[:1], [15, 8])
+    assert np.allclose(sim.positions[0], [15, 8])
+    before = sim.positions.copy()
+    for where, message in (([10, 2], "agent 1 at .* would be inside an obstacle"),
+                           ([19.9, 5], "agent 1 at .* does not fit inside the scene bounds"),
+                           ([15.3, 8], "agents 0 and 1 would be overlapped")):
+        with pytest.raises(ValueError, match=message):
+            sim.place([1], where)
+        assert np.array_equal(sim.positions, before)
+    sim.place([0], [15.2, 8])  # a small move of its own body is no overlap with itself
+
+
+@pytest.mark.parametrize("call,args,message", [
+    ("drive", ([0], [np.nan, 0]), "velocities"),
+    ("drive", ([0, 1], [[1, 0]]), r"velocities must be \(2,\) or \(2, 2\)"),
+    ("drive", ([7], [1, 0]), r"drive: no agent 7"),
+    ("place", ([0], [np.inf, 1]), "positions"),
+    ("place", ([0, 1], [[1, 1], [2, 2], [3, 3]]), r"positions must be \(2,\) or \(2, 2\)"),
+])
+def test_drive_and_place_refuse_bad_calls_and_change_nothing(call, args, message):
+    sim = _sim()
+    before = sim.positions.copy()
+    with pytest.raises(ValueError, match=message):
+        getattr(sim, call)(*args)
+    assert np.array_equal(sim.positions, before) and not sim.driven.any()
+
+
+def test_an_agent_still_waiting_to_enter_cannot_be_driven():
+    sim = rvo.Simulator(cm.Scene(bounds=([0, 0], [20, 10])))
+    ids = sim.add_agents([[2, 5]], [[18, 5]], enter_at=5.0)
+    with pytest.raises(ValueError, match="drive: agent 0 has not entered yet"):
+        sim.drive(ids, [1, 0])

@@ -65,8 +65,9 @@ class Simulator(LiveObstacles):
     ``sim = Simulator(scene, time_step=0.25)``, then ``sim.add_agents(...)`` and
     ``sim.step()``. Positions and velocities are (N, 2) arrays over every agent ever
     added; ``sim.active`` says who is still walking. Between steps, ``set_goals`` sends
-    agents elsewhere and ``remove_agents`` takes them out (the live API; read the arrays,
-    do not write them). The steps are as simulated: in a dense crowd they stop and go
+    agents elsewhere, ``remove_agents`` takes them out, ``drive`` moves agents at the
+    caller's own velocities (a game's player, a robot) and ``place`` puts agents
+    elsewhere (the live API; read the arrays, do not write them). The steps are as simulated: in a dense crowd they stop and go
     (acceleration p95 above 2 m/s² at a busy door), which a character bound to them shows;
     ``rvo.simulate`` and the scenario runner return runs relaxed for characters
     (``RVOParams.smoothing``), which needs the frames after each one, so a game that steps
@@ -193,6 +194,8 @@ class Simulator(LiveObstacles):
         self.entrance = np.zeros(0, dtype=np.int64)  # the entrance it enters at (-1: none named)
         self.group = np.zeros(0, dtype=np.int64)     # the add_agents call that added each agent
         self.field_of = np.zeros(0, dtype=np.int64)  # each agent's goal region (its guidance field)
+        self.driven = np.zeros(0, dtype=bool)  # moved by the caller (drive), not by the crowd's choice
+        self.drive_velocity = np.zeros(n0)
         self.params = {k: np.zeros(0, dtype=np.int64 if k in ("max_neighbors", "samples") else float)
                        for k in PARAM_KEYS}
         for k in ("radius", "max_speed", "pref_speed"):
@@ -324,6 +327,8 @@ class Simulator(LiveObstacles):
         for k, v in per.items():
             self.params[k] = np.concatenate([self.params[k], v])
         self.field_of = np.concatenate([self.field_of, fields])
+        self.driven = np.concatenate([self.driven, np.zeros(n, dtype=bool)])
+        self.drive_velocity = np.concatenate([self.drive_velocity, np.zeros((n, 2))])
         self.group = np.concatenate([self.group, np.full(n, self._batches)])
         self._batches += 1
         self.deadlock.grow(n)
@@ -405,8 +410,50 @@ class Simulator(LiveObstacles):
         self.enter_at[ids[self.waiting[ids]]] = np.inf  # one still waiting never comes in
         self.active[ids] = False
         self.velocities[ids] = 0.0
+        self.driven[ids] = False
         self.deadlock.forget(ids)
         self._release_targets(ids)
+
+    def drive(self, agents, velocities) -> None:
+        """Move agents yourself from the next step on (the live API): a game's player, a
+        robot under its own controller. Each step a driven agent moves at the velocity
+        given here (m/s; (2,) for all or one each), the last one given, until
+        ``drive(agents, None)`` hands it back to the crowd's own steering. The crowd sees
+        it as it sees a moving obstacle: every other agent avoids it along that velocity
+        and expects no room from it (eq. (3)'s obstacle term, not the reciprocal one), and
+        those it bears down on step aside first. A driven agent does not arrive, yield or
+        slow; nothing stops it walking into a wall or a body (the continuous audit reports
+        it), so steer it with your own checks.
+
+        Refused (ValueError, nothing changed): ids that do not exist, have left or are
+        still waiting to enter; a velocity that is NaN or inf."""
+        ids = self._agent_ids(agents, "drive")
+        waiting = ids[self.waiting[ids]]
+        if len(waiting):
+            raise ValueError(f"drive: agent {int(waiting[0])} has not entered yet")
+        if velocities is None:
+            self.driven[ids] = False
+            return
+        vel = finite_array(velocities, "velocities")
+        vel = np.tile(vel, (len(ids), 1)) if vel.shape == (2,) else vel
+        if vel.shape != (len(ids), 2):
+            raise ValueError(f"velocities must be (2,) or ({len(ids)}, 2), got shape {vel.shape}")
+        self.driven[ids] = True
+        self.drive_velocity[ids] = vel
+
+    def place(self, agents, positions) -> None:
+        """Put agents somewhere else now (the live API): a character the game teleported,
+        a robot whose position its own localisation corrected. They keep their
+        velocities, goals and routes. Refused (ValueError naming the agent, nothing
+        moved) where a body would stick out of the scene bounds, lie in an obstacle
+        standing now or overlap another agent in the scene, as ``add_agents`` refuses."""
+        ids = self._agent_ids(agents, "place")
+        pos = finite_array(positions, "positions")
+        pos = np.tile(pos, (len(ids), 1)) if pos.shape == (2,) else pos
+        if pos.shape != (len(ids), 2):
+            raise ValueError(f"positions must be (2,) or ({len(ids)}, 2), got shape {pos.shape}")
+        self._check_placement(pos, self.params["radius"][ids], self.active[ids], ids)
+        self.positions[ids] = pos
 
     def _goal_points(self, goals, n: int) -> tuple[np.ndarray, MovingTarget | None]:
         """``goals`` ((2,), (n, 2) or a MovingTarget) as (n, 2) points now, and the target
@@ -582,36 +629,40 @@ class Simulator(LiveObstacles):
             self._region_ids[id(goal_region)] = len(self._goal_regions) - 1
         return len(self._goal_regions) - 1
 
-    def _check_placement(self, pos: np.ndarray, rad: np.ndarray, now: np.ndarray | None = None) -> None:
+    def _check_placement(self, pos: np.ndarray, rad: np.ndarray, now: np.ndarray | None = None,
+                         ids: np.ndarray | None = None) -> None:
         """Refuse agents that start inside an obstacle, outside the bounds or (those
-        entering ``now``, default all) overlapping another."""
+        entering ``now``, default all) overlapping another. ``ids``: the agents placed
+        anew (default: new agents, numbered on from the last)."""
+        new = ids is None
+        ids = self.n_agents + np.arange(len(pos)) if new else ids
         inside = np.minimum(pos - self.scene.lower, self.scene.upper - pos).min(axis=1) - rad
         bad = np.flatnonzero(inside < 0)
         if len(bad):
             i = int(bad[0])
-            raise ValueError(f"agent {self.n_agents + i} at {pos[i].tolist()} (radius {rad[i]}) does not fit inside "
+            raise ValueError(f"agent {ids[i]} at {pos[i].tolist()} (radius {rad[i]}) does not fit inside "
                              f"the scene bounds {self.scene.lower.tolist()}-{self.scene.upper.tolist()}")
         clear = self._now.obstacle_distance(pos, self.time) - rad
         bad = np.flatnonzero(clear < 0)
         if len(bad):
             i = int(bad[0])
-            raise ValueError(f"agent {self.n_agents + i} at {pos[i].tolist()} starts inside an obstacle "
-                             f"(penetration {-clear[i]:.3f} m)")
-        live = np.flatnonzero(self.active)
+            raise ValueError(f"agent {ids[i]} at {pos[i].tolist()} {'starts' if new else 'would be'} inside an "
+                             f"obstacle (penetration {-clear[i]:.3f} m)")
+        live = np.flatnonzero(self.active & ~np.isin(np.arange(self.n_agents), ids))
         now = np.ones(len(pos), dtype=bool) if now is None else now
         if not now.any():
             return
         allpos = np.concatenate([self.positions[live], pos[now]])
         allrad = np.concatenate([self.params["radius"][live], rad[now]])
-        ids = np.concatenate([live, self.n_agents + np.flatnonzero(now)])
+        ids = np.concatenate([live, ids[now]])
         pairs = cKDTree(allpos).query_pairs(2 * allrad.max(), output_type="ndarray")
         if len(pairs):
             d = np.linalg.norm(allpos[pairs[:, 0]] - allpos[pairs[:, 1]], axis=1)
             hit = np.flatnonzero(d < allrad[pairs[:, 0]] + allrad[pairs[:, 1]])
             if len(hit):
                 a, b = pairs[hit[0]]
-                raise ValueError(f"agents {ids[a]} and {ids[b]} start overlapped: centres {d[hit[0]]:.3f} m apart, "
-                                 f"radii sum {allrad[a] + allrad[b]:.3f} m")
+                raise ValueError(f"agents {ids[a]} and {ids[b]} {'start' if new else 'would be'} overlapped: centres "
+                                 f"{d[hit[0]]:.3f} m apart, radii sum {allrad[a] + allrad[b]:.3f} m")
 
     # ---- stepping ----------------------------------------------------------------------
     def _use_field(self) -> bool:
@@ -654,9 +705,9 @@ class Simulator(LiveObstacles):
         v[~self.active] = 0.0
         return v, aim
 
-    def _grid(self):
-        """A uniform grid over the active agents, cells wide enough for the step check."""
-        return grid_for(self.positions, self.active, self.params["radius"], self.params["max_speed"], self.dt)
+    def _grid(self, agents: np.ndarray):
+        """A uniform grid over ``agents`` (a mask), cells wide enough for the step check."""
+        return grid_for(self.positions, agents, self.params["radius"], self.params["max_speed"], self.dt)
 
     def set_route(self, agents, route) -> None:
         """Send agents along a route of stages from now on (the live API): ``route`` is a
@@ -711,13 +762,37 @@ class Simulator(LiveObstacles):
         prims = self.obstacles.at(self.time, self.dt)
         wanted, aim = self._guidance(prims)
         p = self.params
+        driven = self.driven & self.active
+        steer = self.active  # the agents whose velocity the crowd's choice sets
+        if driven.any():  # the others avoid a driven one as a moving disc: it makes no room
+            steer = self.active & ~driven
+            prims = prims.with_discs(self.positions[driven], p["radius"][driven], self.drive_velocity[driven])
+        new = self._choose(prims, wanted, aim, steer, driven) if steer.any() else np.zeros((n, 2))
+        self.stats["agent_steps"] += int(self.active.sum())
+        new[driven] = self.drive_velocity[driven]
+        self.positions = self.positions + new * self.dt
+        self.velocities = new
+        self.time += self.dt
+        self.steps += 1
+        if steer.any():
+            self.stats["yields"] += self.deadlock.update(self.positions, wanted, new, p["pref_speed"], p["radius"],
+                                                         p["neighbor_dist"], steer, self.dt, self.goals)
+        self._arrivals()
+        self._admit()
+
+    def _choose(self, prims, wanted: np.ndarray, aim: np.ndarray, steer: np.ndarray,
+                driven: np.ndarray) -> np.ndarray:
+        """(N, 2) the velocities the ``steer`` agents choose this step (eq. (3) with the
+        named terms, then the safety pass); zero for the others."""
+        n = self.n_agents
+        p = self.params
         dl = self.deadlock
-        grid = self._grid()
-        slow = self.density_slowing.factors(self.positions, self.velocities, wanted, p["radius"], self.active, grid, self.dt)
-        vpref = dl.yielding_velocities(self.positions, wanted, p["pref_speed"], p["radius"], self.active)
+        grid = self._grid(steer)
+        slow = self.density_slowing.factors(self.positions, self.velocities, wanted, p["radius"], steer, grid, self.dt)
+        vpref = dl.yielding_velocities(self.positions, wanted, p["pref_speed"], p["radius"], steer)
         if self.lane_choice:
             vpref = lane_velocities(self.positions, self.velocities, vpref, p["radius"], p["safety"], self.density,
-                                    self.active, grid, prims)
+                                    steer, grid, prims)
         vpref = vpref * slow[:, None]
         if self.comfort_accel > 0.0:
             person = self.params["radius"] <= PERSON_MAX_RADIUS_M
@@ -727,7 +802,7 @@ class Simulator(LiveObstacles):
         key = step_key(self.rng)
         K.choose_velocities(self.positions, self.velocities, vpref, aim, p["radius"], p["max_speed"],
                             p["max_neighbors"], p["neighbor_dist"], p["samples"], p["safety"],
-                            self.active, *grid, prims.circ_c, prims.circ_r, prims.circ_v, prims.seg_a, prims.seg_b,
+                            steer, *grid, prims.circ_c, prims.circ_r, prims.circ_v, prims.seg_a, prims.seg_b,
                             prims.seg_v, self.dt, key, new, forced, dl.keep_right, KEEP_RIGHT_LOOK_S,
                             self.follow * np.minimum(self.density / FOLLOW_FULL_DENSITY, 1.0),
                             self._comfort_reach(), self.goals,
@@ -735,23 +810,15 @@ class Simulator(LiveObstacles):
         # safety: of two agents that would touch during the step, the one with the lower
         # (random, per step) priority stands still instead, until none would
         # agents a moving obstacle bears down on go first: standing still is no refuge for them
-        threatened = self._threatened(prims)
-        self.stats["safety_stops"] += K.resolve_conflicts(self.positions, new, p["radius"], self.active,
+        threatened = self._threatened(prims, driven)
+        self.stats["safety_stops"] += K.resolve_conflicts(self.positions, new, p["radius"], steer,
                                                           self.rng.random(n) + threatened, *grid, self.dt)
         if threatened.any():  # and one the pass stopped in a moving obstacle's way steps aside
             self.stats["escapes"] += K.escape_moving_obstacles(
                 self.positions, new, vpref, p["radius"], p["max_speed"], threatened > 0, *grid, prims.circ_c,
                 prims.circ_r, prims.circ_v, prims.seg_a, prims.seg_b, prims.seg_v, self.dt, ESCAPE_HEADINGS)
-        self.stats["forced_choices"] += int(forced[self.active].sum())
-        self.stats["agent_steps"] += int(self.active.sum())
-        self.positions = self.positions + new * self.dt
-        self.velocities = new
-        self.time += self.dt
-        self.steps += 1
-        self.stats["yields"] += dl.update(self.positions, wanted, new, p["pref_speed"], p["radius"],
-                                          p["neighbor_dist"], self.active, self.dt, self.goals)
-        self._arrivals()
-        self._admit()
+        self.stats["forced_choices"] += int(forced[steer].sum())
+        return new
 
     def _comfort_reach(self) -> np.ndarray:
         """(N,) the change of velocity (m/s) each agent makes comfortably this step: the
@@ -775,10 +842,11 @@ class Simulator(LiveObstacles):
         want = np.linalg.norm(vpref, axis=1)
         return np.minimum(1.0, cap / np.maximum(want, 1e-12))
 
-    def _threatened(self, prims) -> np.ndarray:
-        """(N,) 1.0 for agents within two steps' reach of a moving obstacle, else 0."""
+    def _threatened(self, prims, driven: np.ndarray) -> np.ndarray:
+        """(N,) 1.0 for agents within two steps' reach of a moving obstacle or a
+        ``driven`` agent (not themselves), else 0."""
         out = np.zeros(self.n_agents)
-        if not self.obstacles.any_moving:
+        if not (self.obstacles.any_moving or driven.any()):
             return out
         r = self.params["radius"] + 2.0 * self.params["max_speed"] * self.dt
         for c, rad, v in zip(prims.circ_c, prims.circ_r, prims.circ_v):
@@ -791,11 +859,12 @@ class Simulator(LiveObstacles):
                 t = np.clip((self.positions - a) @ ab / max(float(ab @ ab), 1e-300), 0.0, 1.0)
                 d = np.linalg.norm(self.positions - (a + t[:, None] * ab), axis=1)
                 out[d < r + 2.0 * np.linalg.norm(v) * self.dt] = 1.0
+        out[driven] = 0.0
         return out
 
     def _arrivals(self) -> None:
         d = np.linalg.norm(self.goals - self.positions, axis=1)
-        now = self.active & (d <= self.arrival_radius) & np.isnan(self.arrival_time)
+        now = self.active & ~self.driven & (d <= self.arrival_radius) & np.isnan(self.arrival_time)
         stays = ~self.leaves
         if stays.any():  # arrivals that stay: the next arrive by touching them
             arrived = ~np.isnan(self.arrival_time) & (stays | self.active)  # not those that left
