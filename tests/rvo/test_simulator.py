@@ -500,3 +500,48 @@ def test_an_agent_still_waiting_to_enter_cannot_be_driven():
     ids = sim.add_agents([[2, 5]], [[18, 5]], enter_at=5.0)
     with pytest.raises(ValueError, match="drive: agent 0 has not entered yet"):
         sim.drive(ids, [1, 0])
+
+
+def test_a_driven_agent_stops_at_the_edge_of_the_world_and_walks_on_when_handed_back():
+    sim = rvo.Simulator(cm.Scene(bounds=([0, 0], [20, 10])))
+    ids = sim.add_agents([[15, 1]], [[15, 5]], radius=0.3)
+    sim.drive(ids, [0.0, -1.0])  # south, off the map
+    for _ in range(12):
+        sim.step()
+    assert np.allclose(sim.positions[0], [15, 0.3])  # its body against the bound
+    sim.drive(ids, None)
+    while sim.time < 20 and not sim.arrived[0]:
+        sim.step()
+    assert sim.arrived[0]
+
+
+def test_agents_in_touch_elsewhere_do_not_stop_a_new_one_coming_in():
+    alley = cm.Scene(bounds=([0, 0], [20, 10]), obstacles=[cm.Box([0, 0.62], [5, 10])])  # 0.62 m wide, 5 m deep
+    sim = rvo.Simulator(alley, guidance="direct", remove_on_arrival=False)
+    sim.add_agents([[0.3, 0.3]], [[0.3, 0.3]], radius=0.25)  # standing at the alley's dead end
+    player = sim.add_agents([[2.0, 0.31]], [[2.0, 0.31]], radius=0.3)
+    sim.drive(player, [-1.0, 0.0])
+    for _ in range(8):
+        sim.step()  # the player presses it into the dead end
+    assert np.linalg.norm(sim.positions[0] - sim.positions[1]) < 0.5
+    sim.add_agents([[17, 8]], [[8, 8]])  # far from both
+    with pytest.raises(ValueError, match="agents [01] and 3 start overlapped"):
+        sim.add_agents([sim.positions[1] + [0.3, 0.0]], [[8, 8]])  # on the player
+
+
+def test_drive_refuses_an_agent_given_twice_with_one_velocity_each():
+    sim = _sim()
+    with pytest.raises(ValueError, match="drive: agent 1 is given twice"):
+        sim.drive([1, 1], [[1, 0], [0, 1]])
+
+
+def test_the_crowd_walks_on_when_the_last_obstacle_of_the_scene_is_taken_out():
+    sim = rvo.Simulator(cm.Scene(bounds=([0, 0], [20, 10])))  # auto guidance: straight, then a field, then straight
+    sim.add_agents([[2, 3], [2, 7]], [[18, 3], [18, 7]])
+    wall = sim.add_obstacle(cm.Box([9, 4], [11, 6]))
+    for _ in range(10):
+        sim.step()
+    sim.remove_obstacle(wall)
+    while sim.time < 30 and not sim.arrived.all():
+        sim.step()  # every replan_s the congestion-aware field was re-solved: none is left to re-solve
+    assert sim.arrived.all()

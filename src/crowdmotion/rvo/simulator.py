@@ -422,12 +422,14 @@ class Simulator(LiveObstacles):
         it as it sees a moving obstacle: every other agent avoids it along that velocity
         and expects no room from it (eq. (3)'s obstacle term, not the reciprocal one), and
         those it bears down on step aside first. A driven agent does not arrive, yield or
-        slow; nothing stops it walking into a wall or a body (the continuous audit reports
-        it), so steer it with your own checks.
+        slow, nor keep to its max_speed; the scene bounds hold it (it stops at the edge of
+        the world), but nothing stops it walking into an obstacle or a body (the
+        continuous audit reports it), so steer it with your own checks. Drive an agent
+        right after adding it: one added on its goal arrives at the next step.
 
-        Refused (ValueError, nothing changed): ids that do not exist, have left or are
-        still waiting to enter; a velocity that is NaN or inf."""
-        ids = self._agent_ids(agents, "drive")
+        Refused (ValueError, nothing changed): ids that do not exist, have left, are
+        still waiting to enter or are given twice; a velocity that is NaN or inf."""
+        ids = self._distinct_ids(agents, "drive")
         waiting = ids[self.waiting[ids]]
         if len(waiting):
             raise ValueError(f"drive: agent {int(waiting[0])} has not entered yet")
@@ -447,7 +449,7 @@ class Simulator(LiveObstacles):
         velocities, goals and routes. Refused (ValueError naming the agent, nothing
         moved) where a body would stick out of the scene bounds, lie in an obstacle
         standing now or overlap another agent in the scene, as ``add_agents`` refuses."""
-        ids = self._agent_ids(agents, "place")
+        ids = self._distinct_ids(agents, "place")
         pos = finite_array(positions, "positions")
         pos = np.tile(pos, (len(ids), 1)) if pos.shape == (2,) else pos
         if pos.shape != (len(ids), 2):
@@ -572,6 +574,14 @@ class Simulator(LiveObstacles):
             raise ValueError(f"{what}: agent {int(gone[0])} has left the simulation")
         return ids
 
+    def _distinct_ids(self, agents, what: str) -> np.ndarray:
+        """:meth:`_agent_ids`, refusing an id given twice (the values given are one per id)."""
+        raw = self._known_ids(agents, what)
+        values, counts = np.unique(raw, return_counts=True)
+        if (counts > 1).any():
+            raise ValueError(f"{what}: agent {int(values[counts > 1][0])} is given twice")
+        return self._agent_ids(raw, what)
+
     def _known_ids(self, agents, what: str) -> np.ndarray:
         """``agents`` as int ids of agents the simulator has (ValueError naming ``what`` otherwise)."""
         raw = np.atleast_1d(np.asarray(agents))
@@ -632,8 +642,9 @@ class Simulator(LiveObstacles):
     def _check_placement(self, pos: np.ndarray, rad: np.ndarray, now: np.ndarray | None = None,
                          ids: np.ndarray | None = None) -> None:
         """Refuse agents that start inside an obstacle, outside the bounds or (those
-        entering ``now``, default all) overlapping another. ``ids``: the agents placed
-        anew (default: new agents, numbered on from the last)."""
+        entering ``now``, default all) overlapping another (two agents already in the
+        scene that touch, a driven player pressing into someone, are theirs to sort out).
+        ``ids``: the agents placed anew (default: new agents, numbered on from the last)."""
         new = ids is None
         ids = self.n_agents + np.arange(len(pos)) if new else ids
         inside = np.minimum(pos - self.scene.lower, self.scene.upper - pos).min(axis=1) - rad
@@ -656,6 +667,7 @@ class Simulator(LiveObstacles):
         allrad = np.concatenate([self.params["radius"][live], rad[now]])
         ids = np.concatenate([live, ids[now]])
         pairs = cKDTree(allpos).query_pairs(2 * allrad.max(), output_type="ndarray")
+        pairs = pairs[pairs.max(axis=1) >= len(live)] if len(pairs) else pairs  # two already in touch are no concern here
         if len(pairs):
             d = np.linalg.norm(allpos[pairs[:, 0]] - allpos[pairs[:, 1]], axis=1)
             hit = np.flatnonzero(d < allrad[pairs[:, 0]] + allrad[pairs[:, 1]])
@@ -673,7 +685,7 @@ class Simulator(LiveObstacles):
     def _ensure_fields(self) -> None:
         if not self._fields_stale:
             return
-        self._fields = None
+        self._fields = self._router = None  # none, once the last static obstacle went (auto guidance)
         if self._use_field() and self.n_agents:
             self._fields = distance_fields(self._now, self._goal_regions, float(self.params["radius"].max()),
                                            self.field_cell)
@@ -769,7 +781,11 @@ class Simulator(LiveObstacles):
             prims = prims.with_discs(self.positions[driven], p["radius"][driven], self.drive_velocity[driven])
         new = self._choose(prims, wanted, aim, steer, driven) if steer.any() else np.zeros((n, 2))
         self.stats["agent_steps"] += int(self.active.sum())
-        new[driven] = self.drive_velocity[driven]
+        if driven.any():  # as driven, but never out of the world: the bounds hold their bodies
+            r = p["radius"][driven, None]
+            at = self.positions[driven]
+            to = np.clip(at + self.drive_velocity[driven] * self.dt, self.scene.lower + r, self.scene.upper - r)
+            new[driven] = (to - at) / self.dt
         self.positions = self.positions + new * self.dt
         self.velocities = new
         self.time += self.dt
