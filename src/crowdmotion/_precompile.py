@@ -390,3 +390,18 @@ def start(method: str) -> int:
     finally:
         shutil.rmtree(marks, ignore_errors=True)
     return len(todo)
+
+
+def warm_up(method: str) -> int:
+    """Have every recorded kernel of ``method`` ready in this process: those missing from
+    numba's cache compiled on all cores (:func:`start`; here, one after another where
+    it cannot fork), then each compiled or loaded from the cache here, so that no later
+    step stops for one (a game's first frames). Returns how many kernels are ready."""
+    start(method)
+    try:
+        record = json.loads(RECORD.read_text()).get(method, [])
+    except (OSError, ValueError):
+        return 0
+    for kernel in record:
+        _compile_one(kernel)
+    return len(record)

@@ -117,3 +117,25 @@ def test_two_streams_in_a_corridor_form_lanes_and_pass():
     order, v, order_mixed, v_mixed = np.mean(runs, axis=0)
     assert order >= 0.85, runs
     assert order > order_mixed + 0.2 and v > v_mixed + 0.2, runs
+
+
+def test_at_a_games_frame_rate_the_fields_are_re_solved_over_several_frames_and_taken_together():
+    import crowdmotion as cm
+    from crowdmotion import rvo
+
+    scene = cm.Scene(bounds=([0, 0], [40, 30]), obstacles=[cm.Circle([20, 15], 2.5)])
+    sim = rvo.Simulator(scene, time_step=1 / 60)
+    regions = [cm.Rect([1, 1 + 3 * k], [3, 3 + 3 * k]) for k in range(6)]
+    for k, region in enumerate(regions):
+        sim.add_agents([[30 + k, 5], [30 + k, 25]], region.center, goal_region=region)
+    sim.step()
+    solves = []
+    real = sim._router.solve
+    sim._router.solve = lambda *a, **kw: solves.append(len(a[1])) or real(*a, **kw)
+    fields = [sim._fields.dist]
+    for _ in range(sim.replan_steps):
+        sim.step()
+        fields.append(sim._fields.dist)
+    assert sum(solves) == 6 and max(solves) == 1, solves  # one Dijkstra a frame, each field once
+    changed = [k for k in range(1, len(fields)) if fields[k] is not fields[k - 1]]
+    assert len(changed) == 1, "the six new fields are taken in one frame, together"

@@ -13,7 +13,7 @@ from crowdmotion._lazy import lazy_exports
 _EXPORTS = {
     "TABLE4": "personality", "TRAITS": "personality", "dominant_trait": "personality",
     "personality_params": "personality", "sample_personalities": "personality", "trig_generator": "personality",
-    "Simulator": "simulator", "RVOParams": "params", "Params": "params",
+    "Simulator": "simulator", "warm_up": "simulator", "RVOParams": "params", "Params": "params",
     "RVORun": "simulation", "run": "simulation", "simulate": "simulation", "Recorder": "recorder",
 }
 __getattr__, __all__ = lazy_exports(__name__, _EXPORTS)

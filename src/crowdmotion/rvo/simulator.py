@@ -34,6 +34,9 @@ ENTRY_NEIGHBOURS = 8  # bodies nearest its place an entering agent is checked ag
 # different goal points given in one call without a goal_region get a guidance field each,
 # up to this many (a field is a grid of the scene; more share one field of all the points)
 OWN_FIELDS_MAX = 16
+# the congestion-aware fields of a replan period are re-solved within this many seconds
+# of its first step, spread over the steps in it (several per step where more fields)
+REPLAN_SPREAD_S = 0.25
 DEFAULTS = {"max_neighbors": 10, "neighbor_dist": 10.0, "samples": 50, "safety": 5.0}
 
 
@@ -113,7 +116,10 @@ class Simulator(LiveObstacles):
         its own stream walks on and opposing streams form lanes
         (:mod:`crowdmotion.rvo.congestion`); 0 = density alone.
     replan_s : float
-        Seconds between two re-solves of the congestion-aware field.
+        Seconds between two re-solves of the congestion-aware fields, from the crowd at
+        the period's first step; with several goal regions and short steps (a game's
+        frames) the Dijkstras are spread over the first 0.25 s and the new fields taken
+        together, so that no frame pays for all of them.
     density_slowing : bool
         Cap each agent's preferred speed at what Weidmann's fundamental diagram allows at
         the density it senses ahead (:mod:`crowdmotion.rvo.density`), so crowds slow with
@@ -209,6 +215,8 @@ class Simulator(LiveObstacles):
         self._fields: DistanceFields | None = None
         self._exact: np.ndarray | None = None  # the exact distances, while _fields holds the weighted ones
         self._router: CongestionRouter | None = None
+        self._weights = None  # the router's cell and edge weights for this replan period
+        self._replanning = None  # (fields to re-solve this period, {field: its new distances})
         self._fields_stale = True
         self.deadlock = Deadlock(np.deg2rad(keep_right_deg), float(patience))
         for name, flag in (("density_slowing", density_slowing), ("lane_choice", lane_choice)):
@@ -685,7 +693,8 @@ class Simulator(LiveObstacles):
     def _ensure_fields(self) -> None:
         if not self._fields_stale:
             return
-        self._fields = self._router = None  # none, once the last static obstacle went (auto guidance)
+        # none of them once the last static obstacle went (auto guidance)
+        self._fields = self._router = self._weights = self._replanning = None
         if self._use_field() and self.n_agents:
             self._fields = distance_fields(self._now, self._goal_regions, float(self.params["radius"].max()),
                                            self.field_cell)
@@ -694,12 +703,37 @@ class Simulator(LiveObstacles):
         self._fields_stale = False
 
     def _replan(self) -> None:
-        """Re-solve the congestion-aware field from where the agents are now."""
-        if self._router is None or not self._router.enabled or self.steps % self.replan_steps:
+        """Re-solve the congestion-aware fields every ``replan_s``, from the crowd as it is
+        at the period's first step. With several goal regions and steps shorter than
+        ``REPLAN_SPREAD_S`` (a game's frames), the Dijkstras are spread over the steps of
+        that first ``REPLAN_SPREAD_S``, so that no frame pays for them all, and the new
+        fields are taken all at once when the last is done, so that every group's field
+        answers the same crowd (spread further, or taken one by one, the roadmap crowd
+        of RVO2's example gridlocked). At the default step they are all solved and
+        taken in the period's first step. A field nobody walks goes back to its exact
+        distances."""
+        if self._router is None or not self._router.enabled:
             return
-        used = np.unique(self.field_of[self.active])  # fields nobody walks now keep their exact values
-        self._fields.dist = self._router.resolve(self.positions[self.active], self._exact, self.velocities[self.active],
-                                                 used)
+        if self.steps % self.replan_steps == 0:
+            if not self.active.any():
+                self._replanning = None
+                self._fields.dist = self._exact
+                return
+            self._weights = self._router.weights(self.positions[self.active], self.velocities[self.active])
+            self._replanning = (np.unique(self.field_of[self.active]), {})  # fields to solve, those solved
+        if self._replanning is None:
+            return
+        todo, solved = self._replanning
+        spread = min(self.replan_steps, max(1, int(round(REPLAN_SPREAD_S / self.dt))))
+        now = todo[len(solved):len(solved) + -(-len(todo) // spread)]
+        if len(now):
+            solved.update(zip(now.tolist(), self._router.solve(None, now, weights=self._weights)))
+        if len(solved) == len(todo):
+            dist = self._exact.copy()
+            for k, d in solved.items():
+                dist[k] = d
+            self._fields.dist = dist
+            self._replanning = None
 
     def preferred_velocities(self) -> np.ndarray:
         """(N, 2) v_pref of every agent now (zero for agents that left)."""
@@ -917,6 +951,16 @@ class Simulator(LiveObstacles):
     def present(self) -> np.ndarray:
         """Agents to draw in the current frame: still walking, or arriving this very step."""
         return self.active | (self.arrival_time == self.time)
+
+
+def warm_up() -> int:
+    """Compile (on every core, the first time after an install) or load the numba kernels
+    a :class:`Simulator`'s steps call, now: call it once before a game's first frame, so
+    that no step stops for a compile (6-8 s on one core the first time) or for loading one
+    from the cache (up to a second in all). Returns how many kernels are ready."""
+    from crowdmotion import _precompile
+
+    return _precompile.warm_up("rvo")
 
 
 def _ordinal(i: int) -> str:
