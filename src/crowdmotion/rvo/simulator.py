@@ -604,8 +604,9 @@ class Simulator(LiveObstacles):
     def _field_indices(self, goal: np.ndarray, goal_region, solve: bool = True) -> np.ndarray:
         """(n,) the guidance field each of ``goal``'s agents follows: the region's, or
         without one, each goal point's own (up to ``OWN_FIELDS_MAX`` different points in
-        one call; more share one field of all the points, with a warning: where its goal is
-        out of sight an agent then heads for the nearest of them)."""
+        one call; more are grouped by place into ``OWN_FIELDS_MAX`` groups sharing a field
+        each, with a warning: where its goal is out of sight an agent then heads for the
+        nearest goal of its group)."""
         n = len(goal)
         if goal_region is not None or n == 0:
             return np.full(n, self._region_index(goal, goal_region, solve))
@@ -614,12 +615,14 @@ class Simulator(LiveObstacles):
         if len(points) == 1:
             return np.full(n, self._region_index(goal, None, solve))
         if len(points) > OWN_FIELDS_MAX:
+            near = _nearby_groups(points, OWN_FIELDS_MAX)
             if self._use_field():
-                warnings.warn(f"{len(points)} different goal points in one call share one guidance field (more than "
-                              f"{OWN_FIELDS_MAX}): where its own goal is out of sight an agent heads for the nearest "
-                              "of them; give a goal_region, or add the agents in calls of fewer goal points",
-                              stacklevel=3)
-            return np.full(n, self._region_index(goal, None, solve))
+                warnings.warn(f"{len(points)} different goal points in one call share {near.max() + 1} guidance "
+                              f"fields, one per group of nearby goals (more than {OWN_FIELDS_MAX} points): where its "
+                              "own goal is out of sight an agent heads for the nearest goal of its group; give a "
+                              "goal_region, or add the agents in calls of fewer goal points", stacklevel=3)
+            own = np.array([self._region_index(points[near == g], None, solve) for g in range(near.max() + 1)])
+            return own[near[np.ravel(which)]]
         own = np.array([self._region_index(pt[None, :], None, solve) for pt in points])
         return own[np.ravel(which)]
 
@@ -968,6 +971,15 @@ def _ordinal(i: int) -> str:
     k = i + 1
     suffix = "th" if 10 <= k % 100 <= 20 else {1: "st", 2: "nd", 3: "rd"}.get(k % 10, "th")
     return f"{k}{suffix}"
+
+
+def _nearby_groups(points: np.ndarray, k: int) -> np.ndarray:
+    """(P,) a group 0 … (at most k − 1) for each point: k-means by place (k-means++ start,
+    a fixed seed, so a call gives the same groups each run), empty groups dropped."""
+    from scipy.cluster.vq import kmeans2
+
+    _, labels = kmeans2(points, k, minit="++", seed=np.random.default_rng(0))
+    return np.unique(labels, return_inverse=True)[1].ravel()
 
 
 def _points_region(goal: np.ndarray):
