@@ -549,7 +549,8 @@ def test_the_crowd_walks_on_when_the_last_obstacle_of_the_scene_is_taken_out():
 
 def test_walkers_given_a_goal_each_in_one_call_find_their_own_goals_round_the_buildings():
     # more goal points than fields: nearby goals share a field, so each walker is led
-    # towards its own part of the square (one field of all the goals led each to the
+    # towards its own part of the square, and at the end of it, its own goal behind a
+    # building, along its own goal's field (one field of all the goals led each to the
     # nearest goal of anyone: 24 of the 60 had not arrived after 40 s)
     scene = cm.Scene(bounds=([0, 0], [40, 30]), obstacles=[
         cm.Circle([20, 15], 2.5), cm.Box([4, 4], [10, 9]), cm.Box([30, 4], [36, 9]), cm.Box([4, 21], [10, 26]),
@@ -566,4 +567,23 @@ def test_walkers_given_a_goal_each_in_one_call_find_their_own_goals_round_the_bu
         sim.add_agents(starts, goals, radius=0.25)
     while sim.time < 40 and not sim.arrived.all():
         sim.step()
-    assert sim.arrived.sum() >= 57, int(sim.arrived.sum())  # all 60 here
+    assert sim.arrived.all(), int(sim.arrived.sum())
+
+
+def test_a_walker_whose_group_field_ends_at_anothers_goal_goes_on_along_its_own():
+    # 17 goal points: the two nearest each other, either side of a building, share a field;
+    # the walker bound for the south side starts in the north, where that field ends
+    scene = cm.Scene(bounds=([0, 0], [100, 100]), obstacles=[cm.Box([40, 40], [60, 50])])
+    far = [[x, y] for x in (5, 22, 78, 95) for y in (5, 22, 78, 95)][:15]
+    goals = np.array(far + [[50, 51.0], [50, 39.0]])
+    starts = goals + [0.0, 0.0]
+    starts[-1] = [50, 56]  # bound for (50, 39), south of the building, from the north
+    starts[-2] = [50, 60]
+    sim = rvo.Simulator(scene, rng=np.random.default_rng(0))
+    with pytest.warns(UserWarning, match="17 different goal points in one call share 16 guidance fields"):
+        ids = sim.add_agents(starts, goals, radius=0.3)
+    shared = sim.field_of[ids[-1]]
+    assert sim.field_of[ids[-2]] == shared
+    while sim.time < 60 and not sim.arrived[ids[-1]]:
+        sim.step()
+    assert sim.arrived[ids[-1]] and sim.field_of[ids[-1]] != shared, "round the building to its own goal"

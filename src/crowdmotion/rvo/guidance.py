@@ -10,15 +10,20 @@ from crowdmotion.routing import DistanceFields
 from crowdmotion.rvo import _kernels as K
 
 FIELD_WINDOW = 2  # cells: agents aim within this many cells along the field
+FIELD_END_M = 1.0  # an agent this near its field's end with its goal out of sight is lost on it
 
 
 def preferred_velocities(pos, goal, pref_speed, active, dt, fields: DistanceFields | None, field_of,
-                         prims: ObstaclePrimitives, radius) -> tuple[np.ndarray, np.ndarray]:
+                         prims: ObstaclePrimitives, radius,
+                         lost: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
     """v_pref for every agent and the distance to where it aims.
 
     Agents head for the goal at the preferred speed, slowing to land on it. With
     ``fields``, agents without a clear straight line to their goal follow the distance
-    field instead, aiming at the best cell they can see in a 5 × 5 window.
+    field instead, aiming at the best cell they can see in a 5 × 5 window. ``lost``
+    (N,), if given, is set True for the agents that need the field and have come to
+    its end (within ``FIELD_END_M``) or find no better cell in it: on a field shared
+    with other goals, at another's goal with their own out of sight.
     """
     to_goal = goal - pos
     dist = np.linalg.norm(to_goal, axis=1)
@@ -36,6 +41,11 @@ def preferred_velocities(pos, goal, pref_speed, active, dt, fields: DistanceFiel
                                fdir)
             reach = np.linalg.norm(fdir, axis=1)
             ok = use & (reach > 0)
+            if lost is not None:
+                cell = np.floor((pos - fields.origin) / fields.cell).astype(np.int64)
+                cell = np.clip(cell, 0, np.array(fields.dist.shape[1:]) - 1)
+                here = fields.dist[field_of, cell[:, 0], cell[:, 1]]
+                lost[:] = use & (~ok | (here <= FIELD_END_M))
             direction[ok] = fdir[ok] / reach[ok, None]
             speed[ok] = pref_speed[ok]
             aim[ok] = reach[ok]

@@ -211,6 +211,7 @@ class Simulator(LiveObstacles):
         self._goal_regions: list = []
         self._region_keys: list = []  # one per goal region, so a region given twice has one field
         self._region_ids: dict[int, int] = {}  # id(region object) -> its index: no repr per call
+        self._grouped: set[int] = set()  # fields shared by a group of nearby goal points
         self._batches = 0
         self._fields: DistanceFields | None = None
         self._exact: np.ndarray | None = None  # the exact distances, while _fields holds the weighted ones
@@ -606,7 +607,8 @@ class Simulator(LiveObstacles):
         without one, each goal point's own (up to ``OWN_FIELDS_MAX`` different points in
         one call; more are grouped by place into ``OWN_FIELDS_MAX`` groups sharing a field
         each, with a warning: where its goal is out of sight an agent then heads for the
-        nearest goal of its group)."""
+        nearest goal of its group, and at the end of that field for its own
+        (:meth:`_own_fields`))."""
         n = len(goal)
         if goal_region is not None or n == 0:
             return np.full(n, self._region_index(goal, goal_region, solve))
@@ -619,9 +621,11 @@ class Simulator(LiveObstacles):
             if self._use_field():
                 warnings.warn(f"{len(points)} different goal points in one call share {near.max() + 1} guidance "
                               f"fields, one per group of nearby goals (more than {OWN_FIELDS_MAX} points): where its "
-                              "own goal is out of sight an agent heads for the nearest goal of its group; give a "
-                              "goal_region, or add the agents in calls of fewer goal points", stacklevel=3)
+                              "own goal is out of sight an agent heads for the nearest goal of its group, then along its "
+                              "own goal's field; give a goal_region, or add the agents in calls of fewer goal points",
+                              stacklevel=3)
             own = np.array([self._region_index(points[near == g], None, solve) for g in range(near.max() + 1)])
+            self._grouped.update(own.tolist())
             return own[near[np.ravel(which)]]
         own = np.array([self._region_index(pt[None, :], None, solve) for pt in points])
         return own[np.ravel(which)]
@@ -749,10 +753,19 @@ class Simulator(LiveObstacles):
         for target, ids in self._targets:
             self.goals[ids] = target.at(self.time)
         self._nearest_goals()
+        lost = np.zeros(self.n_agents, dtype=bool)
         v, aim = preferred_velocities(self.positions, self.goals, self.params["pref_speed"], self.active, self.dt,
-                                      self._fields, self.field_of, prims, self.params["radius"])
+                                      self._fields, self.field_of, prims, self.params["radius"], lost)
         v[~self.active] = 0.0
+        self._own_fields(lost)
         return v, aim
+
+    def _own_fields(self, lost: np.ndarray) -> None:
+        """Agents of a group of nearby goals sharing a field (``_field_indices``) that
+        find no way on along it, their own goal out of sight (it ends at another's goal,
+        theirs behind a wall), get their own goal's field from the next step on."""
+        for i in np.flatnonzero(lost & np.isin(self.field_of, list(self._grouped))):
+            self.field_of[i] = self._region_index(self.goals[i][None], None)
 
     def _grid(self, agents: np.ndarray):
         """A uniform grid over ``agents`` (a mask), cells wide enough for the step check."""
