@@ -327,6 +327,7 @@ def test_a_sigterm_as_soon_as_a_child_is_forked_ends_the_child_not_runs_the_pare
 def test_a_warmed_up_live_simulator_compiles_nothing_in_its_steps(tmp_path):
     # a game calls rvo.warm_up() before its first frame: the steps then compile nothing,
     # however the crowd meets its obstacles, a door that opens and a player driven through
+    # someone standing in its way
     script = """
 import json, time
 import numpy as np
@@ -337,10 +338,11 @@ ready = rvo.warm_up()
 warm = time.perf_counter() - t
 """ + LISTENER + """event.register("numba:compile", L())
 scene = cm.Scene(bounds=([0, 0], [20, 10]), obstacles=[cm.Box([9, 0], [11, 4]), cm.Box([9, 6], [11, 10])])
-sim = rvo.Simulator(scene, time_step=1 / 30)
+sim = rvo.Simulator(scene, time_step=1 / 30, remove_on_arrival=False)
 ys = np.linspace(1, 9, 5)
 sim.add_agents(np.c_[np.full(5, 2.0), ys], np.c_[np.full(5, 18.0), ys])
 player = sim.add_agents([[16, 5]], [[16, 5]], radius=0.3)
+sim.add_agents([[14, 5]], [[14, 5]])  # standing in the player's way: it steps aside (escape)
 sim.drive(player, [-1.0, 0.0])
 door = sim.add_obstacle(cm.Box([9.5, 4], [10.5, 6]))
 for k in range(120):

@@ -525,7 +525,7 @@ def test_agents_in_touch_elsewhere_do_not_stop_a_new_one_coming_in():
         sim.step()  # the player presses it into the dead end
     assert np.linalg.norm(sim.positions[0] - sim.positions[1]) < 0.5
     sim.add_agents([[17, 8]], [[8, 8]])  # far from both
-    with pytest.raises(ValueError, match="agents [01] and 3 start overlapped"):
+    with pytest.raises(ValueError, match=r"agents [01] and 3 \(new\) start overlapped"):
         sim.add_agents([sim.positions[1] + [0.3, 0.0]], [[8, 8]])  # on the player
 
 
@@ -587,3 +587,21 @@ def test_a_walker_whose_group_field_ends_at_anothers_goal_goes_on_along_its_own(
     while sim.time < 60 and not sim.arrived[ids[-1]]:
         sim.step()
     assert sim.arrived[ids[-1]] and sim.field_of[ids[-1]] != shared, "round the building to its own goal"
+
+
+def test_agents_added_mid_run_solve_only_their_new_goals_fields_unless_wider():
+    sim = rvo.Simulator(_room_with_door(), rng=np.random.default_rng(0))
+    exit_area = cm.Rect([17, 1], [19, 9])
+    sim.add_agents([[2, 2], [2, 8]], exit_area.center, goal_region=exit_area, radius=0.25)
+    sim.step()
+    fields = sim._fields
+    sim.add_agents([[3, 5]], exit_area.center, goal_region=exit_area, radius=0.25)  # a known goal: nothing solved
+    sim.add_agents([[4, 5]], [[16, 3]], radius=0.2)  # a new goal: its field alone
+    sim.step()
+    assert sim._fields is fields and len(sim._exact) == 2
+    sim.add_agents([[5, 8]], [[16, 7]], radius=0.4)  # wider: every field again, with its clearance
+    sim.step()
+    assert sim._fields is not fields and len(sim._exact) == 3
+    while sim.time < 40 and not sim.arrived.all():
+        sim.step()
+    assert sim.arrived.all()

@@ -22,7 +22,7 @@ from crowdmotion.live_obstacles import LiveObstacles
 from crowdmotion.obstacle_primitives import ObstacleSet
 from crowdmotion.rvo.params import MAX_NEIGHBORS, MAX_SAMPLES
 from crowdmotion.rvo.personality import PARAM_KEYS, params_for_vectors, sample_personalities
-from crowdmotion.scene import Scene
+from crowdmotion.scene import Box, Scene
 
 BRISK = 3.0  # an agent breaking a stand-off (yielding, detouring) changes velocity this much faster
 FOLLOW_FULL_DENSITY = 2.0  # persons/m² sensed ahead from which following is anticipated in full
@@ -319,7 +319,10 @@ class Simulator(LiveObstacles):
             _per_agent(entrance, n, "entrance", integer=True, strict=False, minimum=-1)
         later = np.full(n, enter_at is not None)  # given times: every one enters through _admit, when free
         self._check_placement(pos, rad, ~later)
-        fields = self._field_indices(goal, goal_region, solve=False)  # may refuse the goals: before any change
+        # fields already solved serve bodies no wider: only new goals' fields are solved
+        # (a wider body needs every field again, with its clearance: rebuilt when next used)
+        keep = self._fields is not None and not self._fields_stale and rad.max() <= self.params["radius"].max()
+        fields = self._field_indices(goal, goal_region, solve=keep)  # may refuse the goals: before any change
         start = self.n_agents
         ids = np.arange(start, start + n)
         self.positions = np.concatenate([self.positions, pos])
@@ -344,7 +347,7 @@ class Simulator(LiveObstacles):
         self.density_slowing.grow(n)
         if target is not None:
             self._targets.append((target, ids))
-        self._fields_stale = True
+        self._fields_stale |= not keep
         self._admit()
         return ids
 
@@ -688,8 +691,9 @@ class Simulator(LiveObstacles):
             hit = np.flatnonzero(d < allrad[pairs[:, 0]] + allrad[pairs[:, 1]])
             if len(hit):
                 a, b = pairs[hit[0]]
-                raise ValueError(f"agents {ids[a]} and {ids[b]} {'start' if new else 'would be'} overlapped: centres "
-                                 f"{d[hit[0]]:.3f} m apart, radii sum {allrad[a] + allrad[b]:.3f} m")
+                named = [f"{ids[k]}{' (new)' if new and ids[k] >= self.n_agents else ''}" for k in (a, b)]
+                raise ValueError(f"agents {named[0]} and {named[1]} {'start' if new else 'would be'} overlapped: "
+                                 f"centres {d[hit[0]]:.3f} m apart, radii sum {allrad[a] + allrad[b]:.3f} m")
 
     # ---- stepping ----------------------------------------------------------------------
     def _use_field(self) -> bool:
@@ -976,7 +980,19 @@ def warm_up() -> int:
     from the cache (up to a second in all). Returns how many kernels are ready."""
     from crowdmotion import _precompile
 
-    return _precompile.warm_up("rvo")
+    ready = _precompile.warm_up("rvo")
+    # the kernels of what a scenario run does not do, stepped once in a small scene: a
+    # driven player bearing down on someone who has to step aside (escape), with a door
+    sim = Simulator(Scene(bounds=([0, 0], [12, 6]), obstacles=[Box([5, 0], [6, 2.5])]), remove_on_arrival=False)
+    sim.add_agents([[3.0, 3.0], [8.0, 4.0]], [[3.0, 3.0], [10.0, 4.0]])
+    player = sim.add_agents([[1.0, 3.0]], [[1.0, 3.0]], radius=0.3)
+    sim.drive(player, [2.0, 0.0])
+    door = sim.add_obstacle(Box([5, 4.5], [6, 6]))
+    for _ in range(4):
+        sim.step()
+    sim.remove_obstacle(door)
+    sim.step()
+    return ready
 
 
 def _ordinal(i: int) -> str:
