@@ -627,11 +627,32 @@ class Simulator(LiveObstacles):
                               "own goal is out of sight an agent heads for the nearest goal of its group, then along its "
                               "own goal's field; give a goal_region, or add the agents in calls of fewer goal points",
                               stacklevel=3)
-            own = np.array([self._region_index(points[near == g], None, solve) for g in range(near.max() + 1)])
+            own = self._points_indices([points[near == g] for g in range(near.max() + 1)], solve)
             self._grouped.update(own.tolist())
             return own[near[np.ravel(which)]]
-        own = np.array([self._region_index(pt[None, :], None, solve) for pt in points])
+        own = self._points_indices([pt[None, :] for pt in points], solve)
         return own[np.ravel(which)]
+
+    def _points_indices(self, goals: list[np.ndarray], solve: bool) -> np.ndarray:
+        """The index of each set of goal points (a Points region each) among the goal
+        regions known, adding the new ones; with ``solve``, once fields exist, the new
+        ones' fields are solved together (one raster of the obstacles for all)."""
+        regions = [_points_region(g) for g in goals]
+        keys = [(type(r).__name__, repr(r)) for r in regions]
+        new = [k for k, key in enumerate(keys) if key not in self._region_keys and key not in keys[:k]]
+        if new and solve and self._fields is not None and not self._fields_stale:  # a bad goal raises here
+            self._add_fields([regions[k] for k in new])
+        for k in new:
+            self._goal_regions.append(regions[k])
+            self._region_keys.append(keys[k])
+        return np.array([self._region_keys.index(key) for key in keys], dtype=np.int64)
+
+    def _add_fields(self, regions: list) -> None:
+        """Solve the fields of new goal regions beside those already solved."""
+        more = distance_fields(self._now, regions, float(self.params["radius"].max()), self._fields.cell)
+        self._exact = np.concatenate([self._exact, more.dist])
+        self._fields.dist = np.concatenate([self._fields.dist, more.dist])
+        self._fields.goal_cells.extend(more.goal_cells)
 
     def _region_index(self, goal: np.ndarray, goal_region, solve: bool = True) -> int:
         """The index of the goal region (``goal_region``, or the goal points) among those
@@ -647,10 +668,7 @@ class Simulator(LiveObstacles):
                 self._region_ids[id(goal_region)] = index
             return index
         if solve and self._fields is not None and not self._fields_stale:  # a bad goal raises here
-            more = distance_fields(self._now, [region], float(self.params["radius"].max()), self._fields.cell)
-            self._exact = np.concatenate([self._exact, more.dist])
-            self._fields.dist = np.concatenate([self._fields.dist, more.dist])
-            self._fields.goal_cells.extend(more.goal_cells)
+            self._add_fields([region])
         self._goal_regions.append(region)
         self._region_keys.append(key)
         if goal_region is not None:  # held in _goal_regions, so its id stays its own
