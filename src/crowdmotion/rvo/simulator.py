@@ -70,11 +70,14 @@ class Simulator(LiveObstacles):
     added; ``sim.active`` says who is still walking. Between steps, ``set_goals`` sends
     agents elsewhere, ``remove_agents`` takes them out, ``drive`` moves agents at the
     caller's own velocities (a game's player, a robot) and ``place`` puts agents
-    elsewhere (the live API; read the arrays, do not write them). The steps are as simulated: in a dense crowd they stop and go
-    (acceleration p95 above 2 m/s² at a busy door), which a character bound to them shows;
-    ``rvo.simulate`` and the scenario runner return runs relaxed for characters
-    (``RVOParams.smoothing``), which needs the frames after each one, so a game that steps
-    live smooths the drawn position on its side. ``sim.dt`` is the time step.
+    elsewhere (the live API; read the arrays, do not write them). The steps are as
+    simulated: in a dense crowd they stop and go (acceleration p95 above 2 m/s² at a busy
+    door), which a character bound to them shows; ``rvo.simulate`` and the scenario
+    runner return runs relaxed for characters (``RVOParams.smoothing``), which needs the
+    frames after each one, so a game that steps live smooths the drawn position on its
+    side, and :class:`crowdmotion.rvo.recorder.Recorder` relaxes a recorded session
+    afterwards. :func:`warm_up` readies the kernels before a game's first frame.
+    ``sim.dt`` is the time step.
 
     Parameters
     ----------
