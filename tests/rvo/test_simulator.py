@@ -605,3 +605,18 @@ def test_agents_added_mid_run_solve_only_their_new_goals_fields_unless_wider():
     while sim.time < 40 and not sim.arrived.all():
         sim.step()
     assert sim.arrived.all()
+
+
+def test_a_walker_whose_own_goal_a_new_obstacle_covers_steps_on_without_its_own_field():
+    scene = cm.Scene(bounds=([0, 0], [100, 100]), obstacles=[cm.Box([40, 40], [60, 50])])
+    far = [[x, y] for x in (5, 22, 78, 95) for y in (5, 22, 78, 95)][:15]
+    goals = np.array(far + [[50, 51.0], [50, 39.0]])
+    starts = goals + [0.0, 0.0]
+    starts[-1], starts[-2] = [50, 56], [50, 60]
+    sim = rvo.Simulator(scene, rng=np.random.default_rng(0))
+    with pytest.warns(UserWarning):
+        ids = sim.add_agents(starts, goals, radius=0.3)
+    sim.add_obstacle(cm.Box([48, 37], [52, 40]))  # over the south goal: the group's field still ends north
+    for _ in range(80):
+        sim.step()  # the walker bound south comes to the north goal and finds no field of its own
+    assert sim.active[ids[-1]] and not sim.arrived[ids[-1]]

@@ -215,6 +215,7 @@ class Simulator(LiveObstacles):
         self._region_keys: list = []  # one per goal region, so a region given twice has one field
         self._region_ids: dict[int, int] = {}  # id(region object) -> its index: no repr per call
         self._grouped: set[int] = set()  # fields shared by a group of nearby goal points
+        self._no_own_field: set[tuple] = set()  # (agent, goal x, goal y) whose own field cannot be solved
         self._batches = 0
         self._fields: DistanceFields | None = None
         self._exact: np.ndarray | None = None  # the exact distances, while _fields holds the weighted ones
@@ -788,9 +789,16 @@ class Simulator(LiveObstacles):
     def _own_fields(self, lost: np.ndarray) -> None:
         """Agents of a group of nearby goals sharing a field (``_field_indices``) that
         find no way on along it, their own goal out of sight (it ends at another's goal,
-        theirs behind a wall), get their own goal's field from the next step on."""
+        theirs behind a wall), get their own goal's field from the next step on; one
+        whose goal an obstacle has since covered keeps the group's."""
         for i in np.flatnonzero(lost & np.isin(self.field_of, list(self._grouped))):
-            self.field_of[i] = self._region_index(self.goals[i][None], None)
+            key = (i, *self.goals[i])
+            if key in self._no_own_field:
+                continue
+            try:
+                self.field_of[i] = self._region_index(self.goals[i][None], None)
+            except ValueError:  # no free cell at its goal now: not tried again for this goal
+                self._no_own_field.add(key)
 
     def _grid(self, agents: np.ndarray):
         """A uniform grid over ``agents`` (a mask), cells wide enough for the step check."""
