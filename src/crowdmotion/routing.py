@@ -135,5 +135,5 @@ def distance_fields(scene: Scene, goals: list, radius: float, cell: float | None
                              f"(field cell {cell:.3f} m, agent radius {radius} m)")
         goal_cells.append(np.array(sorted(set(cells)), dtype=np.int64))
     dist = np.stack([-exact_values(blocked.astype(np.uint8), [tuple(c) for c in cells], corner_cutting=False) * cell
-                     for cells in goal_cells])
+                     for cells in goal_cells]) if goal_cells else np.zeros((0,) + shape)
     return DistanceFields(dist, scene.lower.astype(float).copy(), cell, blocked, goal_cells)

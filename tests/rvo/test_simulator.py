@@ -620,3 +620,36 @@ def test_a_walker_whose_own_goal_a_new_obstacle_covers_steps_on_without_its_own_
     for _ in range(80):
         sim.step()  # the walker bound south comes to the north goal and finds no field of its own
     assert sim.active[ids[-1]] and not sim.arrived[ids[-1]]
+
+
+def test_an_obstacle_call_solves_again_only_the_fields_in_use_and_the_others_when_next_used():
+    sim = rvo.Simulator(_room_with_door(), rng=np.random.default_rng(0))
+    early, late = cm.Rect([17, 1], [19, 3]), cm.Rect([17, 7], [19, 9])
+    sim.add_agents([[2, 2]], early.center, goal_region=early)
+    sim.add_agents([[2, 8]], late.center, goal_region=late)
+    sim.remove_agents([0])  # nobody walks to the early region any more
+    sim.step()
+    assert sim._solved.all()
+    bar = sim.add_obstacle(cm.Box([17.5, 1.5], [18.5, 2.5]))  # on the unused region: only the field in use is solved
+    assert list(sim._solved) == [False, True]
+    sim.step()
+    sim.remove_obstacle(bar)
+    ids = sim.add_agents([[3, 5]], early.center, goal_region=early)  # in use again: solved at the rebuild
+    sim.step()
+    assert sim._solved.all()
+    while sim.time < 40 and not sim.arrived[ids].all():
+        sim.step()
+    assert sim.arrived[ids].all()
+
+
+def test_a_goal_an_obstacle_covered_while_nobody_walked_to_it_is_refused_when_given_again():
+    sim = rvo.Simulator(_room_with_door(), rng=np.random.default_rng(0))
+    spot = [18.0, 3.1]  # free now; 0.1 m from the box put in below, so no body fits on it then
+    sim.add_agents([[2, 2]], spot)
+    sim.add_agents([[2, 8]], [18, 8])
+    sim.remove_agents([0])
+    sim.step()
+    sim.add_obstacle(cm.Box([17, 1], [19, 3]))  # over the goal nobody walks to now: accepted
+    with pytest.raises(ValueError, match="no cell free of obstacles"):
+        sim.set_goals([1], spot)
+    assert np.allclose(sim.goals[1], [18, 8])

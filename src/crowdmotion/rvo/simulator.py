@@ -222,6 +222,7 @@ class Simulator(LiveObstacles):
         self._router: CongestionRouter | None = None
         self._weights = None  # the router's cell and edge weights for this replan period
         self._replanning = None  # (fields to re-solve this period, {field: its new distances})
+        self._solved = np.zeros(0, dtype=bool)  # per goal region: its field solved for the obstacles now
         self._fields_stale = True
         self.deadlock = Deadlock(np.deg2rad(keep_right_deg), float(patience))
         for name, flag in (("density_slowing", density_slowing), ("lane_choice", lane_choice)):
@@ -416,6 +417,7 @@ class Simulator(LiveObstacles):
         if self._fields is None:
             return straight
         field = self._region_index(region.nearest(pts[:1]) if len(pts) else None, region)
+        self._require([field])
         exact = DistanceFields(self._exact, self._fields.origin, self._fields.cell, self._fields.blocked)
         return exact.nearby(field, pts)
 
@@ -649,7 +651,10 @@ class Simulator(LiveObstacles):
         for k in new:
             self._goal_regions.append(regions[k])
             self._region_keys.append(keys[k])
-        return np.array([self._region_keys.index(key) for key in keys], dtype=np.int64)
+        out = np.array([self._region_keys.index(key) for key in keys], dtype=np.int64)
+        if solve and not self._fields_stale:
+            self._require(out)
+        return out
 
     def _add_fields(self, regions: list) -> None:
         """Solve the fields of new goal regions beside those already solved."""
@@ -657,19 +662,25 @@ class Simulator(LiveObstacles):
         self._exact = np.concatenate([self._exact, more.dist])
         self._fields.dist = np.concatenate([self._fields.dist, more.dist])
         self._fields.goal_cells.extend(more.goal_cells)
+        self._solved = np.concatenate([self._solved, np.ones(len(regions), dtype=bool)])
 
     def _region_index(self, goal: np.ndarray, goal_region, solve: bool = True) -> int:
         """The index of the goal region (``goal_region``, or the goal points) among those
         known, adding it if it is new, and with ``solve`` its field once fields exist (new
         agents instead mark every field for a rebuild: they may be wider)."""
         if goal_region is not None and id(goal_region) in self._region_ids:
-            return self._region_ids[id(goal_region)]
+            index = self._region_ids[id(goal_region)]
+            if solve and not self._fields_stale:
+                self._require([index])
+            return index
         region = goal_region if goal_region is not None else _points_region(goal)
         key = (type(region).__name__, repr(region))
         if key in self._region_keys:
             index = self._region_keys.index(key)
             if goal_region is not None and self._goal_regions[index] is goal_region:
                 self._region_ids[id(goal_region)] = index
+            if solve and not self._fields_stale:  # known, maybe left for later by a rebuild: a bad goal raises here
+                self._require([index])
             return index
         if solve and self._fields is not None and not self._fields_stale:  # a bad goal raises here
             self._add_fields([region])
@@ -724,16 +735,51 @@ class Simulator(LiveObstacles):
         return self.guidance == "auto" and bool(self._now.static_obstacles)
 
     def _ensure_fields(self) -> None:
+        """The guidance fields for the obstacles standing now: at the first build every
+        goal region's; at a rebuild (an obstacle came or went, a wider body) only those
+        of the regions agents walk to or wait to, the others when next used
+        (:meth:`_require`), so that a game whose goals piled up pays for those in use."""
         if not self._fields_stale:
             return
+        rebuild = self._fields is not None
         # none of them once the last static obstacle went (auto guidance)
         self._fields = self._router = self._weights = self._replanning = None
         if self._use_field() and self.n_agents:
-            self._fields = distance_fields(self._now, self._goal_regions, float(self.params["radius"].max()),
-                                           self.field_cell)
-            self._exact = self._fields.dist
+            regions = np.arange(len(self._goal_regions))
+            if rebuild:
+                regions = np.unique(self.field_of[self.active | self.waiting])
+            fields = distance_fields(self._now, [self._goal_regions[k] for k in regions],
+                                     float(self.params["radius"].max()), self.field_cell)
+            if len(regions) < len(self._goal_regions):
+                dist = np.full((len(self._goal_regions),) + fields.blocked.shape, np.inf)
+                dist[regions] = fields.dist
+                cells: list = [None] * len(self._goal_regions)
+                for k, c in zip(regions, fields.goal_cells):
+                    cells[k] = c
+                fields.dist, fields.goal_cells = dist, cells
+            self._fields = fields
+            self._exact = fields.dist
+            self._solved = np.zeros(len(self._goal_regions), dtype=bool)
+            self._solved[regions] = True
             self._router = CongestionRouter(self._fields, self.congestion, self.counterflow)
         self._fields_stale = False
+
+    def _require(self, regions) -> None:
+        """Solve the fields of ``regions`` (indices) a rebuild left for later."""
+        if self._fields is None:
+            return
+        regions = np.unique(np.asarray(regions, dtype=np.int64))
+        todo = regions[~self._solved[regions]]
+        if not len(todo):
+            return
+        more = distance_fields(self._now, [self._goal_regions[k] for k in todo], float(self.params["radius"].max()),
+                               self._fields.cell)  # a goal an obstacle now covers raises here
+        self._exact[todo] = more.dist
+        if self._fields.dist is not self._exact:
+            self._fields.dist[todo] = more.dist
+        for k, c in zip(todo, more.goal_cells):
+            self._fields.goal_cells[k] = c
+        self._solved[todo] = True
 
     def _replan(self) -> None:
         """Re-solve the congestion-aware fields every ``replan_s``, from the crowd as it is
@@ -775,6 +821,7 @@ class Simulator(LiveObstacles):
     def _guidance(self, prims) -> tuple[np.ndarray, np.ndarray]:
         """v_pref and the distance to each agent's aim point, with obstacles placed now."""
         self._ensure_fields()
+        self._require(self.field_of[self.active])
         self._replan()
         for target, ids in self._targets:
             self.goals[ids] = target.at(self.time)
@@ -983,6 +1030,7 @@ class Simulator(LiveObstacles):
         self._ensure_fields()
         if self._fields is None:
             return np.zeros(self.n_agents, dtype=bool)
+        self._require(self.field_of[self.active])
         return self.active & ~self._fields.reachable(self.field_of, self.positions, window=2)
 
     @property
