@@ -102,12 +102,14 @@ def default_cell(scene: Scene, radius: float) -> float:
     return float(max(radius, np.sqrt(np.prod(extent) / 4e6)))
 
 
-def distance_fields(scene: Scene, goals: list, radius: float, cell: float | None = None) -> DistanceFields:
+def distance_fields(scene: Scene, goals: list, radius: float, cell: float | None = None,
+                    names: list[str] | None = None) -> DistanceFields:
     """Exact 8-connected distances (corner cutting off) to each goal region, in metres.
 
     A cell is blocked when its centre lies within ``radius`` of a static obstacle, so the
     field routes agents' centres where their bodies fit. Goals are regions (their free
-    cells) or Points (the cells of the points).
+    cells) or Points (the cells of the points). ``names``: what an error calls each goal
+    (default ``groups.K``, a scenario's group).
     """
     cell = default_cell(scene, radius) if cell is None else float(cell)
     if not (np.isfinite(cell) and cell > 0):
@@ -122,7 +124,8 @@ def distance_fields(scene: Scene, goals: list, radius: float, cell: float | None
     goal_cells = []
     for k, goal in enumerate(goals):
         if isinstance(goal, MovingTarget):
-            raise ValueError(f"groups.{k}: field guidance needs a fixed goal, not a moving target")
+            raise ValueError(f"{names[k] if names else f'groups.{k}'}: field guidance needs a fixed goal, "
+                             "not a moving target")
         if isinstance(goal, Points):
             gi = np.floor((goal.points - scene.lower) / cell).astype(np.int64)
             gi = np.clip(gi, 0, np.array(shape) - 1)
@@ -131,7 +134,7 @@ def distance_fields(scene: Scene, goals: list, radius: float, cell: float | None
             inside = goal.contains(centres).reshape(shape) & ~blocked
             cells = [tuple(c) for c in np.argwhere(inside)]
         if not cells:
-            raise ValueError(f"groups.{k}: the goal {goal!r} has no cell free of obstacles "
+            raise ValueError(f"{names[k] if names else f'groups.{k}'}: the goal {goal!r} has no cell free of obstacles "
                              f"(field cell {cell:.3f} m, agent radius {radius} m)")
         goal_cells.append(np.array(sorted(set(cells)), dtype=np.int64))
     dist = np.stack([-exact_values(blocked.astype(np.uint8), [tuple(c) for c in cells], corner_cutting=False) * cell

@@ -281,7 +281,7 @@ def test_an_obstacle_over_an_agents_goal_is_refused_and_the_agents_walk_on():
     sim = rvo.Simulator(_room_with_door())
     sim.add_agents([[2, 5]], [[18, 5]])
     sim.step()
-    with pytest.raises(ValueError, match="add_obstacle: .* cannot go in: .*no cell free of obstacles"):
+    with pytest.raises(ValueError, match="add_obstacle: .* cannot go in: goal region 0: .*no cell free of obstacles"):
         sim.add_obstacle(cm.Box([17, 4], [19, 6]))
     assert len(sim.scene.obstacles) == 2
     while sim.active.any() and sim.time < 60:

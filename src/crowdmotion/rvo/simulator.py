@@ -658,7 +658,9 @@ class Simulator(LiveObstacles):
 
     def _add_fields(self, regions: list) -> None:
         """Solve the fields of new goal regions beside those already solved."""
-        more = distance_fields(self._now, regions, float(self.params["radius"].max()), self._fields.cell)
+        first = len(self._goal_regions)
+        more = distance_fields(self._now, regions, float(self.params["radius"].max()), self._fields.cell,
+                               names=[f"goal region {first + k}" for k in range(len(regions))])
         self._exact = np.concatenate([self._exact, more.dist])
         self._fields.dist = np.concatenate([self._fields.dist, more.dist])
         self._fields.goal_cells.extend(more.goal_cells)
@@ -749,7 +751,8 @@ class Simulator(LiveObstacles):
             if rebuild:
                 regions = np.unique(self.field_of[self.active | self.waiting])
             fields = distance_fields(self._now, [self._goal_regions[k] for k in regions],
-                                     float(self.params["radius"].max()), self.field_cell)
+                                     float(self.params["radius"].max()), self.field_cell,
+                                     names=[f"goal region {k}" for k in regions] if rebuild else None)
             if len(regions) < len(self._goal_regions):
                 dist = np.full((len(self._goal_regions),) + fields.blocked.shape, np.inf)
                 dist[regions] = fields.dist
@@ -773,7 +776,7 @@ class Simulator(LiveObstacles):
         if not len(todo):
             return
         more = distance_fields(self._now, [self._goal_regions[k] for k in todo], float(self.params["radius"].max()),
-                               self._fields.cell)  # a goal an obstacle now covers raises here
+                               self._fields.cell, names=[f"goal region {k}" for k in todo])  # a goal covered now raises
         self._exact[todo] = more.dist
         if self._fields.dist is not self._exact:
             self._fields.dist[todo] = more.dist
