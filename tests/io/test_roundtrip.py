@@ -26,6 +26,14 @@ def test_roundtrip(tmp_path, suffix, dim):
     assert back.metadata["seed"] == 3
 
 
+@pytest.mark.parametrize("suffix", ["parquet", "csv"])
+def test_a_games_frame_rate_reads_back_exactly(tmp_path, suffix):
+    # 3601 frames at 1/60 s: the times column rounds (0.01666666666666572 from its
+    # differences); the step the file was written with comes back as it was
+    tr = Trajectories(np.zeros((3601, 1, 2)), 1 / 60)
+    assert Trajectories.load(tr.save(tmp_path / f"t.{suffix}")).dt == 1 / 60
+
+
 def test_unknown_format_and_missing_file(tmp_path):
     with pytest.raises(ValueError, match="unknown trajectory format"):
         sample().save(tmp_path / "t.xlsx")

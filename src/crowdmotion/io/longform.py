@@ -123,12 +123,15 @@ def from_table(table: pa.Table, metadata: dict | None = None) -> Trajectories:
     radius = np.zeros(n)
     if "radius" in table.column_names:
         radius[col] = table["radius"].to_numpy()
+    written = (metadata or {}).get("dt")  # the run's own step, exactly (the times carry rounding)
     if "time" in table.column_names and t > 1:
         times = np.empty(t)
         times[row] = table["time"].to_numpy()
         dt = float(np.median(np.diff(times)))
+        if isinstance(written, (int, float)) and written > 0 and abs(dt - written) <= 1e-6 * written:
+            dt = float(written)
     else:
-        dt = float((metadata or {}).get("dt", 1.0))
+        dt = float(1.0 if written is None else written)  # a bad one is refused by Trajectories, naming the file
     facing = {}
     for name in ("facing", "facing_pitch"):  # older files carry none: derived again
         if name in table.column_names and table[name].null_count == 0:
