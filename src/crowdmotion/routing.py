@@ -123,9 +123,9 @@ def distance_fields(scene: Scene, goals: list, radius: float, cell: float | None
     blocked = (scene.static_obstacle_distance(centres) < radius).reshape(shape)
     goal_cells = []
     for k, goal in enumerate(goals):
+        label = names[k] if names else f"groups.{k}"
         if isinstance(goal, MovingTarget):
-            raise ValueError(f"{names[k] if names else f'groups.{k}'}: field guidance needs a fixed goal, "
-                             "not a moving target")
+            raise ValueError(f"{label}: field guidance needs a fixed goal, not a moving target")
         if isinstance(goal, Points):
             gi = np.floor((goal.points - scene.lower) / cell).astype(np.int64)
             gi = np.clip(gi, 0, np.array(shape) - 1)
@@ -134,7 +134,7 @@ def distance_fields(scene: Scene, goals: list, radius: float, cell: float | None
             inside = goal.contains(centres).reshape(shape) & ~blocked
             cells = [tuple(c) for c in np.argwhere(inside)]
         if not cells:
-            raise ValueError(f"{names[k] if names else f'groups.{k}'}: the goal {goal!r} has no cell free of obstacles "
+            raise ValueError(f"{label}: the goal {goal!r} has no cell free of obstacles "
                              f"(field cell {cell:.3f} m, agent radius {radius} m)")
         goal_cells.append(np.array(sorted(set(cells)), dtype=np.int64))
     dist = np.stack([-exact_values(blocked.astype(np.uint8), [tuple(c) for c in cells], corner_cutting=False) * cell

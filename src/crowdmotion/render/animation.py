@@ -14,9 +14,9 @@ import matplotlib.pyplot as plt  # noqa: E402
 from matplotlib import patches  # noqa: E402
 import numpy as np  # noqa: E402
 from matplotlib.collections import EllipseCollection, LineCollection  # noqa: E402
-from crowdmotion.progress import tracked  # noqa: E402
 
 from crowdmotion.io.atomic import atomic_path  # noqa: E402
+from crowdmotion.progress import tracked  # noqa: E402
 from crowdmotion.render.plots import (_draw_obstacles_2d, _group_colours, _save, blit_frame, gif_image,  # noqa: E402
                                       gif_palette, write_gif)
 from crowdmotion.scene import Scene  # noqa: E402

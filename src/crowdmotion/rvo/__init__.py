@@ -1,8 +1,9 @@
 """RVO crowds with OCEAN personalities (Huang & Liu 2012, paper 004).
 
 ``Simulator`` steps a sampling-RVO crowd interactively (``Recorder`` keeps its frames as
-Trajectories); ``simulate`` runs a Scene and its Groups to Trajectories; ``personality_params`` maps an OCEAN personality to the
-RVO parameters of Table 4.
+Trajectories, ``warm_up`` readies its kernels); ``simulate`` runs a Scene and its Groups
+to Trajectories; ``personality_params`` maps an OCEAN personality to the RVO parameters
+of Table 4.
 
 Names load on first use, so that ``crowdmotion.rvo.params`` (the scenario schema) can be
 imported without loading the numba kernels.

@@ -10,8 +10,9 @@ goal cells at once; agents then aim along it exactly as before. With several goa
 regions and steps shorter than a quarter second (a game's frames), the costs are taken
 from the crowd at the period's first step and the fields' Dijkstras spread over the
 steps of its first quarter second, the new fields taken together (the simulator's
-``_replan``): a 12-region square at 60 fps steps in at most 9 ms instead of 30 ms. With ``congestion = 0``
-and ``counterflow = 0`` the field is the exact distance, unchanged.
+``_replan``): a 12-region square at 60 fps steps in at most 9 ms instead of 30 ms.
+With ``congestion = 0`` and ``counterflow = 0`` the field is the exact distance,
+unchanged.
 
 Walking against the crowd's flow (``counterflow > 0``, default 20) costs more on top:
 continuum crowds take the speed a crowd allows in a direction from the flow there, so

@@ -32,7 +32,7 @@ ESCAPE_HEADINGS = 32  # headings an agent in a moving obstacle's way tries after
 ENTRY_GAP_M = 0.05  # clearance an entering agent needs round its body
 ENTRY_NEIGHBOURS = 8  # bodies nearest its place an entering agent is checked against
 # different goal points given in one call without a goal_region get a guidance field each,
-# up to this many (a field is a grid of the scene; more share one field of all the points)
+# up to this many (a field is a grid of the scene; more are grouped by place into this many)
 OWN_FIELDS_MAX = 16
 # the congestion-aware fields of a replan period are re-solved within this many seconds
 # of its first step, spread over the steps in it (several per step where more fields)
@@ -60,6 +60,16 @@ def _per_agent(value, n: int, name: str, integer: bool = False, minimum: float =
             + (f" and at most {maximum:g}" if maximum < np.inf else "")
         raise ValueError(f"{name} must be {need}, got {float(arr[i])!r} for the {_ordinal(i)} of the {n} agents given")
     return arr.astype(np.int64) if integer else arr
+
+
+def _xy_each(value, n: int, name: str) -> np.ndarray:
+    """``value`` as (n, 2): one (2,) pair for all, or one pair each; ValueError naming
+    ``name`` for NaN, inf or another shape."""
+    xy = finite_array(value, name)
+    xy = np.tile(xy, (n, 1)) if xy.shape == (2,) else xy
+    if xy.shape != (n, 2):
+        raise ValueError(f"{name} must be (2,) or ({n}, 2), got shape {xy.shape}")
+    return xy
 
 
 class Simulator(LiveObstacles):
@@ -454,12 +464,8 @@ class Simulator(LiveObstacles):
         if velocities is None:
             self.driven[ids] = False
             return
-        vel = finite_array(velocities, "velocities")
-        vel = np.tile(vel, (len(ids), 1)) if vel.shape == (2,) else vel
-        if vel.shape != (len(ids), 2):
-            raise ValueError(f"velocities must be (2,) or ({len(ids)}, 2), got shape {vel.shape}")
+        self.drive_velocity[ids] = _xy_each(velocities, len(ids), "velocities")
         self.driven[ids] = True
-        self.drive_velocity[ids] = vel
 
     def place(self, agents, positions) -> None:
         """Put agents somewhere else now (the live API): a character the game teleported,
@@ -468,10 +474,7 @@ class Simulator(LiveObstacles):
         moved) where a body would stick out of the scene bounds, lie in an obstacle
         standing now or overlap another agent in the scene, as ``add_agents`` refuses."""
         ids = self._distinct_ids(agents, "place")
-        pos = finite_array(positions, "positions")
-        pos = np.tile(pos, (len(ids), 1)) if pos.shape == (2,) else pos
-        if pos.shape != (len(ids), 2):
-            raise ValueError(f"positions must be (2,) or ({len(ids)}, 2), got shape {pos.shape}")
+        pos = _xy_each(positions, len(ids), "positions")
         self._check_placement(pos, self.params["radius"][ids], self.active[ids], ids)
         self.positions[ids] = pos
 
@@ -482,12 +485,7 @@ class Simulator(LiveObstacles):
             if goals.dim != 2:
                 raise ValueError("goals: a 2D moving target is needed")
             return np.tile(goals.at(self.time), (n, 1)), goals
-        goal = finite_array(goals, "goals")
-        if goal.shape == (2,):
-            goal = np.tile(goal, (n, 1))
-        if goal.shape != (n, 2):
-            raise ValueError(f"goals must be (2,) or ({n}, 2), got shape {goal.shape}")
-        return goal, None
+        return _xy_each(goals, n, "goals"), None
 
     def _check_goal_points(self, goal: np.ndarray) -> None:
         """Refuse goal points that are their own goal region (no ``goal_region`` given) and
@@ -531,11 +529,8 @@ class Simulator(LiveObstacles):
         entered = ids[~self.waiting[ids]]
         if len(entered):
             raise ValueError(f"set_entry_points: agent {int(entered[0])} has entered already")
-        pts = finite_array(points, "points")
-        pts = np.tile(pts, (len(ids), 1)) if pts.shape == (2,) else pts
-        if pts.shape != (len(ids), 2):
-            raise ValueError(f"points must be (2,) or ({len(ids)}, 2), got shape {pts.shape}")
-        self._check_placement(pts, self.params["radius"][ids], np.zeros(len(ids), dtype=bool))
+        pts = _xy_each(points, len(ids), "points")
+        self._check_placement(pts, self.params["radius"][ids], np.zeros(len(ids), dtype=bool), ids)
         self.positions[ids] = pts
 
     def _admit(self) -> None:
@@ -633,17 +628,17 @@ class Simulator(LiveObstacles):
                               "own goal is out of sight an agent heads for the nearest goal of its group, then along its "
                               "own goal's field; give a goal_region, or add the agents in calls of fewer goal points",
                               stacklevel=3)
-            own = self._points_indices([points[near == g] for g in range(near.max() + 1)], solve)
+            own = self._region_indices([_points_region(points[near == g]) for g in range(near.max() + 1)], solve)
             self._grouped.update(own.tolist())
             return own[near[np.ravel(which)]]
-        own = self._points_indices([pt[None, :] for pt in points], solve)
+        own = self._region_indices([_points_region(pt[None, :]) for pt in points], solve)
         return own[np.ravel(which)]
 
-    def _points_indices(self, goals: list[np.ndarray], solve: bool) -> np.ndarray:
-        """The index of each set of goal points (a Points region each) among the goal
-        regions known, adding the new ones; with ``solve``, once fields exist, the new
-        ones' fields are solved together (one raster of the obstacles for all)."""
-        regions = [_points_region(g) for g in goals]
+    def _region_indices(self, regions: list, solve: bool) -> np.ndarray:
+        """The index of each goal region among those known (by value: a region given again
+        reuses its field), adding the new ones; with ``solve``, once fields exist, the new
+        ones' fields are solved together (one raster of the obstacles for all) and known
+        ones a rebuild left for later are solved (a goal an obstacle now covers raises)."""
         keys = [(type(r).__name__, repr(r)) for r in regions]
         new = [k for k, key in enumerate(keys) if key not in self._region_keys and key not in keys[:k]]
         if new and solve and self._fields is not None and not self._fields_stale:  # a bad goal raises here
@@ -668,29 +663,18 @@ class Simulator(LiveObstacles):
 
     def _region_index(self, goal: np.ndarray, goal_region, solve: bool = True) -> int:
         """The index of the goal region (``goal_region``, or the goal points) among those
-        known, adding it if it is new, and with ``solve`` its field once fields exist (new
-        agents instead mark every field for a rebuild: they may be wider)."""
+        known, adding it if it is new (:meth:`_region_indices`); a region object given
+        before is found by its id, without its repr."""
         if goal_region is not None and id(goal_region) in self._region_ids:
             index = self._region_ids[id(goal_region)]
             if solve and not self._fields_stale:
                 self._require([index])
             return index
         region = goal_region if goal_region is not None else _points_region(goal)
-        key = (type(region).__name__, repr(region))
-        if key in self._region_keys:
-            index = self._region_keys.index(key)
-            if goal_region is not None and self._goal_regions[index] is goal_region:
-                self._region_ids[id(goal_region)] = index
-            if solve and not self._fields_stale:  # known, maybe left for later by a rebuild: a bad goal raises here
-                self._require([index])
-            return index
-        if solve and self._fields is not None and not self._fields_stale:  # a bad goal raises here
-            self._add_fields([region])
-        self._goal_regions.append(region)
-        self._region_keys.append(key)
-        if goal_region is not None:  # held in _goal_regions, so its id stays its own
-            self._region_ids[id(goal_region)] = len(self._goal_regions) - 1
-        return len(self._goal_regions) - 1
+        index = int(self._region_indices([region], solve)[0])
+        if goal_region is not None and self._goal_regions[index] is goal_region:  # held there: its id stays its own
+            self._region_ids[id(goal_region)] = index
+        return index
 
     def _check_placement(self, pos: np.ndarray, rad: np.ndarray, now: np.ndarray | None = None,
                          ids: np.ndarray | None = None) -> None:
@@ -829,11 +813,12 @@ class Simulator(LiveObstacles):
         for target, ids in self._targets:
             self.goals[ids] = target.at(self.time)
         self._nearest_goals()
-        lost = np.zeros(self.n_agents, dtype=bool)
+        lost = np.zeros(self.n_agents, dtype=bool) if self._grouped else None  # only a shared field ends elsewhere
         v, aim = preferred_velocities(self.positions, self.goals, self.params["pref_speed"], self.active, self.dt,
                                       self._fields, self.field_of, prims, self.params["radius"], lost)
         v[~self.active] = 0.0
-        self._own_fields(lost)
+        if lost is not None:
+            self._own_fields(lost)
         return v, aim
 
     def _own_fields(self, lost: np.ndarray) -> None:
