@@ -50,12 +50,18 @@ class LiveObstacles:
     def add_obstacle(self, obstacle: Obstacle) -> int:
         """Put an obstacle into the scene now (the live API: a door that closes, a barrier);
         returns its index in ``scene.obstacles``. A ValueError, changing nothing, if it is
-        not a 2D shape, any agent still walking stands within its radius of it, or it
-        covers an agent's goal."""
+        not a 2D shape, lies wholly outside the scene's bounds (nobody would meet it: an
+        obstacle moved out of the way is taken out with :meth:`remove_obstacle`), any
+        agent still walking stands within its radius of it, or it covers an agent's goal."""
         if not isinstance(obstacle, Obstacle):
             raise ValueError(f"add_obstacle: a Circle, Box or Polygon is needed, got {obstacle!r}")
         if obstacle.dim != 2 or obstacle.is_timed:
             raise ValueError(f"add_obstacle: a 2D obstacle that stands from now on is needed, got {obstacle!r}")
+        lo, hi = obstacle.bounds()
+        if np.any(hi <= self.scene.lower) or np.any(lo >= self.scene.upper):
+            raise ValueError(f"add_obstacle: {obstacle!r} lies wholly outside the scene's bounds "
+                             f"{self.scene.lower.tolist()}-{self.scene.upper.tolist()}; remove_obstacle takes "
+                             "one out of the scene")
         live, pos, rad = self._bodies()
         clear = obstacle.signed_distance(pos - obstacle.offset(self.time)) - rad
         if len(live) and clear.min() < 0:

@@ -249,6 +249,20 @@ def test_an_obstacle_dropped_on_an_agent_is_refused_and_nothing_changes():
         sim.add_obstacle("wall")
 
 
+def test_an_obstacle_put_or_moved_wholly_outside_the_bounds_is_refused():
+    sim = rvo.Simulator(_room_with_door())
+    sim.add_agents([[5, 5]], [18, 5])
+    with pytest.raises(ValueError, match=r"add_obstacle: Circle\(center=\[30.0, 5.0\].*wholly outside the scene"):
+        sim.add_obstacle(cm.Circle([30, 5], 0.5))
+    post = sim.add_obstacle(cm.Circle([3, 2], 0.5))
+    with pytest.raises(ValueError, match=f"move_obstacle: obstacle {post} moved, .*wholly outside"):
+        sim.move_obstacle(post, (0, -10))
+    assert sim.scene_now.obstacles[-1].bounds()[0].tolist() == [2.5, 1.5]  # still where it stood
+    half_out = sim.move_obstacle(post, (0, -2.2))  # partly outside the bounds: a wall may run past them
+    assert np.allclose(sim.scene_now.obstacles[-1].bounds()[0], [2.5, -0.7])
+    assert half_out == len(sim.scene.obstacles) - 1
+
+
 def test_a_wall_put_across_the_way_sends_the_agents_round_it():
     sim = rvo.Simulator(cm.Scene(bounds=([0, 0], [20, 10])))
     sim.add_agents([[2, 5]], [18, 5])
