@@ -51,6 +51,8 @@ def main() -> None:
     ax.plot(rho, weidmann_speed(rho), "k-", label="Weidmann 1993")
     ax.plot(rho, WEIDMANN_FREE * speed_share(rho, GAMMA), "k:",
             label=f"cap used (Weidmann's form, γ = {GAMMA} fitted to FZJ)")
+    ax.plot(rho, empirical.BOT_FREE_SPEED * speed_share(rho, GAMMA), ":", color="tab:purple",
+            label=f"the same cap at the BOT-360 participants' free speed ({empirical.BOT_FREE_SPEED:.2f} m/s)")
     ug = np.array(empirical.UG_RUNS)
     ax.plot(ug[:, 0], ug[:, 1], "s", color="tab:gray", label="FZJ closed corridor 1.8 m (Zhang 2011)")
     bot = np.array(empirical.BOT_360_RUNS)

@@ -67,3 +67,15 @@ def test_a_07_m_door_passes_a_dense_crowd_at_one_person_a_second_or_more():
     out = {name: verify.simulate("rvo", setup) for name, setup in case.build("rvo").items()}
     criterion, measured, passed = case.judge(out)
     assert passed, measured
+
+
+def test_the_counterflow_walkers_have_the_bot_participants_free_speed_the_others_weidmanns():
+    # the BOT-360 participants walked 1.52 m/s at 0.45 /m²; through the density-speed
+    # relation (Weidmann's form, gamma 1.63) that is a free speed near 1.58 m/s
+    assert 1.55 < empirical.BOT_FREE_SPEED < 1.60
+    for g in empirical._bot("rvo")["BOT b 0.9"].groups:
+        low, high = g.attributes["pref_speed_range"]
+        assert (low, high) == (1.34, 1.82) and g.max_speed >= high
+    for setup in (*empirical._uo("rvo").values(), *empirical._bottleneck("rvo").values()):
+        for g in setup.groups:
+            assert abs(g.pref_speed - 1.34) < 1e-9

@@ -26,7 +26,7 @@ from __future__ import annotations
 import numpy as np
 
 from crowdmotion.groups import Group, Rect
-from crowdmotion.rvo.density import weidmann_speed
+from crowdmotion.rvo.density import speed_share, weidmann_speed
 from crowdmotion.scene import Box, Scene
 from crowdmotion.trajectories import Trajectories
 from crowdmotion.cases import Case, Outcome, Setup, crossing_times
@@ -46,12 +46,22 @@ BOTTLENECK_FLOWS = {
 BOT_360_RUNS = ((0.45, 1.52), (0.67, 1.31), (0.99, 1.18), (1.61, 0.85), (2.25, 0.56), (2.56, 0.53))
 #: BOT-360 entrance widths (m) and persons per side (OpenTraj's HERMES README)
 BOT_360_SETUPS = ((0.5, 50), (0.75, 50), (0.9, 100), (1.2, 100), (1.6, 150), (2.0, 150), (2.5, 150))
+#: Weidmann's free walking speed (m/s) and the half-width of the uniform spread round it
+FREE_SPEED, SPEED_SPREAD = 1.34, 0.24
+#: the BOT-360 participants' free speed (m/s): their run at the lowest density (1.52 m/s at
+#: 0.45 /m²) over the share of the free speed the density-speed relation leaves there
+#: (rvo.density.speed_share): 1.58 m/s, where Weidmann's walkers would walk 1.30 there
+BOT_FREE_SPEED = BOT_360_RUNS[0][1] / float(speed_share(BOT_360_RUNS[0][0]))
+#: a walker's top speed above its top preferred speed
+SPEED_HEADROOM = 0.22
 
 
-def _walkers(name: str, count: int, spawn: Rect, goal: Rect, **kw) -> Group:
-    """Adults walking at Weidmann's free speeds (1.34 ± 0.26 m/s, drawn uniformly from 1.1–1.58)."""
-    return Group(name, count, spawn=spawn, goal=goal, radius=RADIUS, max_speed=1.8, pref_speed=1.34,
-                 attributes={"pref_speed_range": [1.1, 1.58]}, **kw)
+def _walkers(name: str, count: int, spawn: Rect, goal: Rect, free: float = FREE_SPEED, **kw) -> Group:
+    """Adults walking at free speeds drawn uniformly from ``free`` ± SPEED_SPREAD (Weidmann's
+    1.34 m/s: 1.1–1.58 m/s), at most SPEED_HEADROOM faster than the fastest of them."""
+    low, high = round(free - SPEED_SPREAD, 2), round(free + SPEED_SPREAD, 2)
+    return Group(name, count, spawn=spawn, goal=goal, radius=RADIUS, max_speed=round(high + SPEED_HEADROOM, 2),
+                 pref_speed=round(free, 2), attributes={"pref_speed_range": [low, high]}, **kw)
 
 
 def _params(method: str, **extra) -> dict:
@@ -244,8 +254,9 @@ def _bot(method: str) -> dict[str, Setup]:
         for name, spawn, gx in (("east", Rect([-2.7, -1.9], [4.7, 5.5]), (17.4, 20.4)),
                                 ("west", Rect([21.3, -1.9], [28.7, 5.5]), (5.6, 8.6))):
             # half of each stream leaves by each side of the far gap
-            groups.append(_walkers(f"{name} south", n // 2, spawn, Rect([gx[0], -3.7], [gx[1], -2.5])))
-            groups.append(_walkers(f"{name} north", n - n // 2, spawn, Rect([gx[0], 6.1], [gx[1], 7.3])))
+            groups.append(_walkers(f"{name} south", n // 2, spawn, Rect([gx[0], -3.7], [gx[1], -2.5]), BOT_FREE_SPEED))
+            groups.append(_walkers(f"{name} north", n - n // 2, spawn, Rect([gx[0], 6.1], [gx[1], 7.3]),
+                                   BOT_FREE_SPEED))
         out[f"BOT b {b:g}"] = Setup(bot_corridor(b), groups, _params(method, max_steps=2400))
     return out
 
