@@ -42,6 +42,26 @@ def test_large_inputs_run_the_threaded_kernel_with_the_same_result(monkeypatch):
     assert _scaled.threaded.signatures
 
 
+@threaded(min_items=20)
+def _doubled(a, out):
+    """out = 2a, a kernel with its own threshold."""
+    for i in prange(a.shape[0]):
+        out[i] = 2.0 * a[i]
+
+
+@pytest.mark.skipif(numba.get_num_threads() == 1, reason="one thread: always the serial twin")
+def test_a_kernel_with_its_own_threshold_threads_from_it_unless_the_environment_sets_one(monkeypatch):
+    monkeypatch.setattr(_threads, "_free_cores", None)  # every core free, however busy this machine is
+    a, out = np.arange(50.0), np.empty(50)  # under the default 1000 rows, over the kernel's 20
+    _doubled(a, out)
+    np.testing.assert_array_equal(out, 2.0 * a)
+    assert _doubled.threaded.signatures and not _doubled.serial.signatures
+    monkeypatch.setattr(_threads, "_MIN_FROM_ENV", "1000")  # CROWDMOTION_PARALLEL_MIN=1000: one threshold for all
+    assert _doubled.min_items() == _threads.PARALLEL_MIN_ITEMS
+    _doubled(a, out)  # the same 50 rows, now under the threshold
+    assert _doubled.serial.signatures
+
+
 def test_the_twins_keep_separate_cache_entries():
     # one cache slot for both would hand the serial caller the threaded machine code
     assert _scaled.serial.py_func.__qualname__ != _scaled.threaded.py_func.__qualname__

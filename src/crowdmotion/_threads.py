@@ -3,11 +3,14 @@ twice on demand, with ``parallel=True`` for large inputs and without for small o
 runs the threaded one on no more threads than there are cores free.
 
 A parallel region costs tens of microseconds a step, and compiling one costs seconds on
-a fresh install (numba's parfor passes): for a scene of a few hundred agents both are
-waste. ``@threaded`` gives a callable that runs the serial twin when the first argument
-has fewer than ``PARALLEL_MIN_ITEMS`` rows (or only one thread is to be had) and the
-threaded kernel otherwise; only the one a run uses is compiled. ``CROWDMOTION_PARALLEL_MIN``
-overrides the threshold (0: always threaded).
+a fresh install (numba's parfor passes): for a kernel that spends a fraction of a
+microsecond a row, on a scene of a few hundred agents, both are waste. ``@threaded``
+gives a callable that runs the serial twin when the first argument has fewer than
+``PARALLEL_MIN_ITEMS`` rows (or only one thread is to be had) and the threaded kernel
+otherwise; only the one a run uses is compiled. A kernel whose rows cost microseconds
+each names its own threshold (``@threaded(min_items=n)``: the RVO choice and lane
+choice, from 250 agents). ``CROWDMOTION_PARALLEL_MIN`` sets one threshold for every
+kernel (0: always threaded).
 
 Busy cores. A parallel region ends when its slowest thread does: a thread that shares
 its core with another process's work waits for the scheduler, and every region of the
@@ -38,7 +41,8 @@ import types
 import numba
 from numba import njit
 
-PARALLEL_MIN_ITEMS = int(os.environ.get("CROWDMOTION_PARALLEL_MIN", "1000"))
+_MIN_FROM_ENV = os.environ.get("CROWDMOTION_PARALLEL_MIN")
+PARALLEL_MIN_ITEMS = int(_MIN_FROM_ENV or "1000")
 ADAPT = os.environ.get("CROWDMOTION_ADAPT_THREADS", "1") != "0"
 SAMPLE_S = 0.5   # the busy cores are measured over at least this many seconds
 BUSY_SHARE = 0.3  # a core that other processes keep busy this share of the time or more is not free
@@ -145,7 +149,8 @@ def threads_to_use() -> int:
 class ThreadedKernel:
     """A kernel with a threaded and a serial compilation; call it like the kernel."""
 
-    def __init__(self, fn):
+    def __init__(self, fn, min_items: int | None = None):
+        self._own_min = None if min_items is None else int(min_items)
         self.threaded = njit(parallel=True, cache=True)(fn)
         twin = types.FunctionType(fn.__code__, fn.__globals__, fn.__name__ + "_serial", fn.__defaults__,
                                   fn.__closure__)
@@ -157,8 +162,13 @@ class ThreadedKernel:
         self.__name__ = fn.__name__
         self.__wrapped__ = fn
 
+    def min_items(self) -> int:
+        """Rows from which the threaded kernel runs: the kernel's own threshold, unless
+        ``CROWDMOTION_PARALLEL_MIN`` sets one for all; else ``PARALLEL_MIN_ITEMS``."""
+        return PARALLEL_MIN_ITEMS if self._own_min is None or _MIN_FROM_ENV else self._own_min
+
     def __call__(self, *args):
-        if len(args[0]) < PARALLEL_MIN_ITEMS:
+        if len(args[0]) < self.min_items():
             return self.serial(*args)
         use = threads_to_use()
         if use == 1:
@@ -173,6 +183,10 @@ class ThreadedKernel:
             numba.set_num_threads(cap)
 
 
-def threaded(fn) -> ThreadedKernel:
-    """Decorator: ``fn`` as a :class:`ThreadedKernel` (write ``prange`` loops as usual)."""
+def threaded(fn=None, *, min_items: int | None = None):
+    """Decorator: ``fn`` as a :class:`ThreadedKernel` (write ``prange`` loops as usual);
+    ``@threaded(min_items=n)`` threads from ``n`` rows on instead of ``PARALLEL_MIN_ITEMS``
+    (for kernels whose rows cost microseconds each)."""
+    if fn is None:
+        return lambda f: ThreadedKernel(f, min_items)
     return ThreadedKernel(fn)
