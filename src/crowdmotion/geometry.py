@@ -41,6 +41,8 @@ def require_finite_agents(arrays: Mapping[str, ArrayLike], active: ArrayLike | N
     """
     for name, values in arrays.items():
         v = np.asarray(values, dtype=float)
+        if np.isfinite(v).all():  # the usual case, checked at once (a step calls this every time)
+            continue
         ok = np.isfinite(v).all(axis=-1)
         if active is not None:
             ok |= ~np.asarray(active, dtype=bool)
