@@ -254,9 +254,10 @@ def _bot(method: str) -> dict[str, Setup]:
         for name, spawn, gx in (("east", Rect([-2.7, -1.9], [4.7, 5.5]), (17.4, 20.4)),
                                 ("west", Rect([21.3, -1.9], [28.7, 5.5]), (5.6, 8.6))):
             # half of each stream leaves by each side of the far gap
-            groups.append(_walkers(f"{name} south", n // 2, spawn, Rect([gx[0], -3.7], [gx[1], -2.5]), BOT_FREE_SPEED))
+            groups.append(_walkers(f"{name} south", n // 2, spawn, Rect([gx[0], -3.7], [gx[1], -2.5]),
+                                   free=BOT_FREE_SPEED))
             groups.append(_walkers(f"{name} north", n - n // 2, spawn, Rect([gx[0], 6.1], [gx[1], 7.3]),
-                                   BOT_FREE_SPEED))
+                                   free=BOT_FREE_SPEED))
         out[f"BOT b {b:g}"] = Setup(bot_corridor(b), groups, _params(method, max_steps=2400))
     return out
 

@@ -31,12 +31,13 @@ class DistanceFields:
     blocked: np.ndarray | None = None  # (nx, ny) cells a body does not fit in
     goal_cells: list | None = None     # per field, (K, 2) goal cells
 
-    def at(self, field: int, points: np.ndarray) -> np.ndarray:
-        """Field values at the cells holding ``points`` (inf outside the grid)."""
+    def at(self, field, points: np.ndarray) -> np.ndarray:
+        """Field values at the cells holding ``points`` (inf outside the grid); ``field``
+        one field's index, or one per point."""
         idx = np.floor((np.asarray(points) - self.origin) / self.cell).astype(np.int64)
         inside = np.all((idx >= 0) & (idx < np.array(self.dist.shape[1:])), axis=1)
         out = np.full(len(idx), np.inf)
-        out[inside] = self.dist[field, idx[inside, 0], idx[inside, 1]]
+        out[inside] = self.dist[np.broadcast_to(field, len(idx))[inside], idx[inside, 0], idx[inside, 1]]
         return out
 
 

@@ -42,10 +42,7 @@ def preferred_velocities(pos, goal, pref_speed, active, dt, fields: DistanceFiel
             reach = np.linalg.norm(fdir, axis=1)
             ok = use & (reach > 0)
             if lost is not None:
-                cell = np.floor((pos - fields.origin) / fields.cell).astype(np.int64)
-                cell = np.clip(cell, 0, np.array(fields.dist.shape[1:]) - 1)
-                here = fields.dist[field_of, cell[:, 0], cell[:, 1]]
-                lost[:] = use & (~ok | (here <= FIELD_END_M))
+                lost[:] = use & (~ok | (fields.at(field_of, pos) <= FIELD_END_M))
             direction[ok] = fdir[ok] / reach[ok, None]
             speed[ok] = pref_speed[ok]
             aim[ok] = reach[ok]

@@ -755,7 +755,7 @@ class Simulator(LiveObstacles):
 
     def _require(self, regions) -> None:
         """Solve the fields of ``regions`` (indices) a rebuild left for later."""
-        if self._fields is None:
+        if self._fields is None or self._solved.all():  # the usual step: nothing left for later
             return
         regions = np.unique(np.asarray(regions, dtype=np.int64))
         todo = regions[~self._solved[regions]]
