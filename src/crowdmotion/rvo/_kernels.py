@@ -476,23 +476,32 @@ def density_ahead(centre, own, pos, vel, head, oncoming_speed, cell_start, items
         gx0, gx1, gy0, gy1 = _cell_box(cx, cy, reach, origin_x, origin_y, h, nx, ny)
         s = 0.0
         sw = 0.0
-        for gx in range(gx0, gx1 + 1):
-            for gy in range(gy0, gy1 + 1):
-                c = gx * ny + gy
-                for q in range(cell_start[c], cell_start[c + 1]):
-                    j = items[q]
-                    if j == own[k]:
-                        continue
-                    dx = pos[j, 0] - cx
-                    dy = pos[j, 1] - cy
-                    d2 = dx * dx + dy * dy
-                    if d2 < r2:
-                        g = np.exp(-d2 * inv)
-                        s += g
-                        along = vel[j, 0] * hx + vel[j, 1] * hy
-                        w = 1.0 + along / oncoming_speed if along < 0.0 else 1.0
-                        if w > 0.0:
-                            sw += g * w
+        # the agents within reach, gathered without branches (for one gx the cells gy0 … gy1
+        # hold consecutive items), then summed in the cells' order
+        bound = 0
+        if gy1 >= gy0:
+            for gx in range(gx0, gx1 + 1):
+                bound += cell_start[gx * ny + gy1 + 1] - cell_start[gx * ny + gy0]
+        b_j = np.empty(bound, dtype=np.int64)
+        b_d2 = np.empty(bound)
+        cnt = 0
+        for gx in range(gx0, gx1 + 1 if gy1 >= gy0 else gx0):
+            for q in range(cell_start[gx * ny + gy0], cell_start[gx * ny + gy1 + 1]):
+                j = items[q]
+                dx = pos[j, 0] - cx
+                dy = pos[j, 1] - cy
+                d2 = dx * dx + dy * dy
+                b_j[cnt] = j
+                b_d2[cnt] = d2
+                cnt += (j != own[k]) & (d2 < r2)
+        for q in range(cnt):
+            j = b_j[q]
+            g = np.exp(-b_d2[q] * inv)
+            s += g
+            along = vel[j, 0] * hx + vel[j, 1] * hy
+            w = 1.0 + along / oncoming_speed if along < 0.0 else 1.0
+            if w > 0.0:
+                sw += g * w
         out[k] = s
         out_with[k] = sw
 
@@ -624,64 +633,86 @@ def lane_choice(pos, vel, vpref, radius, weight, active, cell_start, items, orig
         gy1 = min(int(np.floor((y1 - origin_y) / h)), ny - 1)
         pres = np.zeros(n_off)
         acc = np.zeros(2 * m_max + 1)  # Σ_j weight_j exp(−lat_j²/2σ²) E_j^m, m = −m_max … m_max
-        for gx in range(gx0, gx1 + 1):
-            for gy in range(gy0, gy1 + 1):
-                c = gx * ny + gy
-                for q in range(cell_start[c], cell_start[c + 1]):
-                    j = items[q]
-                    if j == i:
-                        continue
-                    dx, dy = pos[j, 0] - px, pos[j, 1] - py
-                    ahead = dx * ux + dy * uy
-                    if ahead <= 0.0 or ahead > look:
-                        continue
-                    lat = dx * rx + dy * ry
-                    if abs(lat) > lat_max:
-                        continue
-                    ojx, ojy = vpref[j, 0], vpref[j, 1]
-                    share = 1.0
-                    if not ojx * ux + ojy * uy < -0.5 * np.sqrt(ojx * ojx + ojy * ojy):
-                        # one going our way is in the way as far as it is slower
-                        lag = 1.0 - (vel[j, 0] * ux + vel[j, 1] * uy) / sp
-                        share = crowd_weight * min(max(lag, 0.0), 1.0)
-                        if share == 0.0:
-                            continue
-                    if lattice:
-                        a = share * np.exp(-2.0 * ahead / look - lat * lat * inv2)
-                        e = np.exp(2.0 * lat * step * inv2)
-                        acc[m_max] += a
-                        t = a
-                        for m in range(1, m_max + 1):
-                            t *= e
-                            acc[m_max + m] += t
-                        t = a
-                        einv = 1.0 / e
-                        for m in range(1, m_max + 1):
-                            t *= einv
-                            acc[m_max - m] += t
-                    else:
-                        wgt = share * np.exp(-2.0 * ahead / look)
-                        for k in range(n_off):
-                            d = lat - offsets[k]
-                            pres[k] += wgt * np.exp(-d * d * inv2)
+        # the agents in the strip, gathered without branches (which way the tests go is
+        # random from one agent to the next), in the cells' order
+        # (for one gx the cells gy0 … gy1 hold consecutive items)
+        bound = 0
+        if gy1 >= gy0:
+            for gx in range(gx0, gx1 + 1):
+                bound += cell_start[gx * ny + gy1 + 1] - cell_start[gx * ny + gy0]
+        b_j = np.empty(bound, dtype=np.int64)
+        b_ahead = np.empty(bound)
+        b_lat = np.empty(bound)
+        cnt = 0
+        for gx in range(gx0, gx1 + 1 if gy1 >= gy0 else gx0):
+            for q in range(cell_start[gx * ny + gy0], cell_start[gx * ny + gy1 + 1]):
+                j = items[q]
+                dx, dy = pos[j, 0] - px, pos[j, 1] - py
+                ahead = dx * ux + dy * uy
+                lat = dx * rx + dy * ry
+                b_j[cnt] = j
+                b_ahead[cnt] = ahead
+                b_lat[cnt] = lat
+                cnt += (j != i) & (ahead > 0.0) & (ahead <= look) & (abs(lat) <= lat_max)
+        for r in range(cnt):
+            j = b_j[r]
+            ahead = b_ahead[r]
+            lat = b_lat[r]
+            ojx, ojy = vpref[j, 0], vpref[j, 1]
+            share = 1.0
+            if not ojx * ux + ojy * uy < -0.5 * np.sqrt(ojx * ojx + ojy * ojy):
+                # one going our way is in the way as far as it is slower
+                lag = 1.0 - (vel[j, 0] * ux + vel[j, 1] * uy) / sp
+                share = crowd_weight * min(max(lag, 0.0), 1.0)
+                if share == 0.0:
+                    continue
+            if lattice:
+                a = share * np.exp(-2.0 * ahead / look - lat * lat * inv2)
+                e = np.exp(2.0 * lat * step * inv2)
+                acc[m_max] += a
+                t = a
+                for m in range(1, m_max + 1):
+                    t *= e
+                    acc[m_max + m] += t
+                t = a
+                einv = 1.0 / e
+                for m in range(1, m_max + 1):
+                    t *= einv
+                    acc[m_max - m] += t
+            else:
+                wgt = share * np.exp(-2.0 * ahead / look)
+                for k in range(n_off):
+                    d = lat - offsets[k]
+                    pres[k] += wgt * np.exp(-d * d * inv2)
         if lattice:
             for k in range(n_off):
                 y = mult[k] * step
                 pres[k] = acc[m_max + mult[k]] * np.exp(-y * y * inv2)
         for k in range(n_off):
             pres[k] *= weight[i]
-        p0 = pres[0]  # offsets[0] is 0: straight on
-        best_cost = INF
-        best_off = 0.0
+        if not pres[0] >= min_pressure:  # offsets[0] is 0: nobody in the way straight on
+            continue
+        # the clear offset of least cost (the first on a tie): offsets tried cheapest first
         for k in range(n_off):
             y = offsets[k]
-            cost = pres[k] + side_cost * abs(y) - right_bonus * y
-            if cost < best_cost:
-                qx, qy = px + aim * ux + y * rx, py + aim * uy + y * ry
-                if y == 0.0 or _clear(px, py, qx, qy, radius[i], circ_c, circ_r, seg_a, seg_b):
-                    best_cost = cost
-                    best_off = y
-        if p0 < min_pressure or best_off == 0.0:
+            pres[k] = pres[k] + side_cost * abs(y) - right_bonus * y
+        best_off = 0.0
+        while True:
+            best_cost = INF
+            kb = -1
+            for k in range(n_off):
+                if pres[k] < best_cost:
+                    best_cost = pres[k]
+                    kb = k
+            if kb < 0:
+                break
+            y = offsets[kb]
+            if y == 0.0 or _clear(px, py, px + aim * ux + y * rx, py + aim * uy + y * ry, radius[i],
+                                  circ_c, circ_r, seg_a, seg_b):
+                best_off = y
+                break
+            pres[kb] = INF
+        if best_off == 0.0:
             continue
         dx, dy = aim * ux + best_off * rx, aim * uy + best_off * ry
         dn = np.sqrt(dx * dx + dy * dy)

@@ -52,11 +52,12 @@ And for goals shared by a crowd when arrivals stay (``remove_on_arrival = False`
 from __future__ import annotations
 
 import numpy as np
-from numba import njit
+from numba import njit, prange
 from scipy.spatial import cKDTree
 
 from crowdmotion._contact import grid_for
-from crowdmotion.rvo._kernels import _knn, held_up_time
+from crowdmotion._threads import threaded
+from crowdmotion.rvo._kernels import PARALLEL_MIN_AGENTS, _knn, held_up_time
 from crowdmotion.rvo.density import PERSON_MAX_RADIUS_M
 
 BLOCKER_CANDIDATES = 6  # nearest neighbours searched for the one in an agent's way
@@ -355,23 +356,25 @@ def _settle(wanted, chosen, pos, pref_speed, radius, active, dt, patience, stuck
     return n_cand
 
 
-@njit(cache=True)
+@threaded(min_items=PARALLEL_MIN_AGENTS)
 def _nearest(cand, pos, dmax, cell_start, items, origin_x, origin_y, h, nx, ny, d, k):
     """Each candidate's ``d.shape[1]`` nearest other agents within ``dmax`` (as cKDTree's
     query of the agents would give them, less the agent itself): their distances, nearest
     first, into ``d`` (inf where fewer), their ids into ``k``."""
     m = d.shape[1]
-    idx = np.empty(m, dtype=np.int64)
-    d2 = np.empty(m)
-    for r in range(cand.shape[0]):
-        found = _knn(cand[r], pos, m, dmax, cell_start, items, origin_x, origin_y, h, nx, ny, idx, d2)
-        for q in range(m):
-            if q < found:
-                d[r, q] = np.sqrt(d2[q])
-                k[r, q] = idx[q]
-            else:
-                d[r, q] = np.inf
-                k[r, q] = 0
+    block = 64
+    for blk in prange((cand.shape[0] + block - 1) // block):
+        idx = np.empty(m, dtype=np.int64)  # scratch once per block of candidates
+        d2 = np.empty(m)
+        for r in range(blk * block, min(cand.shape[0], (blk + 1) * block)):
+            found = _knn(cand[r], pos, m, dmax, cell_start, items, origin_x, origin_y, h, nx, ny, idx, d2)
+            for q in range(m):
+                if q < found:
+                    d[r, q] = np.sqrt(d2[q])
+                    k[r, q] = idx[q]
+                else:
+                    d[r, q] = np.inf
+                    k[r, q] = 0
 
 
 @njit(cache=True)
