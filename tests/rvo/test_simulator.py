@@ -146,6 +146,57 @@ def test_the_same_goal_given_again_reuses_its_guidance_field():
     assert sim._fields.dist.shape[0] == 2
 
 
+def test_a_crowd_sent_to_ever_new_goals_keeps_fields_only_for_goals_in_use_and_a_few_more(monkeypatch):
+    from crowdmotion.rvo import simulator as S
+    monkeypatch.setattr(S, "UNUSED_FIELDS_MB", 0.0)  # keep the fewest unused fields: UNUSED_FIELDS_MIN
+    sim = rvo.Simulator(_walled(), remove_on_arrival=False, rng=np.random.default_rng(0))
+    ids = sim.add_agents([[2, 2], [2, 8], [18, 2]], [[18, 8]] * 3)
+    exit_area = cm.Rect([17, 1], [19, 3])
+    sim.add_goal_regions([exit_area])  # pinned: kept however long unused
+    sim.step()
+    rng = np.random.default_rng(1)
+    for _ in range(40):  # each time a new goal point for one walker: a new field
+        x = rng.choice([rng.uniform(1, 8), rng.uniform(12, 19)])
+        sim.set_goals([int(rng.integers(3))], [x, rng.uniform(1, 9)])
+        sim.step()
+    assert len(sim._exact) <= len(ids) + 1 + S.UNUSED_FIELDS_MIN + 1
+    # the fields in reused places are those of their new goals: the same distances as a fresh simulator's
+    fresh = rvo.Simulator(_walled())
+    fresh.add_agents([[2, 2]], [[18, 8]])
+    fresh.step()
+    for k in ids:
+        region = sim._goal_regions[sim.field_of[k]]
+        pts = np.array([[2.0, 5.0], [5.0, 9.0], [15.0, 1.5]])
+        np.testing.assert_array_equal(sim.walking_distance(pts, region), fresh.walking_distance(pts, region))
+    # and the pinned region's field is still there, solved once
+    assert sim._goal_regions.index(exit_area) in sim._pinned
+    # sent to the pinned region and back to a goal whose place went to another: everyone arrives
+    sim.set_goals([ids[0]], exit_area.center, goal_region=exit_area)
+    sim.set_goals([ids[1]], [18, 8])
+    sim.set_goals([ids[2]], [2, 2])
+    while sim.time < 60 and not (sim.arrived[ids].all()):
+        sim.step()
+    assert sim.arrived[ids].all()
+
+
+def test_a_goal_region_object_given_again_after_its_field_went_to_another_gets_its_own_field_again(monkeypatch):
+    from crowdmotion.rvo import simulator as S
+    monkeypatch.setattr(S, "UNUSED_FIELDS_MB", 0.0)
+    sim = rvo.Simulator(_walled(), remove_on_arrival=False, rng=np.random.default_rng(0))
+    east = cm.Rect([16, 6], [19, 9])
+    sim.add_agents([[2, 2]], east.center, goal_region=east)
+    sim.step()
+    for k in range(S.UNUSED_FIELDS_MIN + 3):  # east unused, then the longest unused: its place is reused
+        sim.set_goals([0], [2.0 + 0.5 * k, 8.0])
+        sim.step()
+    assert all(r is not east for r in sim._goal_regions)
+    sim.set_goals([0], east.center, goal_region=east)  # the same object: found by value, not by a stale id
+    assert sim._goal_regions[sim.field_of[0]] is east
+    while sim.time < 40 and not sim.arrived[0]:
+        sim.step()
+    assert sim.arrived[0]
+
+
 def test_an_agent_that_arrived_and_stayed_walks_again_when_given_a_new_goal():
     sim = rvo.Simulator(cm.Scene(bounds=([0, 0], [10, 10])), remove_on_arrival=False)
     sim.add_agents([[5, 4.9]], [5, 5])

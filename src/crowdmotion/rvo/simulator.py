@@ -37,6 +37,12 @@ ENTRY_NEIGHBOURS = 8  # bodies nearest its place an entering agent is checked ag
 # different goal points given in one call without a goal_region get a guidance field each,
 # up to this many (a field is a grid of the scene; more are grouped by place into this many)
 OWN_FIELDS_MAX = 16
+# guidance fields nobody walks to any more are kept (a goal given again reuses its field at
+# once) up to this much memory, at least UNUSED_FIELDS_MIN of them; beyond that the longest
+# unused give their places to new goals' fields, so that a game sending its crowd to ever
+# new goals holds fields for the goals in use, not for every goal ever given
+UNUSED_FIELDS_MB = 64.0
+UNUSED_FIELDS_MIN = 8
 # the congestion-aware fields of a replan period are re-solved within this many seconds
 # of its first step, spread over the steps in it (several per step where more fields)
 REPLAN_SPREAD_S = 0.25
@@ -229,6 +235,9 @@ class Simulator(LiveObstacles):
         self._region_ids: dict[int, int] = {}  # id(region object) -> its index: no repr per call
         self._grouped: set[int] = set()  # fields shared by a group of nearby goal points
         self._no_own_field: set[tuple] = set()  # (agent, goal x, goal y) whose own field cannot be solved
+        self._pinned: set[int] = set()  # fields of add_goal_regions: kept for the run, used or not
+        self._asked_at: list[int] = []  # per field: the step it was last asked for (its place is reused longest unused first)
+        self._regions_added = 0  # goal regions added so far (in new places or in reused ones)
         self._batches = 0
         self._fields: DistanceFields | None = None
         self._exact: np.ndarray | None = None  # the exact distances, while _fields holds the weighted ones
@@ -414,10 +423,11 @@ class Simulator(LiveObstacles):
         for region in regions:
             if not isinstance(region, (Rect, Disc, Points)):
                 raise ValueError(f"add_goal_regions: a Rect, Disc or Points region is needed, got {region!r}")
-            known = len(self._goal_regions)
-            self._region_index(region.nearest(self.positions[:1]) if len(self.positions) else None, region,
-                               solve=False)
-            if len(self._goal_regions) > known:
+            added = self._regions_added
+            place = self._region_index(region.nearest(self.positions[:1]) if len(self.positions) else None, region,
+                                       solve=False)
+            self._pinned.add(place)
+            if self._regions_added > added:
                 self._fields_stale = True
 
     def walking_distance(self, points, region) -> np.ndarray:
@@ -639,30 +649,89 @@ class Simulator(LiveObstacles):
 
     def _region_indices(self, regions: list, solve: bool) -> np.ndarray:
         """The index of each goal region among those known (by value: a region given again
-        reuses its field), adding the new ones; with ``solve``, once fields exist, the new
+        reuses its field), adding the new ones, in the places of fields nobody uses any more
+        where :meth:`_reusable` gives some; with ``solve``, once fields exist, the new
         ones' fields are solved together (one raster of the obstacles for all) and known
         ones a rebuild left for later are solved (a goal an obstacle now covers raises)."""
         keys = [(type(r).__name__, repr(r)) for r in regions]
         new = [k for k, key in enumerate(keys) if key not in self._region_keys and key not in keys[:k]]
-        if new and solve and self._fields is not None and not self._fields_stale:  # a bad goal raises here
-            self._add_fields([regions[k] for k in new])
-        for k in new:
-            self._goal_regions.append(regions[k])
-            self._region_keys.append(keys[k])
+        if new:
+            known = [self._region_keys.index(key) for key in keys if key in self._region_keys]
+            places = self._reusable(len(new), known)
+            places += range(len(self._goal_regions), len(self._goal_regions) + len(new) - len(places))
+            solving = solve and self._fields is not None and not self._fields_stale
+            if solving:  # a bad goal raises here, before any change
+                self._add_fields([regions[k] for k in new], places)
+            for k, place in zip(new, places):
+                if place < len(self._goal_regions):
+                    self._forget_field(place)
+                    if not solving and self._fields is not None and place < len(self._solved):
+                        self._solved[place] = False  # its new region's field: solved when next used
+                    self._goal_regions[place] = regions[k]
+                    self._region_keys[place] = keys[k]
+                else:
+                    self._goal_regions.append(regions[k])
+                    self._region_keys.append(keys[k])
+                    self._asked_at.append(self.steps)
+            self._regions_added += len(new)
         out = np.array([self._region_keys.index(key) for key in keys], dtype=np.int64)
+        for k in out.tolist():
+            self._asked_at[k] = self.steps
         if solve and not self._fields_stale:
             self._require(out)
         return out
 
-    def _add_fields(self, regions: list) -> None:
-        """Solve the fields of new goal regions beside those already solved."""
-        first = len(self._goal_regions)
+    def _reusable(self, count: int, asked: list) -> list:
+        """Up to ``count`` places of fields that no agent in the scene or waiting walks to,
+        not pinned, not re-solving this period and not among ``asked``, beyond the
+        ``UNUSED_FIELDS_MB`` of such fields kept (at least ``UNUSED_FIELDS_MIN``): the
+        longest unused first."""
+        n = len(self._goal_regions)
+        idle = np.ones(n, dtype=bool)
+        idle[self.field_of[self.active | self.waiting]] = False
+        idle[list(self._pinned)] = False
+        idle[asked] = False
+        if self._replanning is not None:
+            idle[self._replanning[0]] = False
+        free = np.flatnonzero(idle)
+        kept = UNUSED_FIELDS_MIN
+        if self._fields is not None and len(self._exact):
+            field_bytes = self._exact[0].nbytes * (1 if self._fields.dist is self._exact else 2)
+            kept = max(kept, int(UNUSED_FIELDS_MB * 1e6 // field_bytes))
+        if len(free) <= kept:
+            return []
+        oldest = free[np.argsort(np.asarray(self._asked_at)[free], kind="stable")]
+        return oldest[:min(count, len(free) - kept)].tolist()
+
+    def _forget_field(self, place: int) -> None:
+        """The goal region in ``place`` gives its place to another: nothing refers to it."""
+        self._region_ids = {obj: k for obj, k in self._region_ids.items() if k != place}
+        self._grouped.discard(place)
+
+    def _add_fields(self, regions: list, places: list) -> None:
+        """Solve the fields of new goal regions, into ``places``: those of fields no longer
+        used, then new ones beside those already solved."""
         more = distance_fields(self._now, regions, float(self.params["radius"].max()), self._fields.cell,
-                               names=[f"goal region {first + k}" for k in range(len(regions))])
-        self._exact = np.concatenate([self._exact, more.dist])
-        self._fields.dist = np.concatenate([self._fields.dist, more.dist])
-        self._fields.goal_cells.extend(more.goal_cells)
-        self._solved = np.concatenate([self._solved, np.ones(len(regions), dtype=bool)])
+                               names=[f"goal region {k}" for k in places])
+        reused = [k for k in places if k < len(self._exact)]
+        if reused:
+            self._store_fields(reused, more.dist[:len(reused)], more.goal_cells[:len(reused)])
+        grown = more.dist[len(reused):]
+        if len(grown):
+            self._exact = np.concatenate([self._exact, grown])
+            self._fields.dist = self._exact if self._fields.dist is self._exact else \
+                np.concatenate([self._fields.dist, grown])
+            self._fields.goal_cells.extend(more.goal_cells[len(reused):])
+            self._solved = np.concatenate([self._solved, np.ones(len(grown), dtype=bool)])
+
+    def _store_fields(self, places, dist: np.ndarray, goal_cells: list) -> None:
+        """Solved exact fields ``dist`` of the goal regions in ``places``."""
+        self._exact[places] = dist
+        if self._fields.dist is not self._exact:
+            self._fields.dist[places] = dist
+        for k, c in zip(places, goal_cells):
+            self._fields.goal_cells[k] = c
+        self._solved[places] = True
 
     def _region_index(self, goal: np.ndarray, goal_region, solve: bool = True) -> int:
         """The index of the goal region (``goal_region``, or the goal points) among those
@@ -670,6 +739,7 @@ class Simulator(LiveObstacles):
         before is found by its id, without its repr."""
         if goal_region is not None and id(goal_region) in self._region_ids:
             index = self._region_ids[id(goal_region)]
+            self._asked_at[index] = self.steps
             if solve and not self._fields_stale:
                 self._require([index])
             return index
@@ -764,12 +834,7 @@ class Simulator(LiveObstacles):
             return
         more = distance_fields(self._now, [self._goal_regions[k] for k in todo], float(self.params["radius"].max()),
                                self._fields.cell, names=[f"goal region {k}" for k in todo])  # a goal covered now raises
-        self._exact[todo] = more.dist
-        if self._fields.dist is not self._exact:
-            self._fields.dist[todo] = more.dist
-        for k, c in zip(todo, more.goal_cells):
-            self._fields.goal_cells[k] = c
-        self._solved[todo] = True
+        self._store_fields(todo, more.dist, more.goal_cells)
 
     def _replan(self) -> None:
         """Re-solve the congestion-aware fields every ``replan_s``, from the crowd as it is
