@@ -13,6 +13,42 @@ def _fields():
     return distance_fields(scene, [Rect([18, 8], [19.5, 9.5])], 0.3, 0.25)
 
 
+def _random_weights(router, seed=0):
+    """The router's graph with random cell costs and random flux against each edge."""
+    g = router.graph
+    rng = np.random.default_rng(seed)
+    cost = 1.0 + 3.0 * rng.random(len(g.cell_index))
+    return g.weighted(cost, (rng.random(len(g.src)), rng.random(len(g.src))))
+
+
+def test_the_weighted_fields_are_scipys_dijkstra_on_the_same_directed_graph():
+    from scipy.sparse.csgraph import dijkstra
+    f = _fields()
+    router = CongestionRouter(f, 1.0, 20.0)
+    g = router.graph
+    w = _random_weights(router)
+    ours = g.distances_on(w, f.goal_cells, f.blocked.shape)[0]
+    goals = np.asarray(f.goal_cells[0]).reshape(-1, 2)
+    theirs = np.full(f.blocked.shape, np.inf)
+    theirs.ravel()[g.cell_index] = dijkstra(g.csr(w), directed=True, indices=g.node[goals[:, 0], goals[:, 1]],
+                                           min_only=True)
+    np.testing.assert_array_equal(ours, theirs)
+
+
+def test_a_field_solved_near_some_points_has_the_whole_searchs_distances_there_and_stops_short():
+    f = _fields()
+    router = CongestionRouter(f, 1.0, 20.0)
+    w = _random_weights(router, 1)
+    whole = router.graph.distances_on(w, f.goal_cells, f.blocked.shape)[0]
+    near = router.near(np.array([[12.0, 7.0], [16.0, 8.0]]), 1.0)
+    part = router.graph.distances_on(w, f.goal_cells, f.blocked.shape, [near])[0]
+    solved = np.isfinite(part)
+    np.testing.assert_array_equal(part[solved], whole[solved])
+    assert np.all(solved[near & np.isfinite(whole)]), "every cell asked for and reachable is solved"
+    assert np.isfinite(whole).sum() > 2 * solved.sum(), "the far side of the wall is left"
+    assert near.sum() == 2 * (2 * 4 + 1) ** 2  # 1 m at 0.25 m cells: 4 cells each way round each point
+
+
 def test_with_nobody_about_the_re_solved_field_is_the_exact_one():
     f = _fields()
     d = CongestionRouter(f, 1.0).resolve(np.array([[-50.0, -50.0]]), f.dist)

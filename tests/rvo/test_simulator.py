@@ -197,6 +197,23 @@ def test_a_goal_region_object_given_again_after_its_field_went_to_another_gets_i
     assert sim.arrived[0]
 
 
+def test_a_walker_added_far_from_the_others_on_their_congestion_field_finds_it_solved_where_it_stands():
+    sim = rvo.Simulator(_walled(), remove_on_arrival=False, rng=np.random.default_rng(0))
+    exit_area = cm.Rect([17, 1], [19, 9])
+    near = np.stack(np.meshgrid([14.0, 15.0], [3.0, 5.0, 7.0]), -1).reshape(-1, 2)
+    sim.add_agents(near, exit_area.center, goal_region=exit_area)
+    sim.step()  # the congestion-aware field, solved as far as these walkers go before the next re-solve
+    k = int(sim.field_of[0])
+    west = tuple(np.floor((np.array([2.0, 5.0]) - sim._fields.origin) / sim._fields.cell).astype(int))
+    assert k in sim._partial and np.isinf(sim._fields.dist[k][west])  # nothing solved west of the wall
+    late = sim.add_agents([[2.0, 5.0]], exit_area.center, goal_region=exit_area)
+    sim.step()
+    assert np.isfinite(sim._fields.dist[k][west]) and k not in sim._partial
+    while sim.time < 40 and not sim.arrived[late].all():
+        sim.step()
+    assert sim.arrived[late].all()
+
+
 def test_an_agent_that_arrived_and_stayed_walks_again_when_given_a_new_goal():
     sim = rvo.Simulator(cm.Scene(bounds=([0, 0], [10, 10])), remove_on_arrival=False)
     sim.add_agents([[5, 4.9]], [5, 5])

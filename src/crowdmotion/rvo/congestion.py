@@ -5,8 +5,11 @@ agent queueing along the shortest line (the inner wall of a corner).
 The idea is Treuille, Cooper & Popović's continuum crowds (2006): walking through a cell
 costs ``1 + congestion × ρ`` per metre, ρ the density there (agents/m², smoothed over
 about a metre). Every ``replan_s`` seconds the field is re-solved on the same
-8-connected grid as the exact field (corner cutting off) by scipy's Dijkstra, from all
-goal cells at once; agents then aim along it exactly as before. With several goal
+8-connected grid as the exact field (corner cutting off) by Dijkstra's algorithm, from all
+goal cells at once; agents then aim along it exactly as before. The search stops once it
+has settled every cell the field's agents can reach or look at before the next re-solve
+(``near``): cells farther from the goal than all of those are left unsolved (inf), and the
+cells solved hold the same distances as a search of the whole grid. With several goal
 regions and steps shorter than a quarter second (a game's frames), the costs are taken
 from the crowd at the period's first step and the fields' Dijkstras spread over the
 steps of its first quarter second, the new fields taken together (the simulator's
@@ -34,9 +37,9 @@ a crossing at right angles: J · n̂ = 0.
 from __future__ import annotations
 
 import numpy as np
-from scipy.ndimage import gaussian_filter
+from numba import njit
+from scipy.ndimage import gaussian_filter, maximum_filter
 from scipy.sparse import csr_matrix
-from scipy.sparse.csgraph import dijkstra
 
 from crowdmotion.routing import DistanceFields
 
@@ -73,21 +76,21 @@ class GridGraph:
         step = np.stack(np.unravel_index(self.cell_index[self.dst], shape), axis=1) - \
             np.stack(np.unravel_index(self.cell_index[self.src], shape), axis=1)
         self.unit = step / np.linalg.norm(step, axis=1)[:, None]  # (E, 2) direction src -> dst
-        # the CSR layout of both graphs, once: entries by row, then column (the canonical
-        # form scipy's COO -> CSR conversion gives), so a re-solve only fills in weights
+        # the CSR layout of the directed graph (each edge both ways), once: entries by row,
+        # then column (the canonical form scipy's COO -> CSR conversion gives), so a
+        # re-solve only fills in weights
         n = len(self.cell_index)
-        self._layout = {}
-        for directed, rows, cols in ((False, self.src, self.dst),
-                                     (True, np.concatenate([self.dst, self.src]), np.concatenate([self.src, self.dst]))):
-            order = np.lexsort((cols, rows))
-            indptr = np.zeros(n + 1, dtype=np.int64)
-            np.cumsum(np.bincount(rows, minlength=n), out=indptr[1:])
-            self._layout[directed] = (order, cols[order], indptr)
+        rows, cols = np.concatenate([self.dst, self.src]), np.concatenate([self.src, self.dst])
+        order = np.lexsort((cols, rows))
+        indptr = np.zeros(n + 1, dtype=np.int64)
+        np.cumsum(np.bincount(rows, minlength=n), out=indptr[1:])
+        self._layout = (order, cols[order].astype(np.int64), indptr)
 
-    def _matrix(self, weights: np.ndarray, directed: bool) -> csr_matrix:
-        order, indices, indptr = self._layout[directed]
+    def csr(self, weighted: np.ndarray) -> csr_matrix:
+        """The graph :meth:`weighted` gave as a scipy sparse matrix (row: from, column: to)."""
+        _, indices, indptr = self._layout
         n = len(self.cell_index)
-        return csr_matrix((weights[order], indices, indptr), shape=(n, n))
+        return csr_matrix((weighted, indices, indptr), shape=(n, n))
 
     def distances(self, goal_cells: list, shape: tuple, cost: np.ndarray | None = None,
                   against: tuple[np.ndarray, np.ndarray] | None = None) -> np.ndarray:
@@ -99,25 +102,133 @@ class GridGraph:
         return self.distances_on(self.weighted(cost, against), goal_cells, shape)
 
     def weighted(self, cost: np.ndarray | None = None,
-                 against: tuple[np.ndarray, np.ndarray] | None = None) -> tuple[csr_matrix, bool]:
-        """The graph with its edges weighted as :meth:`distances` says, and whether it is
-        directed: built once for several :meth:`distances_on`."""
+                 against: tuple[np.ndarray, np.ndarray] | None = None) -> np.ndarray:
+        """The weights of the directed graph's edges in its CSR layout (each edge both ways;
+        without ``against`` the same both ways), as :meth:`distances` says: built once for
+        several :meth:`distances_on`."""
         w = self.length if cost is None else self.length * 0.5 * (cost[self.src] + cost[self.dst])
-        if against is None:
-            return self._matrix(w, False), False
         # Dijkstra runs outward from the goal cells, so the edge an agent walks a -> b is b -> a
-        return self._matrix(np.concatenate([w + self.length * against[0], w + self.length * against[1]]), True), True
+        both = np.concatenate([w, w] if against is None else
+                              [w + self.length * against[0], w + self.length * against[1]])
+        return both[self._layout[0]]
 
-    def distances_on(self, weighted: tuple[csr_matrix, bool], goal_cells: list, shape: tuple) -> np.ndarray:
+    def distances_on(self, weighted: np.ndarray, goal_cells: list, shape: tuple,
+                     near: list | None = None) -> np.ndarray:
         """(F, nx, ny) least cost from every cell to each field's goal cells on a graph
-        :meth:`weighted` built (inf where none leads)."""
-        graph, directed = weighted
+        :meth:`weighted` built (inf where none leads). ``near``, one (nx, ny) mask per field
+        (or None), stops a field's search once every masked cell is solved: the cells left
+        are inf; those solved hold the distances the whole search gives."""
         out = np.full((len(goal_cells),) + tuple(shape), np.inf)
+        _, indices, indptr = self._layout
+        dist = np.empty(len(self.cell_index))
         for k, goals in enumerate(goal_cells):
             goals = np.asarray(goals, dtype=np.int64).reshape(-1, 2)
-            d = dijkstra(graph, directed=directed, indices=self.node[goals[:, 0], goals[:, 1]], min_only=True)
-            out[k].ravel()[self.cell_index] = d
+            if near is None or near[k] is None:
+                needed = np.ones(len(dist), dtype=bool)
+            else:
+                needed = np.ascontiguousarray(near[k].ravel()[self.cell_index])
+            _dijkstra(indptr, indices, weighted, self.node[goals[:, 0], goals[:, 1]], needed, dist)
+            out[k].ravel()[self.cell_index] = dist
         return out
+
+
+@njit(cache=True)
+def _sift_up(key, node, slot, k, d, v):
+    """Heap entry k gets distance d of node v, moved up to its place."""
+    while k > 0:
+        up = (k - 1) >> 1
+        if key[up] <= d:
+            break
+        key[k] = key[up]
+        node[k] = node[up]
+        slot[node[k]] = k
+        k = up
+    key[k] = d
+    node[k] = v
+    slot[v] = k
+
+
+@njit(cache=True)
+def _dijkstra(indptr, indices, weights, sources, needed, dist):
+    """Least cost from any of ``sources`` to every node of a CSR graph into ``dist`` (a
+    binary heap with one entry per node, its distance lowered in place), stopping once
+    every node ``needed`` that the sources reach is settled; the unsettled nodes: inf.
+    A settled node's distance is the least sum over paths, the same whatever order ties
+    are settled in (adding a non-negative weight never lowers a sum), as scipy's gives."""
+    n = indptr.shape[0] - 1
+    slot = np.full(n, -1, dtype=np.int64)  # heap entry; -1 never reached; -2 settled
+    key = np.empty(n)
+    node = np.empty(n, dtype=np.int64)
+    size = 0
+    for v in range(n):
+        dist[v] = np.inf
+    for s in sources:
+        if slot[s] == -1:
+            dist[s] = 0.0
+            _sift_up(key, node, slot, size, 0.0, s)
+            size += 1
+    left = 0
+    for v in range(n):
+        left += needed[v]
+    while size > 0 and left > 0:
+        u = node[0]
+        du = key[0]
+        slot[u] = -2
+        left -= needed[u]
+        size -= 1
+        if size > 0:  # the last entry sifted down from the top
+            d_last, v_last = key[size], node[size]
+            k = 0
+            while True:
+                c = 2 * k + 1
+                if c >= size:
+                    break
+                if c + 1 < size and key[c + 1] < key[c]:
+                    c += 1
+                if key[c] >= d_last:
+                    break
+                key[k] = key[c]
+                node[k] = node[c]
+                slot[node[k]] = k
+                k = c
+            key[k] = d_last
+            node[k] = v_last
+            slot[v_last] = k
+        for q in range(indptr[u], indptr[u + 1]):
+            v = indices[q]
+            at = slot[v]
+            if at == -2:
+                continue
+            d = du + weights[q]
+            if d < dist[v]:
+                dist[v] = d
+                if at == -1:
+                    _sift_up(key, node, slot, size, d, v)
+                    size += 1
+                else:
+                    _sift_up(key, node, slot, at, d, v)
+    for v in range(n):
+        if slot[v] != -2:
+            dist[v] = np.inf
+
+
+@njit(cache=True)
+def unsolved_near(points, field_of, dist, exact, origin, cell, window):
+    """(P,) whether the window of ``window`` cells round each point holds a cell that its
+    field (``field_of``) in ``dist`` leaves unsolved (inf) where ``exact`` has a distance:
+    a field solved only near its agents (:meth:`GridGraph.distances_on`'s ``near``) that
+    this point reads beyond."""
+    nx, ny = dist.shape[1], dist.shape[2]
+    out = np.zeros(points.shape[0], dtype=np.bool_)
+    for i in range(points.shape[0]):
+        f = field_of[i]
+        cx = int(np.floor((points[i, 0] - origin[0]) / cell))
+        cy = int(np.floor((points[i, 1] - origin[1]) / cell))
+        for gx in range(max(cx - window, 0), min(cx + window, nx - 1) + 1):
+            for gy in range(max(cy - window, 0), min(cy + window, ny - 1) + 1):
+                if dist[f, gx, gy] == np.inf and exact[f, gx, gy] < np.inf:
+                    out[i] = True
+    return out
 
 
 class CongestionRouter:
@@ -191,10 +302,20 @@ class CongestionRouter:
         return self.graph.weighted(cost, against)
 
     def solve(self, positions: np.ndarray, fields: np.ndarray, velocities: np.ndarray | None = None,
-              weights=None) -> np.ndarray:
+              weights=None, near: list | None = None) -> np.ndarray:
         """(len(fields), nx, ny): the weighted distances of the fields ``fields`` (indices)
         from where the agents are and how they walk, or by ``weights`` taken earlier
-        (:meth:`weights`)."""
+        (:meth:`weights`); ``near``: one mask of the cells needed (:meth:`near`) per field,
+        or None for all (see :meth:`GridGraph.distances_on`)."""
         weighted = self.weights(positions, velocities) if weights is None else weights
         goal_cells = self.fields.goal_cells
-        return self.graph.distances_on(weighted, [goal_cells[k] for k in fields], self.fields.blocked.shape)
+        return self.graph.distances_on(weighted, [goal_cells[k] for k in fields], self.fields.blocked.shape, near)
+
+    def near(self, points: np.ndarray, reach: float) -> np.ndarray:
+        """(nx, ny) the cells within ``reach`` metres, along each axis, of any of ``points``."""
+        f = self.fields
+        shape = np.array(f.blocked.shape)
+        cells = np.clip(np.floor((points - f.origin) / f.cell).astype(np.int64), 0, shape - 1)
+        mask = np.zeros(f.blocked.shape, dtype=np.uint8)
+        mask[cells[:, 0], cells[:, 1]] = 1
+        return maximum_filter(mask, size=2 * int(np.ceil(reach / f.cell)) + 1, mode="constant") > 0

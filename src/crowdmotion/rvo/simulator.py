@@ -14,12 +14,12 @@ from crowdmotion.geometry import finite_array, require_finite_agents
 from crowdmotion.groups import Disc, MovingTarget, Points, Rect
 from crowdmotion.rvo import _kernels as K
 from crowdmotion.rvo import deadlock as _deadlock
-from crowdmotion.rvo.congestion import CongestionRouter
+from crowdmotion.rvo.congestion import CongestionRouter, unsolved_near
 from crowdmotion.rvo.deadlock import KEEP_RIGHT_LOOK_S, Deadlock, contact_arrivals
 from crowdmotion.rvo.density import PERSON_MAX_RADIUS_M, DensitySlowing
 from crowdmotion.rvo.lanes import lane_velocities
 from crowdmotion.routing import DistanceFields, distance_fields
-from crowdmotion.rvo.guidance import preferred_velocities
+from crowdmotion.rvo.guidance import FIELD_WINDOW, preferred_velocities
 from crowdmotion._contact import grid_for
 from crowdmotion.live_obstacles import LiveObstacles
 from crowdmotion.obstacle_primitives import ObstacleSet
@@ -244,6 +244,8 @@ class Simulator(LiveObstacles):
         self._router: CongestionRouter | None = None
         self._weights = None  # the router's cell and edge weights for this replan period
         self._replanning = None  # (fields to re-solve this period, {field: its new distances})
+        self._partial: set[int] = set()  # congestion-aware fields solved only near their agents
+        self._partial_weights = None  # the graph weights they were solved with
         self._solved = np.zeros(0, dtype=bool)  # per goal region: its field solved for the obstacles now
         self._fields_stale = True
         self.deadlock = Deadlock(np.deg2rad(keep_right_deg), float(patience))
@@ -732,6 +734,7 @@ class Simulator(LiveObstacles):
         for k, c in zip(places, goal_cells):
             self._fields.goal_cells[k] = c
         self._solved[places] = True
+        self._partial.difference_update(np.atleast_1d(places).tolist())
 
     def _region_index(self, goal: np.ndarray, goal_region, solve: bool = True) -> int:
         """The index of the goal region (``goal_region``, or the goal points) among those
@@ -803,6 +806,7 @@ class Simulator(LiveObstacles):
         rebuild = self._fields is not None
         # none of them once the last static obstacle went (auto guidance)
         self._fields = self._router = self._weights = self._replanning = None
+        self._partial = set()
         if self._use_field() and self.n_agents:
             regions = np.arange(len(self._goal_regions))
             if rebuild:
@@ -852,6 +856,7 @@ class Simulator(LiveObstacles):
             if not self.active.any():
                 self._replanning = None
                 self._fields.dist = self._exact
+                self._partial = set()
                 return
             self._weights = self._router.weights(self.positions[self.active], self.velocities[self.active])
             self._replanning = (np.unique(self.field_of[self.active]), {})  # fields to solve, those solved
@@ -861,13 +866,34 @@ class Simulator(LiveObstacles):
         spread = min(self.replan_steps, max(1, int(round(REPLAN_SPREAD_S / self.dt))))
         now = todo[len(solved):len(solved) + -(-len(todo) // spread)]
         if len(now):
-            solved.update(zip(now.tolist(), self._router.solve(None, now, weights=self._weights)))
+            # each field solved as far as its agents (in or waiting) walk or look before the
+            # next fields are taken (_complete_partial catches any that go farther)
+            reach = self.params["max_speed"].max() * (self.replan_steps * self.dt + REPLAN_SPREAD_S + self.dt) + \
+                (FIELD_WINDOW + 2) * self._fields.cell
+            present = self.active | self.waiting
+            near = [self._router.near(self.positions[present & (self.field_of == k)], reach) for k in now]
+            solved.update(zip(now.tolist(), self._router.solve(None, now, weights=self._weights, near=near)))
         if len(solved) == len(todo):
             dist = self._exact.copy()
             for k, d in solved.items():
                 dist[k] = d
             self._fields.dist = dist
+            self._partial, self._partial_weights = set(solved), self._weights
             self._replanning = None
+
+    def _complete_partial(self) -> None:
+        """Solve to the end the congestion-aware fields, solved only near their agents, that
+        an agent now reads beyond what was solved: one placed, driven or sent there since
+        (where the exact field has a distance in the window round it, this one has none)."""
+        if not self._partial:
+            return
+        f = self._fields
+        ids = np.flatnonzero(self.active & np.isin(self.field_of, list(self._partial)))
+        short = unsolved_near(self.positions[ids], self.field_of[ids], f.dist, self._exact, f.origin, f.cell,
+                              FIELD_WINDOW + 1)
+        for k in np.unique(self.field_of[ids[short]]).tolist():
+            f.dist[k] = self._router.solve(None, np.array([k]), weights=self._partial_weights)[0]
+            self._partial.discard(k)
 
     def preferred_velocities(self) -> np.ndarray:
         """(N, 2) v_pref of every agent now (zero for agents that left)."""
@@ -878,6 +904,7 @@ class Simulator(LiveObstacles):
         self._ensure_fields()
         self._require(self.field_of[self.active])
         self._replan()
+        self._complete_partial()
         for target, ids in self._targets:
             self.goals[ids] = target.at(self.time)
         self._nearest_goals()
@@ -1087,6 +1114,7 @@ class Simulator(LiveObstacles):
         if self._fields is None:
             return np.zeros(self.n_agents, dtype=bool)
         self._require(self.field_of[self.active])
+        self._complete_partial()
         return self.active & ~self._fields.reachable(self.field_of, self.positions, window=2)
 
     @property
