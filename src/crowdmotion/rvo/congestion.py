@@ -212,25 +212,6 @@ def _dijkstra(indptr, indices, weights, sources, needed, dist):
             dist[v] = np.inf
 
 
-@njit(cache=True)
-def unsolved_near(points, field_of, dist, exact, origin, cell, window):
-    """(P,) whether the window of ``window`` cells round each point holds a cell that its
-    field (``field_of``) in ``dist`` leaves unsolved (inf) where ``exact`` has a distance:
-    a field solved only near its agents (:meth:`GridGraph.distances_on`'s ``near``) that
-    this point reads beyond."""
-    nx, ny = dist.shape[1], dist.shape[2]
-    out = np.zeros(points.shape[0], dtype=np.bool_)
-    for i in range(points.shape[0]):
-        f = field_of[i]
-        cx = int(np.floor((points[i, 0] - origin[0]) / cell))
-        cy = int(np.floor((points[i, 1] - origin[1]) / cell))
-        for gx in range(max(cx - window, 0), min(cx + window, nx - 1) + 1):
-            for gy in range(max(cy - window, 0), min(cy + window, ny - 1) + 1):
-                if dist[f, gx, gy] == np.inf and exact[f, gx, gy] < np.inf:
-                    out[i] = True
-    return out
-
-
 class CongestionRouter:
     """Re-solves a :class:`DistanceFields` with density-weighted cell costs, and costs for
     walking against the crowd's flux."""

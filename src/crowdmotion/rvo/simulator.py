@@ -6,6 +6,7 @@ import warnings
 
 import numba
 import numpy as np
+from scipy.ndimage import minimum_filter
 from scipy.spatial import cKDTree
 
 from crowdmotion._rng import step_key
@@ -14,7 +15,7 @@ from crowdmotion.geometry import finite_array, require_finite_agents
 from crowdmotion.groups import Disc, MovingTarget, Points, Rect
 from crowdmotion.rvo import _kernels as K
 from crowdmotion.rvo import deadlock as _deadlock
-from crowdmotion.rvo.congestion import CongestionRouter, unsolved_near
+from crowdmotion.rvo.congestion import CongestionRouter
 from crowdmotion.rvo.deadlock import KEEP_RIGHT_LOOK_S, Deadlock, contact_arrivals
 from crowdmotion.rvo.density import PERSON_MAX_RADIUS_M, DensitySlowing
 from crowdmotion.rvo.lanes import lane_velocities
@@ -246,6 +247,7 @@ class Simulator(LiveObstacles):
         self._replanning = None  # (fields to re-solve this period, {field: its new distances})
         self._partial: set[int] = set()  # congestion-aware fields solved only near their agents
         self._partial_weights = None  # the graph weights they were solved with
+        self._solved_round = None  # per field and cell: the window round it all solved (True off those fields)
         self._solved = np.zeros(0, dtype=bool)  # per goal region: its field solved for the obstacles now
         self._fields_stale = True
         self.deadlock = Deadlock(np.deg2rad(keep_right_deg), float(patience))
@@ -734,7 +736,7 @@ class Simulator(LiveObstacles):
         for k, c in zip(places, goal_cells):
             self._fields.goal_cells[k] = c
         self._solved[places] = True
-        self._partial.difference_update(np.atleast_1d(places).tolist())
+        self._forget_partial(places)
 
     def _region_index(self, goal: np.ndarray, goal_region, solve: bool = True) -> int:
         """The index of the goal region (``goal_region``, or the goal points) among those
@@ -879,21 +881,37 @@ class Simulator(LiveObstacles):
                 dist[k] = d
             self._fields.dist = dist
             self._partial, self._partial_weights = set(solved), self._weights
+            # where an agent's window (and a cell more) holds only solved cells, or cells
+            # no field reaches: it reads what the whole search would give
+            self._solved_round = np.ones(dist.shape, dtype=bool)
+            size = 2 * (FIELD_WINDOW + 1) + 1
+            for k in solved:
+                self._solved_round[k] = minimum_filter(np.isfinite(dist[k]) | ~np.isfinite(self._exact[k]), size=size,
+                                                       mode="nearest")
             self._replanning = None
 
     def _complete_partial(self) -> None:
         """Solve to the end the congestion-aware fields, solved only near their agents, that
-        an agent now reads beyond what was solved: one placed, driven or sent there since
-        (where the exact field has a distance in the window round it, this one has none)."""
+        an agent now reads beyond what was solved: one placed, driven or sent there since."""
         if not self._partial:
             return
         f = self._fields
-        ids = np.flatnonzero(self.active & np.isin(self.field_of, list(self._partial)))
-        short = unsolved_near(self.positions[ids], self.field_of[ids], f.dist, self._exact, f.origin, f.cell,
-                              FIELD_WINDOW + 1)
-        for k in np.unique(self.field_of[ids[short]]).tolist():
+        ids = np.flatnonzero(self.active)
+        fo = self.field_of[ids]
+        rows = len(self._solved_round)
+        cells = np.clip(np.floor((self.positions[ids] - f.origin) / f.cell).astype(np.int64), 0,
+                        np.array(f.blocked.shape) - 1)
+        fine = self._solved_round[np.minimum(fo, rows - 1), cells[:, 0], cells[:, 1]] | (fo >= rows)
+        for k in np.unique(fo[~fine]).tolist():
             f.dist[k] = self._router.solve(None, np.array([k]), weights=self._partial_weights)[0]
-            self._partial.discard(k)
+            self._forget_partial([k])
+
+    def _forget_partial(self, fields) -> None:
+        """The fields ``fields`` (indices) hold distances solved to the end now."""
+        for k in np.atleast_1d(fields).tolist():
+            if k in self._partial:
+                self._partial.discard(k)
+                self._solved_round[k] = True
 
     def preferred_velocities(self) -> np.ndarray:
         """(N, 2) v_pref of every agent now (zero for agents that left)."""
