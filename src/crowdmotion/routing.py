@@ -15,7 +15,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from crowdmotion.groups import MovingTarget, Points
-from crowdmotion.mdp.solvers import exact_values
+from crowdmotion.mdp.solvers import SCIPY_MAX_CELLS, exact_values, move_graph
 from crowdmotion.scene import Scene
 
 MAX_FIELD_CELLS = 16_000_000
@@ -138,6 +138,8 @@ def distance_fields(scene: Scene, goals: list, radius: float, cell: float | None
             raise ValueError(f"{label}: the goal {goal!r} has no cell free of obstacles "
                              f"(field cell {cell:.3f} m, agent radius {radius} m)")
         goal_cells.append(np.array(sorted(set(cells)), dtype=np.int64))
-    dist = np.stack([-exact_values(blocked.astype(np.uint8), [tuple(c) for c in cells], corner_cutting=False) * cell
+    grid = blocked.astype(np.uint8)
+    graph = move_graph(grid, corner_cutting=False) if 1 < len(goal_cells) and grid.size <= SCIPY_MAX_CELLS else None
+    dist = np.stack([-exact_values(grid, [tuple(c) for c in cells], corner_cutting=False, graph=graph) * cell
                      for cells in goal_cells]) if goal_cells else np.zeros((0,) + shape)
     return DistanceFields(dist, scene.lower.astype(float).copy(), cell, blocked, goal_cells)

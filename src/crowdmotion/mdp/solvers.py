@@ -107,13 +107,13 @@ def fast_values(grid: np.ndarray, goals: Sequence[tuple[int, ...]], corner_cutti
     return interior(dist, shape)  # a view: a contiguous copy would cost another big allocation
 
 
-def csgraph_values(grid: np.ndarray, goals, corner_cutting: bool = True) -> np.ndarray:
-    """Values by scipy.sparse.csgraph.dijkstra on the same move graph (graph build included)."""
-    dim = grid.ndim
+def move_graph(grid: np.ndarray, corner_cutting: bool = True) -> sp.csr_matrix:
+    """The grid's free cells and the moves between them as a scipy graph (edge: the move's
+    cost), for :func:`csgraph_values`: built once for several goals on one grid."""
     free = grid == 0
     idx = np.arange(grid.size).reshape(grid.shape)
     rows, cols, wts = [], [], []
-    for off, cost, sweep in zip(move_offsets(dim), move_costs(dim), swept_offsets(dim)):
+    for off, cost, sweep in zip(move_offsets(grid.ndim), move_costs(grid.ndim), swept_offsets(grid.ndim)):
         src = tuple(slice(max(0, -o), s - max(0, o)) for o, s in zip(off, grid.shape))
         dst = tuple(slice(max(0, o), s - max(0, -o)) for o, s in zip(off, grid.shape))
         ok = free[src] & free[dst]
@@ -124,18 +124,27 @@ def csgraph_values(grid: np.ndarray, goals, corner_cutting: bool = True) -> np.n
         rows.append(idx[src][ok])
         cols.append(idx[dst][ok])
         wts.append(np.full(int(ok.sum()), cost))
-    graph = sp.csr_matrix((np.concatenate(wts), (np.concatenate(rows), np.concatenate(cols))),
-                          shape=(grid.size, grid.size))
+    return sp.csr_matrix((np.concatenate(wts), (np.concatenate(rows), np.concatenate(cols))),
+                         shape=(grid.size, grid.size))
+
+
+def csgraph_values(grid: np.ndarray, goals, corner_cutting: bool = True,
+                   graph: sp.csr_matrix | None = None) -> np.ndarray:
+    """Values by scipy.sparse.csgraph.dijkstra on the same move graph (graph build included,
+    unless ``graph``, :func:`move_graph`'s of this grid, is given)."""
+    graph = move_graph(grid, corner_cutting) if graph is None else graph
     flat = [int(np.ravel_multi_index(g, grid.shape)) for g in goals]
     d = csgraph_dijkstra(graph, directed=True, indices=flat, min_only=True)
     return -d.reshape(grid.shape)
 
 
-def exact_values(grid: np.ndarray, goals: Sequence[tuple[int, ...]], corner_cutting: bool = True) -> np.ndarray:
+def exact_values(grid: np.ndarray, goals: Sequence[tuple[int, ...]], corner_cutting: bool = True,
+                 graph: sp.csr_matrix | None = None) -> np.ndarray:
     """Exact values by whichever solver gives a first result sooner: scipy's Dijkstra up
-    to ``SCIPY_MAX_CELLS`` cells, the numba bucket solver (``fast_values``) beyond."""
+    to ``SCIPY_MAX_CELLS`` cells (on ``graph``, :func:`move_graph`'s, if given), the numba
+    bucket solver (``fast_values``) beyond."""
     if grid.size <= SCIPY_MAX_CELLS:
-        return csgraph_values(grid, goals, corner_cutting)
+        return csgraph_values(grid, goals, corner_cutting, graph)
     return fast_values(grid, goals, corner_cutting)
 
 
