@@ -214,6 +214,23 @@ def test_a_walker_added_far_from_the_others_on_their_congestion_field_finds_it_s
     assert sim.arrived[late].all()
 
 
+def test_a_congestion_field_nobody_walks_any_more_goes_back_to_the_exact_distances_at_the_next_re_solve():
+    sim = rvo.Simulator(_walled(), rng=np.random.default_rng(0))
+    north, south = cm.Rect([17, 7], [19, 9]), cm.Rect([17, 1], [19, 3])
+    crowd = np.stack(np.meshgrid([2.0, 3.0, 4.0], [2.0, 4.0, 6.0, 8.0]), -1).reshape(-1, 2)
+    a = sim.add_agents(crowd[:6], north.center, goal_region=north)
+    sim.add_agents(crowd[6:], south.center, goal_region=south)
+    sim.step()
+    k = int(sim.field_of[a[0]])
+    weighted = sim._fields.dist[k].copy()
+    assert not np.array_equal(weighted, sim._exact[k])  # the crowd made it dearer somewhere
+    sim.remove_agents(a)
+    for _ in range(sim.replan_steps):
+        sim.step()
+    np.testing.assert_array_equal(sim._fields.dist[k], sim._exact[k])
+    assert not np.array_equal(sim._fields.dist[1 - k], sim._exact[1 - k])
+
+
 def test_an_agent_that_arrived_and_stayed_walks_again_when_given_a_new_goal():
     sim = rvo.Simulator(cm.Scene(bounds=([0, 0], [10, 10])), remove_on_arrival=False)
     sim.add_agents([[5, 4.9]], [5, 5])

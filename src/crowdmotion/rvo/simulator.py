@@ -248,6 +248,7 @@ class Simulator(LiveObstacles):
         self._partial: set[int] = set()  # congestion-aware fields solved only near their agents
         self._partial_weights = None  # the graph weights they were solved with
         self._solved_round = None  # per field and cell: the window round it all solved (True off those fields)
+        self._weighted: set[int] = set()  # the fields whose rows of _fields.dist hold weighted distances
         self._solved = np.zeros(0, dtype=bool)  # per goal region: its field solved for the obstacles now
         self._fields_stale = True
         self.deadlock = Deadlock(np.deg2rad(keep_right_deg), float(patience))
@@ -737,6 +738,7 @@ class Simulator(LiveObstacles):
             self._fields.goal_cells[k] = c
         self._solved[places] = True
         self._forget_partial(places)
+        self._weighted.difference_update(np.atleast_1d(places).tolist())
 
     def _region_index(self, goal: np.ndarray, goal_region, solve: bool = True) -> int:
         """The index of the goal region (``goal_region``, or the goal points) among those
@@ -808,7 +810,7 @@ class Simulator(LiveObstacles):
         rebuild = self._fields is not None
         # none of them once the last static obstacle went (auto guidance)
         self._fields = self._router = self._weights = self._replanning = None
-        self._partial = set()
+        self._partial, self._weighted = set(), set()
         if self._use_field() and self.n_agents:
             regions = np.arange(len(self._goal_regions))
             if rebuild:
@@ -858,7 +860,7 @@ class Simulator(LiveObstacles):
             if not self.active.any():
                 self._replanning = None
                 self._fields.dist = self._exact
-                self._partial = set()
+                self._partial, self._weighted = set(), set()
                 return
             self._weights = self._router.weights(self.positions[self.active], self.velocities[self.active])
             self._replanning = (np.unique(self.field_of[self.active]), {})  # fields to solve, those solved
@@ -876,10 +878,16 @@ class Simulator(LiveObstacles):
             near = [self._router.near(self.positions[present & (self.field_of == k)], reach) for k in now]
             solved.update(zip(now.tolist(), self._router.solve(None, now, weights=self._weights, near=near)))
         if len(solved) == len(todo):
-            dist = self._exact.copy()
+            dist = self._fields.dist
+            if dist is self._exact:
+                dist = self._exact.copy()
+            else:  # the last period's array: exact again where no longer weighted
+                for k in self._weighted.difference(solved):
+                    dist[k] = self._exact[k]
             for k, d in solved.items():
                 dist[k] = d
             self._fields.dist = dist
+            self._weighted = set(solved)
             self._partial, self._partial_weights = set(solved), self._weights
             # where an agent's window (and a cell more) holds only solved cells, or cells
             # no field reaches: it reads what the whole search would give
