@@ -457,6 +457,17 @@ def _cell_box(cx, cy, reach, origin_x, origin_y, h, nx, ny):
     return gx0, gx1, gy0, gy1
 
 
+@njit(cache=True)
+def _items_in_box(cell_start, ny, gx0, gx1, gy0, gy1):
+    """How many agents the grid cells gx0 … gx1 × gy0 … gy1 hold (none for an empty range):
+    for one gx the cells gy0 … gy1 hold consecutive items."""
+    bound = 0
+    if gy1 >= gy0:
+        for gx in range(gx0, gx1 + 1):
+            bound += cell_start[gx * ny + gy1 + 1] - cell_start[gx * ny + gy0]
+    return bound
+
+
 @threaded
 def density_ahead(centre, own, pos, vel, head, oncoming_speed, cell_start, items, origin_x, origin_y, h, nx, ny,
                   sigma, out, out_with):
@@ -478,10 +489,7 @@ def density_ahead(centre, own, pos, vel, head, oncoming_speed, cell_start, items
         sw = 0.0
         # the agents within reach, gathered without branches (for one gx the cells gy0 … gy1
         # hold consecutive items), then summed in the cells' order
-        bound = 0
-        if gy1 >= gy0:
-            for gx in range(gx0, gx1 + 1):
-                bound += cell_start[gx * ny + gy1 + 1] - cell_start[gx * ny + gy0]
+        bound = _items_in_box(cell_start, ny, gx0, gx1, gy0, gy1)
         b_j = np.empty(bound, dtype=np.int64)
         b_d2 = np.empty(bound)
         cnt = 0
@@ -634,15 +642,11 @@ def lane_choice(pos, vel, vpref, radius, weight, active, cell_start, items, orig
         pres = np.zeros(n_off)
         acc = np.zeros(2 * m_max + 1)  # Σ_j weight_j exp(−lat_j²/2σ²) E_j^m, m = −m_max … m_max
         # the agents in the strip, gathered without branches (which way the tests go is
-        # random from one agent to the next), in the cells' order
-        # (for one gx the cells gy0 … gy1 hold consecutive items)
-        bound = 0
-        if gy1 >= gy0:
-            for gx in range(gx0, gx1 + 1):
-                bound += cell_start[gx * ny + gy1 + 1] - cell_start[gx * ny + gy0]
-        b_j = np.empty(bound, dtype=np.int64)
-        b_ahead = np.empty(bound)
-        b_lat = np.empty(bound)
+        # random from one agent to the next), in the cells' order (for one gx the cells
+        # gy0 … gy1 hold consecutive items)
+        b_j = np.empty(_items_in_box(cell_start, ny, gx0, gx1, gy0, gy1), dtype=np.int64)
+        b_ahead = np.empty(len(b_j))
+        b_lat = np.empty(len(b_j))
         cnt = 0
         for gx in range(gx0, gx1 + 1 if gy1 >= gy0 else gx0):
             for q in range(cell_start[gx * ny + gy0], cell_start[gx * ny + gy1 + 1]):

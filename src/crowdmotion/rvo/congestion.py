@@ -149,6 +149,27 @@ def _sift_up(key, node, slot, k, d, v):
 
 
 @njit(cache=True)
+def _sift_down(key, node, slot, size, d, v):
+    """The heap's top entry (of ``size``) gets distance d of node v, moved down to its place."""
+    k = 0
+    while True:
+        c = 2 * k + 1
+        if c >= size:
+            break
+        if c + 1 < size and key[c + 1] < key[c]:
+            c += 1
+        if key[c] >= d:
+            break
+        key[k] = key[c]
+        node[k] = node[c]
+        slot[node[k]] = k
+        k = c
+    key[k] = d
+    node[k] = v
+    slot[v] = k
+
+
+@njit(cache=True)
 def _dijkstra(indptr, indices, weights, sources, needed, dist):
     """Least cost from any of ``sources`` to every node of a CSR graph into ``dist`` (a
     binary heap with one entry per node, its distance lowered in place), stopping once
@@ -176,24 +197,8 @@ def _dijkstra(indptr, indices, weights, sources, needed, dist):
         slot[u] = -2
         left -= needed[u]
         size -= 1
-        if size > 0:  # the last entry sifted down from the top
-            d_last, v_last = key[size], node[size]
-            k = 0
-            while True:
-                c = 2 * k + 1
-                if c >= size:
-                    break
-                if c + 1 < size and key[c + 1] < key[c]:
-                    c += 1
-                if key[c] >= d_last:
-                    break
-                key[k] = key[c]
-                node[k] = node[c]
-                slot[node[k]] = k
-                k = c
-            key[k] = d_last
-            node[k] = v_last
-            slot[v_last] = k
+        if size > 0:  # the last entry moved to the top and sifted down
+            _sift_down(key, node, slot, size, key[size], node[size])
         for q in range(indptr[u], indptr[u + 1]):
             v = indices[q]
             at = slot[v]
