@@ -37,10 +37,11 @@ a crossing at right angles: J · n̂ = 0.
 from __future__ import annotations
 
 import numpy as np
-from numba import njit
+from numba import njit, prange
 from scipy.ndimage import gaussian_filter, maximum_filter
 from scipy.sparse import csr_matrix
 
+from crowdmotion._threads import threaded
 from crowdmotion.routing import DistanceFields
 
 SMOOTH_M = 0.75          # density is smoothed with a Gaussian of this many metres
@@ -118,18 +119,29 @@ class GridGraph:
         :meth:`weighted` built (inf where none leads). ``near``, one (nx, ny) mask per field
         (or None), stops a field's search once every masked cell is solved: the cells left
         are inf; those solved hold the distances the whole search gives."""
-        out = np.full((len(goal_cells),) + tuple(shape), np.inf)
+        n_fields, n = len(goal_cells), len(self.cell_index)
+        sources = [self.node[g[:, 0], g[:, 1]] for g in (np.asarray(c, dtype=np.int64).reshape(-1, 2) for c in goal_cells)]
+        starts = np.zeros(n_fields + 1, dtype=np.int64)
+        np.cumsum([len(x) for x in sources], out=starts[1:])
+        needed = np.ones((n_fields, n), dtype=bool)
+        for k in range(n_fields):
+            if near is not None and near[k] is not None:
+                needed[k] = near[k].ravel()[self.cell_index]
+        dist = np.empty((n_fields, n))
         _, indices, indptr = self._layout
-        dist = np.empty(len(self.cell_index))
-        for k, goals in enumerate(goal_cells):
-            goals = np.asarray(goals, dtype=np.int64).reshape(-1, 2)
-            if near is None or near[k] is None:
-                needed = np.ones(len(dist), dtype=bool)
-            else:
-                needed = np.ascontiguousarray(near[k].ravel()[self.cell_index])
-            _dijkstra(indptr, indices, weighted, self.node[goals[:, 0], goals[:, 1]], needed, dist)
-            out[k].ravel()[self.cell_index] = dist
+        _dijkstras(starts, np.concatenate(sources) if sources else np.zeros(0, dtype=np.int64), indptr, indices,
+                   weighted, needed, dist)
+        out = np.full((n_fields,) + tuple(shape), np.inf)
+        out.reshape(n_fields, -1)[:, self.cell_index] = dist
         return out
+
+
+@threaded(min_items=3)
+def _dijkstras(starts, sources, indptr, indices, weights, needed, dist):
+    """:func:`_dijkstra` for several fields at once, one a thread: field k from
+    ``sources[starts[k]:starts[k + 1]]``, its needed nodes ``needed[k]``, into ``dist[k]``."""
+    for k in prange(starts.shape[0] - 1):
+        _dijkstra(indptr, indices, weights, sources[starts[k]:starts[k + 1]], needed[k], dist[k])
 
 
 @njit(cache=True)

@@ -14,6 +14,7 @@ from crowdmotion._threads import ThreadedKernel
 from crowdmotion.geometry import finite_array, require_finite_agents
 from crowdmotion.groups import Disc, MovingTarget, Points, Rect
 from crowdmotion.rvo import _kernels as K
+from crowdmotion.rvo import congestion as _congestion
 from crowdmotion.rvo import deadlock as _deadlock
 from crowdmotion.rvo.congestion import CongestionRouter
 from crowdmotion.rvo.deadlock import KEEP_RIGHT_LOOK_S, Deadlock, contact_arrivals
@@ -1184,7 +1185,7 @@ def warm_up(max_agents: int | None = None) -> int:
     sim.remove_obstacle(door)
     sim.step()
     if numba.get_num_threads() > 1:  # the threaded twins, with the argument types the small scene gave
-        for kernel in (*vars(K).values(), *vars(_deadlock).values()):
+        for kernel in (*vars(K).values(), *vars(_deadlock).values(), *vars(_congestion).values()):
             if isinstance(kernel, ThreadedKernel) and (max_agents is None or max_agents >= kernel.min_items()):
                 for signature in kernel.serial.signatures:
                     kernel.threaded.compile(signature)
