@@ -15,7 +15,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from crowdmotion.groups import MovingTarget, Points
-from crowdmotion.mdp.solvers import SCIPY_MAX_CELLS, exact_values, move_graph
+from crowdmotion.mdp.solvers import exact_values_each
 from crowdmotion.scene import Scene
 
 MAX_FIELD_CELLS = 16_000_000
@@ -30,6 +30,12 @@ class DistanceFields:
     cell: float
     blocked: np.ndarray | None = None  # (nx, ny) cells a body does not fit in
     goal_cells: list | None = None     # per field, (K, 2) goal cells
+
+    def cell_of(self, points: np.ndarray) -> np.ndarray:
+        """(P, 2) the grid cell holding each point; for a point off the grid, the edge cell
+        nearest it."""
+        idx = np.floor((np.asarray(points) - self.origin) / self.cell).astype(np.int64)
+        return np.clip(idx, 0, np.array(self.dist.shape[1:]) - 1)
 
     def at(self, field, points: np.ndarray) -> np.ndarray:
         """Field values at the cells holding ``points`` (inf outside the grid); ``field``
@@ -138,8 +144,7 @@ def distance_fields(scene: Scene, goals: list, radius: float, cell: float | None
             raise ValueError(f"{label}: the goal {goal!r} has no cell free of obstacles "
                              f"(field cell {cell:.3f} m, agent radius {radius} m)")
         goal_cells.append(np.array(sorted(set(cells)), dtype=np.int64))
-    grid = blocked.astype(np.uint8)
-    graph = move_graph(grid, corner_cutting=False) if 1 < len(goal_cells) and grid.size <= SCIPY_MAX_CELLS else None
-    dist = np.stack([-exact_values(grid, [tuple(c) for c in cells], corner_cutting=False, graph=graph) * cell
-                     for cells in goal_cells]) if goal_cells else np.zeros((0,) + shape)
+    values = exact_values_each(blocked.astype(np.uint8), [[tuple(c) for c in cells] for cells in goal_cells],
+                               corner_cutting=False)
+    dist = -np.stack(values) * cell if values else np.zeros((0,) + shape)
     return DistanceFields(dist, scene.lower.astype(float).copy(), cell, blocked, goal_cells)

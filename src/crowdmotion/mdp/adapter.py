@@ -38,7 +38,7 @@ def check_scenario(scene, groups, params: MDPParams) -> None:
     from crowdmotion.checks import check_entrances, check_route_places, describe_region, warn_late_entries, where
     from crowdmotion.mdp.routes import check_mdp_route
     from crowdmotion.mdp.simulation import region_cells
-    from crowdmotion.mdp.solvers import exact_values
+    from crowdmotion.mdp.solvers import exact_values, exact_values_each
     from crowdmotion.stages import flat_stages, stage_label
 
     for k, g in enumerate(groups):
@@ -64,8 +64,9 @@ def check_scenario(scene, groups, params: MDPParams) -> None:
             if not np.isfinite(values[tuple(starts.T)]).any():
                 raise ValueError(f"{at}: cannot be reached from the spawn {describe_region(g.spawn)}: obstacles "
                                  f"cut the way on the grid of {su.cell:.3g} m cells")
-    for k, g in enumerate(groups):
-        values = exact_values(su.grid.occupancy, [tuple(c) for c in su.goal_cells[k]], params.corner_cutting)
+    goal_sets = [[tuple(c) for c in su.goal_cells[k]] for k in range(len(groups))]
+    goal_values = exact_values_each(su.grid.occupancy, goal_sets, params.corner_cutting)
+    for k, (g, values) in enumerate(zip(groups, goal_values)):
         starts = su.starts[su.field_of == k]
         if not np.isfinite(values[tuple(starts.T)]).any():
             raise ValueError(f"{where(k, g)} goal: no agent can reach {describe_region(g.goal)} from its spawn "

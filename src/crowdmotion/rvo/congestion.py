@@ -120,7 +120,8 @@ class GridGraph:
         (or None), stops a field's search once every masked cell is solved: the cells left
         are inf; those solved hold the distances the whole search gives."""
         n_fields, n = len(goal_cells), len(self.cell_index)
-        sources = [self.node[g[:, 0], g[:, 1]] for g in (np.asarray(c, dtype=np.int64).reshape(-1, 2) for c in goal_cells)]
+        goals = [np.asarray(c, dtype=np.int64).reshape(-1, 2) for c in goal_cells]
+        sources = [self.node[g[:, 0], g[:, 1]] for g in goals]
         starts = np.zeros(n_fields + 1, dtype=np.int64)
         np.cumsum([len(x) for x in sources], out=starts[1:])
         needed = np.ones((n_fields, n), dtype=bool)
@@ -312,8 +313,7 @@ class CongestionRouter:
     def near(self, points: np.ndarray, reach: float) -> np.ndarray:
         """(nx, ny) the cells within ``reach`` metres, along each axis, of any of ``points``."""
         f = self.fields
-        shape = np.array(f.blocked.shape)
-        cells = np.clip(np.floor((points - f.origin) / f.cell).astype(np.int64), 0, shape - 1)
+        cells = f.cell_of(points)
         mask = np.zeros(f.blocked.shape, dtype=np.uint8)
         mask[cells[:, 0], cells[:, 1]] = 1
         return maximum_filter(mask, size=2 * int(np.ceil(reach / f.cell)) + 1, mode="constant") > 0

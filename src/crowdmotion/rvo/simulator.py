@@ -238,7 +238,7 @@ class Simulator(LiveObstacles):
         self._grouped: set[int] = set()  # fields shared by a group of nearby goal points
         self._no_own_field: set[tuple] = set()  # (agent, goal x, goal y) whose own field cannot be solved
         self._pinned: set[int] = set()  # fields of add_goal_regions: kept for the run, used or not
-        self._asked_at: list[int] = []  # per field: the step it was last asked for (its place is reused longest unused first)
+        self._asked_at: list[int] = []  # per field: the step it was last asked for (longest unused reused first)
         self._regions_added = 0  # goal regions added so far (in new places or in reused ones)
         self._batches = 0
         self._fields: DistanceFields | None = None
@@ -908,8 +908,7 @@ class Simulator(LiveObstacles):
         ids = np.flatnonzero(self.active)
         fo = self.field_of[ids]
         rows = len(self._solved_round)
-        cells = np.clip(np.floor((self.positions[ids] - f.origin) / f.cell).astype(np.int64), 0,
-                        np.array(f.blocked.shape) - 1)
+        cells = f.cell_of(self.positions[ids])
         fine = self._solved_round[np.minimum(fo, rows - 1), cells[:, 0], cells[:, 1]] | (fo >= rows)
         for k in np.unique(fo[~fine]).tolist():
             f.dist[k] = self._router.solve(None, np.array([k]), weights=self._partial_weights)[0]
