@@ -168,3 +168,43 @@ def test_a_crowd_bound_for_one_goal_point_steps_in_as_each_leaves():
                                 {"remove_on_arrival": True, "arrival_radius": 0.5, "max_steps": 800}, seed=0))
     assert out.summary["arrival_rate"] == 1.0 and out.summary["agent_agent_overlaps"] == 0
     assert out.traj.n_frames * out.traj.dt <= 200.0
+
+
+def test_those_in_a_yielders_way_back_make_room_bodies_deep():
+    # agent 0 yields to agent 1 (head-on at x = 0); agents 2 and 3 stand in a line behind
+    # agent 0, each 5 cm from the next; agent 4 stands beside the line, agent 5 far behind
+    from crowdmotion._contact import grid_for
+    from crowdmotion.rvo.deadlock import ROOM_DEPTH, Deadlock
+
+    dl = Deadlock(keep_right=0.0, patience=2.0)
+    pos = np.array([[0.0, 0.0], [0.45, 0.0], [-0.45, 0.0], [-0.9, 0.0], [-0.45, 1.0], [-3.0, 0.0]])
+    n = len(pos)
+    dl.grow(n)
+    dl.yield_to[0] = 1
+    wanted = np.tile([1.0, 0.0], (n, 1)) * 1.3
+    wanted[1] = [-1.3, 0.0]
+    radius, speed, active = np.full(n, 0.2), np.full(n, 1.3), np.ones(n, bool)
+    grid = grid_for(pos, active, radius, speed, 0.25)
+    out = dl.yielding_velocities(pos, wanted, speed, radius, active, grid)
+    back = out[0] / np.linalg.norm(out[0])
+    assert back[0] < -0.8  # the yielder backs off (turned a little to its right)
+    np.testing.assert_allclose(out[2], 0.65 * back)  # the one it backs into steps back the same way
+    np.testing.assert_allclose(out[3], 0.65 * back)  # and the one behind that
+    np.testing.assert_array_equal(out[[1, 4, 5]], wanted[[1, 4, 5]])  # the others keep their ways
+    assert ROOM_DEPTH >= 2
+    # without the grid (no neighbours known), only the yielder changes
+    np.testing.assert_array_equal(dl.yielding_velocities(pos, wanted, speed, radius, active)[2:], wanted[2:])
+
+
+@pytest.mark.parametrize("case, seed", [("door 0.7", 7), ("b 0.8", 26)])
+def test_a_dense_crowd_at_a_narrow_door_never_clogs_for_good(case, seed):
+    # seeds on which an arch of bodies stood in the door's mouth for good (148 people
+    # before a 0.7 m door: 10 left in 1000 s; 200 before a 0.8 m bottleneck: 26 in 400 s)
+    # before the ones behind a yielder made room for it
+    from crowdmotion import empirical as E
+    from crowdmotion.cases import simulate
+
+    setups = E._narrow_door("rvo") if case.startswith("door") else E._bottleneck("rvo")
+    out = simulate("rvo", setups[case], seed)
+    assert out.summary["arrival_rate"] == 1.0 and out.summary["agent_agent_overlaps"] == 0
+    assert out.summary["duration_s"] <= 300.0

@@ -29,7 +29,8 @@ break that; none touches the continuous-time guarantee, which the step's safety 
    is a body ahead of it (or ``ABREAST_MAX_S`` have gone). Two walkers converging on
    one door, one from beside it along the wall and one from in front (v_pref 60-90°
    apart, the straight lines to their goals within 60°), each in the other's way and both
-   standing for ``DETOUR_STILL_S``, settle it as a head-on pair does.
+   standing for ``DETOUR_STILL_S``, settle it as two wedged abreast do (backing off
+   away from the other alone turned the one beside the mouth into the door's corner).
 
 3. **Gridlock detour**: an agent standing (below 5 % of its preferred speed) for
    ``DETOUR_STILL_S`` seconds, held up by an agent in its way that stands as long, comes
@@ -44,7 +45,14 @@ crossing (RVO2's Blocks) everyone pushes in and the crossing jams for good.
 
 And for goals shared by a crowd when arrivals stay (``remove_on_arrival = False``):
 
-4. **Arrival by contact**: an agent touching (within 0.1 m) an agent already arrived at the
+4. **Making room for a yielder** (``_make_room``): an agent within ``ROOM_GAP_M`` of a
+   yielder's body, ahead along the yielder's step back and on its line, steps back the
+   same way at half its preferred speed, and so do those in its own way back, up to
+   ``ROOM_DEPTH`` bodies deep. In a packed crowd the yielder has someone right behind
+   it; without this its step back goes nowhere and an arch in a door's mouth stands for
+   good.
+
+5. **Arrival by contact**: an agent touching (within 0.1 m) an agent already arrived at the
    same goal point, which is nearer the point than itself, has arrived too. The arrived
    agents form a packed disc round the point that grows with the queue.
 """
@@ -71,6 +79,8 @@ CONTACT_GAP_M = 0.1
 DETOUR_STILL_S = 3.0  # standing (not creeping in a queue) this long, and the blocker too: a gridlock
 STILL = 0.05  # below this fraction of pref_speed an agent stands
 DETOUR_TURN = np.deg2rad(60.0)  # a gridlocked agent walks this far to the right of its way
+ROOM_GAP_M = 0.1  # a standing agent this near a yielder's way back makes room for it
+ROOM_DEPTH = 4    # bodies deep the making of room passes on
 
 
 def _turn_right(v: np.ndarray, angle: float) -> np.ndarray:
@@ -122,13 +132,17 @@ class Deadlock:
         """A fixed pseudo-random priority per agent id (Knuth's multiplicative hash)."""
         return (np.asarray(ids, dtype=np.uint64) * np.uint64(2654435761)) % np.uint64(2 ** 32)
 
-    def yielding_velocities(self, pos, wanted, pref_speed, radius, active) -> np.ndarray:
+    def yielding_velocities(self, pos, wanted, pref_speed, radius, active, grid=None) -> np.ndarray:
         """v_pref with yielding agents' replaced by a step back and to the right of the one
-        they yield to, and gridlocked agents' turned right by ``DETOUR_TURN``."""
+        they yield to, and gridlocked agents' turned right by ``DETOUR_TURN``. With
+        ``grid`` (``_contact.grid_for`` over the ``active`` agents), standing agents in a
+        yielder's way back make room for it (rule 5)."""
         out = np.empty_like(wanted)
         if not _yielding_velocities(pos, wanted, pref_speed, radius, active, self.yield_to, self.detour,
                                     self.abreast, _DETOUR_CS[0], _DETOUR_CS[1], _YIELD_CS[0], _YIELD_CS[1], out):
             return wanted
+        if grid is not None:
+            _make_room(pos, out, radius, pref_speed, active, self.yield_to, *grid, ROOM_DEPTH, ROOM_GAP_M)
         return out
 
     def breaking(self) -> np.ndarray:
@@ -214,8 +228,8 @@ class Deadlock:
         order = np.lexsort((gap, i))  # each yielder steps aside from its nearest blocker
         first = order[np.r_[True, i[order][1:] != i[order][:-1]]]
         self.yield_to[i[first]] = j[first]
-        self.abreast[i[first]] = facing[first] > 0.5
-        self.yield_left[i[first]] = np.where(facing[first] > 0.5, ABREAST_MAX_S, YIELD_MAX_S)
+        self.abreast[i[first]] = facing[first] > 0.0
+        self.yield_left[i[first]] = np.where(facing[first] > 0.0, ABREAST_MAX_S, YIELD_MAX_S)
         self.stuck[i[first]] = 0.0
         return len(first)
 
@@ -316,6 +330,60 @@ def _yielding_velocities(pos, wanted, pref_speed, radius, active, yield_to, deto
             out[i, 0] = (ax * yc + ay * ys) * pref_speed[i]
             out[i, 1] = (-ax * ys + ay * yc) * pref_speed[i]
     return True
+
+
+@njit(cache=True)
+def _make_room(pos, out, radius, pref_speed, active, yield_to, cell_start, items, origin_x, origin_y, h,
+               nx, ny, depth, gap_max):
+    """Rule 5, in place on ``out`` (v_pref after the yields): an agent (not yielding)
+    within ``gap_max`` of a yielder's body, ahead along the yielder's step back and on its
+    line (lateral offset under the sum of radii + ``gap_max``: a body the step back would
+    graze counts), steps back the same way at half its
+    preferred speed; so do those in its own way back, up to ``depth`` bodies from the
+    yielder. Returns how many make room."""
+    n = pos.shape[0]
+    taken = np.zeros(n, dtype=np.bool_)  # given a way back already (or yielding)
+    bx = np.zeros(n)
+    by = np.zeros(n)
+    front = np.empty(n, dtype=np.int64)
+    nxt = np.empty(n, dtype=np.int64)
+    m = 0
+    for i in range(n):
+        if active[i] and yield_to[i] >= 0:
+            taken[i] = True
+            ux, uy = _unit2(out[i, 0], out[i, 1])
+            if ux != 0.0 or uy != 0.0:
+                bx[i], by[i] = ux, uy
+                front[m] = i
+                m += 1
+    moved = 0
+    for _ in range(depth):
+        k_n = 0
+        for f in range(m):
+            i = front[f]
+            gx = min(max(int(np.floor((pos[i, 0] - origin_x) / h)), 0), nx - 1)
+            gy = min(max(int(np.floor((pos[i, 1] - origin_y) / h)), 0), ny - 1)
+            for cx in range(max(gx - 1, 0), min(gx + 1, nx - 1) + 1):
+                for q in range(cell_start[cx * ny + max(gy - 1, 0)], cell_start[cx * ny + min(gy + 1, ny - 1) + 1]):
+                    k = items[q]
+                    if taken[k] or not active[k]:
+                        continue
+                    dx, dy = pos[k, 0] - pos[i, 0], pos[k, 1] - pos[i, 1]
+                    reach = radius[i] + radius[k]
+                    if (dx * bx[i] + dy * by[i] <= 0.0 or abs(bx[i] * dy - by[i] * dx) >= reach + gap_max
+                            or np.sqrt(dx * dx + dy * dy) - reach > gap_max):
+                        continue
+                    taken[k] = True
+                    bx[k], by[k] = bx[i], by[i]
+                    out[k, 0], out[k, 1] = 0.5 * pref_speed[k] * bx[i], 0.5 * pref_speed[k] * by[i]
+                    nxt[k_n] = k
+                    k_n += 1
+        moved += k_n
+        front, nxt = nxt, front
+        m = k_n
+        if m == 0:
+            break
+    return moved
 
 
 @njit(cache=True)
@@ -429,7 +497,7 @@ def _new_yields(cand, d, k, pos, wanted, radius, sight, goals, use_goals, patien
             if gap < best_gap:  # each yielder steps aside from its nearest blocker (the first of equals)
                 best_gap = gap
                 pick[r] = j
-                side[r] = facing > 0.5
+                side[r] = facing > 0.0
     count = 0
     for r in range(n_c):
         if pick[r] >= 0:

@@ -1044,7 +1044,7 @@ class Simulator(LiveObstacles):
         dl = self.deadlock
         grid = self._grid(steer)
         slow = self.density_slowing.factors(self.positions, self.velocities, wanted, p["radius"], steer, grid, self.dt)
-        vpref = dl.yielding_velocities(self.positions, wanted, p["pref_speed"], p["radius"], steer)
+        vpref = dl.yielding_velocities(self.positions, wanted, p["pref_speed"], p["radius"], steer, grid)
         if self.lane_choice:
             vpref = lane_velocities(self.positions, self.velocities, vpref, p["radius"], p["safety"], self.density,
                                     steer, grid, prims)
