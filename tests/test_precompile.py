@@ -121,9 +121,10 @@ def test_signatures_parse_without_eval():
 def test_the_record_matches_what_a_run_compiles(method):
     # a kernel whose argument types changed, or a helper added or gone, would be
     # precompiled for nothing: rerun python -m crowdmotion.precompile_record --record
+    # (whether a kernel compiles while the scenario is read, ``at_load``, is not compared:
+    # on a busy machine a threaded kernel's serial twin may compile first in the run instead)
     def summary(kernels):
-        return {k["name"]: (sorted(k["signatures"]), bool(k.get("at_load")), sorted(k.get("needs", ())))
-                for k in kernels}
+        return {k["name"]: (sorted(k["signatures"]), sorted(k.get("needs", ()))) for k in kernels}
 
     assert summary(precompile_record._fresh_run("--record-one", method)) == summary(RECORD[method])
 

@@ -19,7 +19,7 @@ from crowdmotion.rvo import deadlock as _deadlock
 from crowdmotion.rvo.congestion import CongestionRouter
 from crowdmotion.rvo.deadlock import KEEP_RIGHT_LOOK_S, Deadlock, contact_arrivals
 from crowdmotion.rvo.density import PERSON_MAX_RADIUS_M, DensitySlowing
-from crowdmotion.rvo.lanes import lane_velocities
+from crowdmotion.rvo.lanes import LaneChoice
 from crowdmotion.routing import DistanceFields, distance_fields
 from crowdmotion.rvo.guidance import FIELD_WINDOW, preferred_velocities
 from crowdmotion._contact import grid_for
@@ -263,6 +263,7 @@ class Simulator(LiveObstacles):
             raise ValueError(f"comfort_accel must be a number of m/s² >= 0, got {comfort_accel!r}")
         self.comfort_accel = float(comfort_accel)
         self.lane_choice = bool(lane_choice)
+        self.lanes = LaneChoice(self.dt)
         # the density sensed ahead slows walkers, and scales following and lane choice
         self.density_slowing = DensitySlowing(scene, bool(density_slowing),
                                               sense=bool(density_slowing) or self.follow > 0 or self.lane_choice)
@@ -377,6 +378,7 @@ class Simulator(LiveObstacles):
         self.group = np.concatenate([self.group, np.full(n, self._batches)])
         self._batches += 1
         self.deadlock.grow(n)
+        self.lanes.grow(n)
         self.density_slowing.grow(n)
         if target is not None:
             self._targets.append((target, ids))
@@ -420,6 +422,7 @@ class Simulator(LiveObstacles):
         self.field_of[ids] = field
         self.arrival_time[ids] = np.nan
         self.deadlock.forget(ids)
+        self.lanes.forget(ids)
 
     def add_goal_regions(self, regions) -> None:
         """Make the guidance fields of ``regions`` (Rect, Disc or Points) known before the
@@ -496,6 +499,7 @@ class Simulator(LiveObstacles):
         pos = _xy_each(positions, len(ids), "positions")
         self._check_placement(pos, self.params["radius"][ids], self.active[ids], ids)
         self.positions[ids] = pos
+        self.lanes.forget(ids)
 
     def _goal_points(self, goals, n: int) -> tuple[np.ndarray, MovingTarget | None]:
         """``goals`` ((2,), (n, 2) or a MovingTarget) as (n, 2) points now, and the target
@@ -1046,8 +1050,8 @@ class Simulator(LiveObstacles):
         slow = self.density_slowing.factors(self.positions, self.velocities, wanted, p["radius"], steer, grid, self.dt)
         vpref = dl.yielding_velocities(self.positions, wanted, p["pref_speed"], p["radius"], steer, grid)
         if self.lane_choice:
-            vpref = lane_velocities(self.positions, self.velocities, vpref, p["radius"], p["safety"], self.density,
-                                    steer, grid, prims)
+            vpref = self.lanes.velocities(self.positions, self.velocities, vpref, p["radius"], p["safety"],
+                                          self.density, steer, grid, prims, self.goals)
         vpref = vpref * slow[:, None]
         if self.comfort_accel > 0.0:
             person = self.params["radius"] <= PERSON_MAX_RADIUS_M
