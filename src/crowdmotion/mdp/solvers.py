@@ -148,13 +148,13 @@ def exact_values(grid: np.ndarray, goals: Sequence[tuple[int, ...]], corner_cutt
     return fast_values(grid, goals, corner_cutting)
 
 
-
 def exact_values_each(grid: np.ndarray, goal_sets: Sequence[Sequence[tuple[int, ...]]],
                       corner_cutting: bool = True) -> list[np.ndarray]:
     """:func:`exact_values` for each set of goal cells on one grid, the move graph scipy's
     Dijkstra walks built once for them all."""
     graph = move_graph(grid, corner_cutting) if len(goal_sets) > 1 and grid.size <= SCIPY_MAX_CELLS else None
     return [exact_values(grid, goals, corner_cutting, graph) for goals in goal_sets]
+
 
 # ---------------------------------------------------------------------------------
 # paper reference solvers (plain Python)

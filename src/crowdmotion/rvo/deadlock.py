@@ -40,17 +40,17 @@ break that; none touches the continuous-time guarantee, which the step's safety 
    round a roundabout. Standing, not slow progress, and goals apart keep it out of queues
    and of crowds converging on one door.
 
-Lowering w for agents held up ("impatience") was tried and dropped: in a four-way
-crossing (RVO2's Blocks) everyone pushes in and the crossing jams for good.
-
-And for goals shared by a crowd when arrivals stay (``remove_on_arrival = False``):
-
 4. **Making room for a yielder** (``_make_room``): an agent within ``ROOM_GAP_M`` of a
    yielder's body, ahead along the yielder's step back and on its line, steps back the
    same way at half its preferred speed, and so do those in its own way back, up to
    ``ROOM_DEPTH`` bodies deep. In a packed crowd the yielder has someone right behind
    it; without this its step back goes nowhere and an arch in a door's mouth stands for
    good.
+
+Lowering w for agents held up ("impatience") was tried and dropped: in a four-way
+crossing (RVO2's Blocks) everyone pushes in and the crossing jams for good.
+
+And for goals shared by a crowd when arrivals stay (``remove_on_arrival = False``):
 
 5. **Arrival by contact**: an agent touching (within 0.1 m) an agent already arrived at the
    same goal point, which is nearer the point than itself, has arrived too. The arrived
@@ -65,7 +65,7 @@ from scipy.spatial import cKDTree
 
 from crowdmotion._contact import grid_for
 from crowdmotion._threads import threaded
-from crowdmotion.rvo._kernels import PARALLEL_MIN_AGENTS, _knn, held_up_time
+from crowdmotion.rvo._kernels import PARALLEL_MIN_AGENTS, _cell_box, _knn, held_up_time
 from crowdmotion.rvo.density import PERSON_MAX_RADIUS_M
 
 BLOCKER_CANDIDATES = 6  # nearest neighbours searched for the one in an agent's way
@@ -79,7 +79,7 @@ CONTACT_GAP_M = 0.1
 DETOUR_STILL_S = 3.0  # standing (not creeping in a queue) this long, and the blocker too: a gridlock
 STILL = 0.05  # below this fraction of pref_speed an agent stands
 DETOUR_TURN = np.deg2rad(60.0)  # a gridlocked agent walks this far to the right of its way
-ROOM_GAP_M = 0.1  # a standing agent this near a yielder's way back makes room for it
+ROOM_GAP_M = 0.1  # an agent this near a yielder's way back makes room for it
 ROOM_DEPTH = 4    # bodies deep the making of room passes on
 
 
@@ -135,8 +135,8 @@ class Deadlock:
     def yielding_velocities(self, pos, wanted, pref_speed, radius, active, grid=None) -> np.ndarray:
         """v_pref with yielding agents' replaced by a step back and to the right of the one
         they yield to, and gridlocked agents' turned right by ``DETOUR_TURN``. With
-        ``grid`` (``_contact.grid_for`` over the ``active`` agents), standing agents in a
-        yielder's way back make room for it (rule 5)."""
+        ``grid`` (``_contact.grid_for`` over the ``active`` agents), the agents in a
+        yielder's way back make room for it (rule 4)."""
         out = np.empty_like(wanted)
         if not _yielding_velocities(pos, wanted, pref_speed, radius, active, self.yield_to, self.detour,
                                     self.abreast, _DETOUR_CS[0], _DETOUR_CS[1], _YIELD_CS[0], _YIELD_CS[1], out):
@@ -335,12 +335,11 @@ def _yielding_velocities(pos, wanted, pref_speed, radius, active, yield_to, deto
 @njit(cache=True)
 def _make_room(pos, out, radius, pref_speed, active, yield_to, cell_start, items, origin_x, origin_y, h,
                nx, ny, depth, gap_max):
-    """Rule 5, in place on ``out`` (v_pref after the yields): an agent (not yielding)
+    """Rule 4, in place on ``out`` (v_pref after the yields): an agent (not yielding)
     within ``gap_max`` of a yielder's body, ahead along the yielder's step back and on its
     line (lateral offset under the sum of radii + ``gap_max``: a body the step back would
-    graze counts), steps back the same way at half its
-    preferred speed; so do those in its own way back, up to ``depth`` bodies from the
-    yielder. Returns how many make room."""
+    graze counts), steps back the same way at half its preferred speed; so do those in
+    its own way back, up to ``depth`` bodies from the yielder. Returns how many make room."""
     n = pos.shape[0]
     taken = np.zeros(n, dtype=np.bool_)  # given a way back already (or yielding)
     bx = np.zeros(n)
@@ -361,10 +360,10 @@ def _make_room(pos, out, radius, pref_speed, active, yield_to, cell_start, items
         k_n = 0
         for f in range(m):
             i = front[f]
-            gx = min(max(int(np.floor((pos[i, 0] - origin_x) / h)), 0), nx - 1)
-            gy = min(max(int(np.floor((pos[i, 1] - origin_y) / h)), 0), ny - 1)
-            for cx in range(max(gx - 1, 0), min(gx + 1, nx - 1) + 1):
-                for q in range(cell_start[cx * ny + max(gy - 1, 0)], cell_start[cx * ny + min(gy + 1, ny - 1) + 1]):
+            # the grid's cells are wider than a body and the gap: those next to i's hold them all
+            gx0, gx1, gy0, gy1 = _cell_box(pos[i, 0], pos[i, 1], h, origin_x, origin_y, h, nx, ny)
+            for cx in range(gx0, gx1 + 1):
+                for q in range(cell_start[cx * ny + gy0], cell_start[cx * ny + gy1 + 1]):
                     k = items[q]
                     if taken[k] or not active[k]:
                         continue
