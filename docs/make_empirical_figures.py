@@ -1,6 +1,6 @@
 """The figures of docs/verification.md's comparison with measured crowds.
 
-    python docs/make_empirical_figures.py
+    python docs/make_empirical_figures.py [--fzj DIR]
 
 Runs crowdmotion's empirical cases (``crowdmotion verify --empirical``: 3 seeds each,
 a few minutes on two cores), prints their table and draws:
@@ -8,11 +8,18 @@ a few minutes on two cores), prints their table and draws:
 - docs/img/empirical_speed_density.png: speed against density, Weidmann's curve, the FZJ
   corridor runs, the BOT-360 counterflow runs and crowdmotion's runs of both set-ups;
 - docs/img/empirical_bottleneck.png: flow against bottleneck width, the three data series,
-  their mean ± 25 % and crowdmotion's flow per seed.
+  their mean ± 25 % and crowdmotion's flow per seed;
+- docs/img/empirical_lanes.png: the lane order against density, with the directions as
+  they were and shuffled, and a snapshot of the corridor at b = 1.6 m. With ``--fzj DIR``
+  (a folder holding the FZJ data archive's ``bot-360-*.txt`` trajectory files, as
+  OpenTraj ships them in ``datasets/HERMES/Corridor-2D``) the measured runs are measured
+  by the same code (``empirical.fzj_bot_trajectories``, ``empirical.bot_measures``),
+  printed as a table and drawn beside crowdmotion's.
 """
 
 from __future__ import annotations
 
+import argparse
 from pathlib import Path
 
 import matplotlib
@@ -40,7 +47,78 @@ def bot_points(outcomes: dict) -> list[tuple[float, float]]:
     return [empirical.bot_measures(o.traj, rng)[:2] for o in outcomes.values()]
 
 
+def fzj_runs(folder: Path) -> dict[str, tuple]:
+    """Entrance width (the file's name) -> (trajectories, (density, speed, lane order,
+    shuffled)) of each measured BOT-360 run in ``folder``."""
+    out = {}
+    for path in sorted(folder.glob("bot-360-*.txt")):
+        traj = empirical.fzj_bot_trajectories(path)
+        out[path.stem] = (traj, empirical.bot_measures(traj, np.random.default_rng(0)))
+    if not out:
+        raise SystemExit(f"--fzj {folder}: no bot-360-*.txt trajectory files there")
+    return out
+
+
+def _snapshot(ax, traj, title: str) -> None:
+    """The corridor (x 9-17) at the frame holding the most people in the measurement area."""
+    inside = traj.active_mask & np.all((traj.positions >= empirical.BOT_AREA[0])
+                                       & (traj.positions <= empirical.BOT_AREA[1]), axis=2)
+    f = int(inside.sum(axis=1).argmax())
+    east = np.char.startswith(traj.group.astype(str), "east")
+    for sel, colour, label in ((east, "tab:red", "walking +x"), (~east, "tab:blue", "walking -x")):
+        m = traj.active_mask[f] & sel & (traj.positions[f, :, 0] >= 9) & (traj.positions[f, :, 0] <= 17)
+        for x, y in traj.positions[f, m]:
+            ax.add_patch(plt.Circle((x, y), empirical.RADIUS, color=colour, alpha=0.8))
+        ax.plot([], [], "o", color=colour, label=label)
+    ax.axhline(0, color="k")
+    ax.axhline(3.6, color="k")
+    ax.add_patch(plt.Rectangle(empirical.BOT_AREA[0], 2.0, 3.6, fill=False, ls="--", color="gray"))
+    ax.set_xlim(9, 17)
+    ax.set_ylim(-0.2, 3.8)
+    ax.set_aspect("equal")
+    ax.set_title(title, fontsize=8)
+    ax.legend(fontsize=6, loc="upper right")
+
+
+def lanes_figure(counter: dict, measured: dict | None) -> None:
+    fig = plt.figure(figsize=(9, 6.5))
+    ax = fig.add_subplot(2, 1, 1)
+    ours = [(empirical.bot_measures(o.traj, np.random.default_rng(0)), name) for name, o in counter.items()]
+    pts = np.array([m for m, _ in ours])
+    ax.plot(pts[:, 0], pts[:, 2], "v", color="tab:red", label="crowdmotion rvo, lane order (per seed)")
+    ax.plot(pts[:, 0], pts[:, 3], "v", color="tab:red", mfc="none", label="crowdmotion rvo, directions shuffled")
+    if measured:
+        real = np.array([m for _, m in measured.values()])
+        ax.plot(real[:, 0], real[:, 2], "^", color="tab:purple", label="FZJ BOT-360 as measured, lane order")
+        ax.plot(real[:, 0], real[:, 3], "^", color="tab:purple", mfc="none",
+                label="FZJ BOT-360 as measured, directions shuffled")
+        ax.plot(real[:, 0], 2 * real[:, 3], "_", color="tab:purple", ms=12, label="twice the shuffled value (FZJ)")
+    ax.set_xlabel("density in the measurement area (persons/m²)")
+    ax.set_ylabel("lane order")
+    ax.set_ylim(0, 1.1)
+    ax.legend(fontsize=6, ncol=2, loc="lower left")
+    ax.set_title("Lanes in counterflow (3.6 m corridor): ((same - opposite) / (same + opposite))² within 2 m "
+                 "along, 0.3 m across", fontsize=8)
+    b16 = next(o for name, o in counter.items() if name.startswith("BOT b 1.6"))
+    _snapshot(fig.add_subplot(2, 2, 3), b16.traj, "crowdmotion rvo, entrances 1.6 m (seed 0), fullest frame")
+    if measured and "bot-360-160-160" in measured:
+        _snapshot(fig.add_subplot(2, 2, 4), measured["bot-360-160-160"][0],
+                  "FZJ bot-360-160-160 as measured, fullest frame")
+    fig.tight_layout()
+    fig.savefig(IMG / "empirical_lanes.png", dpi=110)
+    print(f"wrote {IMG / 'empirical_lanes.png'}")
+
+
 def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    ap.add_argument("--fzj", type=Path, help="folder of the FZJ bot-360-*.txt trajectory files (OpenTraj's "
+                                             "datasets/HERMES/Corridor-2D)")
+    args = ap.parse_args()
+    measured = fzj_runs(args.fzj) if args.fzj else None
+    if measured:
+        print("| measured run | density | speed | lane order | shuffled | ratio |\n|---|---|---|---|---|---|")
+        for name, (_, (rho, v, order, base)) in measured.items():
+            print(f"| {name} | {rho:.2f}/m² | {v:.2f} m/s | {order:.2f} | {base:.2f} | {order / base:.2f} |")
     corridor, v1 = run("fd_open_corridor")
     bottle, v2 = run("bottleneck_flow")
     counter, v3 = run("counterflow_lanes")
@@ -95,6 +173,7 @@ def main() -> None:
     fig.tight_layout()
     fig.savefig(IMG / "empirical_bottleneck.png", dpi=110)
     print(f"wrote {IMG / 'empirical_speed_density.png'} and {IMG / 'empirical_bottleneck.png'}")
+    lanes_figure(counter, measured)
 
 
 if __name__ == "__main__":

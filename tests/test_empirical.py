@@ -35,6 +35,39 @@ def test_lane_order_is_one_in_lanes_and_zero_when_directions_alternate():
     assert lane_order(file, alternating) < 0.1
 
 
+def test_measured_fzj_trajectories_are_placed_in_the_model_corridor_and_sampled_as_its_frames(tmp_path):
+    # the data archive's format: ID FRAME X Y Z, cm, 16 frames/s, the corridor along Y centred on 0;
+    # person 1 walks +Y at 1.6 m/s along X = 90 cm, person 2 -Y at 0.8 m/s along X = 270 cm
+    frames = np.arange(0, 65)
+    rows = [(1, f, 90.0, -400.0 + 10.0 * f, 170.0) for f in frames]
+    rows += [(2, f, 270.0, 400.0 - 5.0 * f, 160.0) for f in frames[8:]]
+    path = tmp_path / "bot-360-160-160.txt"
+    np.savetxt(path, rows)
+    traj = empirical.fzj_bot_trajectories(path)
+    assert traj.dt == 0.25 and traj.n_frames == 17  # every fourth frame
+    assert list(traj.group) == ["east", "west"]
+    assert traj.positions[0, 0] == pytest.approx([9.0, 0.9])  # corridor start (x 9), 0.9 m from its wall
+    assert traj.positions[16, 0] == pytest.approx([15.4, 0.9])
+    assert not traj.active[0, 1] and not traj.active[1, 1] and traj.active[2, 1]
+    assert traj.positions[2, 1] == pytest.approx([16.6, 2.7])
+    speeds = np.linalg.norm(np.diff(traj.positions, axis=0), axis=2) / traj.dt
+    assert speeds[:, 0] == pytest.approx(1.6)
+    assert speeds[2:, 1] == pytest.approx(0.8)
+
+
+def test_a_file_that_is_not_fzj_trajectories_is_refused_naming_it(tmp_path):
+    bad = tmp_path / "notes.txt"
+    bad.write_text("ID FRAME X Y Z\nfirst second\n")
+    with pytest.raises(ValueError, match="notes.txt"):
+        empirical.fzj_bot_trajectories(bad)
+    short = tmp_path / "short.txt"
+    short.write_text("1 0 10\n1 1 11\n")
+    with pytest.raises(ValueError, match="short.txt.*ID FRAME X Y Z"):
+        empirical.fzj_bot_trajectories(short)
+    with pytest.raises(ValueError, match="no such file|not an FZJ"):
+        empirical.fzj_bot_trajectories(tmp_path / "missing.txt")
+
+
 def test_every_empirical_case_cites_its_source_and_runs_the_rvo_method():
     assert {c.name for c in empirical.CASES} == {"fd_open_corridor", "bottleneck_flow", "narrow_door",
                                                  "counterflow_lanes"}

@@ -18,7 +18,9 @@ shared data file ``empirical-references.md``):
 - **Counterflow**: the FZJ BOT-360 runs (3.6 m × 8 m corridor, both streams entering at
   its ends through entrances of width b and leaving sideways at the far end; JuPedSim's
   7test_BO geometry), mean speed in the measurement area against the run at the nearest
-  density, and the lane order against shuffled directions.
+  density, and the lane order against shuffled directions. The runs as they were
+  measured (the FZJ data archive's trajectory files) are read into the same corridor by
+  :func:`fzj_bot_trajectories`, so the same measures apply to people and to the model.
 """
 
 from __future__ import annotations
@@ -280,6 +282,46 @@ def bot_measures(traj: Trajectories, rng: np.random.Generator) -> tuple[float, f
             shuffled.append(lane_order(traj.positions[f, idx], rng.permutation(east[idx])))
     mean = lambda x: float(np.nanmean(x)) if x else float("nan")  # noqa: E731
     return rho, v, mean(lanes), mean(shuffled)
+
+
+#: frames per second of the FZJ trajectory files (the data archive's text format)
+FZJ_FPS = 16
+
+
+def fzj_bot_trajectories(path, step: float = 0.25) -> Trajectories:
+    """A BOT-360 run as it was measured: the FZJ data archive's trajectory file (as
+    OpenTraj ships them, ``datasets/HERMES/Corridor-2D/bot-360-*.txt``: one row per
+    person and frame, ``ID FRAME X Y Z`` in cm at 16 frames/s, the corridor along Y
+    from -400 to 400 and across X from 0 to 360) placed in :func:`bot_corridor`'s frame
+    (along x, the corridor x 9–17 and y 0–3.6) and sampled every ``step`` seconds, as a
+    run's frames are, so :func:`bot_measures` measures the people with the same code as
+    the model. Each person is "east" or "west" by the way they walked."""
+    from pathlib import Path
+
+    path = Path(path)
+    try:
+        rows = np.loadtxt(path, ndmin=2)
+    except (OSError, ValueError) as exc:
+        raise ValueError(f"{path}: not an FZJ trajectory file (rows of ID FRAME X Y Z): {exc}") from None
+    if rows.shape[1] < 4 or len(rows) == 0 or not np.isfinite(rows[:, :4]).all():
+        raise ValueError(f"{path}: not an FZJ trajectory file: need rows of ID FRAME X Y Z, finite numbers, "
+                         f"got {rows.shape[1]} columns")
+    if not (np.isfinite(step) and step > 0):
+        raise ValueError(f"step must be a positive number of seconds, got {step!r}")
+    every = max(1, int(round(step * FZJ_FPS)))
+    rows = rows[rows[:, 1].astype(np.int64) % every == 0]
+    person = np.unique(rows[:, 0].astype(np.int64), return_inverse=True)[1]
+    frame = rows[:, 1].astype(np.int64) // every
+    frame -= frame.min()
+    positions = np.zeros((frame.max() + 1, person.max() + 1, 2))
+    active = np.zeros(positions.shape[:2], dtype=bool)
+    positions[frame, person] = np.stack([rows[:, 3] / 100.0 + 13.0, rows[:, 2] / 100.0], axis=1)
+    active[frame, person] = True
+    first, last = active.argmax(axis=0), active.shape[0] - 1 - active[::-1].argmax(axis=0)
+    people = np.arange(positions.shape[1])
+    east = positions[last, people, 0] > positions[first, people, 0]
+    return Trajectories(positions, every / FZJ_FPS, group=np.where(east, "east", "west"), radius=RADIUS,
+                        active=active, metadata={"source": str(path)})
 
 
 def _judge_bot(outcomes: dict[str, Outcome]) -> tuple[str, str, bool]:
