@@ -30,9 +30,8 @@ import time
 import numba
 import numpy as np
 
-import crowdmotion as cm
-from crowdmotion import _threads, rvo
-from crowdmotion.bench.rvo import DT, RADIUS, SPEED, bounds, lattice, pyrvo_stand, pyrvo_times, stand_simulator
+from crowdmotion import _threads
+from crowdmotion.bench.rvo import lattice, open_simulator, pyrvo_stand, pyrvo_times, stand_simulator
 
 
 def _digest(a: np.ndarray) -> str:
@@ -41,12 +40,7 @@ def _digest(a: np.ndarray) -> str:
 
 def open_step(pos, goal, steps: int) -> tuple[float, str]:
     """(seconds per step, digest of the final positions) of our step on the open scene."""
-    lo, hi = bounds(pos, goal)
-    sim = rvo.Simulator(cm.Scene(bounds=(lo, hi)), time_step=DT, guidance="direct", rng=np.random.default_rng(0))
-    sim.add_agents(pos, goal, radius=RADIUS, max_speed=1.5, pref_speed=SPEED, max_neighbors=10,
-                   neighbor_dist=5.0, samples=50, safety=5.0)
-    sim.step()
-    sim.step()
+    sim = open_simulator(pos, goal)
     t0 = time.perf_counter()
     for _ in range(steps):
         sim.step()
