@@ -68,6 +68,23 @@ def test_a_file_that_is_not_fzj_trajectories_is_refused_naming_it(tmp_path):
         empirical.fzj_bot_trajectories(tmp_path / "missing.txt")
 
 
+def test_the_counterflow_verdict_sets_a_runs_lanes_beside_the_measured_runs_at_its_density():
+    # two opposite lanes walking through the measurement area at 1 /m² (0.5 m apart along x)
+    frames = 40
+    x = np.arange(-10, 40) * 0.5
+    east = np.stack([np.stack([x + 1.2 * 0.25 * f, np.full_like(x, 0.6)], 1) for f in range(frames)])
+    west = np.stack([np.stack([x[::-1] - 1.2 * 0.25 * f, np.full_like(x, 3.0)], 1) for f in range(frames)])
+    pos = np.concatenate([east, west], axis=1)
+    group = np.array(["east"] * len(x) + ["west"] * len(x))
+    traj = Trajectories(pos, 0.25, group=group, radius=0.2)
+    outcome = empirical.Outcome(None, traj, {"arrival_rate": 1.0}, 0.0)
+    _, measured, passed = empirical._judge_bot({"lanes/0": outcome})
+    rho = empirical.bot_measures(traj, np.random.default_rng(0))[0]
+    real = min(empirical.BOT_360_LANE_RATIOS, key=lambda r: abs(r[0] - rho))
+    assert f"FZJ at {real[0]:.2f}/m² {real[1]:.2f}x" in measured
+    assert "lanes 1.00 vs" in measured
+
+
 def test_every_empirical_case_cites_its_source_and_runs_the_rvo_method():
     assert {c.name for c in empirical.CASES} == {"fd_open_corridor", "bottleneck_flow", "narrow_door",
                                                  "counterflow_lanes"}

@@ -46,6 +46,11 @@ BOTTLENECK_FLOWS = {
     1.4: (2.706,), 1.6: (2.842,), 1.8: (3.551,), 2.0: (3.549,), 2.2: (4.063,), 2.5: (5.116,)}
 #: FZJ BOT-360 runs, mean (ρ /m², v m/s) per run (Zhang et al. 2012)
 BOT_360_RUNS = ((0.45, 1.52), (0.67, 1.31), (0.99, 1.18), (1.61, 0.85), (2.25, 0.56), (2.56, 0.53))
+#: the BOT-360 runs' own lane order over its value with the directions shuffled, at their
+#: density (persons/m²): the FZJ trajectories (OpenTraj datasets/HERMES/Corridor-2D,
+#: bot-360-050 … 250) measured by :func:`bot_measures` through :func:`fzj_bot_trajectories`
+BOT_360_LANE_RATIOS = ((0.39, 1.07), (0.61, 1.24), (0.91, 1.32), (1.47, 1.72), (2.00, 2.23), (2.46, 2.71),
+                       (2.50, 2.80))
 #: BOT-360 entrance widths (m) and persons per side (OpenTraj's HERMES README)
 BOT_360_SETUPS = ((0.5, 50), (0.75, 50), (0.9, 100), (1.2, 100), (1.6, 150), (2.0, 150), (2.5, 150))
 #: Weidmann's free walking speed (m/s) and the half-width of the uniform spread round it
@@ -330,9 +335,11 @@ def _judge_bot(outcomes: dict[str, Outcome]) -> tuple[str, str, bool]:
     for name, o in outcomes.items():
         rho, v, order, base = bot_measures(o.traj, rng)
         ref = min(BOT_360_RUNS, key=lambda r: abs(r[0] - rho))
+        real = min(BOT_360_LANE_RATIOS, key=lambda r: abs(r[0] - rho))
         good = _within(v, ref[1], 0.2, 0.0) and order >= 2 * base and o.summary.get("arrival_rate") == 1.0
         ok &= good
-        parts.append(f"{name}: {rho:.2f}/m² {v:.2f} m/s (FZJ {ref[1]:.2f}), lanes {order:.2f} vs {base:.2f} shuffled, "
+        parts.append(f"{name}: {rho:.2f}/m² {v:.2f} m/s (FZJ {ref[1]:.2f}), lanes {order:.2f} vs {base:.2f} shuffled "
+                     f"({order / base:.2f}x; FZJ at {real[0]:.2f}/m² {real[1]:.2f}x), "
                      f"{o.summary.get('arrival_rate', 0):.0%} out{'' if good else ' ✗'}")
     return ("everyone leaves; speed within ±0.2 m/s of the run at the nearest density; lane order at least twice "
             "its value with the directions shuffled", "; ".join(parts), bool(ok))
