@@ -25,11 +25,16 @@ from crowdmotion.mdp.solvers import exact_values
 WAVES = 5
 
 
+def _clear(p, boxes) -> bool:
+    """Whether point ``p`` is more than 1 m from every box ((lower, upper) corners)."""
+    return not any(np.all(p > np.array(lo) - 1) and np.all(p < np.array(hi) + 1) for lo, hi in boxes)
+
+
 def _free_points(rng, k, lo, hi, boxes):
     pts = []
     while len(pts) < k:
         p = rng.uniform(lo, hi, 2)
-        if not any(np.all(p > np.array(b[0]) - 1) and np.all(p < np.array(b[1]) + 1) for b in boxes):
+        if _clear(p, boxes):
             pts.append(p)
     return np.array(pts)
 
@@ -40,8 +45,7 @@ def wave_of_goals() -> None:
     rng = np.random.default_rng(0)
     sim = rvo.Simulator(scene, field_cell=0.3, rng=np.random.default_rng(0), remove_on_arrival=False)
     lattice = np.stack(np.meshgrid(np.arange(1.0, 49, 1.2), np.arange(1.0, 39, 1.2)), -1).reshape(-1, 2)
-    lattice = lattice[[not any(np.all(p > np.array(a) - 1) and np.all(p < np.array(b) + 1) for a, b in boxes)
-                       for p in lattice]]
+    lattice = lattice[[_clear(p, boxes) for p in lattice]]
     starts = lattice[rng.choice(len(lattice), 300, replace=False)]
     ids = sim.add_agents(starts, cm.Rect([45, 33], [49, 39]).center, goal_region=cm.Rect([45, 33], [49, 39]))
     sim.step()
@@ -53,7 +57,7 @@ def wave_of_goals() -> None:
         sim.set_goals(who, goals)
         ours.append(time.perf_counter() - t)
         grid = sim._fields.blocked.astype(np.uint8)
-        cells = [np.floor((g - scene.lower) / sim._fields.cell).astype(int) for g in goals]
+        cells = sim._fields.cells(goals)
         t = time.perf_counter()
         for c in cells:
             exact_values(grid, [tuple(c)], corner_cutting=False)

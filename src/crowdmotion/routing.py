@@ -31,16 +31,20 @@ class DistanceFields:
     blocked: np.ndarray | None = None  # (nx, ny) cells a body does not fit in
     goal_cells: list | None = None     # per field, (K, 2) goal cells
 
+    def cells(self, points: np.ndarray) -> np.ndarray:
+        """(P, 2) the grid cell index of each point, off the grid (negative or past its
+        size) for a point outside it."""
+        return np.floor((np.asarray(points) - self.origin) / self.cell).astype(np.int64)
+
     def cell_of(self, points: np.ndarray) -> np.ndarray:
         """(P, 2) the grid cell holding each point; for a point off the grid, the edge cell
         nearest it."""
-        idx = np.floor((np.asarray(points) - self.origin) / self.cell).astype(np.int64)
-        return np.clip(idx, 0, np.array(self.dist.shape[1:]) - 1)
+        return np.clip(self.cells(points), 0, np.array(self.dist.shape[1:]) - 1)
 
     def at(self, field, points: np.ndarray) -> np.ndarray:
         """Field values at the cells holding ``points`` (inf outside the grid); ``field``
         one field's index, or one per point."""
-        idx = np.floor((np.asarray(points) - self.origin) / self.cell).astype(np.int64)
+        idx = self.cells(points)
         inside = np.all((idx >= 0) & (idx < np.array(self.dist.shape[1:])), axis=1)
         out = np.full(len(idx), np.inf)
         out[inside] = self.dist[np.broadcast_to(field, len(idx))[inside], idx[inside, 0], idx[inside, 1]]
@@ -53,7 +57,7 @@ class DistanceFields:
         own cell a body does not fit in, reads its free neighbours); inf where none has one."""
         shape = np.array(self.dist.shape[1:])
         pts = np.asarray(points, float).reshape(-1, 2)
-        idx = np.floor((pts - self.origin) / self.cell).astype(np.int64)
+        idx = self.cells(pts)
         out = np.full(len(idx), np.inf)
         for dx in range(-window, window + 1):
             for dy in range(-window, window + 1):
@@ -69,7 +73,7 @@ class DistanceFields:
         """Whether some cell within ``window`` cells of each point has a finite distance
         to the point's goal (field ``field_of``)."""
         shape = np.array(self.dist.shape[1:])
-        idx = np.floor((np.asarray(points) - self.origin) / self.cell).astype(np.int64)
+        idx = self.cells(points)
         out = np.zeros(len(idx), dtype=bool)
         for dx in range(-window, window + 1):
             for dy in range(-window, window + 1):
@@ -86,7 +90,7 @@ class DistanceFields:
         shape = np.array(self.dist.shape[1:])
         d = self.dist[field]
         padded = np.pad(d, 1, constant_values=np.inf)
-        idx = np.floor((np.asarray(points) - self.origin) / self.cell).astype(np.int64)
+        idx = self.cells(points)
         ok = np.all((idx >= 0) & (idx < shape), axis=1)
         ok[ok] &= np.isfinite(d[idx[ok, 0], idx[ok, 1]])
         cur = idx.copy()

@@ -247,7 +247,7 @@ class CongestionRouter:
         """(N,) each agent's cell of the field grid, flattened (−1 off the grid)."""
         f = self.fields
         shape = f.blocked.shape
-        idx = np.floor((positions - f.origin) / f.cell).astype(np.int64)
+        idx = f.cells(positions)
         inside = np.all((idx >= 0) & (idx < np.array(shape)), axis=1)
         return np.where(inside, idx[:, 0] * shape[1] + idx[:, 1], -1)
 
