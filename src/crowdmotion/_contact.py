@@ -11,6 +11,7 @@ import numpy as np
 from numba import njit, prange
 
 from crowdmotion._threads import threaded
+from crowdmotion.geometry import box_of
 
 INF = np.inf
 
@@ -329,7 +330,7 @@ def grid_for(positions, active, radius, max_speed, dt, extra: float = 0.0):
     least ``extra`` metres)."""
     live = np.flatnonzero(active)
     p = positions[live]
-    lo, hi = p.min(axis=0), p.max(axis=0)
+    lo, hi = box_of(p)
     reach = max(2 * radius[live].max() + 2 * max_speed[live].max() * dt, extra)
     extent = np.maximum(hi - lo, 1e-9)
     h = max(reach, float(np.sqrt(np.prod(extent) / len(live))) * 1.5)

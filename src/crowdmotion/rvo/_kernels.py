@@ -618,107 +618,116 @@ def lane_choice(pos, vel, vpref, radius, weight, active, cell_start, items, orig
     # a neighbour farther aside than this from every offset adds under exp(−TRUNCATE) of
     # its weight to any: left out
     lat_max = widest + np.sqrt(LANE_TRUNCATE / inv2)
-    for i in prange(n):
-        out[i, 0] = vpref[i, 0]
-        out[i, 1] = vpref[i, 1]
-        if not active[i]:
-            continue
-        wx, wy = vpref[i, 0], vpref[i, 1]
-        sp = np.sqrt(wx * wx + wy * wy)
-        if sp == 0.0:
-            continue
-        ux, uy = wx / sp, wy / sp
-        rx, ry = uy, -ux  # right normal
-        px, py = pos[i, 0], pos[i, 1]
-        # the cells of the box round the strip 0 < ahead <= look, |lateral| <= lat_max
-        x0 = px + min(0.0, look * ux) - lat_max * abs(rx)
-        x1 = px + max(0.0, look * ux) + lat_max * abs(rx)
-        y0 = py + min(0.0, look * uy) - lat_max * abs(ry)
-        y1 = py + max(0.0, look * uy) + lat_max * abs(ry)
-        gx0 = max(int(np.floor((x0 - origin_x) / h)), 0)
-        gx1 = min(int(np.floor((x1 - origin_x) / h)), nx - 1)
-        gy0 = max(int(np.floor((y0 - origin_y) / h)), 0)
-        gy1 = min(int(np.floor((y1 - origin_y) / h)), ny - 1)
-        pres = np.zeros(n_off)
-        acc = np.zeros(2 * m_max + 1)  # Σ_j weight_j exp(−lat_j²/2σ²) E_j^m, m = −m_max … m_max
-        # the agents in the strip, gathered without branches (which way the tests go is
-        # random from one agent to the next), in the cells' order (for one gx the cells
-        # gy0 … gy1 hold consecutive items)
-        b_j = np.empty(_items_in_box(cell_start, ny, gx0, gx1, gy0, gy1), dtype=np.int64)
-        b_ahead = np.empty(len(b_j))
-        b_lat = np.empty(len(b_j))
-        cnt = 0
-        for gx in range(gx0, gx1 + 1 if gy1 >= gy0 else gx0):
-            for q in range(cell_start[gx * ny + gy0], cell_start[gx * ny + gy1 + 1]):
-                j = items[q]
-                dx, dy = pos[j, 0] - px, pos[j, 1] - py
-                ahead = dx * ux + dy * uy
-                lat = dx * rx + dy * ry
-                b_j[cnt] = j
-                b_ahead[cnt] = ahead
-                b_lat[cnt] = lat
-                cnt += (j != i) & (ahead > 0.0) & (ahead <= look) & (abs(lat) <= lat_max)
-        for r in range(cnt):
-            j = b_j[r]
-            ahead = b_ahead[r]
-            lat = b_lat[r]
-            ojx, ojy = vpref[j, 0], vpref[j, 1]
-            share = 1.0
-            if not ojx * ux + ojy * uy < -0.5 * np.sqrt(ojx * ojx + ojy * ojy):
-                # one going our way is in the way as far as it is slower
-                lag = 1.0 - (vel[j, 0] * ux + vel[j, 1] * uy) / sp
-                share = crowd_weight * min(max(lag, 0.0), 1.0)
-                if share == 0.0:
-                    continue
+    block = 64
+    for blk in prange((n + block - 1) // block):
+        # scratch once per block of agents (the strip's grown when a strip holds more)
+        pres = np.empty(n_off)
+        acc = np.empty(2 * m_max + 1)  # Σ_j weight_j exp(−lat_j²/2σ²) E_j^m, m = −m_max … m_max
+        b_j = np.empty(256, dtype=np.int64)
+        b_ahead = np.empty(256)
+        b_lat = np.empty(256)
+        for i in range(blk * block, min(n, (blk + 1) * block)):
+            out[i, 0] = vpref[i, 0]
+            out[i, 1] = vpref[i, 1]
+            if not active[i]:
+                continue
+            wx, wy = vpref[i, 0], vpref[i, 1]
+            sp = np.sqrt(wx * wx + wy * wy)
+            if sp == 0.0:
+                continue
+            ux, uy = wx / sp, wy / sp
+            rx, ry = uy, -ux  # right normal
+            px, py = pos[i, 0], pos[i, 1]
+            # the cells of the box round the strip 0 < ahead <= look, |lateral| <= lat_max
+            x0 = px + min(0.0, look * ux) - lat_max * abs(rx)
+            x1 = px + max(0.0, look * ux) + lat_max * abs(rx)
+            y0 = py + min(0.0, look * uy) - lat_max * abs(ry)
+            y1 = py + max(0.0, look * uy) + lat_max * abs(ry)
+            gx0 = max(int(np.floor((x0 - origin_x) / h)), 0)
+            gx1 = min(int(np.floor((x1 - origin_x) / h)), nx - 1)
+            gy0 = max(int(np.floor((y0 - origin_y) / h)), 0)
+            gy1 = min(int(np.floor((y1 - origin_y) / h)), ny - 1)
+            pres[:] = 0.0
+            acc[:] = 0.0
+            # the agents in the strip, gathered without branches (which way the tests go is
+            # random from one agent to the next), in the cells' order (for one gx the cells
+            # gy0 … gy1 hold consecutive items)
+            bound = _items_in_box(cell_start, ny, gx0, gx1, gy0, gy1)
+            if bound > len(b_j):
+                b_j = np.empty(2 * bound, dtype=np.int64)
+                b_ahead = np.empty(2 * bound)
+                b_lat = np.empty(2 * bound)
+            cnt = 0
+            for gx in range(gx0, gx1 + 1 if gy1 >= gy0 else gx0):
+                for q in range(cell_start[gx * ny + gy0], cell_start[gx * ny + gy1 + 1]):
+                    j = items[q]
+                    dx, dy = pos[j, 0] - px, pos[j, 1] - py
+                    ahead = dx * ux + dy * uy
+                    lat = dx * rx + dy * ry
+                    b_j[cnt] = j
+                    b_ahead[cnt] = ahead
+                    b_lat[cnt] = lat
+                    cnt += (j != i) & (ahead > 0.0) & (ahead <= look) & (abs(lat) <= lat_max)
+            for r in range(cnt):
+                j = b_j[r]
+                ahead = b_ahead[r]
+                lat = b_lat[r]
+                ojx, ojy = vpref[j, 0], vpref[j, 1]
+                share = 1.0
+                if not ojx * ux + ojy * uy < -0.5 * np.sqrt(ojx * ojx + ojy * ojy):
+                    # one going our way is in the way as far as it is slower
+                    lag = 1.0 - (vel[j, 0] * ux + vel[j, 1] * uy) / sp
+                    share = crowd_weight * min(max(lag, 0.0), 1.0)
+                    if share == 0.0:
+                        continue
+                if lattice:
+                    a = share * np.exp(-2.0 * ahead / look - lat * lat * inv2)
+                    e = np.exp(2.0 * lat * step * inv2)
+                    acc[m_max] += a
+                    up = a
+                    down = a
+                    einv = 1.0 / e
+                    for m in range(1, m_max + 1):  # both chains of powers in one loop: they overlap
+                        up *= e
+                        down *= einv
+                        acc[m_max + m] += up
+                        acc[m_max - m] += down
+                else:
+                    wgt = share * np.exp(-2.0 * ahead / look)
+                    for k in range(n_off):
+                        d = lat - offsets[k]
+                        pres[k] += wgt * np.exp(-d * d * inv2)
             if lattice:
-                a = share * np.exp(-2.0 * ahead / look - lat * lat * inv2)
-                e = np.exp(2.0 * lat * step * inv2)
-                acc[m_max] += a
-                t = a
-                for m in range(1, m_max + 1):
-                    t *= e
-                    acc[m_max + m] += t
-                t = a
-                einv = 1.0 / e
-                for m in range(1, m_max + 1):
-                    t *= einv
-                    acc[m_max - m] += t
-            else:
-                wgt = share * np.exp(-2.0 * ahead / look)
                 for k in range(n_off):
-                    d = lat - offsets[k]
-                    pres[k] += wgt * np.exp(-d * d * inv2)
-        if lattice:
+                    y = mult[k] * step
+                    pres[k] = acc[m_max + mult[k]] * np.exp(-y * y * inv2)
             for k in range(n_off):
-                y = mult[k] * step
-                pres[k] = acc[m_max + mult[k]] * np.exp(-y * y * inv2)
-        for k in range(n_off):
-            pres[k] *= weight[i]
-        if not pres[0] >= min_pressure:  # offsets[0] is 0: nobody in the way straight on
-            continue
-        # the clear offset of least cost (the first on a tie): offsets tried cheapest first
-        for k in range(n_off):
-            y = offsets[k]
-            pres[k] = pres[k] + side_cost * abs(y) - right_bonus * y
-        best_off = 0.0
-        while True:
-            best_cost = INF
-            kb = -1
+                pres[k] *= weight[i]
+            if not pres[0] >= min_pressure:  # offsets[0] is 0: nobody in the way straight on
+                continue
+            # the clear offset of least cost (the first on a tie): offsets tried cheapest first
             for k in range(n_off):
-                if pres[k] < best_cost:
-                    best_cost = pres[k]
-                    kb = k
-            if kb < 0:
-                break
-            y = offsets[kb]
-            if y == 0.0 or _clear(px, py, px + aim * ux + y * rx, py + aim * uy + y * ry, radius[i],
-                                  circ_c, circ_r, seg_a, seg_b):
-                best_off = y
-                break
-            pres[kb] = INF
-        if best_off == 0.0:
-            continue
-        dx, dy = aim * ux + best_off * rx, aim * uy + best_off * ry
-        dn = np.sqrt(dx * dx + dy * dy)
-        out[i, 0] = sp * dx / dn
-        out[i, 1] = sp * dy / dn
+                y = offsets[k]
+                pres[k] = pres[k] + side_cost * abs(y) - right_bonus * y
+            best_off = 0.0
+            while True:
+                best_cost = INF
+                kb = -1
+                for k in range(n_off):
+                    if pres[k] < best_cost:
+                        best_cost = pres[k]
+                        kb = k
+                if kb < 0:
+                    break
+                y = offsets[kb]
+                if y == 0.0 or _clear(px, py, px + aim * ux + y * rx, py + aim * uy + y * ry, radius[i],
+                                      circ_c, circ_r, seg_a, seg_b):
+                    best_off = y
+                    break
+                pres[kb] = INF
+            if best_off == 0.0:
+                continue
+            dx, dy = aim * ux + best_off * rx, aim * uy + best_off * ry
+            dn = np.sqrt(dx * dx + dy * dy)
+            out[i, 0] = sp * dx / dn
+            out[i, 1] = sp * dy / dn

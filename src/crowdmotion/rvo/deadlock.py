@@ -65,6 +65,7 @@ from scipy.spatial import cKDTree
 
 from crowdmotion._contact import grid_for
 from crowdmotion._threads import threaded
+from crowdmotion.geometry import row_norms
 from crowdmotion.rvo._kernels import PARALLEL_MIN_AGENTS, _cell_box, _knn, held_up_time
 from crowdmotion.rvo.density import PERSON_MAX_RADIUS_M
 
@@ -89,7 +90,7 @@ def _turn_right(v: np.ndarray, angle: float) -> np.ndarray:
 
 
 def _unit(v: np.ndarray) -> np.ndarray:
-    n = np.linalg.norm(v, axis=1, keepdims=True)
+    n = row_norms(v)[:, None]
     return np.divide(v, n, out=np.zeros_like(v), where=n > 0)
 
 
@@ -188,7 +189,7 @@ class Deadlock:
             done = past | ~active[j] | ~active[y] | (self.yield_left[y] <= 0)
             self.yield_to[y[done]] = -1
             self.abreast[y[done]] = False
-        standing = active & (np.linalg.norm(chosen, axis=1) < STILL * pref_speed)
+        standing = active & (row_norms(chosen) < STILL * pref_speed)
         self.still = np.where(standing, self.still + dt, 0.0)
         self.detour &= self.stuck >= self.patience / 2  # walking again: back on its way
         # new yields: of two agents blocking each other for long, the lower priority steps aside

@@ -38,6 +38,7 @@ from __future__ import annotations
 import numpy as np
 from scipy.ndimage import gaussian_filter
 
+from crowdmotion.geometry import row_norms
 from crowdmotion.rvo import _kernels as K
 from crowdmotion.scene import Scene
 
@@ -90,11 +91,12 @@ class FloorShare:
 
     def at(self, points: np.ndarray) -> np.ndarray:
         """(N,) the floor share at each point (nearest raster cell; 0 outside the bounds)."""
-        idx = np.floor((points - self.origin) / self.cell).astype(np.int64)
-        shape = np.array(self.share.shape)
-        inside = np.all((idx >= 0) & (idx < shape), axis=1)
+        # column by column: reductions across an (N, 2) array's short axis are slow
+        ix = np.floor((points[:, 0] - self.origin[0]) / self.cell).astype(np.int64)
+        iy = np.floor((points[:, 1] - self.origin[1]) / self.cell).astype(np.int64)
+        inside = (ix >= 0) & (ix < self.share.shape[0]) & (iy >= 0) & (iy < self.share.shape[1])
         out = np.zeros(len(points))
-        out[inside] = self.share[idx[inside, 0], idx[inside, 1]]
+        out[inside] = self.share[ix[inside], iy[inside]]
         return out
 
 
@@ -129,7 +131,7 @@ class DensitySlowing:
         raw = np.zeros(len(pos))
         raw_with = np.zeros(len(pos))
         s = np.flatnonzero(active & (radius <= PERSON_MAX_RADIUS_M))
-        unit = np.linalg.norm(heading[s], axis=1, keepdims=True)
+        unit = row_norms(heading[s])[:, None]
         head = np.divide(heading[s], unit, out=np.zeros_like(heading[s]), where=unit > 0)
         centre = pos[s] + AHEAD_M * head  # the point sensed round, AHEAD_M in front (the agent itself if standing)
         counts = np.empty(len(s))

@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from crowdmotion.geometry import row_norms
 from crowdmotion.obstacle_primitives import ObstaclePrimitives
 from crowdmotion.routing import DistanceFields
 from crowdmotion.rvo import _kernels as K
@@ -26,7 +27,7 @@ def preferred_velocities(pos, goal, pref_speed, active, dt, fields: DistanceFiel
     with other goals, at another's goal with their own out of sight.
     """
     to_goal = goal - pos
-    dist = np.linalg.norm(to_goal, axis=1)
+    dist = row_norms(to_goal)
     direction = np.divide(to_goal, dist[:, None], out=np.zeros_like(to_goal), where=dist[:, None] > 0)
     speed = np.minimum(pref_speed, dist / dt)
     aim = dist.copy()
@@ -39,7 +40,7 @@ def preferred_velocities(pos, goal, pref_speed, active, dt, fields: DistanceFiel
             K.field_directions(pos, field_of, fields.dist, float(fields.origin[0]), float(fields.origin[1]),
                                fields.cell, FIELD_WINDOW, use, radius, prims.circ_c, prims.circ_r, prims.seg_a, prims.seg_b,
                                fdir)
-            reach = np.linalg.norm(fdir, axis=1)
+            reach = row_norms(fdir)
             ok = use & (reach > 0)
             if lost is not None:
                 lost[:] = use & (~ok | (fields.at(field_of, pos) <= FIELD_END_M))

@@ -38,6 +38,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from crowdmotion.geometry import row_norms
 from crowdmotion.rvo import _kernels as K
 from crowdmotion.rvo.density import PERSON_MAX_RADIUS_M
 
@@ -93,7 +94,7 @@ class LaneChoice:
         now by those whose turn it is (or whose way turned, or near their ``goals``),
         kept by the others."""
         n = len(vpref)
-        speed = np.linalg.norm(vpref, axis=1)
+        speed = row_norms(vpref)
         unit = np.divide(vpref, speed[:, None], out=np.zeros_like(vpref), where=speed[:, None] > 0)
         turned = np.einsum("ij,ij->i", unit, self.heading) < np.cos(np.deg2rad(RETHINK_DEG))
         near = np.einsum("ij,ij->i", goals - pos, goals - pos) < NEAR_GOAL_M * NEAR_GOAL_M

@@ -11,7 +11,7 @@ from scipy.spatial import cKDTree
 
 from crowdmotion._rng import step_key
 from crowdmotion._threads import ThreadedKernel
-from crowdmotion.geometry import finite_array, require_finite_agents
+from crowdmotion.geometry import finite_array, require_finite_agents, row_norms
 from crowdmotion.groups import Disc, MovingTarget, Points, Rect
 from crowdmotion.rvo import _kernels as K
 from crowdmotion.rvo import congestion as _congestion
@@ -1093,12 +1093,12 @@ class Simulator(LiveObstacles):
         θ the angle off the goal, up to 90°), and a turn of radius v² / a needs
         v ≤ √(a d / (2 sin θ))."""
         to_goal = self.goals - self.positions
-        d = np.linalg.norm(to_goal, axis=1)
-        sp = np.linalg.norm(self.velocities, axis=1)
+        d = row_norms(to_goal)
+        sp = row_norms(self.velocities)
         cos = np.einsum("ij,ij->i", to_goal, self.velocities) / np.maximum(d * sp, 1e-12)
         sin = np.where(cos > 0.0, np.sqrt(np.clip(1.0 - cos * cos, 0.0, 1.0)), 1.0)
         cap = np.sqrt(self.comfort_accel * d / (2.0 * np.maximum(sin, 1e-6)))
-        want = np.linalg.norm(vpref, axis=1)
+        want = row_norms(vpref)
         return np.minimum(1.0, cap / np.maximum(want, 1e-12))
 
     def _threatened(self, prims, driven: np.ndarray) -> np.ndarray:
@@ -1122,7 +1122,7 @@ class Simulator(LiveObstacles):
         return out
 
     def _arrivals(self) -> None:
-        d = np.linalg.norm(self.goals - self.positions, axis=1)
+        d = row_norms(self.goals - self.positions)
         now = self.active & ~self.driven & (d <= self.arrival_radius) & np.isnan(self.arrival_time)
         stays = ~self.leaves
         if stays.any():  # arrivals that stay: the next arrive by touching them
