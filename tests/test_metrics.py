@@ -205,3 +205,21 @@ def test_root_motion_judges_the_frames_a_dcc_plays_and_ignores_standing():
     peak = 1.2 * np.sqrt(2) / 0.25
     assert m["acceleration_mps2"]["max"] == pytest.approx(peak * (1 - (1 / 24) / (3 * 0.25)), rel=0.01)
     assert m["turn_rate_rad_s"]["max"] == pytest.approx(peak / (1.2 / np.sqrt(2)), rel=0.1)
+
+
+def test_group_report_time_to_goal_counts_from_entering():
+    from crowdmotion.metrics import group_report
+    from crowdmotion.trajectories import Trajectories
+
+    # two walkers of one group: one there from the start leaves after frame 6, one enters
+    # at frame 4 and leaves after frame 12 (frames 0.5 s apart): 3 s and 4 s from entering
+    # (counted from t = 0, the second would take 6 s)
+    pos = np.zeros((16, 2, 2))
+    pos[:, 0, 0] = np.minimum(np.arange(16), 6) * 0.5
+    pos[:, 1, 0] = np.clip(np.arange(16) - 4, 0, 8) * 0.5
+    pos[:, 1, 1] = 1.0
+    active = np.zeros((16, 2), dtype=bool)
+    active[0:7, 0] = True
+    active[4:13, 1] = True
+    rep = group_report(Trajectories(pos, 0.5, group=np.array(["g", "g"]), active=active))["g"]
+    assert rep["time_to_goal_s"] == pytest.approx(3.5)

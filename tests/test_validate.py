@@ -67,6 +67,12 @@ def test_500_agents_in_a_2_by_2_spawn_are_refused_at_once(tmp_path, capsys):
     refused(capsys, ["validate", str(path)], "spawn: rect [2, 2]-[4, 4] has room for about", "count = 500")
 
 
+def test_a_spawn_inside_an_obstacle_is_told_it_has_no_free_room_not_a_count(tmp_path, capsys):
+    path = scenario(tmp_path, spawn='{ shape = "rect", lower = [21, 6], upper = [24, 14] }')
+    err = refused(capsys, ["validate", str(path)], "spawn: rect [21, 6]-[24, 14] has no free room", "obstacles")
+    assert "room for about 0" not in err
+
+
 def test_mdp_spawn_with_too_few_cells_is_refused_by_validate(tmp_path, capsys):
     path = scenario(tmp_path, "mdp", count=40, spawn='{ shape = "rect", lower = [2, 2], upper = [4, 4] }')
     refused(capsys, ["validate", str(path)], "spawn: rect [2, 2]-[4, 4] has", "count = 40")

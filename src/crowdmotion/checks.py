@@ -158,6 +158,10 @@ def check_spawn_capacity(scene: Scene, k: int, group: Group, gap: float) -> None
     room, free = spawn_room(scene, group, gap)
     if group.count > room:
         unit = "m²" if scene.dim == 2 else "m³"
+        if free <= 0.0:  # nothing of it is walkable: say where it lies, not how crowded it is
+            raise ValueError(f"{where(k, group)} spawn: {describe_region(spawn)} has no free room: all of it lies in "
+                             f"obstacles or within a body's radius ({group.radius:g} m) of them or of the scene's "
+                             f"edge; move it into the free space")
         raise ValueError(f"{where(k, group)} spawn: {describe_region(spawn)} has room for about {room} agents of "
                          f"radius {group.radius:g} m ({free:.3g} {unit} free of obstacles), but count = "
                          f"{group.count}: enlarge the spawn region or lower the count")

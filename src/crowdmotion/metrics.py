@@ -325,7 +325,9 @@ def group_report(traj: Trajectories) -> dict:
     same-group cluster each agent is in — agents chained by links shorter than
     ``CLUSTER_LINK`` m, so a lone agent is a cluster of 1 — and the mean number of its
     group's clusters of two or more: A− of paper 004 §6 walks in clusters),
-    ``time_to_goal_s`` (mean time at which agents left; None when nobody left) and
+    ``time_to_goal_s`` (mean time from an agent's first frame to its last, over the agents
+    that left: from entering, as the run's ``time_to_goal_by_group_s`` counts it, to within a
+    frame; None when nobody left) and
     ``path_length_ratio`` (path length over start-to-end distance).
     """
     act = traj.active_mask
@@ -431,7 +433,7 @@ def group_report(traj: Trajectories) -> dict:
             "same_group_neighbors": float(np.mean(same[g])) if same[g] else None,
             "cluster_size": float(np.mean(cluster_size[g])) if cluster_size[g] else None,
             "clusters": float(np.mean(clusters[g])) if clusters[g] else None,
-            "time_to_goal_s": float(np.mean(last[sel][left] * traj.dt)) if left.any() else None,
+            "time_to_goal_s": float(np.mean((last[sel] - first[sel])[left] * traj.dt)) if left.any() else None,
             "path_length_ratio": float(ratio.mean()) if ratio.size else None,
         }
     return report

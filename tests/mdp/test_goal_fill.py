@@ -53,6 +53,18 @@ def test_a_crowd_fills_a_goal_area_instead_of_stopping_on_its_rim():
     assert audit.clean, audit.events[:3]
 
 
+def test_a_goal_area_too_small_for_a_crowd_that_stays_is_refused_before_the_run():
+    # a disc of 1 m radius holds about 6 of the 0.6 m cells: 24 agents staying there could
+    # never all arrive, and the run would idle to max_steps
+    with pytest.raises(ValueError, match=r"group 'crowd' goal: disc .* holds \d+ free grid cells .* 24 agents "
+                                         r"cannot all arrive.*remove_on_arrival"):
+        _crowd_to(cm.Disc([18.0, 6.0], 1.0))
+    scene = cm.Scene(bounds=([0, 0], [24, 12]))
+    group = cm.Group("crowd", 24, spawn=cm.Rect([0.5, 0.5], [6.5, 11.5]), goal=cm.Disc([18.0, 6.0], 1.0), radius=0.3)
+    result = run(scene, [group], mdp.MDPParams(max_steps=400, remove_on_arrival=True), np.random.default_rng(3))
+    assert not result.trajectories.active_mask[-1].any(), "leaving on arrival, everyone gets there"
+
+
 def test_a_point_goal_shared_by_a_crowd_becomes_slots_round_the_point():
     scene, result = _crowd_to(cm.Points([[18.0, 6.0]]), count=20)
     assert len(result.goal_cells[0]) == 20, "one slot per agent"

@@ -85,6 +85,25 @@ def region_cells(grid: GridMap, region, what: str) -> np.ndarray:
     return cells
 
 
+def check_goal_room(groups: Sequence[Group], goal_cells: list[np.ndarray], cell: float) -> None:
+    """A ValueError when agents that stay on arrival (one to a cell) outnumber the free
+    cells of the goal area they share: the rest could never arrive, and the run would idle
+    to max_steps. Groups on a route arrive where the route ends and are not counted."""
+    sharing: dict = {}
+    for k, g in enumerate(groups):
+        if g.attributes.get("route") is None:
+            key = frozenset(map(tuple, goal_cells[k].tolist()))
+            sharing.setdefault(key, []).append(k)
+    for key, ks in sharing.items():
+        need = sum(groups[k].count for k in ks)
+        if need > len(key):
+            g = groups[ks[0]]
+            who = f"{need} agents" if len(ks) == 1 else f"{need} agents of groups {', '.join(repr(groups[k].name) for k in ks)}"
+            raise ValueError(f"group {g.name!r} goal: {describe_region(g.goal)} holds {len(key)} free grid cells of "
+                             f"{cell:.3g} m and agents stay on arrival, one to a cell: {who} cannot all arrive; "
+                             f"enlarge the goal, lower the count or set [mdp] remove_on_arrival = true")
+
+
 def spawn_cells(grid: GridMap, group: Group, taken: set, rng: np.random.Generator) -> np.ndarray:
     what = f"group {group.name!r} spawn"
     if isinstance(group.spawn, Points):
@@ -151,6 +170,8 @@ def setup(scene: Scene, groups: Sequence[Group], params: MDPParams, rng: np.rand
                 goal_cells[k] = nearest_cells(grid.occupancy, goal_cells[k], g.count, params.corner_cutting)
             except ValueError as exc:
                 raise ValueError(f"group {g.name!r} goal: {exc}") from None
+    if not params.remove_on_arrival:
+        check_goal_room(groups, goal_cells, cell)
     taken: set = set()
     # groups entering over time take their cells one by one, when free (mdp.sources)
     cells = [None if "enter" in g.attributes else spawn_cells(grid, g, taken, rng) for g in groups]
