@@ -366,3 +366,25 @@ def test_a_sweep_report_of_one_run_is_strict_json(tmp_path, capsys):
 
     report = json.loads((tmp_path / "sw" / "report.json").read_text(), parse_constant=refuse)
     assert report["runs"] == 1
+
+
+@pytest.mark.parametrize("method,limit", [("mdp", "max_steps = 3"), ("rvo", "max_steps = 4"),
+                                          ("pso", "iterations = 3")])
+def test_a_run_that_ends_at_its_step_limit_says_so_and_which_setting_to_raise(tmp_path, capsys, method, limit):
+    path = tmp_path / "s.toml"
+    path.write_text(GOOD.replace('method = "mdp"', f'method = "{method}"').replace("[mdp]\nmax_steps = 30",
+                                                                                  f"[{method}]\n{limit}"))
+    assert main(["run", str(path), "-o", str(tmp_path / "out"), "--plots", "none"]) == 0
+    setting, value = limit.split(" = ")
+    assert f"the run stopped at {method}.{setting} = {value}" in capsys.readouterr().out
+    ended = json.loads((tmp_path / "out" / "summary.json").read_text())["ended_at_limit"]
+    assert ended["setting"] == f"{method}.{setting}" and ended["value"] == int(value) and ended["simulated_s"] > 0
+
+
+def test_a_run_where_everyone_arrives_names_no_limit(tmp_path, capsys):
+    path = tmp_path / "s.toml"
+    path.write_text(GOOD.replace("max_steps = 30", "max_steps = 400"))
+    assert main(["run", str(path), "-o", str(tmp_path / "out"), "--plots", "none"]) == 0
+    summary = json.loads((tmp_path / "out" / "summary.json").read_text())
+    assert summary["arrival_rate"] == 1.0 and "ended_at_limit" not in summary
+    assert "the run stopped at" not in capsys.readouterr().out

@@ -519,6 +519,15 @@ def diversity(runs: list[Trajectories]) -> dict:
             "first_apart_s": None if first is None else first * runs[0].dt}
 
 
+def note_step_limit(summary: dict, setting: str, value: int, at_limit: bool, seconds: float) -> None:
+    """Record in ``summary["ended_at_limit"]`` that the run stopped at its step limit (the
+    scenario's ``setting`` = ``value``, ``seconds`` of simulated time: ``at_limit``) with
+    agents still short of their goals: they did not fail to arrive, the run ended. Nothing
+    when everyone arrived or the run stopped sooner (interrupted, or done)."""
+    if at_limit and summary.get("arrival_rate", 1.0) < 1.0:
+        summary["ended_at_limit"] = {"setting": setting, "value": int(value), "simulated_s": float(seconds)}
+
+
 def headline(summary: dict) -> str:
     """A run's summary in one line: agents, frames, the audit, arrivals, formations."""
     parts = [f"{summary['agents']} agents", f"{summary['frames']} frames",
@@ -526,6 +535,10 @@ def headline(summary: dict) -> str:
              f"obstacle penetrations {summary['agent_obstacle_penetrations']}"]
     if "arrival_rate" in summary:
         parts.append(f"arrived {summary['arrival_rate']:.0%}")
+        limit = summary.get("ended_at_limit")
+        if limit:
+            parts[-1] += (f" (the run stopped at {limit['setting']} = {limit['value']}, {limit['simulated_s']:g} s "
+                          f"simulated, before the rest got there: raise it to let them arrive)")
     if "formation" in summary:
         groups = summary["formation"]
         done = sum(g["recovered_s"] is not None for g in groups.values())

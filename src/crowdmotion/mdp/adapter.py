@@ -123,6 +123,8 @@ def run_scenario(scene, groups, params: MDPParams, rng, progress: bool = True):
         "mean_final_path_distance_to_goal_m": float(np.mean(dist[np.isfinite(dist)])) if np.isfinite(dist).any() else None,
         "max_final_path_distance_to_goal_m": float(np.max(dist[np.isfinite(dist)])) if np.isfinite(dist).any() else None,
     })
+    metrics.note_step_limit(summary, "mdp.max_steps", params.max_steps, traj.metadata["steps"] >= params.max_steps,
+                            summary["duration_s"])
     if result.arrivals is not None:  # each group's delay (and each entrance's), seconds on the run's time base
         a = result.arrivals
         summary["entry"] = entry_report(traj.group, a.due, a.entered_at(result.walker), a.entrance)

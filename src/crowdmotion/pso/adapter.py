@@ -180,6 +180,11 @@ def run_scenario(scene, groups, params: PSOParams, rng, progress: bool = True):
     })
     if result.due is not None:  # each swarm's delay, as one unit
         summary["entry"] = entry_report(names, result.due, result.entered_at)
+    limit = expected_steps(groups, params)  # k, or k per target update, within max_iterations
+    capped = limit >= params.max_iterations
+    metrics.note_step_limit(summary, "pso.max_iterations" if capped else "pso.iterations",
+                            params.max_iterations if capped else params.iterations, summary["iterations"] >= limit,
+                            summary["iterations"] * params.iteration_time)
     return traj, result, summary
 
 

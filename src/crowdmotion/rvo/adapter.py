@@ -108,6 +108,8 @@ def run_scenario(scene, groups, params: RVOParams, rng, progress: bool = True):
         "smoothing": smoothing_report(traj, "none" if traj.metadata.get("partial") else params.smoothing,
                                       params.smoothing_window),
     })
+    metrics.note_step_limit(summary, "rvo.max_steps", params.max_steps, sim.steps >= params.max_steps,
+                            sim.steps * params.time_step)
     return traj, result, summary
 
 
