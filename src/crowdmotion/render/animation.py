@@ -186,7 +186,8 @@ def plot_density(traj: Trajectories, path, cell: float = 0.5, title: str = "") -
     if scene is not None:
         _draw_obstacles_2d(ax, scene)
     wide = (hi[1] - lo[1]) / (hi[0] - lo[0]) < 0.6
-    fig.colorbar(im, ax=ax, label="mean density (agents / m²)", shrink=0.8, extend="max" if clipped else "neither",
+    label = "mean density (agents / m²; white: nobody there)" if (density == 0).any() else "mean density (agents / m²)"
+    fig.colorbar(im, ax=ax, label=label, shrink=0.8, extend="max" if clipped else "neither",
                  orientation="horizontal" if wide else "vertical", pad=0.3 if wide else 0.05)
     if clipped:
         title = (title or f"mean density, {cell} m cells") + \
