@@ -39,6 +39,31 @@ def test_blender_puts_agents_and_obstacles_where_the_trajectories_say(tmp_path):
     np.testing.assert_allclose(np.r_[lo["obstacle_1"][:2], hi["obstacle_1"][:2]], [19, 1, 21, 3], atol=0.06)  # a tessellated cylinder
 
 
+def test_an_obstacle_dropped_in_during_a_live_run_shows_in_blender_only_while_it_stood(tmp_path):
+    from crowdmotion import blender, rvo
+
+    # a door dropped in at 1 s and taken away at 2 s: frames 24-47 of the 24 fps stage
+    sim = rvo.Simulator(cm.Scene(bounds=([0, 0], [20, 10]), obstacles=[cm.Box([5, 8], [6, 9])]), time_step=0.1)
+    sim.add_agents([[2, 5]], [18, 5])
+    rec = rvo.Recorder(sim)
+    for step in range(30):
+        if step == 10:
+            door = sim.add_obstacle(cm.Box([16, 0.2], [17, 1.0]))
+        if step == 20:
+            sim.remove_obstacle(door)
+        sim.step()
+        rec.record()
+    path = rec.trajectories().save(tmp_path / "live.usdc")
+    frames = [0, 23, 24, 47, 48, 60]
+    done = subprocess.run([BLENDER_PYTHON, str(pathlib.Path(__file__).with_name("blender_visibility_check.py")),
+                           str(pathlib.Path(blender.__file__).parent), str(path), *map(str, frames)],
+                          capture_output=True, text=True, timeout=300, env={**os.environ, "HOME": str(tmp_path)})
+    line = next(x for x in done.stdout.splitlines() if x.startswith("CROWDMOTION_JSON "))
+    got = json.loads(line.split(" ", 1)[1])
+    assert [got[str(f)][f"obstacle_{door}"] for f in frames] == [False, False, True, True, False, False]
+    assert all(got[str(f)]["obstacle_0"] for f in frames), "the wall that always stood always shows"
+
+
 def test_a_blender_character_stands_upright_facing_its_way_by_both_routes_and_the_saved_file_reopens(tmp_path):
     from crowdmotion.cli import _at_fps
 

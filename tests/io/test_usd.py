@@ -69,6 +69,35 @@ def test_obstacles_sit_where_the_scene_has_them_and_move_on_time(tmp_path):
         np.testing.assert_allclose([m[3][0], -m[3][2]], [x, y], atol=1e-6)
 
 
+def test_an_obstacle_that_stands_for_a_while_is_visible_only_then(tmp_path):
+    from pxr import Usd, UsdGeom
+
+    import crowdmotion as cm
+    from crowdmotion import rvo
+
+    # a live session: a door dropped in at 1 s and taken away at 2 s, recorded at 10 steps a second
+    sim = rvo.Simulator(cm.Scene(bounds=([0, 0], [20, 10])), time_step=0.1)
+    sim.add_agents([[2, 5]], [18, 5])
+    rec = rvo.Recorder(sim)
+    for step in range(30):
+        if step == 10:
+            door = sim.add_obstacle(cm.Box([16, 0.2], [17, 1.0]))
+        if step == 20:
+            sim.remove_obstacle(door)
+        sim.step()
+        rec.record()
+    stage = Usd.Stage.Open(str(rec.trajectories().save(tmp_path / "live.usda")))
+    prim = UsdGeom.Imageable(stage.GetPrimAtPath(f"/World/Obstacles/obstacle_{door}"))
+    seen = {t: prim.ComputeVisibility(Usd.TimeCode(t * stage.GetTimeCodesPerSecond())) for t in (0.0, 0.5, 1.5, 2.5)}
+    assert seen == {0.0: "invisible", 0.5: "invisible", 1.5: "inherited", 2.5: "invisible"}
+    codes = stage.GetPrimAtPath("/World/Crowd").GetAttribute("positions").GetTimeSamples()
+    assert len(codes) == 31 and all(c == round(c, 9) for c in codes), "2.4, not 2.4000000000000004"
+    fps24 = Trajectories(np.zeros((49, 1, 2)), 1 / 24).save(tmp_path / "24.usda")
+    stage24 = Usd.Stage.Open(str(fps24))
+    codes = stage24.GetPrimAtPath("/World/Crowd").GetAttribute("positions").GetTimeSamples()
+    assert codes == list(range(49)), "whole time codes at 24 fps, not 6.999999999999999"
+
+
 def test_axis_mapping_is_its_own_inverse():
     p = np.random.default_rng(0).normal(size=(5, 3))
     np.testing.assert_allclose(from_usd_frame(to_usd_frame(p), 3), p)

@@ -408,6 +408,15 @@ def test_set_goals_keeps_each_goal_with_its_agent_whatever_the_order_of_ids():
     assert sim.goals[ids].tolist() == [[18, 1], [18, 5], [18, 9]]
 
 
+def test_set_goals_names_an_id_given_twice_with_a_goal_each():
+    sim = rvo.Simulator(cm.Scene(bounds=([0, 0], [20, 10])))
+    ids = sim.add_agents([[2, 2], [2, 5]], [18, 5])
+    with pytest.raises(ValueError, match=r"set_goals: agent 1 is given twice"):
+        sim.set_goals([1, 1], [[15, 5], [16, 6]])
+    sim.set_goals([ids[0], ids[0]], [15, 5])  # one goal for all: a repeat does no harm
+    assert sim.goals[ids[0]].tolist() == [15, 5]
+
+
 def test_set_goals_can_make_an_agent_stay_at_or_leave_by_its_goal():
     sim = rvo.Simulator(cm.Scene(bounds=([0, 0], [20, 10])))
     stays, goes = sim.add_agents([[2, 3], [2, 7]], [4, 5])

@@ -35,7 +35,9 @@ faces the agent's facing. The stage stays Y-up; only the prototypes' frame is ch
   reads them (as custom properties of the World object; the add-on uses them);
 - ``Obstacles`` — cylinders, spheres, cubes and flat polygon meshes for the scene's static
   obstacles (moving ones at their start place, with their path as ``translate`` samples
-  at t × rate; a box's translate comes before its scale in ``xformOpOrder``).
+  at t × rate; a box's translate comes before its scale in ``xformOpOrder``; one that
+  stands only for a while, added or removed during a live run, with ``visibility``
+  samples: invisible before its start and from its end, held between them).
 
 Locomotion primvars (:mod:`crowdmotion.locomotion`), one value per agent, time-sampled:
 ``distance`` (float, m), ``gait_phase`` (float, strides in [0, 1); −1 for agents that are
@@ -225,7 +227,7 @@ def _set_extent(prim, UsdGeom, time=None) -> None:
         UsdGeom.Boundable(prim).CreateExtentAttr().Set(extent, tc)
 
 
-def _obstacles(stage, scene_dict: dict, UsdGeom, Gf, rate: float) -> None:
+def _obstacles(stage, scene_dict: dict, UsdGeom, Gf, Sdf, rate: float) -> None:
     from crowdmotion.scene import Box, Circle, Polygon, Scene, Sphere
 
     scene = Scene.from_dict(scene_dict)
@@ -266,9 +268,25 @@ def _obstacles(stage, scene_dict: dict, UsdGeom, Gf, rate: float) -> None:
             prim.AddScaleOp().Set(Gf.Vec3f(*size.tolist()))
         if ob.is_moving:  # keyframes in seconds -> time codes
             for t, shift in zip(ob.path.times, ob.path.positions - ob.center):
-                op.Set(Gf.Vec3d(*(centre + to_usd_frame(shift)).tolist()), float(t) * rate)
+                op.Set(Gf.Vec3d(*(centre + to_usd_frame(shift)).tolist()), round(float(t) * rate, 9))
         else:
             op.Set(Gf.Vec3d(*np.asarray(centre, float).tolist()))
+        if ob.is_timed:  # standing only in [start, end): visibility is held between its samples
+            start, end = ob.present
+            vis = prim.CreateVisibilityAttr()
+            if np.isfinite(start):
+                vis.Set(UsdGeom.Tokens.invisible, round(min(float(start) * rate, 0.0) - 1.0, 9))
+                vis.Set(UsdGeom.Tokens.inherited, round(float(start) * rate, 9))
+            else:
+                vis.Set(UsdGeom.Tokens.inherited, round(min(float(end) * rate, 0.0) - 1.0, 9))
+            if np.isfinite(end):
+                vis.Set(UsdGeom.Tokens.invisible, round(float(end) * rate, 9))
+            # the same window as user properties (time codes): Blender's importer keeps them as the
+            # object's custom properties, where the add-on keys its visibility (it reads no visibility samples)
+            for key, value in (("present_from", start), ("present_until", end)):
+                if np.isfinite(value):
+                    prim.GetPrim().CreateAttribute(f"userProperties:crowdmotion:{key}", Sdf.ValueTypeNames.Double,
+                                                   custom=True).Set(round(float(value) * rate, 9))
 
 
 def _locomotion_primvars(loco: Locomotion) -> dict:
@@ -305,7 +323,8 @@ def write(traj: Trajectories, path: Path, locomotion: LocomotionParams | None = 
     up, forward = axis_name(prototype_up, "prototype_up"), axis_name(prototype_forward, "prototype_forward")
     Gf, Sdf, Usd, UsdGeom, Vt = _pxr()
     rate = stage_rate(traj)
-    codes = np.arange(traj.n_frames) * traj.dt * rate  # the time code of each frame
+    # the time code of each frame, rounded off the float noise of dt × rate (7, not 6.999999999999999)
+    codes = np.round(np.arange(traj.n_frames) * traj.dt * rate, 9)
     pos = to_usd_frame(traj.positions).astype(np.float32)
     act = traj.active_mask
     loco = traj.locomotion(locomotion)  # derived once per run: every file shares them
@@ -411,7 +430,7 @@ def write(traj: Trajectories, path: Path, locomotion: LocomotionParams | None = 
                 pe_attr.Set(UsdGeom.Points.ComputeExtent(p_attr.Get(tc), w_attr.Get(tc)), tc)
                 ie_attr.Set(inst.ComputeExtentAtTime(tc, tc), tc)
             if traj.metadata.get("scene"):
-                _obstacles(stage, traj.metadata["scene"], UsdGeom, Gf, rate)
+                _obstacles(stage, traj.metadata["scene"], UsdGeom, Gf, Sdf, rate)
             stage.GetRootLayer().Save()
             ok = True
         finally:

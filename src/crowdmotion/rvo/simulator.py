@@ -407,7 +407,9 @@ class Simulator(LiveObstacles):
         agent keeps its old goal. Agents that had arrived and stayed walk again; their
         stand-off state (yielding, detours) is cleared.
         """
-        ids = self._agent_ids(agents, "set_goals")
+        one_each = not isinstance(goals, MovingTarget) and np.ndim(goals) == 2 and len(goals) > 1
+        # a goal for each: an id given twice would leave its goals unmatched
+        ids = self._distinct_ids(agents, "set_goals") if one_each else self._agent_ids(agents, "set_goals")
         goal, target = self._goal_points(goals, len(ids))
         self._ensure_fields()
         if arrive_anywhere and not isinstance(goal_region, (Rect, Disc)):

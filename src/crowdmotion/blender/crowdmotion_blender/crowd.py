@@ -132,8 +132,32 @@ def read_run(filepath: str, scene=None, obstacles: bool = True) -> Run:
     if not obstacles:
         for ob in [o for o in bpy.data.objects if o.name.startswith("obstacle_")]:
             bpy.data.objects.remove(ob)
+    else:
+        show_while_present([o for o in bpy.data.objects if o.name.startswith("obstacle_")], scene.frame_start)
     scene.frame_set(scene.frame_start)
     return run
+
+
+def show_while_present(objects, frame_start: int) -> None:
+    """Key the visibility of obstacles that stood only for a while (added or removed during
+    a live run): hidden before ``crowdmotion:present_from`` and from
+    ``crowdmotion:present_until`` (custom properties, in frames, that the USD file carries;
+    Blender's importer puts a mesh prim's on its mesh)."""
+    for ob in objects:
+        keys = ("crowdmotion:present_from", "crowdmotion:present_until")
+        props = ob.data if ob.data is not None and any(k in ob.data.keys() for k in keys) else ob
+        start, end = (props.get(k) for k in keys)
+        if start is None and end is None:
+            continue
+        keys = [(frame_start, start is not None and start > frame_start)]
+        if start is not None and start > frame_start:
+            keys.append((math.ceil(start - 1e-6), False))
+        if end is not None:
+            keys.append((max(math.ceil(end - 1e-6), frame_start), True))
+        for frame, hidden in keys:
+            ob.hide_viewport = ob.hide_render = hidden
+            ob.keyframe_insert("hide_viewport", frame=frame)
+            ob.keyframe_insert("hide_render", frame=frame)
 
 
 def heading(forward: np.ndarray) -> np.ndarray:
