@@ -60,9 +60,15 @@ class CollisionReport:
 
 
 def _interval_mask(traj: Trajectories) -> np.ndarray:
-    """(T-1, N): agent takes part in the interval [f, f+1] (active at both ends)."""
+    """(T-1, N): agent takes part in the interval [f, f+1] (active at both ends, and not
+    jumping in it: ``metadata["jumps"]``, ``[time, agent]`` pairs, a live run's ``place()``)."""
     a = traj.active_mask
-    return a[:-1] & a[1:]
+    mask = a[:-1] & a[1:]
+    for t, i in traj.metadata.get("jumps") or []:
+        f = int(np.floor(float(t) / traj.dt + 1e-9))  # the interval the jump leaves from
+        if 0 <= f < len(mask) and 0 <= int(i) < traj.n_agents:
+            mask[f, int(i)] = False
+    return mask
 
 
 def agent_overlaps(traj: Trajectories, tolerance: float = 0.0, max_events: int = MAX_EVENTS,

@@ -520,9 +520,9 @@ def relaxed_steps(traj, window_s: float, scene: Scene | None, max_speed: np.ndar
     audited in continuous time: a step where bodies touch that did not in ``traj``, or that
     outruns ``max_speed``, keeps the run's own move, eased in and out
     (:func:`crowdmotion.smoothing.keep_clean`). An agent active over more than one run of
-    frames keeps its own path. ``metadata["relaxed"]`` says what was done: the window, the
-    iterations and how many path steps (``straight_segments`` of ``segments``) kept their
-    own move."""
+    frames, or that jumps (``metadata["jumps"]``: a live run's ``place()``), keeps its own
+    path. ``metadata["relaxed"]`` says what was done: the window, the iterations and how
+    many path steps (``straight_segments`` of ``segments``) kept their own move."""
     from crowdmotion.smoothing import keep_clean, speed_limits
     from crowdmotion.trajectories import Trajectories
 
@@ -534,6 +534,8 @@ def relaxed_steps(traj, window_s: float, scene: Scene | None, max_speed: np.ndar
                 max_speed=top)
     runs = act[0].astype(int) + (act[1:] & ~act[:-1]).sum(axis=0)
     broken = runs > 1  # relax assumes one run of frames: these keep their own paths
+    for _, i in traj.metadata.get("jumps") or []:  # and one unbroken path: an agent placed elsewhere keeps its own
+        broken[int(i)] = True
     pos[:, broken] = traj.positions[:, broken]
     smooth = Trajectories(pos, traj.dt, ids=traj.ids, group=traj.group, radius=traj.radius, active=traj.active,
                           metadata={**traj.metadata})

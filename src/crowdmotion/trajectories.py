@@ -260,22 +260,22 @@ def resample(traj: Trajectories, fps: float, kind: str = "linear") -> Trajectori
     u = t_new / traj.dt  # position in steps
     k = np.minimum(np.floor(u).astype(int), traj.n_frames - 2) if traj.n_frames > 1 else np.zeros(n_new, int)
     s = (u - k)[:, None, None]
-    P = traj.positions
-    if traj.n_frames == 1:
-        pos = np.repeat(P, n_new, axis=0)
-    elif kind == "linear":
-        pos = P[k] * (1 - s) + P[k + 1] * s
-    elif kind == "catmull-rom":
-        p0 = P[np.maximum(k - 1, 0)]
-        p1, p2 = P[k], P[k + 1]
-        p3 = P[np.minimum(k + 2, traj.n_frames - 1)]
-        pos = 0.5 * ((2 * p1) + (-p0 + p2) * s + (2 * p0 - 5 * p1 + 4 * p2 - p3) * s**2
-                     + (-p0 + 3 * p1 - 3 * p2 + p3) * s**3)
-    else:  # uniform cubic B-spline, control points the frames with reflected ends
-        C = np.concatenate([2 * P[:1] - P[1:2], P, 2 * P[-1:] - P[-2:-1]])  # C[k + 1] = P[k]
-        p0, p1, p2, p3 = C[k], C[k + 1], C[k + 2], C[k + 3]
-        pos = ((1 - s) ** 3 * p0 + (3 * s**3 - 6 * s**2 + 4) * p1 + (-3 * s**3 + 3 * s**2 + 3 * s + 1) * p2
-               + s**3 * p3) / 6.0
+    pos = _along(traj.positions, u, kind)
+    # an agent that jumps (``metadata["jumps"]``: placed elsewhere in a live run) is resampled
+    # piece by piece between its jumps, each piece ending where it was; the jump keeps its
+    # place: it leaves from the last new frame before the step it was made in ends
+    jumps = []
+    pieces: dict[int, list[int]] = {}
+    for t, i in traj.metadata.get("jumps") or []:
+        f = int(np.floor(float(t) / traj.dt + 1e-9))
+        if 0 <= f < traj.n_frames - 1 and 0 <= int(i) < traj.n_agents:
+            pieces.setdefault(int(i), []).append(f)
+            jumps.append([float(t_new[np.flatnonzero(u < f + 1 - 1e-9)[-1]]), int(i)])
+    for i, fs in pieces.items():
+        bounds = [0] + sorted(f + 1 for f in set(fs)) + [traj.n_frames]
+        for a, b in zip(bounds[:-1], bounds[1:]):  # frames a .. b-1, one piece
+            sel = (u >= a - 1e-9) & (u < b - 1e-9) if b < traj.n_frames else u >= a - 1e-9
+            pos[sel, i] = _along(traj.positions[a:b, i:i + 1], np.clip(u[sel] - a, 0.0, b - 1 - a), kind)[:, 0]
     active = stage = None
     held = np.minimum(np.ceil(u - 1e-9).astype(int), traj.n_frames - 1)  # the frame each new one ends in
     if traj.active is not None:  # in the scene at the frames on both sides: from the frame it entered in,
@@ -284,6 +284,8 @@ def resample(traj: Trajectories, fps: float, kind: str = "linear") -> Trajectori
     if traj.stage is not None:  # (-1 where it is not in the scene)
         stage = traj.stage[held] if active is None else np.where(active, traj.stage[held], -1).astype(traj.stage.dtype)
     meta = {**traj.metadata, "resampled": {"fps": fps, "kind": kind, "step_dt": traj.dt}}
+    if jumps:
+        meta["jumps"] = jumps
     facing = None
     if traj.has_own_facing:  # turned through, the short way
         from crowdmotion.facing import wrap
@@ -293,6 +295,29 @@ def resample(traj: Trajectories, fps: float, kind: str = "linear") -> Trajectori
         facing = wrap(yaw[k] * (1 - s2) + yaw[np.minimum(k + 1, traj.n_frames - 1)] * s2)
     return Trajectories(pos, 1.0 / fps, ids=traj.ids, group=traj.group, radius=traj.radius, active=active,
                         metadata=meta, facing=facing, stage=stage)
+
+
+def _along(P: np.ndarray, u: np.ndarray, kind: str) -> np.ndarray:
+    """Positions at ``u`` (steps from frame 0, within the frames) along the frames ``P``
+    (T, N, D) joined by ``kind`` (see :func:`resample`)."""
+    n = P.shape[0]
+    if n == 1:
+        return np.repeat(P, len(u), axis=0)
+    k = np.minimum(np.floor(u).astype(int), n - 2)
+    s = (u - k)[:, None, None]
+    if kind == "linear":
+        return P[k] * (1 - s) + P[k + 1] * s
+    if kind == "catmull-rom":
+        p0 = P[np.maximum(k - 1, 0)]
+        p1, p2 = P[k], P[k + 1]
+        p3 = P[np.minimum(k + 2, n - 1)]
+        return 0.5 * ((2 * p1) + (-p0 + p2) * s + (2 * p0 - 5 * p1 + 4 * p2 - p3) * s**2
+                      + (-p0 + 3 * p1 - 3 * p2 + p3) * s**3)
+    # uniform cubic B-spline, control points the frames with reflected ends
+    C = np.concatenate([2 * P[:1] - P[1:2], P, 2 * P[-1:] - P[-2:-1]])  # C[k + 1] = P[k]
+    p0, p1, p2, p3 = C[k], C[k + 1], C[k + 2], C[k + 3]
+    return ((1 - s) ** 3 * p0 + (3 * s**3 - 6 * s**2 + 4) * p1 + (-3 * s**3 + 3 * s**2 + 3 * s + 1) * p2
+            + s**3 * p3) / 6.0
 
 
 def _lazy_facing(name: str) -> property:

@@ -71,3 +71,51 @@ def test_a_frame_missed_or_taken_twice_is_refused():
         rec.record()
     with pytest.raises(ValueError, match="smoothing must be 'relaxed' or 'none'"):
         rec.trajectories(smoothing="soft")
+
+
+def _teleport(dt=1 / 60):
+    """One agent driven east at 1 m/s for 1 s, then placed across a wall, then driven on."""
+    scene = cm.Scene(bounds=([0, 0], [30, 20]), obstacles=[cm.Box([12, 6], [15, 14])])
+    sim = rvo.Simulator(scene, time_step=dt)
+    p = sim.add_agents([[2, 10]], [[2, 10]], radius=0.3)
+    sim.drive(p, [1.0, 0.0])
+    rec = rvo.Recorder(sim)
+    steps = int(round(1.0 / dt))
+    for _ in range(steps):
+        sim.step()
+        rec.record()
+    sim.place(p, [25, 10])
+    for _ in range(steps):
+        sim.step()
+        rec.record()
+    return scene, rec, steps
+
+
+@pytest.mark.parametrize("smoothing", ["none", "relaxed"])
+def test_an_agent_placed_across_a_wall_jumps_it_is_not_audited_as_walking_through(tmp_path, smoothing):
+    scene, rec, steps = _teleport()
+    traj = rec.trajectories(smoothing=smoothing)
+    assert traj.metadata["jumps"] == [[pytest.approx(1.0), 0]]
+    x = traj.positions[:, 0, 0]
+    assert x[steps] == pytest.approx(3.0) and x[steps + 1] == pytest.approx(25.0 + 1 / 60), "the jump stays a jump"
+    report = collision_audit(traj, scene)
+    assert report.agent_obstacle == 0 and report.agent_agent == 0, report
+    from crowdmotion.metrics import path_length
+
+    assert path_length(traj)[0] == pytest.approx(2.0, abs=0.02), "walked 2 m; the 22 m jump is not walked"
+    back = cm.Trajectories.load(traj.save(tmp_path / "t.parquet"))
+    assert back.metadata["jumps"] == traj.metadata["jumps"] and collision_audit(back, scene).agent_obstacle == 0
+
+
+@pytest.mark.parametrize("kind", ["linear", "catmull-rom", "b-spline"])
+def test_a_jump_resampled_to_24_fps_stays_a_jump(kind):
+    from crowdmotion.trajectories import resample
+
+    scene, rec, steps = _teleport(dt=0.25)  # 4 steps a second: new frames fall inside the jump's step
+    out = resample(rec.trajectories(smoothing="none"), 24.0, kind)
+    x = out.positions[:, 0, 0]
+    before, after = x[out.times < 1.25 - 1e-9], x[out.times >= 1.25 - 1e-9]
+    assert before.max() <= 3.0 + 1e-9 and after.min() >= 25.0, "nothing in between the two places"
+    assert np.allclose(before[out.times[:len(before)] >= 1.0], 3.0), "it holds its place until the step ends"
+    assert out.metadata["jumps"] == [[pytest.approx(out.times[len(before) - 1]), 0]]
+    assert collision_audit(out, scene).agent_obstacle == 0

@@ -9,6 +9,10 @@ where it first stood; the scene with every obstacle that stood and when
 (``metadata["scene"]``, so the HTML player and the audit see each in its own frames);
 and, by default, the steps relaxed for the characters that play them, as ``rvo.simulate``
 relaxes its runs (``RVOParams.smoothing``; :func:`crowdmotion.path_relaxation.relaxed_steps`).
+An agent moved by ``place()`` jumps: ``metadata["jumps"]`` lists ``[time, agent]`` (the
+time of the frame it leaves, seconds from the first frame), and the continuous-time audit
+(:func:`crowdmotion.metrics.collision_audit`), path lengths and speeds do not take that
+frame's move as walked; the relaxation keeps such an agent's own path.
 """
 
 from __future__ import annotations
@@ -35,6 +39,8 @@ class Recorder:
         self._positions: list[np.ndarray] = []
         self._present: list[np.ndarray] = []
         self._steps: list[int] = []
+        self._jumps: list[tuple[int, int]] = []  # (frame the jump leaves, agent) of each place()
+        self._placed = len(sim.placements)  # place() calls seen so far (earlier ones are in the first frame)
         self.record()
 
     def record(self) -> None:
@@ -43,6 +49,10 @@ class Recorder:
         if self._steps and steps != self._steps[-1] + 1:
             raise ValueError(f"Recorder.record: the simulator is at step {steps} and the last frame was taken at step "
                              f"{self._steps[-1]}: record once after every step()")
+        for at, ids in self.sim.placements[self._placed:]:
+            if self._steps and at == self._steps[-1]:  # placed after the last frame: it jumps on the way to this one
+                self._jumps += [(len(self._steps) - 1, int(i)) for i in ids]
+        self._placed = len(self.sim.placements)
         self._positions.append(self.sim.positions.copy())
         self._present.append(self.sim.present.copy())
         self._steps.append(steps)
@@ -76,6 +86,7 @@ class Recorder:
         for i in np.flatnonzero(seen & (first > 0)):
             frames[:first[i], i] = frames[first[i], i]
         metadata = {"method": "rvo", "live": True, "scene": sim.scene.to_dict(), "steps": int(self._steps[-1]),
+                    "jumps": [[f * sim.dt, i] for f, i in self._jumps],
                     "first_step": int(self._steps[0]), "stats": dict(sim.stats),
                     "personality": sim.personality.tolist()}
         traj = Trajectories(frames, sim.dt, group=np.array([f"agents {g}" for g in sim.group], dtype=object),

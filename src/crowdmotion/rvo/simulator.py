@@ -211,6 +211,9 @@ class Simulator(LiveObstacles):
         self.obstacles = ObstacleSet(scene)
         self.time = 0.0
         self.steps = 0
+        # (steps at the time, ids) of each place(): a Recorder marks those moves as jumps,
+        # which the audit and the relaxation for characters do not take as walked
+        self.placements: list[tuple[int, np.ndarray]] = []
         n0 = (0, 2)
         self.positions = np.zeros(n0)
         self.velocities = np.zeros(n0)
@@ -501,6 +504,7 @@ class Simulator(LiveObstacles):
         pos = _xy_each(positions, len(ids), "positions")
         self._check_placement(pos, self.params["radius"][ids], self.active[ids], ids)
         self.positions[ids] = pos
+        self.placements.append((self.steps, ids.copy()))
         self.lanes.forget(ids)
 
     def _goal_points(self, goals, n: int) -> tuple[np.ndarray, MovingTarget | None]:
