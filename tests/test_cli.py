@@ -3,6 +3,7 @@
 import json
 from pathlib import Path
 
+import numpy as np
 import pytest
 
 from crowdmotion.cli import main
@@ -388,3 +389,16 @@ def test_a_run_where_everyone_arrives_names_no_limit(tmp_path, capsys):
     summary = json.loads((tmp_path / "out" / "summary.json").read_text())
     assert summary["arrival_rate"] == 1.0 and "ended_at_limit" not in summary
     assert "the run stopped at" not in capsys.readouterr().out
+
+
+def test_two_trajectory_files_exported_side_by_side_keep_their_own_exports(tmp_path, capsys):
+    from crowdmotion import Trajectories
+
+    for name, x in (("session1", 1.0), ("session2", 2.0)):
+        Trajectories(np.full((3, 1, 2), x), 0.25).save(tmp_path / f"{name}.parquet")
+        assert main(["export", str(tmp_path / f"{name}.parquet"), "--to", "csv"]) == 0
+    assert Trajectories.load(tmp_path / "session1.csv").positions[0, 0, 0] == 1.0
+    assert Trajectories.load(tmp_path / "session2.csv").positions[0, 0, 0] == 2.0
+    capsys.readouterr()
+    assert main(["export", str(tmp_path / "session1.csv"), "--to", "csv"]) == 2
+    assert "session1.csv is the file being exported" in capsys.readouterr().err

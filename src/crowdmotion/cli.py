@@ -540,7 +540,11 @@ def cmd_export(args) -> int:
                              .replace("prototype_forward", "--prototype-forward")) from None
     src, traj = _load_run(args.output)
     folder = src.parent
-    dest = Path(args.dest) if args.dest else folder / f"trajectories{EXPORT_FORMATS[args.to]}"
+    # named after what it exports (a run's trajectories.parquet: trajectories.usdc), so that two
+    # files exported side by side do not overwrite each other's export
+    dest = Path(args.dest) if args.dest else folder / f"{src.stem}{EXPORT_FORMATS[args.to]}"
+    if dest.resolve() == src.resolve():
+        raise ValueError(f"{dest} is the file being exported: name the export with -o")
     fps = args.fps
     if fps is None and args.to in USD_FORMATS and traj.fps < USD_FPS:  # a DCC plays 24 frames a second
         fps = USD_FPS
@@ -860,7 +864,8 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("output", help="a run's output folder (or a trajectories file)")
     p.add_argument("--to", required=True, choices=sorted(EXPORT_FORMATS),
                    help="sqlite/jupedsim: JuPedSim v2 (PedPy reads it); usd/usdc: binary USD; usda: text USD")
-    p.add_argument("-o", "--dest", help="file to write (default: trajectories.<ext> beside the input)")
+    p.add_argument("-o", "--dest", help="file to write (default: beside the input, named as it is: a run's "
+                                        "trajectories.<ext>, session.<ext> for session.parquet)")
     p.add_argument("--fps", type=_fps, help="resample to this frame rate first (e.g. 24 for Blender's default; "
                                              "USD is written at 24 fps unless the run has more frames a second)")
     p.add_argument("--interpolation", choices=("b-spline", "catmull-rom", "linear"), default="b-spline",

@@ -1,5 +1,7 @@
 """The interactive RVO simulator as a user drives it: bad state set by hand is refused."""
 
+import warnings
+
 import numpy as np
 import pytest
 
@@ -761,3 +763,21 @@ def test_a_goal_an_obstacle_covered_while_nobody_walked_to_it_is_refused_when_gi
     with pytest.raises(ValueError, match="no cell free of obstacles"):
         sim.set_goals([1], spot)
     assert np.allclose(sim.goals[1], [18, 8])
+
+
+def test_an_agent_sent_to_a_goal_walled_in_is_warned_of_once_at_the_next_step():
+    scene = cm.Scene(bounds=([0, 0], [30, 20]), obstacles=[
+        cm.Box([20, 10], [24, 10.5]), cm.Box([20, 13.5], [24, 14]), cm.Box([20, 10], [20.5, 14]),
+        cm.Box([23.5, 10], [24, 14])])  # a closed pocket round (22, 12)
+    sim = rvo.Simulator(scene, time_step=0.25)
+    ids = sim.add_agents([[2, 2], [2, 6]], [[28, 2], [28, 6]], radius=0.3)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        sim.step()  # both goals reachable: nothing to say
+    sim.set_goals([ids[1]], [22, 12])
+    with pytest.warns(UserWarning, match=r"agent 1 cannot reach its goal: obstacles standing now cut the way"):
+        sim.step()
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        sim.step()  # said once
+    assert sim.unreachable().tolist() == [False, True]

@@ -214,6 +214,7 @@ class Simulator(LiveObstacles):
         # (steps at the time, ids) of each place(): a Recorder marks those moves as jumps,
         # which the audit and the relaxation for characters do not take as walked
         self.placements: list[tuple[int, np.ndarray]] = []
+        self._unchecked = np.zeros(0, dtype=np.int64)  # agents added or sent on whose goal the field has not judged
         n0 = (0, 2)
         self.positions = np.zeros(n0)
         self.velocities = np.zeros(n0)
@@ -386,6 +387,7 @@ class Simulator(LiveObstacles):
         if target is not None:
             self._targets.append((target, ids))
         self._fields_stale |= not keep
+        self._unchecked = np.concatenate([self._unchecked, ids])
         self._admit()
         return ids
 
@@ -428,6 +430,7 @@ class Simulator(LiveObstacles):
         self.arrival_time[ids] = np.nan
         self.deadlock.forget(ids)
         self.lanes.forget(ids)
+        self._unchecked = np.concatenate([self._unchecked, ids])
 
     def add_goal_regions(self, regions) -> None:
         """Make the guidance fields of ``regions`` (Rect, Disc or Points) known before the
@@ -1022,6 +1025,7 @@ class Simulator(LiveObstacles):
             return
         prims = self.obstacles.at(self.time, self.dt)
         wanted, aim = self._guidance(prims)
+        self._warn_unreachable()
         p = self.params
         driven = self.driven & self.active
         steer = self.active  # the agents whose velocity the crowd's choice sets
@@ -1142,6 +1146,27 @@ class Simulator(LiveObstacles):
         if gone.any():
             self.active &= ~gone
             self.velocities[gone] = 0.0
+
+    def _warn_unreachable(self) -> None:
+        """Warn, once, of agents added or sent on since the last step whose goal the
+        guidance field (solved by now) says they cannot reach: they would press against
+        what cuts them off. Those still waiting to enter are judged once they are in."""
+        ids = self._unchecked
+        if not len(ids):
+            return
+        here = self.active[ids]
+        self._unchecked = ids[~here & self.waiting[ids]]
+        now = ids[here & ~self.driven[ids]]
+        if self._fields is None or not len(now):
+            return
+        cut = now[~self._fields.reachable(self.field_of[now], self.positions[now], window=2)]
+        if len(cut):
+            who = ", ".join(str(int(i)) for i in cut[:5]) + (f" and {len(cut) - 5} more" if len(cut) > 5 else "")
+            warnings.warn(f"agent{'s' if len(cut) > 1 else ''} {who} cannot reach {'their goals' if len(cut) > 1 else 'its goal'}"
+                          f": obstacles standing now cut the way on the guidance field ({self._fields.cell:g} m "
+                          f"cells); until one is removed, {'they stand' if len(cut) > 1 else 'it stands'} pressed "
+                          f"against what blocks it. Simulator.unreachable() says which agents", UserWarning,
+                          stacklevel=4)
 
     def unreachable(self) -> np.ndarray:
         """(N,) active agents the guidance field says cannot reach their goal: no cell of
