@@ -68,3 +68,23 @@ def assert_usd_obstacles_where_the_scene_has_them(traj: Trajectories, folder: pa
             want_lo, want_hi = _scene_bound(ob, scene.dim, t)
             np.testing.assert_allclose(np.concatenate([lo, hi]), np.concatenate([want_lo, want_hi]), atol=2e-3,
                                        err_msg=f"obstacle {k} ({type(ob).__name__}) at frame {f}")
+
+
+def door_session():
+    """A live RVO session recorded at 10 steps a second: one walker, a wall that always
+    stands (obstacle 0) and a door dropped in at 1 s and taken away at 2 s; returns the
+    recorded trajectories and the door's obstacle index."""
+    import crowdmotion as cm
+    from crowdmotion import rvo
+
+    sim = rvo.Simulator(cm.Scene(bounds=([0, 0], [20, 10]), obstacles=[cm.Box([5, 8], [6, 9])]), time_step=0.1)
+    sim.add_agents([[2, 5]], [18, 5])
+    rec = rvo.Recorder(sim)
+    for step in range(30):
+        if step == 10:
+            door = sim.add_obstacle(cm.Box([16, 0.2], [17, 1.0]))
+        if step == 20:
+            sim.remove_obstacle(door)
+        sim.step()
+        rec.record()
+    return rec.trajectories(), door

@@ -40,20 +40,11 @@ def test_blender_puts_agents_and_obstacles_where_the_trajectories_say(tmp_path):
 
 
 def test_an_obstacle_dropped_in_during_a_live_run_shows_in_blender_only_while_it_stood(tmp_path):
-    from crowdmotion import blender, rvo
+    from crowdmotion import blender
+    from tests.io.readers import door_session
 
-    # a door dropped in at 1 s and taken away at 2 s: frames 24-47 of the 24 fps stage
-    sim = rvo.Simulator(cm.Scene(bounds=([0, 0], [20, 10]), obstacles=[cm.Box([5, 8], [6, 9])]), time_step=0.1)
-    sim.add_agents([[2, 5]], [18, 5])
-    rec = rvo.Recorder(sim)
-    for step in range(30):
-        if step == 10:
-            door = sim.add_obstacle(cm.Box([16, 0.2], [17, 1.0]))
-        if step == 20:
-            sim.remove_obstacle(door)
-        sim.step()
-        rec.record()
-    path = rec.trajectories().save(tmp_path / "live.usdc")
+    traj, door = door_session()  # the door stands from 1 to 2 s: frames 24-47 of the 24 fps stage
+    path = traj.save(tmp_path / "live.usdc")
     frames = [0, 23, 24, 47, 48, 60]
     done = subprocess.run([BLENDER_PYTHON, str(pathlib.Path(__file__).with_name("blender_visibility_check.py")),
                            str(pathlib.Path(blender.__file__).parent), str(path), *map(str, frames)],

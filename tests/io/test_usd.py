@@ -72,21 +72,10 @@ def test_obstacles_sit_where_the_scene_has_them_and_move_on_time(tmp_path):
 def test_an_obstacle_that_stands_for_a_while_is_visible_only_then(tmp_path):
     from pxr import Usd, UsdGeom
 
-    import crowdmotion as cm
-    from crowdmotion import rvo
+    from tests.io.readers import door_session
 
-    # a live session: a door dropped in at 1 s and taken away at 2 s, recorded at 10 steps a second
-    sim = rvo.Simulator(cm.Scene(bounds=([0, 0], [20, 10])), time_step=0.1)
-    sim.add_agents([[2, 5]], [18, 5])
-    rec = rvo.Recorder(sim)
-    for step in range(30):
-        if step == 10:
-            door = sim.add_obstacle(cm.Box([16, 0.2], [17, 1.0]))
-        if step == 20:
-            sim.remove_obstacle(door)
-        sim.step()
-        rec.record()
-    stage = Usd.Stage.Open(str(rec.trajectories().save(tmp_path / "live.usda")))
+    traj, door = door_session()  # a door dropped in at 1 s and taken away at 2 s
+    stage = Usd.Stage.Open(str(traj.save(tmp_path / "live.usda")))
     prim = UsdGeom.Imageable(stage.GetPrimAtPath(f"/World/Obstacles/obstacle_{door}"))
     seen = {t: prim.ComputeVisibility(Usd.TimeCode(t * stage.GetTimeCodesPerSecond())) for t in (0.0, 0.5, 1.5, 2.5)}
     assert seen == {0.0: "invisible", 0.5: "invisible", 1.5: "inherited", 2.5: "invisible"}
