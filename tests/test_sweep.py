@@ -69,3 +69,30 @@ def test_a_sweep_setting_another_methods_field_is_refused_naming_it(tmp_path):
     path.write_text(GOOD)
     with pytest.raises(ScenarioError, match=r"rvo: a \[rvo\] table, but method = 'mdp'"):
         plan(path, [0], {"rvo.samples": [5]})
+
+
+def test_a_sweep_report_gives_each_setting_its_own_intervals_and_a_second_sweep_is_not_written_over(tmp_path, capsys):
+    import json
+
+    path = tmp_path / "s.toml"
+    path.write_text(GOOD)
+    out = tmp_path / "sw"
+    assert main(["sweep", str(path), "--seeds", "0:2", "--set", "mdp.tau=0.5,1.0", "--workers", "1", "-o", str(out),
+                 "-q"]) == 0
+    capsys.readouterr()
+    assert main(["report", str(out)]) == 0
+    printed = capsys.readouterr().out
+    assert "mdp.tau = 0.5:\n2 runs;" in printed and "mdp.tau = 1:\n2 runs;" in printed, printed
+    report = json.loads((out / "report.json").read_text())
+    assert report["settings"] == ["mdp.tau"] and [p["setting"] for p in report["by_setting"]] == \
+        [{"mdp.tau": 0.5}, {"mdp.tau": 1.0}] and [p["runs"] for p in report["by_setting"]] == [2, 2]
+    assert "groups" not in report, "no interval pooled over the settings"
+    assert sorted(k["seed"] for k in report["run_keys"]) == [0, 0, 1, 1]
+    # the same folder again: refused, then replaced with --overwrite
+    assert main(["sweep", str(path), "--seeds", "0:1", "-o", str(out), "-q"]) == 2
+    assert "holds an earlier sweep (sweep.parquet, 4 runs in runs/)" in capsys.readouterr().err
+    assert main(["sweep", str(path), "--seeds", "0:1", "--workers", "1", "-o", str(out), "-q", "--overwrite"]) == 0
+    assert len(list((out / "runs").glob("*.parquet"))) == 1 and not (out / "report.json").exists()
+    assert main(["report", str(out / "runs")]) == 2
+    assert f"it holds a sweep's runs; give the sweep's folder ({out})" in capsys.readouterr().err
+    assert pq.read_table(out / "sweep.parquet").num_rows == 1

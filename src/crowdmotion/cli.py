@@ -295,6 +295,9 @@ def _find_trajectories(out: Path) -> Path:
     for name in ("trajectories.parquet", "trajectories.csv"):
         if (out / name).is_file():
             return out / name
+    if (out.parent / "sweep.parquet").is_file():  # a sweep's runs/: its runs are the files in it
+        raise FileNotFoundError(f"no trajectories.parquet or trajectories.csv in {out}: it holds a sweep's runs; "
+                                f"give the sweep's folder ({out.parent}) to take them all, or one of its files")
     raise FileNotFoundError(f"no trajectories.parquet or trajectories.csv in {out}")
 
 
@@ -457,14 +460,16 @@ def _sweep_groups(text, folder: Path) -> dict:
 
 
 def _sweep_report(folder: Path) -> int:
-    """A sweep's runs: every group's measures as mean ± 95 % confidence interval over the
-    runs, and the personality paper's §6 claims its groups allow (crowdmotion.rvo.claims)."""
+    """A sweep's runs, for each combination of its swept settings on its own: every group's
+    measures as mean ± 95 % confidence interval over the runs, and the personality paper's
+    §6 claims its groups allow (crowdmotion.rvo.claims)."""
     import pyarrow.parquet as pq
 
     from crowdmotion.io.atomic import atomic_path
     from crowdmotion.io.longform import json_text
     from crowdmotion.progress import tracked
     from crowdmotion.rvo.claims import check_claims, format_claims, mean_ci
+    from crowdmotion.sweep import SUMMARY_KEYS
 
     try:
         table = pq.read_table(folder / "sweep.parquet").to_pylist()
@@ -481,9 +486,12 @@ def _sweep_report(folder: Path) -> int:
             path = folder / "runs" / path.name
         own = row.get("groups")  # the run's own group measures (older sweep tables have none)
         runs.append(_run_report(path, _load_trajectories(path), None if own is None else _sweep_groups(own, folder)))
-    groups = list(dict.fromkeys(g for r in runs for g in r))
-    stats = {g: {k: mean_ci([r[g][k] for r in runs if g in r and r[g][k] is not None])
-                 for k, _, _ in REPORT_COLUMNS} for g in groups}
+    # the swept settings (columns beside seed, file and the measures): each combination is
+    # reported on its own, as pooling them would mix what the sweep set out to compare
+    names = [k for k in table[0] if k not in {"scenario", "seed", "file", "groups", *SUMMARY_KEYS}]
+    combos: dict[tuple, list[int]] = {}
+    for i, row in enumerate(table):
+        combos.setdefault(tuple(row.get(n) for n in names), []).append(i)
 
     def cell(row, k, fmt):
         mean, half, n = row[k]
@@ -493,18 +501,38 @@ def _sweep_report(folder: Path) -> int:
             return f"{mean:.0f}"
         return fmt.format(mean) + ("" if n < 2 else f" ±{half:.2g}")
 
-    print(f"{len(runs)} runs; mean ± half-width of the 95 % confidence interval (Student's t)")
-    _print_report_table(stats, cell)
-    claims = check_claims(runs)
-    if any(c["a"] != "all" for c in claims):
-        print("\nthe personality paper's §6 observations (paired over runs):\n")
-        print(format_claims(claims))
+    parts = []
+    for values, rows in combos.items():
+        chosen = [runs[i] for i in rows]
+        groups = list(dict.fromkeys(g for r in chosen for g in r))
+        stats = {g: {k: mean_ci([r[g][k] for r in chosen if g in r and r[g][k] is not None])
+                     for k, _, _ in REPORT_COLUMNS} for g in groups}
+        claims = check_claims(chosen)
+        setting = dict(zip(names, values))
+        if names:
+            print(("\n" if parts else "") + ", ".join(f"{n} = {_shown(v)}" for n, v in setting.items()) + ":")
+        print(f"{len(chosen)} runs; mean ± half-width of the 95 % confidence interval (Student's t)")
+        _print_report_table(stats, cell)
+        if any(c["a"] != "all" for c in claims):
+            print("\nthe personality paper's §6 observations (paired over runs):\n")
+            print(format_claims(claims))
+        parts.append({"setting": setting, "runs": len(chosen), "groups": stats, "claims": claims})
+    report = {"runs": len(runs), "per_run": runs,
+              "run_keys": [{"seed": row.get("seed"), "setting": {n: row.get(n) for n in names}} for row in table]}
+    if names:
+        report.update({"settings": names, "by_setting": parts})
+    else:
+        report.update({"groups": parts[0]["groups"], "claims": parts[0]["claims"]})
     dest = folder / "report.json"
     with atomic_path(dest) as tmp:
-        tmp.write_text(json_text({"runs": len(runs), "groups": stats, "claims": claims, "per_run": runs},
-                                 indent=2))
+        tmp.write_text(json_text(report, indent=2))
     print(f"wrote {dest}")
     return 0
+
+
+def _shown(value) -> str:
+    """A swept setting's value as the table holds it, plainly (5.0 as 5)."""
+    return f"{value:g}" if isinstance(value, float) else str(value)
 
 
 USD_FORMATS = ("usd", "usda", "usdc")
@@ -675,7 +703,7 @@ def cmd_sweep(args) -> int:
     source = scenario_path(args.scenario)
     out = Path(args.output) if args.output else folder_inside("sweeps", source.stem)
     table = sweep(source, args.seeds, settings, out, scheduler=args.scheduler, workers=args.workers,
-                  progress=not args.quiet)
+                  progress=not args.quiet, overwrite=args.overwrite)
     print(f"{table.num_rows} runs; table {out / 'sweep.parquet'}, trajectories in {out / 'runs'}/")
     return 0
 
@@ -913,6 +941,8 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--scheduler", help="address of a running Dask scheduler (default: a LocalCluster)")
     p.add_argument("--workers", type=_positive_int, help="LocalCluster workers (default: the machine's cores)")
     p.add_argument("-o", "--output", help="output folder (default ./sweeps/<scenario>)")
+    p.add_argument("--overwrite", action="store_true",
+                   help="replace an earlier sweep in the output folder (its runs/, sweep.parquet and report.json)")
     p.add_argument("-q", "--quiet", action="store_true", help="no progress bar")
     p.set_defaults(func=cmd_sweep)
 
@@ -920,7 +950,8 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--quick", action="store_true", help="only the quick subset (seconds)")
     p.add_argument("--empirical", action="store_true",
                    help="compare with measured crowds instead: speed against density, bottleneck flow against "
-                        "width, counterflow lanes (FZJ, Weidmann, Kretz, Seyfried; 3 seeds each, minutes)")
+                        "width, a narrow door, counterflow lanes (FZJ, Weidmann, Kretz, Seyfried; 3 seeds each, the door 5; "
+                        "minutes)")
     p.add_argument("--case", nargs="*", help="only these cases (names as in the table)")
     p.add_argument("--method", nargs="*", choices=["rvo", "mdp", "formation"], help="only these methods")
     p.add_argument("-o", "--output", default="verify", help="folder for the pictures and verify.json (default ./verify)")

@@ -90,6 +90,22 @@ def run_one(data: dict, seed: int, setting: dict, path: str) -> dict:
     return row
 
 
+def clear_earlier(out: Path, overwrite: bool) -> None:
+    """Refuse a folder holding an earlier sweep (unless ``overwrite``: then remove its
+    ``runs/*.parquet``, ``sweep.parquet`` and ``report.json``, nothing else) or a run's files."""
+    if (out / "manifest.json").is_file():
+        raise ValueError(f"{out} holds a run's files (manifest.json): give the sweep a folder of its own with -o")
+    earlier = sorted((out / "runs").glob("*.parquet")) if (out / "runs").is_dir() else []
+    table = out / "sweep.parquet"
+    if not (earlier or table.is_file()):
+        return
+    if not overwrite:
+        raise ValueError(f"{out} holds an earlier sweep ({'sweep.parquet, ' if table.is_file() else ''}"
+                         f"{len(earlier)} runs in runs/): give another folder with -o, or --overwrite to replace it")
+    for f in [*earlier, table, out / "report.json"]:
+        f.unlink(missing_ok=True)
+
+
 def _cell(value: Any) -> Any:
     """A setting as a table cell: numbers as floats (so 1 and 2.5 share a column type),
     booleans and strings as they are, anything else as JSON."""
@@ -108,19 +124,21 @@ def _run_name(seed: int, setting: dict) -> str:
 def sweep(scenario: Scenario | str | Path, seeds: Iterable[int] = range(8),
           settings: dict[str, Sequence[Any]] | None = None, out: str | Path = "sweep",
           scheduler: str | None = None, workers: int | None = None, processes: bool = True,
-          progress: bool = True) -> pa.Table:
+          progress: bool = True, overwrite: bool = False) -> pa.Table:
     """Run the scenario for every seed × every combination of ``settings`` (dotted field
     -> values) on Dask; one ``<out>/runs/<seed_settings>.parquet`` per run and the table
     ``<out>/sweep.parquet`` (one row per run: seed, settings, file, metrics), returned.
 
     ``scheduler``: address of a running Dask scheduler; default a ``LocalCluster`` with
     ``workers`` workers (default: the machine's cores), in separate processes unless
-    ``processes=False``.
+    ``processes=False``. An earlier sweep in ``out`` is refused (ValueError), or with
+    ``overwrite`` its runs, table and report removed first; a run's folder is refused.
     """
     from dask.distributed import Client, LocalCluster, as_completed
 
     runs = plan(scenario, seeds, settings)
     out = Path(out)
+    clear_earlier(out, overwrite)
     (out / "runs").mkdir(parents=True, exist_ok=True)
     cluster = None
     if scheduler:
