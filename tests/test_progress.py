@@ -65,3 +65,13 @@ def test_bars_over_scenes_and_runs_write_lines_to_a_log():
         bar.update(1)  # the first: the clock starts, and a line says so
     assert log.getvalue().splitlines() == ["rvo_doorway: 120 agents", "demo: 1/3 scenes (33 %) in 0 s"]
     assert list(tracked([1, 2, 3], "report runs", "run", enabled=False)) == [1, 2, 3]
+
+
+def test_a_log_ends_on_the_final_count_not_the_first():
+    from crowdmotion.progress import counter
+
+    log = io.StringIO()
+    with counter(8, "sweep runs", "run", file=log) as bar:
+        for _ in range(8):
+            bar.update(1)
+    assert log.getvalue().splitlines() == ["sweep runs: 1/8 runs (12 %) in 0 s", "sweep runs: 8/8 runs (100 %) in 0 s"]

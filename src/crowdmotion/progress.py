@@ -51,6 +51,7 @@ class LineBar:
         self.n = 0
         self.start: float | None = None
         self.last = 0.0
+        self.shown = -1  # the count the last line gave
 
     def done(self, n: int) -> None:
         now = time.monotonic()
@@ -60,7 +61,15 @@ class LineBar:
         self.n = n
         if first or now - self.last >= LINE_EVERY_S:
             self.last = now
+            self.shown = self.n
             print(self.line(now), file=self.file, flush=True)
+
+    def finish(self) -> None:
+        """A last line with the final count, where the last line gave an earlier one (a log
+        otherwise ends on "1/8 runs (12 %) in 0 s")."""
+        if self.start is not None and self.n != self.shown:
+            self.shown = self.n
+            print(self.line(time.monotonic()), file=self.file, flush=True)
 
     def advance(self, k: int = 1) -> None:
         self.done(self.n + k)
@@ -99,7 +108,9 @@ def counter(total: int | None, desc: str, unit: str, enabled: bool = True, leave
     :class:`LineBar` on a log (on ``file``, default stderr), nothing when not ``enabled``."""
     stream = sys.stderr if file is None else file
     if enabled and not _terminal(stream):
-        yield LineBar(total, desc, unit, stream)
+        bar = LineBar(total, desc, unit, stream)
+        yield bar
+        bar.finish()
         return
     with tqdm(total=total, desc=desc, unit=unit, disable=not enabled, leave=leave, file=file) as bar:
         yield bar
