@@ -204,6 +204,9 @@ def write_gif(frames: list, path, fps: float) -> None:
     frames[0].save(path, format="GIF", save_all=True, append_images=frames[1:], duration=int(1000 / fps), loop=0)
 
 
+FEW_TARGETS = 20  # up to this many goals are targets drawn as stars over the paths; more are goal cells
+
+
 def plot_paths(traj: Trajectories, scene: Scene, path, title: str = "", goals=None) -> Path:
     """Every agent's path (start ○, end ●) over the scene's obstacles; 2D or 3D."""
     colours = _group_colours(traj)
@@ -227,7 +230,10 @@ def plot_paths(traj: Trajectories, scene: Scene, path, title: str = "", goals=No
                                             edgecolors=rgba, zorder=5), autolim=False)
         if goals is not None:
             g = np.atleast_2d(goals)
-            ax.plot(g[:, 0], g[:, 1], "s", color="gold", alpha=0.35, ms=6, zorder=1)
+            if len(g) > FEW_TARGETS:  # goal cells: a faint area under the paths
+                ax.plot(g[:, 0], g[:, 1], "s", color="gold", alpha=0.35, ms=6, zorder=1)
+            else:  # a few targets: on top, where the bodies that reach them do not hide them
+                ax.plot(g[:, 0], g[:, 1], "*", color="gold", mec="k", mew=0.7, ms=13, zorder=6)
         ax.set_xlim(scene.lower[0], scene.upper[0])
         ax.set_ylim(scene.lower[1], scene.upper[1])
         ax.set_aspect("equal")
@@ -265,7 +271,10 @@ def plot_paths(traj: Trajectories, scene: Scene, path, title: str = "", goals=No
     if goals is not None:
         from matplotlib.lines import Line2D
 
-        handles.append(Line2D([], [], marker="s", ls="", color="gold", alpha=0.5, label="goal cells / targets"))
+        if traj.dim == 2 and len(np.atleast_2d(goals)) > FEW_TARGETS:
+            handles.append(Line2D([], [], marker="s", ls="", color="gold", alpha=0.5, label="goal cells"))
+        else:
+            handles.append(Line2D([], [], marker="*", ls="", color="gold", mec="k", mew=0.7, ms=11, label="targets"))
     legend_outside(ax, handles)
     note = f" ({len(drawn)} of {traj.n_agents} paths drawn)" if len(drawn) < traj.n_agents else ""
     ax.set_title((title or f"{traj.n_agents} agents, {traj.n_frames} frames") + note)
