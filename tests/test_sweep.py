@@ -40,9 +40,11 @@ def test_sweep_command(tmp_path, capsys):
     assert "4 runs" in capsys.readouterr().out
     table = pq.read_table(out / "sweep.parquet")
     assert table.num_rows == 4 and sorted(set(table["mdp.tau"].to_pylist())) == [0.5, 1.0]  # numbers, not text
-    with pytest.raises(SystemExit) as exc:
-        main(["sweep", str(path), "--seeds", "a:b"])
-    assert exc.value.code == 2 and "--seeds must look like" in capsys.readouterr().err
+    for bad in ("a:b", "-1:2"):  # -1:2 is a seed range, not an option: told what is wrong with it
+        with pytest.raises(SystemExit) as exc:
+            main(["sweep", str(path), "--seeds", bad])
+        assert exc.value.code == 2 and f"--seeds must look like 0:100, 1,4,9 or 7 (whole numbers of at least 0), " \
+            f"got '{bad}'" in capsys.readouterr().err
 
 
 def test_sweep_set_seed_is_refused_pointing_to_seeds(tmp_path, capsys):

@@ -768,7 +768,7 @@ def main(argv=None) -> int:
     says why), 3 a run that ends with collisions, 130/143 interrupted, 1 an internal error."""
     from crowdmotion.interrupts import Interrupts, is_interrupt
 
-    args = build_parser().parse_args(argv)
+    args = build_parser().parse_args(_joined_negative_seeds(sys.argv[1:] if argv is None else list(argv)))
     warnings.showwarning = _one_line_warning
     with Interrupts() as stop:  # SIGTERM as Ctrl-C, for this command only
         args.interrupts = stop
@@ -786,6 +786,18 @@ def main(argv=None) -> int:
             return stop.exit_code or 130
         except Exception as exc:  # a bug of ours
             return _internal_error(exc)
+
+
+def _joined_negative_seeds(argv: list) -> list:
+    """``--seeds -1:2`` as ``--seeds=-1:2``: argparse takes ``-1:2`` for an option (it knows
+    only plain numbers as negative) and says "expected one argument" instead of what is wrong."""
+    out: list = []
+    for arg in argv:
+        if out and out[-1] == "--seeds" and isinstance(arg, str) and arg[:2] in {f"-{d}" for d in "0123456789"}:
+            out[-1] = f"--seeds={arg}"
+        else:
+            out.append(arg)
+    return out
 
 
 def _internal_error(exc: Exception) -> int:
