@@ -223,3 +223,16 @@ def test_group_report_time_to_goal_counts_from_entering():
     active[4:13, 1] = True
     rep = group_report(Trajectories(pos, 0.5, group=np.array(["g", "g"]), active=active))["g"]
     assert rep["time_to_goal_s"] == pytest.approx(3.5)
+
+
+def test_a_formation_run_at_its_step_limit_unrecovered_says_so_in_its_line():
+    from crowdmotion.metrics import headline, note_step_limit
+
+    summary = {"agents": 24, "frames": 10, "agent_agent_overlaps": 0, "agent_obstacle_penetrations": 0,
+               "formation": {"band": {"recovered_s": None, "edge_length_error_mean": 0.131}}}
+    note_step_limit(summary, "formation.max_steps", 1500, True, 150.0, short=True)
+    assert summary["ended_at_limit"] == {"setting": "formation.max_steps", "value": 1500, "simulated_s": 150.0}
+    assert "the run stopped at formation.max_steps = 1500, 150 s simulated" in headline(summary)
+    done = {k: v for k, v in summary.items() if k != "ended_at_limit"}
+    note_step_limit(done, "formation.max_steps", 1500, True, 150.0, short=False)  # recovered: nothing to say
+    assert "ended_at_limit" not in done

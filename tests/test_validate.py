@@ -330,3 +330,15 @@ def test_the_spawn_room_lower_bound_never_promises_more_room_than_the_sampled_co
         bound = _room_at_least(scene, group, 0.05)
         room, _ = spawn_room(scene, group, 0.05)
         assert bound <= room * 1.02 + 1, (trial, bound, room)
+
+
+def test_a_field_of_another_formation_kind_is_named_as_such_not_suggested_back(tmp_path, capsys):
+    path = scenario(tmp_path, "formation", 10, spawn='{ shape = "point", position = [5, 10] }',
+                    extra="")
+    text = path.read_text().replace('goal = { shape = "point", position = [28, 10] }',
+                                    'goal = { shape = "point", position = [28, 10] }\n'
+                                    'formation = { kind = "wedge", rows = 4, cols = 6, spacing = 1.2 }')
+    path.write_text(text)
+    err = refused(capsys, ["validate", str(path)], "formation.wedge.cols",
+                  "is not a field here ('cols' belongs to another table or kind, not this one)")
+    assert "did you mean 'cols'" not in err

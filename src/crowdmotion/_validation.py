@@ -106,9 +106,12 @@ def error_lines(err: ValidationError, prefix: str = "", known: Iterable[str] = (
             if said is not None:
                 msg, extra = said, ""
             else:
-                close = difflib.get_close_matches(key, known, n=1, cutoff=0.6)
-                msg = "is not a known field"
-                extra = f"; did you mean {close[0]!r}?" if close else ""
+                if key in known:  # another table's or kind's field (a block's cols in a wedge)
+                    msg = f"is not a field here ({key!r} belongs to another table or kind, not this one)"
+                else:
+                    close = difflib.get_close_matches(key, known, n=1, cutoff=0.6)
+                    msg = "is not a known field"
+                    extra = f"; did you mean {close[0]!r}?" if close else ""
         lines.append(f"{loc or '(top level)'}: {msg}{got}{extra}")
     return lines
 

@@ -525,12 +525,16 @@ def diversity(runs: list[Trajectories]) -> dict:
             "first_apart_s": None if first is None else first * runs[0].dt}
 
 
-def note_step_limit(summary: dict, setting: str, value: int, at_limit: bool, seconds: float) -> None:
+def note_step_limit(summary: dict, setting: str, value: int, at_limit: bool, seconds: float,
+                    short: bool | None = None) -> None:
     """Record in ``summary["ended_at_limit"]`` that the run stopped at its step limit (the
     scenario's ``setting`` = ``value``, ``seconds`` of simulated time: ``at_limit``) with
-    agents still short of their goals: they did not fail to arrive, the run ended. Nothing
-    when everyone arrived or the run stopped sooner (interrupted, or done)."""
-    if at_limit and summary.get("arrival_rate", 1.0) < 1.0:
+    agents still short of their goals (``short``; default: not everyone arrived): they did
+    not fail to arrive, the run ended. Nothing when everyone arrived or the run stopped
+    sooner (interrupted, or done)."""
+    if short is None:
+        short = summary.get("arrival_rate", 1.0) < 1.0
+    if at_limit and short:
         summary["ended_at_limit"] = {"setting": setting, "value": int(value), "simulated_s": float(seconds)}
 
 
@@ -550,4 +554,9 @@ def headline(summary: dict) -> str:
         done = sum(g["recovered_s"] is not None for g in groups.values())
         worst = max(g["edge_length_error_mean"] for g in groups.values())
         parts.append(f"formations recovered {done}/{len(groups)} (edge-length error {worst:.1%})")
+        limit = summary.get("ended_at_limit")
+        if limit and "arrival_rate" not in summary:
+            parts[-1] += (f"; the run stopped at {limit['setting']} = {limit['value']}, {limit['simulated_s']:g} s "
+                          f"simulated, before every formation had recovered: raise it, or give them room to re-form at "
+                          f"their goals")
     return ", ".join(parts)

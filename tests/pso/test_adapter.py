@@ -110,3 +110,11 @@ spawn = { shape = "rect", lower = [1, 1, 1], upper = [5, 5, 5] }
 goal = { shape = "point", position = [15, 15, 15] }
 """
     refused(text, "group 'drones' (groups.0) goal", "cannot be reached")
+
+
+def test_a_moving_target_led_through_an_obstacle_between_its_keyframes_is_refused_naming_the_time():
+    # both keyframes stand clear; the swarm reads the target every 100 iterations of 0.25 s,
+    # and at 25 s it lies inside the box
+    refused(scenario(goal='{ shape = "moving", times = [0, 40], positions = [[10, 10], [28, 10]] }'),
+            "group 'w' (groups.0) goal: the moving target passes through an obstacle: at t = 25 s "
+            "(between its keyframes at 0 and 40 s", "it is at [21.25, 10.0]")

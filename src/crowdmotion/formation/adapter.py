@@ -77,6 +77,8 @@ def run_scenario(scene, groups, params: FormationParams, rng, progress: bool = T
         due = np.array([g.enter_at for g in sim.groups])[sim.group_of]
         entered = np.array([np.nan if g.entered_at is None else g.entered_at for g in sim.groups])[sim.group_of]
         summary["entry"] = entry_report(traj.group, due, entered)
+    metrics.note_step_limit(summary, "formation.max_steps", params.max_steps, sim.steps >= params.max_steps,
+                            sim.steps * params.time_step, short=not sim.done)
     return traj, result, summary
 
 

@@ -74,6 +74,8 @@ def check_scenario(scene, groups, params: PSOParams) -> None:
             bad = points[int(np.argmin(clear))].tolist()
             raise ValueError(f"{where(i, g)} goal: the target {bad} is covered by an obstacle "
                              f"(clearance {clear.min():.3g} m < radius {g.radius} m)")
+        if isinstance(g.goal, MovingTarget):  # and where the swarm reads it, between the keyframes
+            _check_target_path(scene, i, g, params)
     check_start_points(scene, groups, apart=params.avoid_agents)
     for i, g in enumerate(groups):
         check_inside(scene, i, g, "spawn")
@@ -93,6 +95,27 @@ def check_scenario(scene, groups, params: PSOParams) -> None:
                           f"{params.iteration_time:g} s iteration lets a particle move at up to {top:.2f} m/s, above "
                           f"the group's max_speed {g.max_speed:g} m/s (PSO clamps per axis, as the paper does); "
                           f"lower pso.v_max or raise pso.iteration_time to keep to it", stacklevel=2)
+
+
+def _check_target_path(scene, i: int, g, params: PSOParams) -> None:
+    """Refuse a moving target that lies in an obstacle at a time the swarm reads it (every
+    ``iterations`` iterations from its first keyframe), naming the time and the keyframes
+    it lies between: the run would stop there."""
+    from crowdmotion.checks import where
+    from crowdmotion.pso.swarm import follow_schedule
+
+    times = follow_schedule(g.goal.times[0], g.goal.times[-1], params.iterations, params.iteration_time)
+    points = g.goal.at(times)
+    clear = scene.obstacle_distance(points, 0.0)
+    if np.any(clear < g.radius):
+        k = int(np.argmax(clear < g.radius))
+        after = int(np.searchsorted(g.goal.times, times[k], side="right"))
+        between = (f"between its keyframes at {g.goal.times[after - 1]:g} and {g.goal.times[after]:g} s"
+                   if 0 < after < len(g.goal.times) else "at a keyframe")
+        raise ValueError(f"{where(i, g)} goal: the moving target passes through an obstacle: at t = {times[k]:g} s "
+                         f"({between}, where the swarm reads it every {params.iterations} iterations of "
+                         f"{params.iteration_time:g} s) it is at {np.round(points[k], 3).tolist()}, clearance "
+                         f"{clear[k]:.3g} m < radius {g.radius} m; add a keyframe that leads it round")
 
 
 def _check_field(scene, groups, params: PSOParams) -> None:
@@ -180,11 +203,12 @@ def run_scenario(scene, groups, params: PSOParams, rng, progress: bool = True):
     })
     if result.due is not None:  # each swarm's delay, as one unit
         summary["entry"] = entry_report(names, result.due, result.entered_at)
-    limit = expected_steps(groups, params)  # k, or k per target update, within max_iterations
-    capped = limit >= params.max_iterations
+    # a run not interrupted ends at its iterations (k, or k after each target update, the
+    # last one past the target's last keyframe; within max_iterations) or when everyone is in
+    capped = summary["iterations"] >= params.max_iterations
     metrics.note_step_limit(summary, "pso.max_iterations" if capped else "pso.iterations",
-                            params.max_iterations if capped else params.iterations, summary["iterations"] >= limit,
-                            summary["iterations"] * params.iteration_time)
+                            params.max_iterations if capped else params.iterations,
+                            not traj.metadata.get("partial", False), summary["iterations"] * params.iteration_time)
     return traj, result, summary
 
 

@@ -92,12 +92,13 @@ def legend_outside(ax, handles, title: str | None = None) -> None:
               title_fontsize=8, frameon=False)
 
 
-def marker_handles() -> list:
-    """Legend entries that explain the start and end markers."""
+def marker_handles(to_scale: bool = True) -> list:
+    """Legend entries that explain the start and end markers (``to_scale``: the ends are
+    the bodies, as in 2D; in 3D they are dots)."""
     from matplotlib.lines import Line2D
 
     return [Line2D([], [], marker="o", ls="", mfc="none", mec="0.3", ms=5, label="start"),
-            Line2D([], [], marker="o", ls="", color="0.3", ms=6, label="end (body to scale)")]
+            Line2D([], [], marker="o", ls="", color="0.3", ms=6, label="end (body to scale)" if to_scale else "end")]
 
 
 TORN_EDGE = dict(color="red", alpha=0.6, linestyle="--")  # how a torn mesh edge is drawn
@@ -254,10 +255,14 @@ def plot_paths(traj: Trajectories, scene: Scene, path, title: str = "", goals=No
             p = traj.positions[act[:, i], i]
             c = colours[traj.group[i]]
             ax.plot(p[:, 0], p[:, 1], p[:, 2], "-", color=c, lw=0.8, alpha=0.8)
+            ax.scatter(*p[0], facecolors="none", edgecolors=c, s=16)
             ax.scatter(*p[-1], color=c, s=12)
         if goals is not None:
             g = np.atleast_2d(goals)
-            ax.scatter(g[:, 0], g[:, 1], g[:, 2], marker="*", color="gold", edgecolor="k", s=200)
+            if len(g) > FEW_TARGETS:  # goal cells: small and faint, under the agents that end there
+                ax.scatter(g[:, 0], g[:, 1], g[:, 2], marker="s", color="gold", alpha=0.25, s=10)
+            else:
+                ax.scatter(g[:, 0], g[:, 1], g[:, 2], marker="*", color="gold", edgecolor="k", s=200)
         ax.set_xlim(scene.lower[0], scene.upper[0])
         ax.set_ylim(scene.lower[1], scene.upper[1])
         ax.set_zlim(scene.lower[2], scene.upper[2])
@@ -266,12 +271,11 @@ def plot_paths(traj: Trajectories, scene: Scene, path, title: str = "", goals=No
         ax.set_ylabel("y (m)")
         ax.set_zlabel("z (m)")
     handles = [patches.Patch(color=c, label=n) for n, c in colours.items()]
-    if traj.dim == 2:
-        handles += marker_handles()
+    handles += marker_handles(to_scale=traj.dim == 2)
     if goals is not None:
         from matplotlib.lines import Line2D
 
-        if traj.dim == 2 and len(np.atleast_2d(goals)) > FEW_TARGETS:
+        if len(np.atleast_2d(goals)) > FEW_TARGETS:
             handles.append(Line2D([], [], marker="s", ls="", color="gold", alpha=0.5, label="goal cells"))
         else:
             handles.append(Line2D([], [], marker="*", ls="", color="gold", mec="k", mew=0.7, ms=11, label="targets"))
