@@ -87,3 +87,12 @@ def test_latecomers_go_round_to_the_free_side_of_a_full_goal_area():
         steps = traj.metadata["steps"]
         assert steps <= 90, f"seed {seed}: {steps} steps to settle"
         assert collision_audit(traj, scene).clean
+
+
+def test_a_3d_goal_above_the_ceiling_is_said_to_lie_outside_the_scene():
+    scene = cm.Scene(bounds=([0, 0, 0], [20, 20, 10]))
+    group = cm.Group("drones", 4, spawn=cm.Rect([1, 1, 1], [5, 5, 3]), goal=cm.Rect([12, 12, 11], [16, 16, 12]),
+                     radius=0.3)
+    with pytest.raises(ValueError, match=r"group 'drones' goal: rect \[12, 12, 11\]-\[16, 16, 12\] lies outside "
+                                         r"the scene: its grid of .* m cells spans"):
+        run(scene, [group], mdp.MDPParams(max_steps=10), np.random.default_rng(0))

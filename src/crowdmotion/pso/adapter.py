@@ -220,5 +220,11 @@ def write_plots(scene, result: PSORun, out, which, title: str = "") -> list:
     written = []
     if "paths" in which:
         targets = np.unique(result.swarm_run.targets.reshape(-1, result.scene.dim), axis=0)
-        written.append(plot_paths(result.trajectories, result.scene, out / "paths.png", title=title, goals=targets))
+        tracks = []  # each swarm's target over the run, as the swarm read it (a moving one changes)
+        for track in np.moveaxis(result.swarm_run.targets, 1, 0):
+            moved = np.r_[True, np.any(np.diff(track, axis=0) != 0, axis=1)]
+            if moved.sum() > 1:
+                tracks.append(track[moved])
+        written.append(plot_paths(result.trajectories, result.scene, out / "paths.png", title=title, goals=targets,
+                                  goal_paths=tracks))
     return written

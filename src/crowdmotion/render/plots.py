@@ -208,8 +208,9 @@ def write_gif(frames: list, path, fps: float) -> None:
 FEW_TARGETS = 20  # up to this many goals are targets drawn as stars over the paths; more are goal cells
 
 
-def plot_paths(traj: Trajectories, scene: Scene, path, title: str = "", goals=None) -> Path:
-    """Every agent's path (start ○, end ●) over the scene's obstacles; 2D or 3D."""
+def plot_paths(traj: Trajectories, scene: Scene, path, title: str = "", goals=None, goal_paths=None) -> Path:
+    """Every agent's path (start ○, end ●) over the scene's obstacles; 2D or 3D; with
+    ``goals`` marked and ``goal_paths`` (polylines: moving targets as followed) dashed."""
     colours = _group_colours(traj)
     act = traj.active_mask
     drawn = np.arange(traj.n_agents)
@@ -229,6 +230,8 @@ def plot_paths(traj: Trajectories, scene: Scene, path, title: str = "", goals=No
         ax.add_collection(EllipseCollection(2 * traj.radius[drawn], 2 * traj.radius[drawn], 0.0, units="xy",
                                             offsets=ends, offset_transform=ax.transData, facecolors=rgba,
                                             edgecolors=rgba, zorder=5), autolim=False)
+        for track in goal_paths or []:
+            ax.plot(track[:, 0], track[:, 1], "--", color="darkgoldenrod", lw=1.6, zorder=5)  # over the paths
         if goals is not None:
             g = np.atleast_2d(goals)
             if len(g) > FEW_TARGETS:  # goal cells: a faint area under the paths
@@ -257,6 +260,8 @@ def plot_paths(traj: Trajectories, scene: Scene, path, title: str = "", goals=No
             ax.plot(p[:, 0], p[:, 1], p[:, 2], "-", color=c, lw=0.8, alpha=0.8)
             ax.scatter(*p[0], facecolors="none", edgecolors=c, s=16)
             ax.scatter(*p[-1], color=c, s=12)
+        for track in goal_paths or []:
+            ax.plot(track[:, 0], track[:, 1], track[:, 2], "--", color="darkgoldenrod", lw=1.6)
         if goals is not None:
             g = np.atleast_2d(goals)
             if len(g) > FEW_TARGETS:  # goal cells: small and faint, under the agents that end there
@@ -279,6 +284,10 @@ def plot_paths(traj: Trajectories, scene: Scene, path, title: str = "", goals=No
             handles.append(Line2D([], [], marker="s", ls="", color="gold", alpha=0.5, label="goal cells"))
         else:
             handles.append(Line2D([], [], marker="*", ls="", color="gold", mec="k", mew=0.7, ms=11, label="targets"))
+    if goal_paths:
+        from matplotlib.lines import Line2D
+
+        handles.append(Line2D([], [], ls="--", color="darkgoldenrod", lw=1.6, label="target's path, as followed"))
     legend_outside(ax, handles)
     note = f" ({len(drawn)} of {traj.n_agents} paths drawn)" if len(drawn) < traj.n_agents else ""
     ax.set_title((title or f"{traj.n_agents} agents, {traj.n_frames} frames") + note)
@@ -312,7 +321,10 @@ def plot_values(values: np.ndarray, path, cell_size: float = 1.0, origin=(0.0, 0
     if v.ndim == 3:
         k = int(goal_cells[0][2]) if goal_cells is not None else v.shape[2] // 2
         v = v[:, :, k]
-        note = f" (slice z = {k})"
+        lo = (origin[2] if len(origin) > 2 else 0.0) + k * cell_size
+        note = f" (the slice z = {lo:.2f}-{lo + cell_size:.2f} m)"
+        if goal_cells is not None:  # the goal cells in this slice
+            goal_cells = np.asarray(goal_cells)[np.asarray(goal_cells)[:, 2] == k]
     dist = np.where(np.isfinite(v), -v, np.nan)
     fig, ax = plt.subplots(figsize=(8, 8 * v.shape[1] / v.shape[0] + 0.8))
     extent = (origin[0], origin[0] + v.shape[0] * cell_size, origin[1], origin[1] + v.shape[1] * cell_size)
