@@ -1,6 +1,7 @@
 """Progress bars: a total, 'loading its kernels' until the first step, a clock from there."""
 
 import io
+from types import SimpleNamespace
 
 from crowdmotion import progress
 from crowdmotion.progress import FIRST, LineBar, step_bar
@@ -56,9 +57,10 @@ def test_a_disabled_bar_writes_nothing():
     assert log.getvalue() == ""
 
 
-def test_bars_over_scenes_and_runs_write_lines_to_a_log():
+def test_bars_over_scenes_and_runs_write_lines_to_a_log(monkeypatch):
     from crowdmotion.progress import counter, tracked
 
+    monkeypatch.setattr(progress, "time", SimpleNamespace(monotonic=lambda: 100.0))  # no clock: the line says 0 s
     log = io.StringIO()
     with counter(3, "demo", "scene", file=log) as bar:
         bar.write("rvo_doorway: 120 agents", file=log)  # a line of the caller's own, as it is
@@ -67,9 +69,10 @@ def test_bars_over_scenes_and_runs_write_lines_to_a_log():
     assert list(tracked([1, 2, 3], "report runs", "run", enabled=False)) == [1, 2, 3]
 
 
-def test_a_log_ends_on_the_final_count_not_the_first():
+def test_a_log_ends_on_the_final_count_not_the_first(monkeypatch):
     from crowdmotion.progress import counter
 
+    monkeypatch.setattr(progress, "time", SimpleNamespace(monotonic=lambda: 100.0))  # no clock: the lines say 0 s
     log = io.StringIO()
     with counter(8, "sweep runs", "run", file=log) as bar:
         for _ in range(8):

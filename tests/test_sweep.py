@@ -31,12 +31,18 @@ def test_settings_multiply_the_runs_and_bad_values_name_the_field(tmp_path):
         plan(path, [-1], None)
 
 
-def test_sweep_command(tmp_path, capsys):
+def _tau_sweep(tmp_path, out, workers: int):
+    """The command on GOOD: seeds 0 and 1 x mdp.tau 0.5 and 1.0 into ``out``; its scenario file."""
     path = tmp_path / "s.toml"
     path.write_text(GOOD)
+    assert main(["sweep", str(path), "--seeds", "0:2", "--set", "mdp.tau=0.5,1.0", "--workers", str(workers), "-o",
+                 str(out), "-q"]) == 0
+    return path
+
+
+def test_sweep_command(tmp_path, capsys):
     out = tmp_path / "cli"
-    assert main(["sweep", str(path), "--seeds", "0:2", "--set", "mdp.tau=0.5,1.0", "--workers", "2", "-o", str(out),
-                 "-q"]) == 0
+    path = _tau_sweep(tmp_path, out, workers=2)
     assert "4 runs" in capsys.readouterr().out
     table = pq.read_table(out / "sweep.parquet")
     assert table.num_rows == 4 and sorted(set(table["mdp.tau"].to_pylist())) == [0.5, 1.0]  # numbers, not text
@@ -76,11 +82,8 @@ def test_a_sweep_setting_another_methods_field_is_refused_naming_it(tmp_path):
 def test_a_sweep_report_gives_each_setting_its_own_intervals_and_a_second_sweep_is_not_written_over(tmp_path, capsys):
     import json
 
-    path = tmp_path / "s.toml"
-    path.write_text(GOOD)
     out = tmp_path / "sw"
-    assert main(["sweep", str(path), "--seeds", "0:2", "--set", "mdp.tau=0.5,1.0", "--workers", "1", "-o", str(out),
-                 "-q"]) == 0
+    path = _tau_sweep(tmp_path, out, workers=1)
     capsys.readouterr()
     assert main(["report", str(out)]) == 0
     printed = capsys.readouterr().out

@@ -102,15 +102,25 @@ def _room_at_least(scene: Scene, group: Group, gap: float) -> int:
     return int(max(PLACEABLE_SHARE * free / body, 0.0))
 
 
+def region_box(region) -> tuple[np.ndarray, np.ndarray] | None:
+    """(lower, upper) corners of a rect or disc (sphere) region's bounding box; None for
+    other regions (points, moving targets)."""
+    if isinstance(region, Rect):
+        return region.lower, region.upper
+    if isinstance(region, Disc):
+        return region.center - region.radius, region.center + region.radius
+    return None
+
+
 def check_inside(scene: Scene, k: int, group: Group, part: str = "spawn", region=None) -> None:
     """Refuse a spawn or goal region (rect or disc; ``part``) that reaches outside the
     scene's bounds, where sampled starts or goal points would lie outside the scene
     (``region``: another area to check under the name ``part``, an entrance say)."""
     region = getattr(group, part) if region is None else region
-    if not isinstance(region, (Rect, Disc)):
+    box = region_box(region)
+    if box is None:
         return
-    lo, hi = (region.lower, region.upper) if isinstance(region, Rect) else \
-        (region.center - region.radius, region.center + region.radius)
+    lo, hi = box
     tol = 1e-9 * float(np.max(scene.upper - scene.lower))
     if np.any(lo < scene.lower - tol) or np.any(hi > scene.upper + tol):
         what = "goal points would lie outside the scene" if part == "goal" else "agents would start outside the scene"

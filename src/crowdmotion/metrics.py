@@ -64,10 +64,8 @@ def _interval_mask(traj: Trajectories) -> np.ndarray:
     jumping in it: ``metadata["jumps"]``, ``[time, agent]`` pairs, a live run's ``place()``)."""
     a = traj.active_mask
     mask = a[:-1] & a[1:]
-    for t, i in traj.metadata.get("jumps") or []:
-        f = int(np.floor(float(t) / traj.dt + 1e-9))  # the interval the jump leaves from
-        if 0 <= f < len(mask) and 0 <= int(i) < traj.n_agents:
-            mask[f, int(i)] = False
+    for f, i in traj.jump_steps():
+        mask[f, i] = False
     return mask
 
 
@@ -545,18 +543,20 @@ def headline(summary: dict) -> str:
              f"obstacle penetrations {summary['agent_obstacle_penetrations']}"]
     if "arrival_rate" in summary:
         parts.append(f"arrived {summary['arrival_rate']:.0%}")
-        limit = summary.get("ended_at_limit")
-        if limit:
-            parts[-1] += (f" (the run stopped at {limit['setting']} = {limit['value']}, {limit['simulated_s']:g} s "
-                          f"simulated, before the rest got there: raise it to let them arrive)")
+        if summary.get("ended_at_limit"):
+            parts[-1] += f" ({_stopped_at(summary)} before the rest got there: raise it to let them arrive)"
     if "formation" in summary:
         groups = summary["formation"]
         done = sum(g["recovered_s"] is not None for g in groups.values())
         worst = max(g["edge_length_error_mean"] for g in groups.values())
         parts.append(f"formations recovered {done}/{len(groups)} (edge-length error {worst:.1%})")
-        limit = summary.get("ended_at_limit")
-        if limit and "arrival_rate" not in summary:
-            parts[-1] += (f"; the run stopped at {limit['setting']} = {limit['value']}, {limit['simulated_s']:g} s "
-                          f"simulated, before every formation had recovered: raise it, or give them room to re-form at "
-                          f"their goals")
+        if summary.get("ended_at_limit") and "arrival_rate" not in summary:
+            parts[-1] += (f"; {_stopped_at(summary)} before every formation had recovered: raise it, or give them "
+                          f"room to re-form at their goals")
     return ", ".join(parts)
+
+
+def _stopped_at(summary: dict) -> str:
+    """``the run stopped at rvo.max_steps = 400, 100 s simulated,`` from ``ended_at_limit``."""
+    limit = summary["ended_at_limit"]
+    return f"the run stopped at {limit['setting']} = {limit['value']}, {limit['simulated_s']:g} s simulated,"

@@ -534,8 +534,8 @@ def relaxed_steps(traj, window_s: float, scene: Scene | None, max_speed: np.ndar
                 max_speed=top)
     runs = act[0].astype(int) + (act[1:] & ~act[:-1]).sum(axis=0)
     broken = runs > 1  # relax assumes one run of frames: these keep their own paths
-    for _, i in traj.metadata.get("jumps") or []:  # and one unbroken path: an agent placed elsewhere keeps its own
-        broken[int(i)] = True
+    for _, i in traj.jump_steps():  # and one unbroken path: an agent placed elsewhere keeps its own
+        broken[i] = True
     pos[:, broken] = traj.positions[:, broken]
     smooth = Trajectories(pos, traj.dt, ids=traj.ids, group=traj.group, radius=traj.radius, active=traj.active,
                           metadata={**traj.metadata})

@@ -137,6 +137,17 @@ class Trajectories:
             return np.ones(self.positions.shape[:2], dtype=bool)
         return self.active
 
+    def jump_steps(self) -> list[tuple[int, int]]:
+        """``(f, agent)`` for each jump in ``metadata["jumps"]`` (``[time, agent]`` pairs: an
+        agent a live run's ``place()`` moved): it jumps in the step from frame ``f`` to
+        ``f + 1``, which is not walked. Pairs outside the frames or the agents are left out."""
+        out = []
+        for t, i in self.metadata.get("jumps") or []:
+            f = int(np.floor(float(t) / self.dt + 1e-9))  # the frame the jump leaves from
+            if 0 <= f < self.n_frames - 1 and 0 <= int(i) < self.n_agents:
+                out.append((f, int(i)))
+        return out
+
     # ---- derived -----------------------------------------------------------------
     @property
     def velocity(self) -> np.ndarray:
@@ -266,11 +277,9 @@ def resample(traj: Trajectories, fps: float, kind: str = "linear") -> Trajectori
     # place: it leaves from the last new frame before the step it was made in ends
     jumps = []
     pieces: dict[int, list[int]] = {}
-    for t, i in traj.metadata.get("jumps") or []:
-        f = int(np.floor(float(t) / traj.dt + 1e-9))
-        if 0 <= f < traj.n_frames - 1 and 0 <= int(i) < traj.n_agents:
-            pieces.setdefault(int(i), []).append(f)
-            jumps.append([float(t_new[np.flatnonzero(u < f + 1 - 1e-9)[-1]]), int(i)])
+    for f, i in traj.jump_steps():
+        pieces.setdefault(i, []).append(f)
+        jumps.append([float(t_new[np.flatnonzero(u < f + 1 - 1e-9)[-1]]), i])
     for i, fs in pieces.items():
         bounds = [0] + sorted(f + 1 for f in set(fs)) + [traj.n_frames]
         for a, b in zip(bounds[:-1], bounds[1:]):  # frames a .. b-1, one piece

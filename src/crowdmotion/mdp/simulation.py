@@ -7,7 +7,7 @@ from typing import Any, Callable, Sequence
 
 import numpy as np
 
-from crowdmotion.checks import describe_region
+from crowdmotion.checks import describe_region, region_box
 from crowdmotion.groups import Group, MovingTarget, Points
 from crowdmotion.interrupts import step_loop
 from crowdmotion.mdp.goal_fill import fill_depth, nearest_cells
@@ -81,22 +81,14 @@ def region_cells(grid: GridMap, region, what: str) -> np.ndarray:
     cells = np.stack(np.unravel_index(np.flatnonzero(inside), grid.shape), axis=1)
     if len(cells) == 0:
         lo, hi = grid.origin, grid.origin + np.array(grid.shape) * grid.cell_size
-        if not _overlaps(region, lo, hi):  # not in the scene at all: say so, not "no free cell"
+        box = region_box(region)
+        if box is not None and (np.any(box[0] >= hi) or np.any(box[1] <= lo)):  # not in the scene: say so
             raise ValueError(f"{what}: {describe_region(region)} lies outside the scene: its grid of "
                              f"{grid.cell_size:.3g} m cells spans {np.round(lo, 2).tolist()}-"
                              f"{np.round(hi, 2).tolist()}")
         raise ValueError(f"{what}: {describe_region(region)} holds no grid cell free of obstacles "
                          f"(cell size {grid.cell_size:.3f} m)")
     return cells
-
-
-def _overlaps(region, lo: np.ndarray, hi: np.ndarray) -> bool:
-    """Whether ``region`` (its bounding box) reaches into the box ``lo``-``hi``."""
-    box = getattr(region, "lower", None), getattr(region, "upper", None)
-    if box[0] is None:  # a disc or sphere
-        c, r = np.asarray(region.center, float), float(region.radius)
-        box = c - r, c + r
-    return bool(np.all(np.asarray(box[0], float) < hi) and np.all(np.asarray(box[1], float) > lo))
 
 
 def check_goal_room(groups: Sequence[Group], goal_cells: list[np.ndarray], cell: float) -> None:

@@ -149,12 +149,12 @@ def show_while_present(objects, frame_start: int) -> None:
         start, end = (props.get(k) for k in keys)
         if start is None and end is None:
             continue
-        keys = [(frame_start, start is not None and start > frame_start)]
+        hidden_from = [(frame_start, start is not None and start > frame_start)]  # (frame, hidden) keys
         if start is not None and start > frame_start:
-            keys.append((math.ceil(start - 1e-6), False))
+            hidden_from.append((math.ceil(start - 1e-6), False))
         if end is not None:
-            keys.append((max(math.ceil(end - 1e-6), frame_start), True))
-        for frame, hidden in keys:
+            hidden_from.append((max(math.ceil(end - 1e-6), frame_start), True))
+        for frame, hidden in hidden_from:
             ob.hide_viewport = ob.hide_render = hidden
             ob.keyframe_insert("hide_viewport", frame=frame)
             ob.keyframe_insert("hide_render", frame=frame)
