@@ -495,7 +495,7 @@ def relaxed_trajectories(traj, fps: float | None, window_s: float, scene: Scene 
         pos = relax(linear.positions, linear.active_mask, traj.radius, linear.dt, scene, window_s, margin=margin,
                     settle=settle, max_speed=top)
     smooth = Trajectories(pos, linear.dt, ids=linear.ids, group=linear.group, radius=linear.radius,
-                          active=linear.active, metadata={**linear.metadata})
+                          active=linear.active, metadata={**linear.metadata}, stage=linear.stage)
     out = keep_clean(smooth, linear, traj, scene, max_speed, "relaxed", warn=False)
     out.metadata["relaxed"] = {"at": "steps" if by_steps else "fps", "fps": 1.0 / linear.dt,
                                "agent_frames_at_fps": at_fps, "limit": RELAX_AT_FPS_MAX}

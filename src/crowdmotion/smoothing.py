@@ -90,7 +90,7 @@ def keep_clean(smooth: Trajectories, linear: Trajectories, traj: Trajectories, s
         return Trajectories(pos, smooth.dt, ids=smooth.ids, group=smooth.group, radius=smooth.radius,
                             active=smooth.active, metadata=dict(smooth.metadata),
                             facing=smooth.facing if own else None,
-                            facing_pitch=smooth.facing_pitch if own else None), w
+                            facing_pitch=smooth.facing_pitch if own else None, stage=smooth.stage), w
 
     # overlaps (agent-agent, agent-obstacle) per frame interval as last audited: a round
     # audits again only the intervals with a frame that moved (each interval is checked on

@@ -36,3 +36,17 @@ def test_runs_without_routes_write_no_stage_column(tmp_path):
     assert "stage" not in pq.read_table(plain.save(tmp_path / "plain.parquet")).column_names
     assert Trajectories.load(tmp_path / "plain.parquet").stage is None
     assert Trajectories.load(plain.save(tmp_path / "plain.sqlite")).stage is None
+
+
+@pytest.mark.parametrize("kind", ["b-spline", "linear"])
+def test_a_routes_stage_survives_resampling_for_a_dcc(routed, kind):
+    from crowdmotion.render.animation import scene_of
+    from crowdmotion.smoothing import resample_checked
+
+    at24 = resample_checked(routed, 24.0, kind, scene_of(routed), max_speed=np.zeros(routed.n_agents))
+    assert at24.stage is not None and at24.stage.shape == at24.positions.shape[:2]
+    assert set(np.unique(at24.stage)) == {-1, 0, 1, 2}
+    # each frame in the stage its agent was in at the run's frame it ends in
+    k = np.minimum(np.ceil(np.arange(at24.n_frames) / 24.0 / routed.dt - 1e-9).astype(int), routed.n_frames - 1)
+    present = at24.active_mask
+    assert np.array_equal(at24.stage[present], routed.stage[k][present])

@@ -410,7 +410,8 @@ def relaxed(traj: Trajectories, params: MDPParams, scene: Scene, max_speed: np.n
     if by_steps:  # one frame a step: the same frames, each step lasting longer (new frames between them would cut corners)
         return Trajectories(out.positions, out.dt * ratio, ids=out.ids, group=out.group, radius=out.radius,
                             active=out.active, metadata={**out.metadata, "slowed_by": ratio,
-                                                         "relaxed": {**out.metadata["relaxed"], "fps": 1.0 / (out.dt * ratio)}})
+                                                         "relaxed": {**out.metadata["relaxed"], "fps": 1.0 / (out.dt * ratio)}},
+                            stage=out.stage)
     return slowed(out, ratio)
 
 
@@ -427,7 +428,12 @@ def slowed(traj: Trajectories, factor: float) -> Trajectories:
     if traj.active is not None:
         active = traj.active[k] & traj.active[np.minimum(np.ceil(u - 1e-9).astype(int), traj.n_frames - 1)]
     meta = {**traj.metadata, "slowed_by": factor}
-    return Trajectories(pos, traj.dt, ids=traj.ids, group=traj.group, radius=traj.radius, active=active, metadata=meta)
+    stage = None
+    if traj.stage is not None:  # each new frame in the stage of the old frame it ends in, as resample does
+        held = traj.stage[np.minimum(np.ceil(u - 1e-9).astype(int), traj.n_frames - 1)]
+        stage = held if active is None else np.where(active, held, -1).astype(traj.stage.dtype)
+    return Trajectories(pos, traj.dt, ids=traj.ids, group=traj.group, radius=traj.radius, active=active, metadata=meta,
+                        stage=stage)
 
 
 def free_goal_values(occupancy: np.ndarray, goal_cells: list[np.ndarray], taken: np.ndarray, values: np.ndarray,
