@@ -236,3 +236,15 @@ def test_a_formation_run_at_its_step_limit_unrecovered_says_so_in_its_line():
     done = {k: v for k, v in summary.items() if k != "ended_at_limit"}
     note_step_limit(done, "formation.max_steps", 1500, True, 150.0, short=False)  # recovered: nothing to say
     assert "ended_at_limit" not in done
+
+
+def test_a_run_at_its_step_limit_behind_people_whose_route_never_leaves_names_that_not_the_setting():
+    from crowdmotion.metrics import headline, note_step_limit
+
+    summary = {"agents": 40, "frames": 10, "agent_agent_overlaps": 0, "agent_obstacle_penetrations": 0,
+               "arrival_rate": 0.8, "journeys": {"finished": 32}}
+    note_step_limit(summary, "rvo.max_steps", 2000, True, 500.0)
+    line = headline(summary)
+    assert "32 finished a route that does not leave" in line and "end the route with a leave stage" in line
+    summary["journeys"]["finished"] = 0  # everyone done left: only the setting is to blame
+    assert "raise it to let them arrive" in headline(summary)

@@ -544,7 +544,13 @@ def headline(summary: dict) -> str:
     if "arrival_rate" in summary:
         parts.append(f"arrived {summary['arrival_rate']:.0%}")
         if summary.get("ended_at_limit"):
-            parts[-1] += f" ({_stopped_at(summary)} before the rest got there: raise it to let them arrive)"
+            stayed = summary.get("journeys", {}).get("finished", 0)
+            if stayed:  # a route with no leave: those done stand at its last place, perhaps in the way
+                parts[-1] += (f" ({_stopped_at(summary)} before the rest got there; {stayed} finished a route that "
+                              f"does not leave and stand at its last place, perhaps in the others' way: end the "
+                              f"route with a leave stage, or raise the setting)")
+            else:
+                parts[-1] += f" ({_stopped_at(summary)} before the rest got there: raise it to let them arrive)"
     if "formation" in summary:
         groups = summary["formation"]
         done = sum(g["recovered_s"] is not None for g in groups.values())
