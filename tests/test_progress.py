@@ -50,6 +50,18 @@ def test_a_log_gets_whole_lines_now_and_then_not_a_bar_redrawn_in_place(monkeypa
     assert "\r" not in log.getvalue()
 
 
+def test_a_log_ends_on_the_count_the_run_reached(monkeypatch):
+    clock = {"t": 100.0}
+    monkeypatch.setattr(progress.time, "monotonic", lambda: clock["t"])
+    log = io.StringIO()
+    with step_bar(2000, "rvo steps", file=log) as bar:
+        bar.done(10)
+        clock["t"] += 3.0
+        bar.done(860)  # everyone arrived: the run ends before its step limit, within LINE_EVERY_S
+    assert log.getvalue().splitlines() == ["rvo steps: 10/2,000 steps (0 %) in 0 s",
+                                           "rvo steps: 860/2,000 steps (43 %) in 3 s"]
+
+
 def test_a_disabled_bar_writes_nothing():
     log = io.StringIO()
     with step_bar(10, "rvo steps", enabled=False, file=log) as bar:

@@ -146,7 +146,9 @@ def step_bar(total: int | None, desc: str, enabled: bool = True, unit: str = "st
     try:
         stream = sys.stderr if file is None else file
         if enabled and not _terminal(stream):
-            yield LineBar(total, desc, unit, stream)
+            line = LineBar(total, desc, unit, stream)
+            yield line
+            line.finish()  # a log ends on the count the loop reached, not on its first step
             return
         with tqdm(total=total, desc=desc, unit=unit, disable=not enabled, delay=1.0, leave=False, file=file) as bar:
             bar.set_postfix_str(FIRST, refresh=False)
