@@ -383,6 +383,10 @@ def test_validate_refuses_a_queue_stage_for_a_pso_group():
                                                           "lies outside scene.bounds"),
     ('kind = "leave"\nname = "east"', 'kind = "wait"\ntime = { uniform = [5.0, 2.0] }\n[[groups.route]]\nkind = "leave"\nname = "east"',
      r"groups.0.route.1.time.uniform \(group 'riders'\): low 5 exceeds high 2"),
+    # the route's first place is the group's goal: named as the queue's head, not as 'goal'
+    ("[scene]\nbounds = [[0.0, 0.0], [40.0, 20.0]]",
+     '[scene]\nbounds = [[0.0, 0.0], [40.0, 20.0]]\nobstacles = [{ shape = "box", lower = [29.0, 9.0], upper = [31.0, 11.0] }]',
+     r"route.0 \(queue 'gate'\): its head \[30, 10\] lies inside scene.obstacles.0 .*: put the head where"),
 ])
 def test_validate_names_the_stage_of_a_bad_route(old, new, message):
     with pytest.raises(ScenarioError, match=message):

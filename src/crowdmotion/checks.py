@@ -325,6 +325,10 @@ def check_route_places(scene: Scene, k: int, group: Group) -> None:
             slots = st.slots(group.count)
             clear = scene.clearance(slots)
             bad = np.flatnonzero(clear < group.radius)
+            if len(bad) and bad[0] == 0:  # the head itself: no line would help
+                raise ValueError(f"{at}: its head {_fmt(slots[0])} {_why_unfit(scene, slots[0], clear[0])}: put the "
+                                 f"head where a body of radius {group.radius:g} m stands clear, in front of the "
+                                 f"counter or desk")
             if len(bad):
                 i = int(bad[0])
                 raise ValueError(f"{at}: place {i} in line at {_fmt(slots[i])} {_why_unfit(scene, slots[i], clear[i])}"

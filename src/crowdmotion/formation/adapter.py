@@ -25,11 +25,11 @@ def check_scenario(scene, groups, params: FormationParams) -> None:
     for k, g in enumerate(groups):
         warn_late_entries(k, g, params.max_steps * params.time_step, "[formation] max_steps x time_step")
         if g.dim == scene.dim:  # (a 3D group is refused, by name, as the simulator is built)
-            check_goal_clear(scene, k, g)
-            check_inside(scene, k, g, "goal")
-            if g.attributes.get("route") is not None:
+            if g.attributes.get("route") is not None:  # first: a route's first place may be its goal
                 check_formation_route(g.attributes["route"], where(k, g))
                 check_route_places(scene, k, g)
+            check_goal_clear(scene, k, g)
+            check_inside(scene, k, g, "goal")
     sim = build_simulator(scene, groups, params, np.random.default_rng(0))
     try:
         stranded = sim.cut_off()

@@ -24,6 +24,9 @@ def check_scenario(scene, groups, params: RVOParams) -> None:
 
     check_dimension("rvo", scene, (2,), "use method = 'mdp' or 'pso' for 3D scenes")
     for k, g in enumerate(groups):
+        # a route's places first: without a goal of its own the group's goal is its route's first
+        # place, which is then named by its stage (route.0 (queue 'kiosk')), not as 'goal'
+        check_route_places(scene, k, g)
         check_goal_clear(scene, k, g)
         check_inside(scene, k, g, "spawn")
         check_inside(scene, k, g, "goal")
@@ -32,7 +35,6 @@ def check_scenario(scene, groups, params: RVOParams) -> None:
         # a group entering over time need not fit all at once (build_simulator checks its enter table)
         if "enter" not in g.attributes:
             check_spawn_capacity(scene, k, g, params.spawn_gap)
-        check_route_places(scene, k, g)
     rng = np.random.default_rng(0)
     sim = build_simulator(scene, groups, params, rng)
     journeys = build_journeys(sim, scene, groups, rng)
