@@ -28,8 +28,7 @@ def test_knn_matches_ckdtree(m, dmax):
         assert np.allclose(np.sqrt(d2[:k]), [d for d, _ in ref])
 
 
-def _choose(pos, vel, vpref, samples=20, safety=5.0, segs=None, comfort=0.0, goals=None, leave_r=0.0,
-            holding=None, bound=None):
+def _choose(pos, vel, vpref, samples=20, safety=5.0, segs=None, comfort=0.0, goals=None, leave_r=0.0):
     n = len(pos)
     active = np.ones(n, dtype=bool)
     h = 5.0
@@ -43,9 +42,7 @@ def _choose(pos, vel, vpref, samples=20, safety=5.0, segs=None, comfort=0.0, goa
                         np.full(n, 10.0), np.full(n, samples), np.full(n, safety), active, start, items,
                         lo[0], lo[1], h, nx, ny, np.zeros((0, 2)), np.zeros(0), np.zeros((0, 2)), seg_a, seg_b,
                         np.zeros_like(seg_a), 0.25, np.uint64(7), out, np.zeros(n, dtype=bool), 0.0, 5.0, np.zeros(n),
-                        np.full(n, comfort), pos + 100.0 if goals is None else goals, np.full(n, leave_r),
-                        np.zeros(n, dtype=bool) if holding is None else np.asarray(holding),
-                        np.zeros(n, dtype=np.int64) if bound is None else np.asarray(bound, dtype=np.int64))
+                        np.full(n, comfort), pos + 100.0 if goals is None else goals, np.full(n, leave_r))
     return out
 
 
@@ -91,23 +88,3 @@ def test_an_agent_about_to_leave_steps_in_past_a_neighbour_beyond_its_goal():
     assert np.linalg.norm(pos[0] + stays[0] * 0.25 - goals[0]) > 0.5
     assert np.linalg.norm(pos[0] + leaves[0] * 0.25 - goals[0]) <= 0.5
     assert np.allclose(leaves[0], vpref[0])
-
-
-def _passer_by(same_region: bool) -> np.ndarray:
-    """Agent 0 stands at its goal; agent 1 walks straight at it, 1 m off, bound for a goal
-    region of its own or for agent 0's."""
-    pos = np.array([[0.0, 0.0], [-1.0, 0.0]])
-    vel = np.array([[0.0, 0.0], [1.2, 0.0]])
-    vpref = np.array([[0.0, 0.0], [1.2, 0.0]])
-    return _choose(pos, vel, vpref, samples=200, holding=[True, False], bound=[0, 0 if same_region else 1])
-
-
-def test_one_holding_its_place_stands_and_a_passer_by_goes_round_it():
-    out = _passer_by(same_region=False)
-    assert np.allclose(out[0], 0.0), "the one waiting at its goal stays put"
-    assert abs(out[1, 1]) > 0.1 or out[1, 0] < 0.5, "the passer-by swerves or brakes: it does all the avoiding"
-
-
-def test_one_holding_its_place_shares_the_avoiding_with_one_bound_for_the_same_region():
-    out = _passer_by(same_region=True)
-    assert np.hypot(*out[0]) > 0.1, "it makes room, as eq. (3)'s even shares say, for one joining it"

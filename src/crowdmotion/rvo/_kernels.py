@@ -115,7 +115,7 @@ def _obstacle_time(px, py, cx_, cy_, r, circ_c, circ_r, circ_v, near_c, n_near_c
 def choose_velocities(pos, vel, vpref, aim_dist, radius, vmax, max_nb, nb_dist, samples, safety, active,
                       cell_start, items, origin_x, origin_y, h, nx, ny,
                       circ_c, circ_r, circ_v, seg_a, seg_b, seg_v, dt, key,
-                      out_vel, out_forced, keep_right, look_s, follow, comfort, goals, leave_r, holding, bound):
+                      out_vel, out_forced, keep_right, look_s, follow, comfort, goals, leave_r):
     """Sampling RVO for every active agent at once (simultaneous, order-independent).
 
     For agent i the candidates are v_pref, the current velocity, standing still and
@@ -144,16 +144,6 @@ def choose_velocities(pos, vel, vpref, aim_dist, radius, vmax, max_nb, nb_dist, 
     collision with a neighbour that a candidate would meet only after bringing it within
     that distance: it will have left by then. A contact within the step still counts. Without this, a neighbour standing beyond the goal makes eq. (3) choose
     to creep or stand instead of stepping in (w/tc exceeds the deviation within w metres).
-
-    Holding one's place (a documented addition): an agent ``holding[i]`` has arrived at its
-    goal and stays there (a wait, a place it was sent to). Between it and a walker bound for
-    another goal region (``bound[j] != bound[i]``: a passer-by) the walker takes all of the
-    avoiding, walking round it as round a body that makes no room, and the one holding its
-    place only keeps from stepping into the walker. Eq. (3)'s even shares made a waiting
-    agent back away before every passer-by, and, once moving, keep backing away (each step
-    of a comfortable change costs less than stopping while the walker comes on): people
-    waiting at a fountain drifted metres round it. Agents bound for the same region (a
-    crowd filling a goal area, a queue) still share the avoiding, so late-comers get in.
 
     Keep right (a documented addition to the paper, ``keep_right`` radians, 0 = off): an
     agent that meets an oncoming neighbour — one among its M nearest whose v_pref points
@@ -240,21 +230,6 @@ def choose_velocities(pos, vel, vpref, aim_dist, radius, vmax, max_nb, nb_dist, 
                 rel[q, 3] = -vix - vel[j, 0]
                 rel[q, 4] = -viy - vel[j, 1]
                 rel[q, 5] = 2.0
-                if holding[i] != holding[j] and bound[i] != bound[j]:
-                    # one holds its place, the other walks past it: the walker goes round it (a body
-                    # that makes no room); the one holding its place counts on the walker coming no
-                    # nearer (it goes round) but walking on where it walks away
-                    vjx, vjy = vel[j, 0], vel[j, 1]
-                    if not holding[j]:
-                        nr = np.sqrt(rel[q, 0] * rel[q, 0] + rel[q, 1] * rel[q, 1])
-                        closing = (vjx * rel[q, 0] + vjy * rel[q, 1]) / nr if nr > 0.0 else 0.0
-                        if closing > 0.0:
-                            vjx -= closing * rel[q, 0] / nr
-                            vjy -= closing * rel[q, 1] / nr
-                    rel[q, 3] = -vjx
-                    rel[q, 4] = -vjy
-                    rel[q, 5] = 1.0
-                    continue
                 if follow[i] > 0.0 and un > 0.0:
                     pjx, pjy = vpref[j, 0], vpref[j, 1]
                     pn = np.sqrt(pjx * pjx + pjy * pjy)

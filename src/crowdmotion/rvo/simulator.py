@@ -1044,8 +1044,6 @@ class Simulator(LiveObstacles):
         self.time += self.dt
         self.steps += 1
         if steer.any():
-            # one holding its place has arrived: not held up however near its exact goal it stands
-            wanted = np.where(self.holding[:, None], 0.0, wanted)
             self.stats["yields"] += self.deadlock.update(self.positions, wanted, new, p["pref_speed"], p["radius"],
                                                          p["neighbor_dist"], steer, self.dt, self.goals)
         self._arrivals()
@@ -1077,7 +1075,7 @@ class Simulator(LiveObstacles):
                             prims.seg_v, self.dt, key, new, forced, dl.keep_right, KEEP_RIGHT_LOOK_S,
                             self.follow * np.minimum(self.density / FOLLOW_FULL_DENSITY, 1.0),
                             self._comfort_reach(), self.goals,
-                            np.where(self.leaves, self.arrival_radius, 0.0), self.holding, self.field_of)
+                            np.where(self.leaves, self.arrival_radius, 0.0))
         # safety: of two agents that would touch during the step, the one with the lower
         # (random, per step) priority stands still instead, until none would
         # agents a moving obstacle bears down on go first: standing still is no refuge for them
@@ -1103,15 +1101,13 @@ class Simulator(LiveObstacles):
         can turn in at the comfortable acceleration a instead of circling it: the circle
         through the goal tangent to its velocity has radius d / (2 sin θ) (d the distance,
         θ the angle off the goal, up to 90°), and a turn of radius v² / a needs
-        v ≤ √(a d / (2 sin θ)). One that stays at its goal (not an exit) also slows to stop
-        there at a: v ≤ √(2 a d); it overshot by a metre and turned back before."""
+        v ≤ √(a d / (2 sin θ))."""
         to_goal = self.goals - self.positions
         d = row_norms(to_goal)
         sp = row_norms(self.velocities)
         cos = np.einsum("ij,ij->i", to_goal, self.velocities) / np.maximum(d * sp, 1e-12)
         sin = np.where(cos > 0.0, np.sqrt(np.clip(1.0 - cos * cos, 0.0, 1.0)), 1.0)
         cap = np.sqrt(self.comfort_accel * d / (2.0 * np.maximum(sin, 1e-6)))
-        cap = np.where(self.leaves, cap, np.minimum(cap, np.sqrt(2.0 * self.comfort_accel * d)))
         want = row_norms(vpref)
         return np.minimum(1.0, cap / np.maximum(want, 1e-12))
 
@@ -1192,12 +1188,6 @@ class Simulator(LiveObstacles):
     def arrived(self) -> np.ndarray:
         """(N,) whether each agent has reached its goal."""
         return ~np.isnan(self.arrival_time)
-
-    @property
-    def holding(self) -> np.ndarray:
-        """(N,) agents that have arrived at their goal and stay there: they hold their place
-        against passers-by (:func:`crowdmotion.rvo._kernels.choose_velocities`)."""
-        return self.active & ~self.leaves & ~np.isnan(self.arrival_time)
 
     @property
     def present(self) -> np.ndarray:
