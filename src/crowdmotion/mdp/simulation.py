@@ -424,14 +424,14 @@ def slowed(traj: Trajectories, factor: float) -> Trajectories:
     k = np.minimum(np.floor(u).astype(int), traj.n_frames - 2)
     s = (u - k)[:, None, None]
     pos = traj.positions[k] * (1 - s) + traj.positions[k + 1] * s
+    held = np.minimum(np.ceil(u - 1e-9).astype(int), traj.n_frames - 1)  # the old frame each new one ends in
     active = None
     if traj.active is not None:
-        active = traj.active[k] & traj.active[np.minimum(np.ceil(u - 1e-9).astype(int), traj.n_frames - 1)]
+        active = traj.active[k] & traj.active[held]
     meta = {**traj.metadata, "slowed_by": factor}
     stage = None
     if traj.stage is not None:  # each new frame in the stage of the old frame it ends in, as resample does
-        held = traj.stage[np.minimum(np.ceil(u - 1e-9).astype(int), traj.n_frames - 1)]
-        stage = held if active is None else np.where(active, held, -1).astype(traj.stage.dtype)
+        stage = traj.stage[held] if active is None else np.where(active, traj.stage[held], -1).astype(traj.stage.dtype)
     return Trajectories(pos, traj.dt, ids=traj.ids, group=traj.group, radius=traj.radius, active=active, metadata=meta,
                         stage=stage)
 
