@@ -67,6 +67,48 @@ def spawn_positions(scene: Scene, group: Group, placed: np.ndarray, placed_r: np
                      f"{group.spawn!r} (placed {len(out)}); enlarge the region or reduce the count")
 
 
+#: a goal point moved clear of a wall keeps this much more than the body's radius from it
+GOAL_CLEARANCE_M = 0.02
+
+
+def standing_points(scene: Scene, points: np.ndarray, radius: float, steps: int = 8) -> np.ndarray:
+    """``points`` (n, dim) each moved the least way to where a body of ``radius`` stands:
+    at least ``radius`` + GOAL_CLEARANCE_M inside the scene's bounds and off its static
+    obstacles (pushed out along the obstacles' signed distance, a few steps for corners).
+    Points where a body already stands are returned as they are; where no place is near
+    enough (a gap narrower than the body), the nearest found.
+
+    A goal point sampled in an exit strip along the scene's edge may lie closer to the
+    edge than the agent's radius: no body gets there, and eq. (3) counts the wall it
+    would meet before its goal, so the agent stops metres short and stands for good."""
+    pts = np.array(points, dtype=float, copy=True)
+    if len(pts) == 0:
+        return pts
+    need = radius + GOAL_CLEARANCE_M
+    lo, hi = scene.lower + need, scene.upper - need
+    mid = 0.5 * (scene.lower + scene.upper)
+    lo, hi = np.where(lo <= hi, lo, mid), np.where(lo <= hi, hi, mid)  # a scene narrower than the body: its middle
+    eps = 1e-4
+    for _ in range(steps):
+        pts = np.clip(pts, lo, hi)
+        if not scene.static_obstacles:
+            break
+        d = scene.static_obstacle_distance(pts)
+        bad = np.flatnonzero(d < need)
+        if len(bad) == 0:
+            break
+        grad = np.empty((len(bad), pts.shape[1]))
+        for axis in range(pts.shape[1]):
+            step = np.zeros(pts.shape[1])
+            step[axis] = eps
+            grad[:, axis] = (scene.static_obstacle_distance(pts[bad] + step)
+                             - scene.static_obstacle_distance(pts[bad] - step)) / (2 * eps)
+        norm = np.linalg.norm(grad, axis=1)
+        ok = norm > 1e-9
+        pts[bad[ok]] += (need - d[bad[ok]])[:, None] * grad[ok] / norm[ok, None]
+    return np.clip(pts, lo, hi)
+
+
 def spawn_groups(scene: Scene, groups, gap: float, rng: np.random.Generator, overlap: bool = False):
     """Start positions of every group in turn, each clear of the groups placed before it:
     (positions (N, dim), radius (N,), group index (N,))."""

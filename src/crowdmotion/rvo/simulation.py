@@ -14,7 +14,7 @@ from crowdmotion._rng import step_key
 from crowdmotion.interrupts import step_loop
 from crowdmotion.journeys import Journeys, entrance_of, entry_points, entry_times
 from crowdmotion.path_relaxation import relaxed_steps
-from crowdmotion.placement import spawn_positions
+from crowdmotion.placement import spawn_positions, standing_points
 from crowdmotion.rvo.params import RVOParams
 from crowdmotion.rvo.personality import PARAM_KEYS, sample_personalities
 from crowdmotion.rvo.simulator import Simulator
@@ -22,8 +22,13 @@ from crowdmotion.scene import Scene
 from crowdmotion.trajectories import Trajectories
 
 
-def goal_points(group: Group, starts: np.ndarray, assignment: str, rng: np.random.Generator):
-    """Per-agent goal points (or the MovingTarget itself) for a group."""
+def goal_points(group: Group, starts: np.ndarray, assignment: str, rng: np.random.Generator,
+                scene: Scene | None = None):
+    """Per-agent goal points (or the MovingTarget itself) for a group. Points drawn in a
+    goal region ("sample", "shift") are moved where the agent's body stands in ``scene``
+    (``placement.standing_points``): a point in an exit strip along the scene's edge may
+    lie closer to the edge than the agent's radius, and such an agent stops short of it
+    for good. Points the group names are used as given."""
     goal = group.goal
     if isinstance(goal, MovingTarget):
         return goal
@@ -36,15 +41,18 @@ def goal_points(group: Group, starts: np.ndarray, assignment: str, rng: np.rando
                          "(give one point, or one per agent)")
     if assignment == "nearest":
         return goal.nearest(starts)
-    if assignment == "shift":
+    pts = None
+    if assignment == "shift" and isinstance(goal, (Rect, Disc)):
         pts = starts + (goal.center - group.spawn.center)
         if isinstance(goal, Rect):
-            return np.clip(pts, goal.lower, goal.upper)
-        if isinstance(goal, Disc):
+            pts = np.clip(pts, goal.lower, goal.upper)
+        else:
             off = pts - goal.center
             d = np.linalg.norm(off, axis=1, keepdims=True)
-            return np.where(d > goal.radius, goal.center + off / np.maximum(d, 1e-12) * goal.radius, pts)
-    return goal.sample(group.count, rng)
+            pts = np.where(d > goal.radius, goal.center + off / np.maximum(d, 1e-12) * goal.radius, pts)
+    if pts is None:
+        pts = goal.sample(group.count, rng)
+    return pts if scene is None else standing_points(scene, pts, group.radius)
 
 
 def preferred_speeds(group: Group, rng: np.random.Generator):
@@ -83,7 +91,7 @@ def build_simulator(scene: Scene, groups: Sequence[Group], params: RVOParams, rn
         # a group entering over time takes its places one by one: they need not all fit at once
         starts = spawn_positions(scene, g, placed, placed_r, params.spawn_gap, rng, overlap=enter is not None) \
             if doors is None else entry_points(scene, g, doors, params.spawn_gap, rng)
-        goals = goal_points(g, starts, params.goal_assignment, rng)
+        goals = goal_points(g, starts, params.goal_assignment, rng, scene)
         persona = g.attributes.get("personality")
         try:
             if persona is None:
