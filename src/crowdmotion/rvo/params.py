@@ -37,8 +37,9 @@ class RVOParams(BaseModel):
     remove_on_arrival : bool  agents leave once within arrival_radius of their goal
     arrival_radius : float   metres
     goal_assignment : str    how region goals become points: "sample" (uniform in the goal
-                             region), "shift" (start + goal centre − spawn centre,
-                             clamped into the region: everyone walks straight across) or
+                             region, each where the agent's body fits), "shift" (start +
+                             goal centre − spawn centre, clamped into the region: everyone
+                             walks straight across) or
                              "nearest" (no point: each agent heads for the region's
                              nearest point, round walls along the guidance field, and
                              arrives anywhere in it: evacuees take the nearest exit)
