@@ -71,12 +71,13 @@ def spawn_positions(scene: Scene, group: Group, placed: np.ndarray, placed_r: np
 GOAL_CLEARANCE_M = 0.02
 
 
-def standing_points(scene: Scene, points: np.ndarray, radius: float, steps: int = 8) -> np.ndarray:
-    """``points`` (n, dim) each moved the least way to where a body of ``radius`` stands:
-    at least ``radius`` + GOAL_CLEARANCE_M inside the scene's bounds and off its static
-    obstacles (pushed out along the obstacles' signed distance, a few steps for corners).
-    Points where a body already stands are returned as they are; where no place is near
-    enough (a gap narrower than the body), the nearest found.
+def standing_points(scene: Scene, points: np.ndarray, radius, steps: int = 8) -> np.ndarray:
+    """``points`` (n, dim) where a body of ``radius`` (one for all, or one each) cannot
+    stand, closer to the scene's bounds or a static obstacle than the radius, each moved
+    the least way to where it fits with GOAL_CLEARANCE_M to spare (off obstacles along
+    their signed distance, a few steps for corners). Points where the body stands are
+    returned as they are; where no place is near enough (a gap narrower than the body),
+    the nearest found.
 
     A goal point sampled in an exit strip along the scene's edge may lie closer to the
     edge than the agent's radius: no body gets there, and eq. (3) counts the wall it
@@ -84,17 +85,23 @@ def standing_points(scene: Scene, points: np.ndarray, radius: float, steps: int 
     pts = np.array(points, dtype=float, copy=True)
     if len(pts) == 0:
         return pts
-    need = radius + GOAL_CLEARANCE_M
-    lo, hi = scene.lower + need, scene.upper - need
+    r = np.broadcast_to(np.asarray(radius, dtype=float), (len(pts),))[:, None]
+    need = r + GOAL_CLEARANCE_M
     mid = 0.5 * (scene.lower + scene.upper)
-    lo, hi = np.where(lo <= hi, lo, mid), np.where(lo <= hi, hi, mid)  # a scene narrower than the body: its middle
+
+    def inside_bounds(p):
+        low, high = p < scene.lower + r, p > scene.upper - r  # the body sticks out
+        p = np.where(low, scene.lower + need, np.where(high, scene.upper - need, p))
+        narrow = scene.lower + need > scene.upper - need  # a scene narrower than the body: its middle
+        return np.where((low | high) & narrow, mid, p)
+
+    pts = inside_bounds(pts)
     eps = 1e-4
     for _ in range(steps):
-        pts = np.clip(pts, lo, hi)
         if not scene.static_obstacles:
             break
         d = scene.static_obstacle_distance(pts)
-        bad = np.flatnonzero(d < need)
+        bad = np.flatnonzero(d < r[:, 0])
         if len(bad) == 0:
             break
         grad = np.empty((len(bad), pts.shape[1]))
@@ -105,8 +112,9 @@ def standing_points(scene: Scene, points: np.ndarray, radius: float, steps: int 
                              - scene.static_obstacle_distance(pts[bad] - step)) / (2 * eps)
         norm = np.linalg.norm(grad, axis=1)
         ok = norm > 1e-9
-        pts[bad[ok]] += (need - d[bad[ok]])[:, None] * grad[ok] / norm[ok, None]
-    return np.clip(pts, lo, hi)
+        pts[bad[ok]] += (need[bad[ok], 0] - d[bad[ok]])[:, None] * grad[ok] / norm[ok, None]
+        pts = inside_bounds(pts)
+    return pts
 
 
 def spawn_groups(scene: Scene, groups, gap: float, rng: np.random.Generator, overlap: bool = False):

@@ -754,15 +754,34 @@ def test_an_obstacle_call_solves_again_only_the_fields_in_use_and_the_others_whe
 
 def test_a_goal_an_obstacle_covered_while_nobody_walked_to_it_is_refused_when_given_again():
     sim = rvo.Simulator(_room_with_door(), rng=np.random.default_rng(0))
-    spot = [18.0, 3.1]  # free now; 0.1 m from the box put in below, so no body fits on it then
+    spot = [18.0, 2.9]  # free now; inside the box put in below
     sim.add_agents([[2, 2]], spot)
     sim.add_agents([[2, 8]], [18, 8])
     sim.remove_agents([0])
     sim.step()
     sim.add_obstacle(cm.Box([17, 1], [19, 3]))  # over the goal nobody walks to now: accepted
-    with pytest.raises(ValueError, match="no cell free of obstacles"):
+    with pytest.raises(ValueError, match=r"goals: \[18.0, 2.9\] .* lies inside an obstacle"):
         sim.set_goals([1], spot)
     assert np.allclose(sim.goals[1], [18, 8])
+
+
+def test_a_goal_point_no_body_can_stand_on_is_moved_where_it_fits_with_a_warning():
+    # 0.1 m from a box, 0.02 m from the scene's edge: a body of radius 0.25 reaches neither,
+    # and eq. (3) stood such an agent metres short of it for good
+    sim = rvo.Simulator(_room_with_door(), rng=np.random.default_rng(0))
+    sim.add_obstacle(cm.Box([17, 1], [19, 3]))
+    with pytest.warns(UserWarning, match=r"goals: the goal point \[18.0, 3.1\], of the 1st of 1 agents "
+                                         r"\(radius 0.25 m\) lies closer to a wall .*to \[18.0, 3.27\]"):
+        ids = sim.add_agents([[2, 8]], [18.0, 3.1], radius=0.25)
+    np.testing.assert_allclose(sim.goals[ids[0]], [18.0, 3.27])
+    lo, hi = sim.scene.lower, sim.scene.upper
+    with pytest.warns(UserWarning, match="goals: the goal point"):
+        sim.set_goals(ids, [hi[0] - 0.02, 8.0])
+    np.testing.assert_allclose(sim.goals[ids[0]], [hi[0] - 0.27, 8.0])
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        sim.set_goals(ids, [hi[0] - 0.25, 8.0])  # a body just fits: kept as given
+    assert sim.goals[ids[0], 0] == hi[0] - 0.25
 
 
 def test_an_agent_sent_to_a_goal_walled_in_is_warned_of_once_at_the_next_step():

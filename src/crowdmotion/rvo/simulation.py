@@ -28,7 +28,8 @@ def goal_points(group: Group, starts: np.ndarray, assignment: str, rng: np.rando
     goal region ("sample", "shift") are moved where the agent's body stands in ``scene``
     (``placement.standing_points``): a point in an exit strip along the scene's edge may
     lie closer to the edge than the agent's radius, and such an agent stops short of it
-    for good. Points the group names are used as given."""
+    for good. Points the group names are left to the Simulator, which moves them the same
+    way with a warning."""
     goal = group.goal
     if isinstance(goal, MovingTarget):
         return goal

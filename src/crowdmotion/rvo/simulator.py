@@ -13,6 +13,7 @@ from crowdmotion._rng import step_key
 from crowdmotion._threads import ThreadedKernel
 from crowdmotion.geometry import finite_array, require_finite_agents, row_norms
 from crowdmotion.groups import Disc, MovingTarget, Points, Rect
+from crowdmotion.placement import standing_points
 from crowdmotion.rvo import _kernels as K
 from crowdmotion.rvo import congestion as _congestion
 from crowdmotion.rvo import deadlock as _deadlock
@@ -288,7 +289,9 @@ class Simulator(LiveObstacles):
         Parameters
         ----------
         positions : (N, 2) start positions, metres.
-        goals : (N, 2) or (2,) goal points, or a MovingTarget they all chase.
+        goals : (N, 2) or (2,) goal points, or a MovingTarget they all chase. A point
+            closer to a wall or the scene's edge than its agent's radius (no body stands
+            there) is moved the least way to where the body fits, with a warning.
         radius, max_speed, pref_speed : body radius (m), v_max and |v_pref| (m/s).
         neighbor_dist : D, metres: neighbours farther away are ignored.
         max_neighbors : M: at most this many nearest neighbours are considered.
@@ -326,6 +329,8 @@ class Simulator(LiveObstacles):
         if anywhere:
             goal = goal_region.nearest(pos)
         rad = _per_agent(radius, n, "radius")
+        if target is None and not anywhere:
+            goal = self._standing_goals(goal, rad, goal_region)
         vmax = _per_agent(max_speed, n, "max_speed")
         vpref = _per_agent(pref_speed, n, "pref_speed")
         over = np.flatnonzero(vpref > vmax)
@@ -399,7 +404,7 @@ class Simulator(LiveObstacles):
         ----------
         agents : ids (rows of ``positions``) of agents still in the simulation.
         goals : (2,) one goal point for all of them, (K, 2) one each, or a MovingTarget
-            they all chase.
+            they all chase (points no body stands on are moved, as in :meth:`add_agents`).
         goal_region : the region the goals lie in, for the guidance field (default: the
             goal points). A region given before, or the same points, reuses its field.
         arrive_anywhere : head for the region's nearest point and arrive anywhere in it
@@ -419,6 +424,8 @@ class Simulator(LiveObstacles):
         self._ensure_fields()
         if arrive_anywhere and not isinstance(goal_region, (Rect, Disc)):
             raise ValueError(f"arrive_anywhere needs a Rect or Disc goal_region, got {goal_region!r}")
+        if target is None and not arrive_anywhere:
+            goal = self._standing_goals(goal, self.params["radius"][ids], goal_region)
         field = self._field_indices(goal, goal_region)
         self._release_targets(ids)
         if target is not None:
@@ -518,6 +525,27 @@ class Simulator(LiveObstacles):
                 raise ValueError("goals: a 2D moving target is needed")
             return np.tile(goals.at(self.time), (n, 1)), goals
         return _xy_each(goals, n, "goals"), None
+
+    def _standing_goals(self, goal: np.ndarray, radius: np.ndarray, goal_region) -> np.ndarray:
+        """``goal`` with each point a body of its agent's ``radius`` cannot stand on
+        (closer to the scene's edge or a static obstacle than the radius) moved the least
+        way to where it fits (``placement.standing_points``), with a warning naming the
+        first: eq. (3) would stand such an agent metres short of it for good. Points
+        outside the bounds or inside an obstacle are refused (ValueError) as before."""
+        if goal_region is None:
+            self._check_goal_points(goal)
+        moved = standing_points(self._now, goal, radius)
+        off = np.flatnonzero(np.any(moved != goal, axis=1))
+        if len(off):
+            i = int(off[0])
+            which = f"{goal[i].tolist()}, of the {_ordinal(i)} of {len(goal)} agents (radius {radius[i]:g} m)"
+            warnings.warn(("goals: the goal point " + which + " lies" if len(off) == 1 else
+                           f"goals: {len(off)} goal points lie") + " closer to a wall or the scene's edge than the "
+                          f"agent's radius{'' if len(off) == 1 else ' (the first: ' + which + ')'}: no body stands "
+                          f"there, and the agent may stop short of it for good. Moved the least way to where the "
+                          f"body fits ({'' if len(off) == 1 else 'the first '}to {np.round(moved[i], 3).tolist()})",
+                          UserWarning, stacklevel=3)
+        return moved
 
     def _check_goal_points(self, goal: np.ndarray) -> None:
         """Refuse goal points that are their own goal region (no ``goal_region`` given) and
