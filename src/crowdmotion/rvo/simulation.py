@@ -14,7 +14,7 @@ from crowdmotion._rng import step_key
 from crowdmotion.interrupts import step_loop
 from crowdmotion.journeys import Journeys, entrance_of, entry_points, entry_times
 from crowdmotion.path_relaxation import relaxed_steps
-from crowdmotion.placement import spawn_positions, standing_points
+from crowdmotion.placement import spawn_positions
 from crowdmotion.rvo.params import RVOParams
 from crowdmotion.rvo.personality import PARAM_KEYS, sample_personalities
 from crowdmotion.rvo.simulator import Simulator
@@ -22,14 +22,10 @@ from crowdmotion.scene import Scene
 from crowdmotion.trajectories import Trajectories
 
 
-def goal_points(group: Group, starts: np.ndarray, assignment: str, rng: np.random.Generator,
-                scene: Scene | None = None):
-    """Per-agent goal points (or the MovingTarget itself) for a group. Points drawn in a
-    goal region ("sample", "shift") are moved where the agent's body stands in ``scene``
-    (``placement.standing_points``): a point in an exit strip along the scene's edge may
-    lie closer to the edge than the agent's radius, and such an agent stops short of it
-    for good. Points the group names are left to the Simulator, which moves them the same
-    way with a warning."""
+def goal_points(group: Group, starts: np.ndarray, assignment: str, rng: np.random.Generator):
+    """Per-agent goal points (or the MovingTarget itself) for a group. The Simulator moves
+    a point no body of the agent's radius stands on to where it fits
+    (``Simulator.add_agents``)."""
     goal = group.goal
     if isinstance(goal, MovingTarget):
         return goal
@@ -42,18 +38,15 @@ def goal_points(group: Group, starts: np.ndarray, assignment: str, rng: np.rando
                          "(give one point, or one per agent)")
     if assignment == "nearest":
         return goal.nearest(starts)
-    pts = None
-    if assignment == "shift" and isinstance(goal, (Rect, Disc)):
+    if assignment == "shift":
         pts = starts + (goal.center - group.spawn.center)
         if isinstance(goal, Rect):
-            pts = np.clip(pts, goal.lower, goal.upper)
-        else:
+            return np.clip(pts, goal.lower, goal.upper)
+        if isinstance(goal, Disc):
             off = pts - goal.center
             d = np.linalg.norm(off, axis=1, keepdims=True)
-            pts = np.where(d > goal.radius, goal.center + off / np.maximum(d, 1e-12) * goal.radius, pts)
-    if pts is None:
-        pts = goal.sample(group.count, rng)
-    return pts if scene is None else standing_points(scene, pts, group.radius)
+            return np.where(d > goal.radius, goal.center + off / np.maximum(d, 1e-12) * goal.radius, pts)
+    return goal.sample(group.count, rng)
 
 
 def preferred_speeds(group: Group, rng: np.random.Generator):
@@ -92,7 +85,7 @@ def build_simulator(scene: Scene, groups: Sequence[Group], params: RVOParams, rn
         # a group entering over time takes its places one by one: they need not all fit at once
         starts = spawn_positions(scene, g, placed, placed_r, params.spawn_gap, rng, overlap=enter is not None) \
             if doors is None else entry_points(scene, g, doors, params.spawn_gap, rng)
-        goals = goal_points(g, starts, params.goal_assignment, rng, scene)
+        goals = goal_points(g, starts, params.goal_assignment, rng)
         persona = g.attributes.get("personality")
         try:
             if persona is None:

@@ -529,14 +529,16 @@ class Simulator(LiveObstacles):
     def _standing_goals(self, goal: np.ndarray, radius: np.ndarray, goal_region) -> np.ndarray:
         """``goal`` with each point a body of its agent's ``radius`` cannot stand on
         (closer to the scene's edge or a static obstacle than the radius) moved the least
-        way to where it fits (``placement.standing_points``), with a warning naming the
-        first: eq. (3) would stand such an agent metres short of it for good. Points
-        outside the bounds or inside an obstacle are refused (ValueError) as before."""
+        way to where it fits (``placement.standing_points``): eq. (3) would stand such an
+        agent metres short of it for good. A point drawn in a Rect or Disc goal region
+        (a point of an exit strip along the scene's edge, say) moves quietly; points named
+        as such (no region, or Points) with a warning naming the first. Points outside
+        the bounds or inside an obstacle are refused (ValueError) as before."""
         if goal_region is None:
             self._check_goal_points(goal)
         moved = standing_points(self._now, goal, radius)
         off = np.flatnonzero(np.any(moved != goal, axis=1))
-        if len(off):
+        if len(off) and not isinstance(goal_region, (Rect, Disc)):
             i = int(off[0])
             which = f"{goal[i].tolist()}, of the {_ordinal(i)} of {len(goal)} agents (radius {radius[i]:g} m)"
             warnings.warn(("goals: the goal point " + which + " lies" if len(off) == 1 else
