@@ -1,6 +1,8 @@
-"""Start positions for a group: inside its spawn region, clear of obstacles and of each other.
+"""Where bodies stand: start positions for a group (inside its spawn region, clear of
+obstacles and of each other), and goal points and formation centres moved to where the
+bodies fit.
 
-Shared by every method that places bodies in continuous space (RVO, PSO).
+Shared by every method that places bodies in continuous space (RVO, PSO, formation).
 """
 
 from __future__ import annotations
@@ -115,6 +117,54 @@ def standing_points(scene: Scene, points: np.ndarray, radius, steps: int = 8) ->
         pts[bad[ok]] += (need[bad[ok], 0] - d[bad[ok]])[:, None] * grad[ok] / norm[ok, None]
         pts = inside_bounds(pts)
     return pts
+
+
+def standing_centre(scene: Scene, centre: np.ndarray, offsets: np.ndarray, clearance: float,
+                    step: float = 0.1, reach: float | None = None, obstacles: bool = True) -> np.ndarray:
+    """``centre`` (2D) moved the least way so that a rigid set of bodies at ``centre +
+    offsets`` keeps ``clearance`` from the scene's bounds and every static obstacle: the
+    place a whole formation can stand, where :func:`standing_points` places one body.
+
+    Bounds bind exactly (a shape wider than the scene stands in its middle along that
+    axis). Obstacles: candidate centres on rings ``step`` apart round it, out to
+    ``reach`` (default: the shape's size plus 2 m), 72 directions each; the nearest
+    where every body fits, refined to a hundredth of ``step`` along its direction. Where
+    none fits, the candidate cutting least into the obstacles. ``centre`` comes back as
+    it is where every body fits. (The signed distance's gradient alone does not do: a
+    body in the middle of a box has none, and it would push through to the far side.)"""
+    c = np.array(centre, dtype=float, copy=True)
+    off = np.asarray(offsets, dtype=float).reshape(-1, len(c))
+    low = scene.lower + clearance - off.min(axis=0)
+    high = scene.upper - clearance - off.max(axis=0)
+
+    def inside_bounds(x):
+        return np.where(low > high, 0.5 * (low + high), np.clip(x, low, np.maximum(low, high)))
+
+    def cut(cands):  # (k,) how far the bodies at each candidate centre reach into the obstacles
+        d = scene.static_obstacle_distance((cands[:, None, :] + off[None]).reshape(-1, len(c)))
+        return np.maximum(clearance - d.reshape(len(cands), len(off)), 0.0).sum(axis=1)
+
+    c = inside_bounds(c)
+    if not obstacles or not scene.static_obstacles or cut(c[None])[0] <= 0.0:
+        return c
+    reach = float(np.ptp(off, axis=0).max()) + 2.0 if reach is None else reach
+    angles = np.linspace(0.0, 2 * np.pi, 72, endpoint=False)
+    dirs = np.zeros((len(angles), len(c)))
+    dirs[:, 0], dirs[:, 1] = np.cos(angles), np.sin(angles)
+    best, least = c, np.inf
+    for r in np.arange(1, int(np.ceil(reach / step)) + 1) * step:
+        cands = inside_bounds(c + r * dirs)
+        k = cut(cands)
+        if (k <= 0.0).any():
+            u = dirs[int(np.argmin(np.where(k <= 0.0, 0.0, np.inf)))]  # first fitting direction
+            lo, hi = r - step, r
+            while hi - lo > 0.01 * step:  # bisect to the nearest fitting distance along it
+                mid = 0.5 * (lo + hi)
+                lo, hi = (lo, mid) if cut(inside_bounds(c + mid * u)[None])[0] <= 0.0 else (mid, hi)
+            return inside_bounds(c + hi * u)
+        if k.min() < least:
+            best, least = cands[int(np.argmin(k))], float(k.min())
+    return best
 
 
 def spawn_groups(scene: Scene, groups, gap: float, rng: np.random.Generator, overlap: bool = False):

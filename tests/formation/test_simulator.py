@@ -4,7 +4,7 @@ import numpy as np
 import pytest
 
 from crowdmotion import Scene, formation, metrics
-from crowdmotion.groups import Group, Points
+from crowdmotion.groups import Group, Points, Rect
 from crowdmotion.scene import Box, Circle, Sphere
 
 
@@ -51,6 +51,23 @@ def test_the_papers_handle_rule_and_averaging_variant_also_walk_round_the_rock(o
     assert run.report["block"]["recovered_s"] is not None
     if overrides.get("handles") == "exact":  # a factorisation per handle set, reused when it recurs
         assert run.report["block"]["factorisations"] > 1
+
+
+@pytest.mark.parametrize("goal", [Rect((29.0, 0.0), (30.0, 10.0)), Rect((0.0, 9.5), (30.0, 10.0)),
+                                  Rect((22.0, 3.0), (23.0, 7.0))], ids=["edge strip", "long edge strip", "against a box"])
+def test_a_block_sent_to_a_strip_narrower_than_itself_recovers_where_it_fits(goal):
+    # centred on the strip the block's slots would stand outside the scene (or in the box):
+    # it used to arrive and never recover, running to its step limit
+    scene = Scene(((0, 0), (30, 10)), [Box((23, 2), (24, 8))])
+    sim = formation.Simulator(scene, time_step=0.1)
+    sim.add_group(formation.block(3, 4, 1.0), goal=goal, start=(4, 5), radius=0.25)
+    frames, active = [sim.positions.copy()], [sim.active.copy()]
+    _run(sim, frames, active, limit=80.0)
+    g = sim.groups[0]
+    assert sim.done and g.recovered_at is not None
+    np.testing.assert_array_less(np.abs(sim.positions - g.vertices[g.guide.assignment]), 0.5)
+    assert float(scene.static_obstacle_distance(sim.positions).min()) >= 0.25
+    _audit_clean(frames, active, sim)
 
 
 def test_simulate_returns_trajectories_with_groups_and_radii():

@@ -51,6 +51,7 @@ from crowdmotion.formation._kernels import edge_length_error as edge_errors
 from crowdmotion.formation._kernels import repulsion
 from crowdmotion.live_obstacles import LiveObstacles
 from crowdmotion.obstacle_primitives import ObstacleSet
+from crowdmotion.placement import standing_centre
 from crowdmotion.routing import DistanceFields, distance_fields
 from crowdmotion.scene import Scene
 
@@ -468,13 +469,14 @@ class Simulator(LiveObstacles):
         in_area = g.arrived_at is not None
         comfortable = g.comfortable(p)
         if not in_area:
-            to_goal = g.goal_center - centroid
+            to_goal = self._standing_centre(g, obstacles=False) - centroid
             dist = float(np.linalg.norm(to_goal))
             inside = isinstance(g.goal, (Rect, Disc)) and bool(g.goal.contains(centroid[None])[0])
             if dist <= p.arrive_distance or inside:
                 g.arrived_at = self.time
                 in_area = True
                 self._arrive(g, V, centroid)
+                g.goal_center = self._standing_centre(g)  # it recovers where its rest shape fits
         if in_area:  # the heading stays as it arrived
             u = np.zeros(2)
             handles = np.zeros(0, np.int64)
@@ -668,6 +670,19 @@ class Simulator(LiveObstacles):
                 self._routes_solved[key] = distance_fields(self._now, goals, min(g.radius for g in self.groups))
             self._route = self._routes_solved[key]
         self._held = set(self._cut_off())  # (none without a route field)
+
+    def _standing_centre(self, g: FormationGroup, obstacles: bool = True) -> np.ndarray:
+        """Where the group's rest shape, at its heading now, stands nearest its goal's
+        centre with every slot inside the bounds and (``obstacles``) clear of the static
+        obstacles: a block sent to a strip along the scene's edge narrower than the block
+        walks up to the edge and recovers there (centred on the strip its slots would
+        stand outside the scene, and it never recovered). On its way a group aims only
+        inside the bounds (exact and cheap; its route field leads it round obstacles); it
+        recovers clear of both."""
+        if not obstacles:
+            return standing_centre(self._now, g.goal_center, g.rest_shape(), g.radius + VERTEX_CLEARANCE,
+                                   obstacles=False)
+        return standing_centre(self._now, g.goal_center, g.rest_shape(), g.radius + VERTEX_CLEARANCE)
 
     @staticmethod
     def _arrive(g: FormationGroup, V: np.ndarray, centroid: np.ndarray) -> None:
