@@ -50,11 +50,13 @@ def test_two_walkers_meeting_head_on_in_a_deep_doorway_both_pass(seed):
 
 
 @pytest.mark.parametrize("seed", [0, 1])
-def test_in_a_one_body_passage_one_walker_yields_and_both_pass(seed):
+def test_in_a_one_body_passage_one_walker_waits_and_both_pass(seed):
     scene = _door(0.9, 3.0)  # room for one body of 0.6 m only
     sim, traj, _ = _head_on(scene, seed)
     assert sim.arrived.all(), f"arrived {sim.arrived}"
-    assert sim.stats["yields"] >= 1
+    # one waits for the other outside the passage (no body passes another in it: the
+    # audit below): it yields (seed 1), or eq. (3) alone backs it out of the mouth and
+    # aside while the other walks through (seed 0)
     # a free walk takes 8.5 s; the one who yields backs out and waits for the other
     assert np.nanmax(sim.arrival_time) < 30.0, sim.arrival_time
     assert collision_audit(traj, scene).clean
@@ -62,7 +64,8 @@ def test_in_a_one_body_passage_one_walker_yields_and_both_pass(seed):
 
 def test_without_the_rules_the_deep_doorway_stand_off_stays():
     # the stand-off the rules break is real: patience that never runs out, no keep right
-    sim, _, longest = _head_on(_door(1.6, 4.0), 0, limit_s=40, keep_right_deg=0.0, patience=1e9, comfort_accel=0.0)
+    sim, _, longest = _head_on(_door(1.6, 4.0), 0, limit_s=40, keep_right_deg=0.0, patience=1e9, comfort_accel=0.0,
+                               squeeze_past=False)
     assert not sim.arrived.any() and longest > 20
 
 
@@ -208,3 +211,59 @@ def test_a_dense_crowd_at_a_narrow_door_never_clogs_for_good(case, seed):
     out = simulate("rvo", setups[case], seed)
     assert out.summary["arrival_rate"] == 1.0 and out.summary["agent_agent_overlaps"] == 0
     assert out.summary["duration_s"] <= 300.0
+
+
+def _corridor_swap(width: float, each_way: int, seed: int, **params):
+    """A 20 m corridor ``width`` wide: ``each_way`` walkers enter at each end and leave at
+    the other (default parameters, as a new user writes it); returns the run."""
+    from crowdmotion.scenario import parse_scenario, run_scenario
+    extra = "".join(f"{k} = {str(v).lower()}\n" for k, v in params.items())
+    w = width
+    text = f'''
+name = "corridor"
+method = "rvo"
+seed = {seed}
+[scene]
+bounds = [[0.0, 0.0], [20.0, {w}]]
+[rvo]
+max_steps = 480
+{extra}
+[[groups]]
+name = "west"
+count = {each_way}
+spawn = {{ shape = "rect", lower = [0.3, 0.3], upper = [5.0, {w - 0.3}] }}
+goal = {{ shape = "rect", lower = [19.5, 0.0], upper = [20.0, {w}] }}
+radius = 0.25
+[[groups]]
+name = "east"
+count = {each_way}
+spawn = {{ shape = "rect", lower = [15.0, 0.3], upper = [19.7, {w - 0.3}] }}
+goal = {{ shape = "rect", lower = [0.0, 0.0], upper = [0.5, {w}] }}
+radius = 0.25
+'''
+    return run_scenario(parse_scenario(text), progress=False)
+
+
+@pytest.mark.parametrize("width, each_way, seed", [(1.2, 1, 2), (1.2, 1, 3), (1.6, 3, 0), (1.6, 3, 1), (1.6, 3, 2)])
+def test_walkers_meeting_in_a_narrow_corridor_squeeze_past_along_the_walls(width, each_way, seed):
+    # two people fit abreast with 0.1-0.3 m to spare; eq. (3) priced the sidestep towards the
+    # wall above standing, and every one of these runs stood for good (none out in 120 s)
+    run = _corridor_swap(width, each_way, seed)
+    assert run.summary["arrival_rate"] == 1.0, run.summary["arrival_rate"]
+    assert run.summary["agent_agent_overlaps"] == 0 and run.summary["agent_obstacle_penetrations"] == 0
+    assert run.trajectories.n_frames * run.trajectories.dt < 60.0  # a free walk takes 15 s
+
+
+def test_without_squeezing_past_the_narrow_corridor_stand_off_stays():
+    run = _corridor_swap(1.6, 3, 0, squeeze_past=False)
+    assert run.summary["arrival_rate"] < 0.5
+
+
+def test_only_walkers_squeeze_past_robots_and_vehicles_mind_every_wall():
+    sim = rvo.Simulator(cm.Scene(bounds=([0, 0], [20, 3])))
+    sim.add_agents([[2, 1.5]], [[18, 1.5]], radius=0.25)
+    sim.add_agents([[18, 1.5]], [[2, 1.5]], radius=0.6)
+    assert sim._squeeze_s().tolist() == [deadlock.SQUEEZE_WALL_S, np.inf]
+    off = rvo.Simulator(cm.Scene(bounds=([0, 0], [20, 3])), squeeze_past=False)
+    off.add_agents([[2, 1.5]], [[18, 1.5]], radius=0.25)
+    assert off._squeeze_s().tolist() == [np.inf]

@@ -115,7 +115,7 @@ def _obstacle_time(px, py, cx_, cy_, r, circ_c, circ_r, circ_v, near_c, n_near_c
 def choose_velocities(pos, vel, vpref, aim_dist, radius, vmax, max_nb, nb_dist, samples, safety, active,
                       cell_start, items, origin_x, origin_y, h, nx, ny,
                       circ_c, circ_r, circ_v, seg_a, seg_b, seg_v, dt, key,
-                      out_vel, out_forced, keep_right, look_s, follow, comfort, goals, leave_r):
+                      out_vel, out_forced, keep_right, look_s, follow, comfort, goals, leave_r, squeeze_s, squeeze_side):
     """Sampling RVO for every active agent at once (simultaneous, order-independent).
 
     For agent i the candidates are v_pref, the current velocity, standing still and
@@ -151,6 +151,15 @@ def choose_velocities(pos, vel, vpref, aim_dist, radius, vmax, max_nb, nb_dist, 
     and straight ahead or to its left within the sum of radii plus 0.2 m — turns its own
     v_pref to the right by ``keep_right`` before choosing, so head-on pairs pass left side
     to left side instead of meeting nose to nose.
+
+    Squeezing past (a documented addition, ``squeeze_s[i]`` seconds, inf = off): an agent
+    meeting an oncoming neighbour (as for keep right, but within the sum of radii plus
+    ``squeeze_side`` metres of its line on either side) counts a static obstacle's
+    collision only when a candidate meets it within ``squeeze_s[i]`` seconds. Eq. (3)
+    prices a drift towards a wall 0.2 m off at w · v_perp / 0.2: moving aside to let
+    someone pass in a corridor cost more than standing, and two people facing each other
+    in a 1.2-1.8 m corridor stood for good. The step's hard constraint (no candidate
+    reaching an obstacle within the step) still holds.
     """
     n = pos.shape[0]
     mcap = 1
@@ -211,6 +220,10 @@ def choose_velocities(pos, vel, vpref, aim_dist, radius, vmax, max_nb, nb_dist, 
             ax_, ay_ = 0.0, 0.0
             vix, viy = vel[i, 0], vel[i, 1]
             wx, wy = _kept_right(i, k, idx, pos, vpref, radius, vpref[i, 0], vpref[i, 1], keep_right, look_s)
+            wall_s = INF  # a static obstacle's collision counts when met within this many seconds
+            if squeeze_s[i] < INF and _meets_oncoming(i, k, idx, pos, vpref, radius, vpref[i, 0], vpref[i, 1],
+                                                      look_s, 1.0, squeeze_side, squeeze_side):
+                wall_s = squeeze_s[i]  # squeezing past one coming towards us
             w_i = safety[i]
             # within reach of leaving on arrival (LEAVE_LOOK_S at most at vm, every candidate's top
             # speed): farther off, no candidate counts on leaving
@@ -324,7 +337,7 @@ def choose_velocities(pos, vel, vpref, aim_dist, radius, vmax, max_nb, nb_dist, 
                 if nc + ns > 0:
                     t_static, t_moving = _obstacle_time(px, py, cx_, cy_, ri, circ_c, circ_r, circ_v, near_c, nc,
                                                         seg_a, seg_b, seg_v, near_s, ns)
-                t_obs = min(t_static, t_moving)
+                t_obs = min(t_static if t_static <= wall_s else INF, t_moving)
                 if t_obs < INF and not (sp > 0.0 and t_obs * sp > aim_dist[i]):
                     tc = min(tc, t_obs)
                 if tc == INF:
@@ -350,9 +363,21 @@ def choose_velocities(pos, vel, vpref, aim_dist, radius, vmax, max_nb, nb_dist, 
 def _kept_right(i, k, idx, pos, vpref, radius, wx, wy, keep_right, look_s):
     """v_pref turned right by ``keep_right`` if an oncoming neighbour is ahead (see
     :func:`choose_velocities`), else unchanged."""
-    wn = np.sqrt(wx * wx + wy * wy)
-    if keep_right <= 0.0 or wn == 0.0:
+    if keep_right <= 0.0 or not _meets_oncoming(i, k, idx, pos, vpref, radius, wx, wy, look_s, 0.25, 0.0, 0.2):
         return wx, wy
+    c, s = np.cos(keep_right), np.sin(keep_right)
+    return wx * c + wy * s, -wx * s + wy * c
+
+
+@njit(inline="always")
+def _meets_oncoming(i, k, idx, pos, vpref, radius, wx, wy, look_s, right_bodies, right_m, left_m):
+    """Whether one of agent i's ``k`` neighbours ``idx`` comes towards it (v_pref against
+    ``(wx, wy)``, cos < −0.5), ahead within ``look_s`` seconds of both walking, and across
+    our line from ``right_bodies`` × the sum of radii + ``right_m`` metres on our right to
+    the sum of radii + ``left_m`` on our left."""
+    wn = np.sqrt(wx * wx + wy * wy)
+    if wn == 0.0:
+        return False
     ux, uy = wx / wn, wy / wn
     for q in range(k):
         j = idx[q]
@@ -366,11 +391,9 @@ def _kept_right(i, k, idx, pos, vpref, radius, wx, wy, keep_right, look_s):
             continue
         lateral = ux * dy - uy * dx  # > 0: on our left
         reach = radius[i] + radius[j]
-        if lateral < -0.25 * reach or lateral > reach + 0.2:
-            continue  # already passing on the right, or clear on the left
-        c, s = np.cos(keep_right), np.sin(keep_right)
-        return wx * c + wy * s, -wx * s + wy * c
-    return wx, wy
+        if -right_bodies * reach - right_m <= lateral <= reach + left_m:
+            return True
+    return False
 
 
 # ---- guidance: the distance field (line of sight lives in crowdmotion._contact) --------------

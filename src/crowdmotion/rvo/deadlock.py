@@ -12,6 +12,11 @@ break that; none touches the continuous-time guarantee, which the step's safety 
    neighbour turns its v_pref right by a few degrees, so head-on pairs pass left side to
    left side instead of meeting nose to nose (the pedestrians' convention that
    Helbing & Molnár's social force model also builds in).
+   **Squeezing past** (in the kernel, ``squeeze_s``): a walker meeting an oncoming one in
+   its way counts a wall only when it would meet it within ``SQUEEZE_WALL_S`` seconds, so
+   it moves up to the wall to let the other pass; eq. (3)'s w/tc priced that sidestep
+   above standing, and two people facing each other in a narrow corridor stood for good
+   (RVO2 likewise gives obstacles their own, shorter time horizon).
 2. **Yielding by priority**: an agent held up (walking slower than a tenth of its
    preferred speed along v_pref) for ``patience`` seconds — counted leakily, so a second of walking
    takes back a second of waiting — whose way is blocked by an agent that is held up
@@ -71,6 +76,8 @@ from crowdmotion.rvo.density import PERSON_MAX_RADIUS_M
 
 BLOCKER_CANDIDATES = 6  # nearest neighbours searched for the one in an agent's way
 KEEP_RIGHT_LOOK_S = 5.0  # keep right for an oncoming agent met within this many seconds
+SQUEEZE_WALL_S = 0.5  # squeezing past an oncoming walker, a wall counts when met within this many seconds
+SQUEEZE_SIDE_M = 0.2  # ... one within the sum of radii plus this of our line, either side
 SLOW = 0.1             # progress along v_pref below this fraction of pref_speed is "held up"
 YIELD_TURN = np.deg2rad(30.0)  # a yielding agent backs away turned this far to its right
 YIELD_MAX_S = 10.0

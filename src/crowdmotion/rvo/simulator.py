@@ -18,7 +18,8 @@ from crowdmotion.rvo import _kernels as K
 from crowdmotion.rvo import congestion as _congestion
 from crowdmotion.rvo import deadlock as _deadlock
 from crowdmotion.rvo.congestion import CongestionRouter
-from crowdmotion.rvo.deadlock import KEEP_RIGHT_LOOK_S, Deadlock, contact_arrivals
+from crowdmotion.rvo.deadlock import (KEEP_RIGHT_LOOK_S, SQUEEZE_SIDE_M, SQUEEZE_WALL_S, Deadlock,
+                                      contact_arrivals)
 from crowdmotion.rvo.density import PERSON_MAX_RADIUS_M, DensitySlowing
 from crowdmotion.rvo.lanes import LaneChoice
 from crowdmotion.routing import DistanceFields, distance_fields
@@ -166,6 +167,11 @@ class Simulator(LiveObstacles):
         acceleration instead of circling the goal (``_turn_in_factor``); walkers (radius up
         to 0.4 m) only. 0 = eq. (3)'s free choice. See
         :func:`crowdmotion.rvo._kernels.choose_velocities`.
+    squeeze_past : bool
+        A walker meeting an oncoming one in its way counts a wall only when it would
+        meet it within ``SQUEEZE_WALL_S`` (0.5 s), so it steps up to the wall to let the
+        other pass instead of standing (:mod:`crowdmotion.rvo.deadlock`, rule 1); walkers
+        (radius up to 0.4 m) only. False = every wall counts as eq. (3) has it.
     """
 
     def __init__(self, scene: Scene, time_step: float = 0.25, guidance: str = "auto",
@@ -174,7 +180,7 @@ class Simulator(LiveObstacles):
                  rng: np.random.Generator | None = None, keep_right_deg: float = 15.0,
                  patience: float = 2.0, congestion: float = 1.0, replan_s: float = 2.0,
                  density_slowing: bool = True, follow: float = 0.5, lane_choice: bool = True,
-                 comfort_accel: float = 0.8, counterflow: float = 20.0):
+                 comfort_accel: float = 0.8, counterflow: float = 20.0, squeeze_past: bool = True):
         if not isinstance(scene, Scene):
             raise TypeError(f"scene must be a crowdmotion.Scene, got {scene!r}")
         if not (np.isfinite(time_step) and time_step > 0):
@@ -258,7 +264,8 @@ class Simulator(LiveObstacles):
         self._solved = np.zeros(0, dtype=bool)  # per goal region: its field solved for the obstacles now
         self._fields_stale = True
         self.deadlock = Deadlock(np.deg2rad(keep_right_deg), float(patience))
-        for name, flag in (("density_slowing", density_slowing), ("lane_choice", lane_choice)):
+        for name, flag in (("density_slowing", density_slowing), ("lane_choice", lane_choice),
+                           ("squeeze_past", squeeze_past)):
             if not isinstance(flag, (bool, np.bool_)):
                 raise ValueError(f"{name} must be True or False, got {flag!r}")
         if not (isinstance(follow, (int, float)) and np.isfinite(follow) and 0 <= follow <= 1):
@@ -268,6 +275,7 @@ class Simulator(LiveObstacles):
             raise ValueError(f"comfort_accel must be a number of m/s² >= 0, got {comfort_accel!r}")
         self.comfort_accel = float(comfort_accel)
         self.lane_choice = bool(lane_choice)
+        self.squeeze_past = bool(squeeze_past)
         self.lanes = LaneChoice(self.dt)
         # the density sensed ahead slows walkers, and scales following and lane choice
         self.density_slowing = DensitySlowing(scene, bool(density_slowing),
@@ -1105,7 +1113,7 @@ class Simulator(LiveObstacles):
                             prims.seg_v, self.dt, key, new, forced, dl.keep_right, KEEP_RIGHT_LOOK_S,
                             self.follow * np.minimum(self.density / FOLLOW_FULL_DENSITY, 1.0),
                             self._comfort_reach(), self.goals,
-                            np.where(self.leaves, self.arrival_radius, 0.0))
+                            np.where(self.leaves, self.arrival_radius, 0.0), self._squeeze_s(), SQUEEZE_SIDE_M)
         # safety: of two agents that would touch during the step, the one with the lower
         # (random, per step) priority stands still instead, until none would
         # agents a moving obstacle bears down on go first: standing still is no refuge for them
@@ -1118,6 +1126,13 @@ class Simulator(LiveObstacles):
                 prims.circ_r, prims.circ_v, prims.seg_a, prims.seg_b, prims.seg_v, self.dt, ESCAPE_HEADINGS)
         self.stats["forced_choices"] += int(forced[steer].sum())
         return new
+
+    def _squeeze_s(self) -> np.ndarray:
+        """(N,) seconds within which a walker squeezing past an oncoming one counts a
+        wall's collision (:mod:`crowdmotion.rvo.deadlock`, rule 1); inf where it counts
+        them all: bodies wider than a person (robots, vehicles), or ``squeeze_past`` off."""
+        person = self.params["radius"] <= PERSON_MAX_RADIUS_M
+        return np.where(person & self.squeeze_past, SQUEEZE_WALL_S, np.inf)
 
     def _comfort_reach(self) -> np.ndarray:
         """(N,) the change of velocity (m/s) each agent makes comfortably this step: the
