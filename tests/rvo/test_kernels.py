@@ -28,7 +28,8 @@ def test_knn_matches_ckdtree(m, dmax):
         assert np.allclose(np.sqrt(d2[:k]), [d for d, _ in ref])
 
 
-def _choose(pos, vel, vpref, samples=20, safety=5.0, segs=None, comfort=0.0, goals=None, leave_r=0.0):
+def _choose(pos, vel, vpref, samples=20, safety=5.0, segs=None, comfort=0.0, goals=None, leave_r=0.0,
+            squeeze_s=np.inf):
     n = len(pos)
     active = np.ones(n, dtype=bool)
     h = 5.0
@@ -43,7 +44,7 @@ def _choose(pos, vel, vpref, samples=20, safety=5.0, segs=None, comfort=0.0, goa
                         lo[0], lo[1], h, nx, ny, np.zeros((0, 2)), np.zeros(0), np.zeros((0, 2)), seg_a, seg_b,
                         np.zeros_like(seg_a), 0.25, np.uint64(7), out, np.zeros(n, dtype=bool), 0.0, 5.0, np.zeros(n),
                         np.full(n, comfort), pos + 100.0 if goals is None else goals, np.full(n, leave_r),
-                        np.full(n, np.inf), 0.2)
+                        np.full(n, squeeze_s), 0.2)
     return out
 
 
@@ -89,3 +90,23 @@ def test_an_agent_about_to_leave_steps_in_past_a_neighbour_beyond_its_goal():
     assert np.linalg.norm(pos[0] + stays[0] * 0.25 - goals[0]) > 0.5
     assert np.linalg.norm(pos[0] + leaves[0] * 0.25 - goals[0]) <= 0.5
     assert np.allclose(leaves[0], vpref[0])
+
+
+def test_a_walker_squeezes_past_one_bound_the_other_way_but_not_one_bound_its_way():
+    # a 1.2 m corridor (walls y = 0 and 1.2): two walkers head-on, 0.1 m apart sideways
+    segs = (np.array([[-10.0, 0.0], [-10.0, 1.2]]), np.array([[10.0, 0.0], [10.0, 1.2]]))
+    pos = np.array([[0.0, 0.55], [2.0, 0.65]])
+    vel = np.zeros((2, 2))
+    vpref = np.array([[1.3, 0.0], [-1.3, 0.0]])
+    opposed = np.array([[9.0, 0.55], [-9.0, 0.65]])
+    plain = _choose(pos, vel, vpref, samples=200, segs=segs, goals=opposed)
+    squeeze = _choose(pos, vel, vpref, samples=200, segs=segs, goals=opposed, squeeze_s=0.5)
+    # eq. (3) alone has both stand (any way round the other drifts towards a wall, priced
+    # w * v_perp / gap); squeezing past, both move off the line, each to the same side of its way
+    assert np.all(plain == 0.0)
+    assert np.all(np.linalg.norm(squeeze, axis=1) > 0.2) and squeeze[0, 1] * squeeze[1, 1] < 0.0
+    # two converging on one door (their goals the same place) come towards each other too,
+    # but bound the same way: walls count as eq. (3) has them
+    door = np.array([[1.0, -5.0], [1.0, -5.0]])
+    same = _choose(pos, vel, vpref, samples=200, segs=segs, goals=door, squeeze_s=0.5)
+    np.testing.assert_array_equal(same, _choose(pos, vel, vpref, samples=200, segs=segs, goals=door))

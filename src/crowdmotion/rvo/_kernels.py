@@ -153,9 +153,10 @@ def choose_velocities(pos, vel, vpref, aim_dist, radius, vmax, max_nb, nb_dist, 
     to left side instead of meeting nose to nose.
 
     Squeezing past (a documented addition, ``squeeze_s[i]`` seconds, inf = off): an agent
-    meeting an oncoming neighbour (as for keep right, but within the sum of radii plus
-    ``squeeze_side`` metres of its line on either side) counts a static obstacle's
-    collision only when a candidate meets it within ``squeeze_s[i]`` seconds. Eq. (3)
+    meeting an oncoming neighbour bound the other way (as for keep right, but within the
+    sum of radii plus ``squeeze_side`` metres of its line on either side, and the straight
+    lines to their ``goals`` over 120° apart) counts a static obstacle's collision only
+    when a candidate meets it within ``squeeze_s[i]`` seconds. Eq. (3)
     prices a drift towards a wall 0.2 m off at w · v_perp / 0.2: moving aside to let
     someone pass in a corridor cost more than standing, and two people facing each other
     in a 1.2-1.8 m corridor stood for good. The step's hard constraint (no candidate
@@ -222,7 +223,7 @@ def choose_velocities(pos, vel, vpref, aim_dist, radius, vmax, max_nb, nb_dist, 
             wx, wy = _kept_right(i, k, idx, pos, vpref, radius, vpref[i, 0], vpref[i, 1], keep_right, look_s)
             wall_s = INF  # a static obstacle's collision counts when met within this many seconds
             if squeeze_s[i] < INF and _meets_oncoming(i, k, idx, pos, vpref, radius, vpref[i, 0], vpref[i, 1],
-                                                      look_s, 1.0, squeeze_side, squeeze_side):
+                                                      look_s, 1.0, squeeze_side, squeeze_side, goals):
                 wall_s = squeeze_s[i]  # squeezing past one coming towards us
             w_i = safety[i]
             # within reach of leaving on arrival (LEAVE_LOOK_S at most at vm, every candidate's top
@@ -363,18 +364,21 @@ def choose_velocities(pos, vel, vpref, aim_dist, radius, vmax, max_nb, nb_dist, 
 def _kept_right(i, k, idx, pos, vpref, radius, wx, wy, keep_right, look_s):
     """v_pref turned right by ``keep_right`` if an oncoming neighbour is ahead (see
     :func:`choose_velocities`), else unchanged."""
-    if keep_right <= 0.0 or not _meets_oncoming(i, k, idx, pos, vpref, radius, wx, wy, look_s, 0.25, 0.0, 0.2):
+    if keep_right <= 0.0 or not _meets_oncoming(i, k, idx, pos, vpref, radius, wx, wy, look_s, 0.25, 0.0, 0.2,
+                                                 None):
         return wx, wy
     c, s = np.cos(keep_right), np.sin(keep_right)
     return wx * c + wy * s, -wx * s + wy * c
 
 
 @njit(inline="always")
-def _meets_oncoming(i, k, idx, pos, vpref, radius, wx, wy, look_s, right_bodies, right_m, left_m):
+def _meets_oncoming(i, k, idx, pos, vpref, radius, wx, wy, look_s, right_bodies, right_m, left_m, goals):
     """Whether one of agent i's ``k`` neighbours ``idx`` comes towards it (v_pref against
     ``(wx, wy)``, cos < −0.5), ahead within ``look_s`` seconds of both walking, and across
     our line from ``right_bodies`` × the sum of radii + ``right_m`` metres on our right to
-    the sum of radii + ``left_m`` on our left."""
+    the sum of radii + ``left_m`` on our left; with ``goals`` (not None), only one bound
+    the other way (the straight lines to their goals over 120° apart): two converging on
+    one door from either side come towards each other too, but bound the same way."""
     wn = np.sqrt(wx * wx + wy * wy)
     if wn == 0.0:
         return False
@@ -391,8 +395,14 @@ def _meets_oncoming(i, k, idx, pos, vpref, radius, wx, wy, look_s, right_bodies,
             continue
         lateral = ux * dy - uy * dx  # > 0: on our left
         reach = radius[i] + radius[j]
-        if -right_bodies * reach - right_m <= lateral <= reach + left_m:
-            return True
+        if not -right_bodies * reach - right_m <= lateral <= reach + left_m:
+            continue
+        if goals is not None:
+            gix, giy = goals[i, 0] - pos[i, 0], goals[i, 1] - pos[i, 1]
+            gjx, gjy = goals[j, 0] - pos[j, 0], goals[j, 1] - pos[j, 1]
+            if not gix * gjx + giy * gjy < -0.5 * np.sqrt((gix * gix + giy * giy) * (gjx * gjx + gjy * gjy)):
+                continue
+        return True
     return False
 
 

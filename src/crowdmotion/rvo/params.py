@@ -66,9 +66,9 @@ class RVOParams(BaseModel):
     comfort_accel : float    m/s² of velocity change a walker makes at ease each second;
                              changes beyond it cost extra in the choice, so characters do
                              not twitch (0 = eq. (3)'s free choice; walkers only)
-    squeeze_past : bool      a walker meeting an oncoming one in its way counts a wall only
-                             within 0.5 s, so it steps up to the wall to let the other
-                             pass (rvo.deadlock; walkers only)
+    squeeze_past : bool      a walker meeting an oncoming one in its way, bound the other
+                             way, counts a wall only within 0.5 s, so it steps up to the
+                             wall to let the other pass (rvo.deadlock; walkers only)
     smoothing : str          "relaxed" (default): the run's steps relaxed for the characters
                              that play them (smoothed over ``smoothing_window`` and kept
                              apart, ``crowdmotion.path_relaxation.relaxed_steps``), audited

@@ -168,9 +168,9 @@ class Simulator(LiveObstacles):
         to 0.4 m) only. 0 = eq. (3)'s free choice. See
         :func:`crowdmotion.rvo._kernels.choose_velocities`.
     squeeze_past : bool
-        A walker meeting an oncoming one in its way counts a wall only when it would
-        meet it within ``SQUEEZE_WALL_S`` (0.5 s), so it steps up to the wall to let the
-        other pass instead of standing (:mod:`crowdmotion.rvo.deadlock`, rule 1); walkers
+        A walker meeting an oncoming one in its way, bound the other way, counts a wall
+        only when it would meet it within ``SQUEEZE_WALL_S`` (0.5 s), so it steps up to
+        the wall to let the other pass instead of standing (:mod:`crowdmotion.rvo.deadlock`, rule 1); walkers
         (radius up to 0.4 m) only. False = every wall counts as eq. (3) has it.
     """
 
