@@ -679,10 +679,8 @@ class Simulator(LiveObstacles):
         stand outside the scene, and it never recovered). On its way a group aims only
         inside the bounds (exact and cheap; its route field leads it round obstacles); it
         recovers clear of both."""
-        if not obstacles:
-            return standing_centre(self._now, g.goal_center, g.rest_shape(), g.radius + VERTEX_CLEARANCE,
-                                   obstacles=False)
-        return standing_centre(self._now, g.goal_center, g.rest_shape(), g.radius + VERTEX_CLEARANCE)
+        return standing_centre(self._now, g.goal_center, g.rest_shape(), g.radius + VERTEX_CLEARANCE,
+                               obstacles=obstacles)
 
     @staticmethod
     def _arrive(g: FormationGroup, V: np.ndarray, centroid: np.ndarray) -> None:

@@ -170,8 +170,9 @@ class Simulator(LiveObstacles):
     squeeze_past : bool
         A walker meeting an oncoming one in its way, bound the other way, counts a wall
         only when it would meet it within ``SQUEEZE_WALL_S`` (0.5 s), so it steps up to
-        the wall to let the other pass instead of standing (:mod:`crowdmotion.rvo.deadlock`, rule 1); walkers
-        (radius up to 0.4 m) only. False = every wall counts as eq. (3) has it.
+        the wall to let the other pass instead of standing (:mod:`crowdmotion.rvo.deadlock`,
+        rule 1); walkers (radius up to 0.4 m) only. False = every wall counts as eq. (3)
+        has it.
     """
 
     def __init__(self, scene: Scene, time_step: float = 0.25, guidance: str = "auto",
