@@ -222,8 +222,10 @@ def choose_velocities(pos, vel, vpref, aim_dist, radius, vmax, max_nb, nb_dist, 
             vix, viy = vel[i, 0], vel[i, 1]
             wx, wy = _kept_right(i, k, idx, pos, vpref, radius, vpref[i, 0], vpref[i, 1], keep_right, look_s)
             wall_s = INF  # a static obstacle's collision counts when met within this many seconds
-            if squeeze_s[i] < INF and _meets_oncoming(i, k, idx, pos, vpref, radius, vpref[i, 0], vpref[i, 1],
-                                                      look_s, 1.0, squeeze_side, squeeze_side, goals):
+            # (only obstacles within reach can be squeezed past: in the open the test is skipped)
+            if squeeze_s[i] < INF and nc + ns > 0 and _meets_oncoming(
+                    i, k, idx, pos, vpref, radius, vpref[i, 0], vpref[i, 1], look_s, 1.0, squeeze_side,
+                    squeeze_side, goals):
                 wall_s = squeeze_s[i]  # squeezing past one coming towards us
             w_i = safety[i]
             # within reach of leaving on arrival (LEAVE_LOOK_S at most at vm, every candidate's top
