@@ -62,6 +62,21 @@ def test_a_kernel_with_its_own_threshold_threads_from_it_unless_the_environment_
     assert _doubled.serial.signatures
 
 
+
+@threaded(min_items=20, error_model="numpy")
+def _ratio(a, b, out):
+    """out = a / b, compiled with numpy's error model."""
+    for i in prange(a.shape[0]):
+        out[i] = a[i] / b[i]
+
+
+@pytest.mark.parametrize("rows", [10, 50])  # the serial twin, then (with two threads) the threaded kernel
+def test_compile_options_reach_both_twins_a_division_by_zero_gives_inf(monkeypatch, rows):
+    monkeypatch.setattr(_threads, "_free_cores", None)
+    a, b, out = np.ones(rows), np.zeros(rows), np.empty(rows)
+    _ratio(a, b, out)  # raises ZeroDivisionError under numba's default (Python's) error model
+    assert np.isinf(out).all()
+
 def test_the_twins_keep_separate_cache_entries():
     # one cache slot for both would hand the serial caller the threaded machine code
     assert _scaled.serial.py_func.__qualname__ != _scaled.threaded.py_func.__qualname__

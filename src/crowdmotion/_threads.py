@@ -149,15 +149,15 @@ def threads_to_use() -> int:
 class ThreadedKernel:
     """A kernel with a threaded and a serial compilation; call it like the kernel."""
 
-    def __init__(self, fn, min_items: int | None = None):
+    def __init__(self, fn, min_items: int | None = None, **options):
         self._own_min = None if min_items is None else int(min_items)
-        self.threaded = njit(parallel=True, cache=True)(fn)
+        self.threaded = njit(parallel=True, cache=True, **options)(fn)
         twin = types.FunctionType(fn.__code__, fn.__globals__, fn.__name__ + "_serial", fn.__defaults__,
                                   fn.__closure__)
         twin.__qualname__ = fn.__qualname__ + "_serial"
         twin.__module__ = fn.__module__
         twin.__doc__ = fn.__doc__
-        self.serial = njit(cache=True)(twin)
+        self.serial = njit(cache=True, **options)(twin)
         self.__doc__ = fn.__doc__
         self.__name__ = fn.__name__
         self.__wrapped__ = fn
@@ -183,10 +183,12 @@ class ThreadedKernel:
             numba.set_num_threads(cap)
 
 
-def threaded(fn=None, *, min_items: int | None = None):
+def threaded(fn=None, *, min_items: int | None = None, **options):
     """Decorator: ``fn`` as a :class:`ThreadedKernel` (write ``prange`` loops as usual);
     ``@threaded(min_items=n)`` threads from ``n`` rows on instead of ``PARALLEL_MIN_ITEMS``
-    (for kernels whose rows cost microseconds each)."""
+    (for kernels whose rows cost microseconds each). Other keywords go to both
+    compilations' ``njit`` (``error_model="numpy"``: a division by zero gives inf or NaN
+    instead of raising, so that a loop dividing without branches can be vectorised)."""
     if fn is None:
-        return lambda f: ThreadedKernel(f, min_items)
-    return ThreadedKernel(fn)
+        return lambda f: ThreadedKernel(f, min_items, **options)
+    return ThreadedKernel(fn, **options)
