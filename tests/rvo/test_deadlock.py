@@ -116,6 +116,25 @@ def _standing_pair(blocker_wants, blocker_goal, seconds=4.0, dt=0.1):
     return bool(dl.detour[0])
 
 
+
+def test_of_two_fronts_nose_to_nose_one_yields_to_the_other_not_to_one_behind_it():
+    """A walker east (index 2) touches one walking west (index 0), a second walking west
+    (index 1) right behind it, all held up. By priority 1 > 2 > 0: the front walking west
+    yields to the one facing it, which yields to nobody (it used to yield to the one behind,
+    out of whose way it already stood, and both fronts waited for good)."""
+    dl = deadlock.Deadlock(keep_right=0.0, patience=2.0)
+    dl.grow(3)
+    prio = dl.priority(np.arange(3))
+    assert prio[1] > prio[2] > prio[0]
+    pos = np.array([[0.5, 0.05], [1.1, 0.0], [0.0, 0.0]])
+    wanted = np.array([[-1.3, 0.0], [-1.3, 0.0], [1.3, 0.0]])
+    goals = np.array([[-20.0, 0.0], [-20.0, 0.0], [20.0, 0.0]])
+    one = np.ones(3)
+    dl.stuck[:] = 2.0
+    dl.update(pos, wanted, np.zeros((3, 2)), 1.3 * one, 0.25 * one, 5.0 * one, np.ones(3, bool), 0.1, goals)
+    assert dl.yield_to.tolist() == [2, -1, -1]
+
+
 def test_a_gridlock_detour_only_for_crossing_streams_bound_elsewhere():
     # from the side and bound elsewhere: a gridlock of crossing streams
     assert _standing_pair([0.0, 1.3], [0.6, 10.0])
@@ -252,6 +271,15 @@ def test_walkers_meeting_in_a_narrow_corridor_squeeze_past_along_the_walls(width
     assert run.summary["arrival_rate"] == 1.0, run.summary["arrival_rate"]
     assert run.summary["agent_agent_overlaps"] == 0 and run.summary["agent_obstacle_penetrations"] == 0
     assert run.trajectories.n_frames * run.trajectories.dt < 60.0  # a free walk takes 15 s
+
+
+@pytest.mark.parametrize("seed", [0, 2, 5])
+def test_five_each_way_in_a_corridor_two_bodies_wide_all_get_through(seed):
+    # the two fronts stood nose to nose, each yielding to one behind the other, for good
+    # (5, 0 and 1 of 10 out in 120 s)
+    run = _corridor_swap(1.2, 5, seed)
+    assert run.summary["arrival_rate"] == 1.0, run.summary["arrival_rate"]
+    assert run.summary["agent_agent_overlaps"] == 0 and run.summary["agent_obstacle_penetrations"] == 0
 
 
 def test_without_squeezing_past_the_narrow_corridor_stand_off_stays():

@@ -25,8 +25,12 @@ break that; none touches the continuous-time guarantee, which the step's safety 
    takes back a second of waiting — whose way is blocked by an agent that is held up
    too, comes head-on (its v_pref against ours), stands on our line within our neighbour
    distance D among our six nearest, has us on its line, and has the higher priority
-   (a fixed hash of the id), yields: while it stands in the other's way it backs off,
-   away from the other and turned 30° to its right; once out of the way it waits until
+   (a fixed hash of the id), yields. Of those coming head-on only the nearest counts:
+   when it has the lower priority, it is the one to yield, and the agent yields to
+   nobody (yielding to one behind it, while that one yielded to one behind us, left two
+   fronts nose to nose in a corridor waiting for each other for good). While it stands
+   in the other's way a yielder backs off, away from the other and turned 30° to its
+   right; once out of the way it waits until
    the other has walked past (or 10 s have gone). A one-body-wide passage thus clears.
    Two walkers (radius up to ``PERSON_MAX_RADIUS_M``) held up and standing for
    ``ABREAST_STILL_S`` side by side, bound the same way (their v_pref within 60°) with
@@ -231,13 +235,18 @@ class Deadlock:
             converging = (facing > 0.0) & (bound > 0.5) & persons & long
         # head-on (rule 2), or wedged abreast bound the same way
         walkers = persons & (self.still[i] >= ABREAST_STILL_S) & (self.still[j] >= ABREAST_STILL_S)
-        keep = (blocked & ((facing < -0.5) | ((facing > 0.5) & walkers) | converging)
-                & _blocks(pos, wanted, radius, j, i, sight[j]) & (self.priority(j) > self.priority(i)))
+        mutual_way = blocked & _blocks(pos, wanted, radius, j, i, sight[j])
+        # head-on, only each agent's nearest such blocker counts, whatever its priority
+        head = np.flatnonzero(mutual_way & (facing < -0.5))
+        head = head[_nearest_per_agent(i[head], gap[head])]
+        head = head[self.priority(j[head]) > self.priority(i[head])]
+        abreast = np.flatnonzero(mutual_way & (((facing > 0.5) & walkers) | converging)
+                                 & (self.priority(j) > self.priority(i)))
+        keep = np.concatenate([head, abreast])  # head-on first: it wins a tie
         i, j, gap, facing = i[keep], j[keep], gap[keep], facing[keep]
         if len(i) == 0:
             return 0
-        order = np.lexsort((gap, i))  # each yielder steps aside from its nearest blocker
-        first = order[np.r_[True, i[order][1:] != i[order][:-1]]]
+        first = _nearest_per_agent(i, gap)  # each yielder steps aside from its nearest blocker
         self.yield_to[i[first]] = j[first]
         self.abreast[i[first]] = facing[first] > 0.0
         self.yield_left[i[first]] = np.where(facing[first] > 0.0, ABREAST_MAX_S, YIELD_MAX_S)
@@ -254,6 +263,14 @@ def _blocks(pos, wanted, radius, i, j, within: float = np.inf) -> np.ndarray:
     lateral = np.abs(u[:, 0] * d[:, 1] - u[:, 1] * d[:, 0])
     reach = radius[i] + radius[j]
     return (ahead > 0) & (ahead < reach + within) & (lateral < reach + 0.1)
+
+
+def _nearest_per_agent(agent: np.ndarray, gap: np.ndarray) -> np.ndarray:
+    """Indices of the rows of least ``gap`` for each ``agent`` (the first of equals)."""
+    if len(agent) == 0:
+        return np.zeros(0, dtype=np.int64)
+    order = np.lexsort((gap, agent))
+    return order[np.r_[True, agent[order][1:] != agent[order][:-1]]]
 
 
 def _pairs(pos, rows, cols, reach) -> np.ndarray:
@@ -470,6 +487,8 @@ def _new_yields(cand, d, k, pos, wanted, radius, sight, goals, use_goals, patien
         i = cand[r]
         pick[r] = -1
         best_gap = np.inf
+        head_j = -1  # the nearest blocker head-on, whatever its priority
+        head_gap = np.inf
         fx, fy = _unit2(wanted[i, 0], wanted[i, 1])
         gix, giy = _unit2(goals[i, 0] - pos[i, 0], goals[i, 1] - pos[i, 1])
         for c in range(m):
@@ -499,15 +518,23 @@ def _new_yields(cand, d, k, pos, wanted, radius, sight, goals, use_goals, patien
             wait = ABREAST_STILL_S if facing > 0.5 else DETOUR_STILL_S
             abreast_ok = ((facing > 0.5 or (facing > 0.0 and bound > 0.5)) and radius[i] <= PERSON_MAX_RADIUS_M
                           and radius[j] <= PERSON_MAX_RADIUS_M and still[i] >= wait and still[j] >= wait)
-            if not ((facing < -0.5 or abreast_ok) and _blocks2(pos, wanted, radius, j, i, sight[j])
-                    and _priority(j) > _priority(i)):
+            if not ((facing < -0.5 or abreast_ok) and _blocks2(pos, wanted, radius, j, i, sight[j])):
                 continue
             dx, dy = pos[j, 0] - pos[i, 0], pos[j, 1] - pos[i, 1]
             gap = np.sqrt(dx * dx + dy * dy) - radius[i] - radius[j]
-            if gap < best_gap:  # each yielder steps aside from its nearest blocker (the first of equals)
+            if facing < -0.5:
+                if gap < head_gap:
+                    head_gap, head_j = gap, j
+                continue
+            if _priority(j) > _priority(i) and gap < best_gap:  # abreast: its nearest (the first of equals)
                 best_gap = gap
                 pick[r] = j
-                side[r] = facing > 0.0
+                side[r] = True
+        # head-on, only the nearest counts: the one facing us yields, or we do (by priority); yielding
+        # to one behind it, while it yielded to one behind us, left both fronts waiting for good
+        if head_j >= 0 and _priority(head_j) > _priority(i) and head_gap <= best_gap:
+            pick[r] = head_j
+            side[r] = False
     count = 0
     for r in range(n_c):
         if pick[r] >= 0:
