@@ -61,7 +61,9 @@ def panel(ax, scene, path, sim, title):
 def main() -> None:
     fig, axes = plt.subplots(2, 2, figsize=(11, 6.5))
     deep = door(1.6, 4.0)
-    p, s = head_on(deep, keep_right_deg=0.0, patience=1e9)
+    # as tests/rvo/test_deadlock.py has it: no keep right, no yielding, no squeezing past,
+    # eq. (3) without the comfort charge
+    p, s = head_on(deep, keep_right_deg=0.0, patience=1e9, squeeze_past=False, comfort_accel=0.0)
     panel(axes[0, 0], deep, p, s, "deep doorway, rules off: both stand for good")
     p, s = head_on(deep)
     panel(axes[0, 1], deep, p, s, "deep doorway, rules on: they keep right and pass")
