@@ -62,7 +62,6 @@ def test_a_kernel_with_its_own_threshold_threads_from_it_unless_the_environment_
     assert _doubled.serial.signatures
 
 
-
 @threaded(min_items=20, error_model="numpy")
 def _ratio(a, b, out):
     """out = a / b, compiled with numpy's error model."""
@@ -76,6 +75,7 @@ def test_compile_options_reach_both_twins_a_division_by_zero_gives_inf(monkeypat
     a, b, out = np.ones(rows), np.zeros(rows), np.empty(rows)
     _ratio(a, b, out)  # raises ZeroDivisionError under numba's default (Python's) error model
     assert np.isinf(out).all()
+
 
 def test_the_twins_keep_separate_cache_entries():
     # one cache slot for both would hand the serial caller the threaded machine code

@@ -116,7 +116,6 @@ def _standing_pair(blocker_wants, blocker_goal, seconds=4.0, dt=0.1):
     return bool(dl.detour[0])
 
 
-
 def test_of_two_fronts_nose_to_nose_one_yields_to_the_other_not_to_one_behind_it():
     """A walker east (index 2) touches one walking west (index 0), a second walking west
     (index 1) right behind it, all held up. By priority 1 > 2 > 0: the front walking west

@@ -30,8 +30,8 @@ break that; none touches the continuous-time guarantee, which the step's safety 
    nobody (yielding to one behind it, while that one yielded to one behind us, left two
    fronts nose to nose in a corridor waiting for each other for good). While it stands
    in the other's way a yielder backs off, away from the other and turned 30° to its
-   right; once out of the way it waits until
-   the other has walked past (or 10 s have gone). A one-body-wide passage thus clears.
+   right; once out of the way it waits until the other has walked past (or 10 s have
+   gone). A one-body-wide passage thus clears.
    Two walkers (radius up to ``PERSON_MAX_RADIUS_M``) held up and standing for
    ``ABREAST_STILL_S`` side by side, bound the same way (their v_pref within 60°) with
    each in the other's way — wedged abreast in a door
