@@ -123,8 +123,9 @@ def test_bench_reaches_every_methods_benchmark(capsys):
     # peers (pyrvo, JuPedSim) come with the [bench] extra; without them their columns are empty
     assert main(["bench", "formation", "--sizes", "200", "--steps", "2"]) == 0
     assert "| agents | mesh generation |" in capsys.readouterr().out
-    assert main(["bench", "rvo", "--sizes", "200", "--steps", "2"]) == 0
-    assert "| circle | 200 |" in capsys.readouterr().out
+    assert main(["bench", "rvo", "--sizes", "200", "--steps", "2", "--stand", "60", "--jupedsim-max", "0"]) == 0
+    out = capsys.readouterr().out
+    assert "| circle | 200 |" in out and "| 60 | crowdmotion.rvo |" in out
     # mdp's own options after the method's name, as for the others (they were refused)
     assert main(["bench", "mdp", "--no-reference", "--repeats", "1", "-q"]) == 0
     out = capsys.readouterr().out

@@ -117,7 +117,10 @@ def test_signatures_parse_without_eval():
         pc.parse_signature("(__import__, float64)")
 
 
-@pytest.mark.parametrize("method", sorted(RECORD))
+# each compiles its method's kernels into an empty cache (20-70 s): rvo, whose kernels
+# change most, runs by default, the others with -m slow
+@pytest.mark.parametrize("method", [m if m == "rvo" else pytest.param(m, marks=pytest.mark.slow)
+                                    for m in sorted(RECORD)])
 def test_the_record_matches_what_a_run_compiles(method):
     # a kernel whose argument types changed, or a helper added or gone, would be
     # precompiled for nothing: rerun python -m crowdmotion.precompile_record --record
@@ -129,6 +132,7 @@ def test_the_record_matches_what_a_run_compiles(method):
     assert summary(precompile_record._fresh_run("--record-one", method)) == summary(RECORD[method])
 
 
+@pytest.mark.slow  # compiles MDP's kernels into an empty cache (about 25 s)
 @pytest.mark.skipif(not hasattr(os, "fork"), reason="needs fork")
 def test_a_cold_start_fills_the_cache_so_the_run_compiles_nothing(tmp_path):
     script = """
@@ -153,6 +157,7 @@ print(json.dumps({"done": done, "compiled": compiled, "again": pc.start("mdp"),
     assert all(result["in_cache"])  # every recorded signature of every kernel
 
 
+@pytest.mark.slow  # compiles MDP's kernels into an empty cache, as the cold start does by default
 @pytest.mark.skipif(not hasattr(os, "fork"), reason="needs fork")
 def test_compiling_begun_early_is_finished_by_the_run(tmp_path):
     # `crowdmotion run` begins compiling before it reads the scenario; the run's start()
@@ -221,6 +226,7 @@ def test_what_the_check_compiles_comes_with_its_helpers():
     assert [k["name"] for k in pc._closure(kernels, {"check"})] == ["h", "check"]
 
 
+@pytest.mark.slow  # compiles PSO's kernels into an empty cache (about 30 s)
 @pytest.mark.skipif(not hasattr(os, "fork"), reason="needs fork")
 def test_helpers_are_compiled_once_and_loaded_by_their_callers(tmp_path):
     # PSO's avoid-and-commit calls six helpers that compile on the cores first: whichever
@@ -325,6 +331,7 @@ def test_a_sigterm_as_soon_as_a_child_is_forked_ends_the_child_not_runs_the_pare
     assert os.WIFSIGNALED(status) and os.WTERMSIG(status) == signal.SIGTERM, status
 
 
+@pytest.mark.slow  # warm_up() compiles every RVO kernel into an empty cache (about 2 minutes)
 def test_a_warmed_up_live_simulator_compiles_nothing_in_its_steps(tmp_path):
     # a game calls rvo.warm_up() before its first frame: the steps then compile nothing,
     # however the crowd meets its obstacles, a door that opens and a player driven through

@@ -157,6 +157,7 @@ def validate_grid(grid) -> np.ndarray:
         raise ValueError(f"grid must have 2 or 3 axes, got shape {arr.shape}")
     if min(arr.shape) < 1:
         raise ValueError(f"grid must not be empty, got shape {arr.shape}")
+    check_grid_size(arr.shape)  # before reading the cells: a grid too large to solve is refused at once
     if arr.dtype != bool:
         if not np.issubdtype(arr.dtype, np.number):
             raise ValueError(f"grid must hold numbers 0 (free) and 1 (obstacle), got dtype {arr.dtype}")
@@ -167,5 +168,4 @@ def validate_grid(grid) -> np.ndarray:
         if not ok:
             bad = arr[(arr != 0) & (arr != 1)][:3]
             raise ValueError(f"grid must hold only 0 (free) and 1 (obstacle), found {bad}")
-    check_grid_size(arr.shape)
     return np.ascontiguousarray(arr, dtype=np.uint8)
