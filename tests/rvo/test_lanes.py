@@ -104,3 +104,55 @@ def test_a_walker_chooses_again_at_once_when_its_way_turns_or_its_goal_is_near()
     _choices(lanes, True, straight)
     lanes.forget(np.array([0]))
     assert np.allclose(_choices(lanes, False, straight), straight)
+
+
+def _reference_costs(pos, vel, vpref, weight):
+    """The module docstring's cost of every offset for every walker, evaluated directly in
+    numpy: every neighbour at every offset (no lattice factoring, nothing left out)."""
+    from crowdmotion.rvo.lanes import (CROWD_WEIGHT, LOOK_M, MIN_PRESSURE, OFFSETS_M, RIGHT_BONUS, SIDE_COST,
+                                       SPREAD_M)
+
+    sp = np.linalg.norm(vpref, axis=1)
+    u = vpref / sp[:, None]
+    right = np.c_[u[:, 1], -u[:, 0]]
+    d = pos[None] - pos[:, None]                       # d[i, j] = p_j − p_i
+    ahead, lat = np.einsum("ijk,ik->ij", d, u), np.einsum("ijk,ik->ij", d, right)
+    oncoming = np.einsum("jk,ik->ij", vpref, u) < -0.5 * np.linalg.norm(vpref, axis=1)[None]
+    lag = 1.0 - np.einsum("jk,ik->ij", vel, u) / sp[:, None]
+    share = np.where(oncoming, 1.0, CROWD_WEIGHT * np.clip(lag, 0.0, 1.0))
+    counted = (ahead > 0) & (ahead <= LOOK_M) & ~np.eye(len(pos), dtype=bool)
+    w = np.where(counted, share * np.exp(-2.0 * ahead / LOOK_M), 0.0)
+    g = np.exp(-(lat[..., None] - OFFSETS_M) ** 2 / (2 * SPREAD_M ** 2))  # (i, j, offset)
+    pressure = weight[:, None] * np.einsum("ij,ijk->ik", w, g)
+    return pressure + SIDE_COST * np.abs(OFFSETS_M) - RIGHT_BONUS * OFFSETS_M, pressure[:, 0] >= MIN_PRESSURE
+
+
+def test_the_kernel_chooses_the_offset_the_formula_gives():
+    # the kernel factors each neighbour's Gaussian over the 0.3 m lattice of offsets and
+    # leaves out neighbours too far aside to matter: against the formula summed in full,
+    # every walker turns to the offset of least cost, or to one costing at most 1e-3 more
+    from crowdmotion.rvo.lanes import AIM_M, OFFSETS_M
+
+    rng = np.random.default_rng(3)
+    n = 300
+    pos = rng.uniform(-8, 8, (n, 2))
+    ang = np.where(rng.random(n) < 0.5, 0.0, np.pi) + rng.normal(0, 0.3, n)
+    vpref = 1.3 * np.c_[np.cos(ang), np.sin(ang)]
+    vel = vpref * rng.uniform(0, 1.2, (n, 1))
+    radius, active = np.full(n, 0.2), np.ones(n, dtype=bool)
+    safety, density = rng.uniform(2, 8, n), rng.uniform(0.3, 2.0, n)
+    grid = grid_for(pos, active, radius, np.full(n, 1.8), 0.25)
+    out = lane_velocities(pos, vel, vpref, radius, safety, density, active, grid,
+                          ObstacleSet(Scene(bounds=([-30, -30], [30, 30]))).at(0.0, 0.25))
+    from crowdmotion.rvo.lanes import FULL_DENSITY, SAFETY_REFERENCE
+
+    costs, turns = _reference_costs(pos, vel, vpref, safety / SAFETY_REFERENCE * np.minimum(density / FULL_DENSITY, 1))
+    u = vpref / np.linalg.norm(vpref, axis=1)[:, None]
+    # the offset each walker turned to, read back from its turned v_pref
+    along, aside = np.einsum("ij,ij->i", out, u), out[:, 0] * u[:, 1] - out[:, 1] * u[:, 0]
+    chosen = np.argmin(np.abs(AIM_M * aside / along - OFFSETS_M[:, None]).T, axis=1)
+    assert np.allclose(np.linalg.norm(out, axis=1), 1.3)
+    assert (chosen[~turns] == 0).all()  # nobody in the way straight on: v_pref kept
+    picked = costs[np.arange(n), chosen]
+    assert turns.sum() > 100 and (chosen[turns] != 0).sum() > 30  # the scene makes most of them weigh a turn
+    assert np.all(picked[turns] <= costs[turns].min(axis=1) + 1e-3)
