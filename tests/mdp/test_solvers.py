@@ -196,5 +196,14 @@ def test_bad_grids_and_arguments():
         mdp.solve(np.zeros((3, 3)), (0, 0), method="astar")
     with pytest.raises(ValueError, match="theta"):
         mdp.solve(np.zeros((3, 3)), (0, 0), method="vi", theta=float("nan"))
-    with pytest.raises(MemoryError, match="cell_size"):
+    with pytest.raises(MemoryError, match="a grid of 2e\\+05 x 2e\\+05 cells needs about .* solve a coarser grid"):
         mdp.solve(np.lib.stride_tricks.as_strided(np.zeros(1, np.uint8), (200_000, 200_000), (0, 0)), (0, 0))
+
+
+def test_a_scene_rastered_too_fine_is_refused_before_it_is_allocated():
+    from crowdmotion.mdp.grid import rasterise
+    from crowdmotion.scene import Scene
+
+    with pytest.raises(MemoryError, match="a grid of 0.01 m cells over this scene has 1e\\+06 x 1e\\+06 cells .* "
+                                          "use a larger mdp.cell_size, or smaller scene.bounds"):
+        rasterise(Scene(bounds=([0, 0], [10_000, 10_000])), 0.01)

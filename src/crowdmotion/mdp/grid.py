@@ -69,7 +69,8 @@ class GridTooLarge(ValueError, MemoryError):
 
 
 def check_grid_size(shape: tuple[float, ...], cell_size: float | None = None) -> None:
-    """Refuse a grid that would not fit in memory, before allocating it."""
+    """Refuse a grid that would not fit in memory, before allocating it: one rastered
+    from a scene (``cell_size`` given) or one handed to the solvers as an array."""
     with np.errstate(over="ignore"):  # inf for absurd shapes, and no overflow
         need = float(np.prod([float(s) + 4 for s in shape])) * BYTES_PER_CELL
     try:
@@ -78,10 +79,12 @@ def check_grid_size(shape: tuple[float, ...], cell_size: float | None = None) ->
         avail = 16 * 2**30
     if need > avail:
         dims = " x ".join(f"{s:.3g}" for s in shape)
-        cell = "" if cell_size is None else f" of {cell_size:.3g} m cells"
-        raise GridTooLarge(f"a grid{cell} over this scene has {dims} cells and needs about {need / 2**30:.3g} GiB, "
-                           f"but only {avail / 2**30:.1f} GiB is free: use a larger mdp.cell_size, or smaller "
-                           f"scene.bounds")
+        if cell_size is None:  # an array handed to the solvers
+            raise GridTooLarge(f"a grid of {dims} cells needs about {need / 2**30:.3g} GiB to solve, but only "
+                               f"{avail / 2**30:.1f} GiB is free: solve a coarser grid")
+        raise GridTooLarge(f"a grid of {cell_size:.3g} m cells over this scene has {dims} cells and needs about "
+                           f"{need / 2**30:.3g} GiB, but only {avail / 2**30:.1f} GiB is free: use a larger "
+                           f"mdp.cell_size, or smaller scene.bounds")
 
 
 def rasterise(scene: Scene, cell_size: float, t: float | None = 0.0, moving: bool = True) -> GridMap:
