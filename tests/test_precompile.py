@@ -258,6 +258,7 @@ print(json.dumps({{"done": done, "cold": [k["name"] for k in json.loads(pc.RECOR
     assert len({pid for pid, _ in compiled}) >= 2  # shared between processes
 
 
+@pytest.mark.slow  # compiles MDP's kernels into an empty cache (about 30 s)
 def test_a_first_run_says_it_is_compiling_and_a_later_one_does_not(tmp_path):
     env = {**os.environ, "NUMBA_CACHE_DIR": str(tmp_path / "cache")}
     said = []

@@ -14,7 +14,7 @@ from crowdmotion.scene import Polygon, Scene
 
 #: frames of a run whose Voronoi density PedPy computes (its time grows with the frames:
 #: 22 s for a 5101-frame built-in on every frame)
-VORONOI_FRAMES = 400
+VORONOI_FRAMES = 100
 
 
 def assert_sqlite_opens_in_pedpy_and_jupedsim(traj: Trajectories, folder: pathlib.Path) -> None:
