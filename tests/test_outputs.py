@@ -1,5 +1,7 @@
 """How a run's pictures are shared out between the picture process's parts."""
 
+import sys
+
 import pytest
 
 from crowdmotion.outputs import OutputFolderError, folder_inside, picture_parts
@@ -195,6 +197,47 @@ def test_a_failed_write_leaves_no_half_set(tmp_path, monkeypatch, capsys, failin
     monkeypatch.undo()
     assert main(["run", str(path), "-o", str(out), "-q", "--plots", "paths,player", "--overwrite"]) == 0
     assert _files(out) == ["manifest.json", "paths.png", "summary.json", "trajectories.parquet", "view.html"]
+
+
+@pytest.mark.skipif(not sys.platform.startswith("linux"), reason="pictures are drawn in a forked process on Linux")
+def test_a_failed_write_leaves_no_temporary_file_of_a_picture_killed_mid_write(tmp_path, monkeypatch, capsys):
+    # the picture process is stopped when the run's own write fails; one still writing a
+    # picture past the polite signal's grace is killed outright, in the middle of its
+    # atomic write: its temporary file must not stay behind in the user's folder
+    import signal
+    import time
+
+    import crowdmotion._precompile
+    import crowdmotion.outputs
+    import crowdmotion.render.player
+    from crowdmotion.io.atomic import atomic_path
+
+    if crowdmotion._precompile.cores() < 2:
+        pytest.skip("on one core the pictures are drawn in this process")
+    path = _scenario(tmp_path)
+    out = tmp_path / "out"
+    real = crowdmotion.outputs.atomic_path
+
+    @contextmanager
+    def atomic_summary(target):
+        with real(target) as tmp:
+            if target.name == "summary.json":
+                time.sleep(1.0)  # the picture process is in the middle of its write by now
+                _half_then_full(tmp)
+            yield tmp
+
+    def stubborn_player(traj, dest, max_frames=3000):
+        signal.signal(signal.SIGTERM, signal.SIG_IGN)  # deaf to the polite signal: killed outright
+        with atomic_path(dest) as tmp:
+            tmp.write_text("<html>")
+            time.sleep(60)
+
+    monkeypatch.setattr(crowdmotion.outputs, "atomic_path", atomic_summary)
+    monkeypatch.setattr(crowdmotion.render.player, "write_player", stubborn_player)
+    monkeypatch.setattr(crowdmotion._precompile, "STOP_GRACE_S", 0.3)
+    assert main(["run", str(path), "-o", str(out), "-q", "--plots", "player"]) == 2
+    assert "none of the run's files were kept" in capsys.readouterr().err
+    assert not out.exists() or _files(out) == []
 
 
 def test_a_run_killed_while_writing_is_cleared_by_the_next_overwrite(tmp_path, capsys):

@@ -394,6 +394,9 @@ def write_run(result, out, plots=None, pictures=None) -> list[Path]:
     except BaseException as exc:
         if pictures is not None:
             pictures.close()  # stopped (its write in progress removed) before the files go
+            # one deaf to the polite signal was killed outright in the middle of an atomic
+            # write: its temporary file is the only trace (the folder is this run's alone)
+            remove_stale_temps(out)
         _remove(out, planned + [p.name for p in drawn] + [MANIFEST])
         if isinstance(exc, OSError):
             raise WriteError(exc.errno, f"{exc}; none of the run's files were kept in {out}") from exc
