@@ -222,7 +222,13 @@ def test_a_failed_write_leaves_no_temporary_file_of_a_picture_killed_mid_write(t
     def atomic_summary(target):
         with real(target) as tmp:
             if target.name == "summary.json":
-                time.sleep(1.0)  # the picture process is in the middle of its write by now
+                # fail only once the picture process is inside its atomic write of the player
+                for _ in range(3000):
+                    if any(p.name.startswith(".view.html.") for p in target.parent.iterdir()):
+                        break
+                    time.sleep(0.01)
+                else:
+                    pytest.fail("the player's atomic write never began")
                 _half_then_full(tmp)
             yield tmp
 

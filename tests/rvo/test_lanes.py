@@ -4,7 +4,8 @@ import numpy as np
 
 from crowdmotion.obstacle_primitives import ObstacleSet
 from crowdmotion._contact import grid_for
-from crowdmotion.rvo.lanes import lane_velocities
+from crowdmotion.rvo.lanes import (AIM_M, CROWD_WEIGHT, FULL_DENSITY, LOOK_M, MIN_PRESSURE, OFFSETS_M, RIGHT_BONUS,
+                                   SAFETY_REFERENCE, SIDE_COST, SPREAD_M, lane_velocities)
 from crowdmotion.scene import Scene
 
 SCENE = Scene(bounds=([-20, -20], [20, 20]))
@@ -109,9 +110,6 @@ def test_a_walker_chooses_again_at_once_when_its_way_turns_or_its_goal_is_near()
 def _reference_costs(pos, vel, vpref, weight):
     """The module docstring's cost of every offset for every walker, evaluated directly in
     numpy: every neighbour at every offset (no lattice factoring, nothing left out)."""
-    from crowdmotion.rvo.lanes import (CROWD_WEIGHT, LOOK_M, MIN_PRESSURE, OFFSETS_M, RIGHT_BONUS, SIDE_COST,
-                                       SPREAD_M)
-
     sp = np.linalg.norm(vpref, axis=1)
     u = vpref / sp[:, None]
     right = np.c_[u[:, 1], -u[:, 0]]
@@ -131,8 +129,6 @@ def test_the_kernel_chooses_the_offset_the_formula_gives():
     # the kernel factors each neighbour's Gaussian over the 0.3 m lattice of offsets and
     # leaves out neighbours too far aside to matter: against the formula summed in full,
     # every walker turns to the offset of least cost, or to one costing at most 1e-3 more
-    from crowdmotion.rvo.lanes import AIM_M, OFFSETS_M
-
     rng = np.random.default_rng(3)
     n = 300
     pos = rng.uniform(-8, 8, (n, 2))
@@ -144,8 +140,6 @@ def test_the_kernel_chooses_the_offset_the_formula_gives():
     grid = grid_for(pos, active, radius, np.full(n, 1.8), 0.25)
     out = lane_velocities(pos, vel, vpref, radius, safety, density, active, grid,
                           ObstacleSet(Scene(bounds=([-30, -30], [30, 30]))).at(0.0, 0.25))
-    from crowdmotion.rvo.lanes import FULL_DENSITY, SAFETY_REFERENCE
-
     costs, turns = _reference_costs(pos, vel, vpref, safety / SAFETY_REFERENCE * np.minimum(density / FULL_DENSITY, 1))
     u = vpref / np.linalg.norm(vpref, axis=1)[:, None]
     # the offset each walker turned to, read back from its turned v_pref
