@@ -10,7 +10,8 @@ import crowdmotion as cm
 from crowdmotion import rvo
 from crowdmotion.empirical import UG_RUNS, UO_AREA, area_density_speed, open_corridor, stationary
 from crowdmotion.groups import Group, Rect
-from crowdmotion.rvo.density import GAMMA, SIGMA_M, FloorShare, speed_share, weidmann_speed
+from crowdmotion._contact import grid_for
+from crowdmotion.rvo.density import GAMMA, SIGMA_M, DensitySlowing, FloorShare, speed_share, weidmann_speed
 from crowdmotion.verify import crossing_times
 
 
@@ -79,5 +80,28 @@ def test_a_stream_coming_towards_us_does_not_slow_us_one_going_our_way_does(thei
     assert sensing.density[walker] > 1.0
     if counted:
         assert sensing.density_with[walker] == pytest.approx(sensing.density[walker])
+        assert sensing.density_against[walker] == 0.0
     else:
         assert sensing.density_with[walker] == 0.0
+        assert sensing.density_against[walker] == pytest.approx(sensing.density[walker])
+
+
+@pytest.mark.parametrize("their_goal, against", [([0.0, 3.0], True), ([5.0, -30.0], False)])
+def test_those_who_face_us_count_as_bound_the_other_way_only_if_their_goal_is_behind_us(their_goal, against):
+    # a block in front of a walker, all wanting to go west (towards it): with their goal
+    # behind the walker they are bound the other way; with their goal beside it (on their
+    # way round a wall to a door we both want), they only face us for a while
+    scene = cm.Scene(bounds=([-40, -40], [40, 40]))
+    sensing = DensitySlowing(scene)
+    block = np.c_[np.repeat([5.0, 5.6, 6.2, 6.8], 4), np.tile([2.1, 2.7, 3.3, 3.9], 4)]
+    pos = np.r_[[[2.0, 3.0]], block]
+    wanted = np.r_[[[1.3, 0.0]], np.tile([-1.3, 0.0], (16, 1))]
+    goals = np.r_[[[19.0, 3.0]], np.tile(their_goal, (16, 1))]
+    radius, active = np.full(17, 0.2), np.ones(17, dtype=bool)
+    sensing.grow(17)
+    sensing.sense(pos, np.zeros((17, 2)), wanted, radius, active, grid_for(pos, active, radius, np.full(17, 1.5), 0.25),
+                  0.25, goals)
+    assert sensing.density[0] > 1.0
+    assert sensing.density_against[0] == (pytest.approx(sensing.density[0]) if against else 0.0)
+    # w is eased in full from AGAINST_FULL_DENSITY on, and not at all with no one bound the other way
+    assert sensing.safety_factors(0.15)[0] == pytest.approx(0.15 if against else 1.0)

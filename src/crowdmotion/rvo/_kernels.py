@@ -533,14 +533,18 @@ def _items_in_box(cell_start, ny, gx0, gx1, gy0, gy1):
 
 
 @threaded
-def density_ahead(centre, own, pos, vel, head, oncoming_speed, cell_start, items, origin_x, origin_y, h, nx, ny,
-                  sigma, out, out_with):
+def density_ahead(centre, own, pos, vel, head, oncoming_speed, wanted, goals, cell_start, items, origin_x, origin_y,
+                  h, nx, ny, sigma, out, out_with, out_against):
     """Gaussian-weighted count of the agents in the grid round each point ``centre[k]``:
     Σ_j exp(−|p_j − c_k|² / 2σ²) over the agents within 3σ of it but agent ``own[k]``, the
     one sensing, into ``out``; into ``out_with`` the same count with each agent weighted by
     how far it goes our way: 1 when standing or going along ``head[k]``, falling linearly
-    to 0 as it comes towards us at ``oncoming_speed``. Divided by the kernel's area
-    (:mod:`crowdmotion.rvo.density`) it is the density there, persons/m²."""
+    to 0 as it comes towards us at ``oncoming_speed``; into ``out_against`` the count of
+    those bound the other way: wanting to go against ``head[k]`` (``wanted`` over 120°
+    from it) with the straight lines to their goals and ours over 120° apart (two
+    converging on one door from either side face each other, but are bound the same
+    way). Divided by the kernel's area (:mod:`crowdmotion.rvo.density`) it is the density
+    there, persons/m²."""
     n = centre.shape[0]
     reach = 3.0 * sigma
     r2 = reach * reach
@@ -553,9 +557,13 @@ def density_ahead(centre, own, pos, vel, head, oncoming_speed, cell_start, items
         for k in range(blk * block, min(n, (blk + 1) * block)):
             cx, cy = centre[k, 0], centre[k, 1]
             hx, hy = head[k, 0], head[k, 1]
+            i = own[k]
+            gix, giy = goals[i, 0] - pos[i, 0], goals[i, 1] - pos[i, 1]
+            gin = np.sqrt(gix * gix + giy * giy)
             gx0, gx1, gy0, gy1 = _cell_box(cx, cy, reach, origin_x, origin_y, h, nx, ny)
             s = 0.0
             sw = 0.0
+            sa = 0.0
             # the agents within reach, gathered without branches (for one gx the cells gy0 … gy1
             # hold consecutive items), then summed in the cells' order
             bound = _items_in_box(cell_start, ny, gx0, gx1, gy0, gy1)
@@ -580,8 +588,14 @@ def density_ahead(centre, own, pos, vel, head, oncoming_speed, cell_start, items
                 w = 1.0 + along / oncoming_speed if along < 0.0 else 1.0
                 if w > 0.0:
                     sw += g * w
+                wjx, wjy = wanted[j, 0], wanted[j, 1]
+                if wjx * hx + wjy * hy < -0.5 * np.sqrt(wjx * wjx + wjy * wjy):
+                    gjx, gjy = goals[j, 0] - pos[j, 0], goals[j, 1] - pos[j, 1]
+                    if gix * gjx + giy * gjy < -0.5 * gin * np.sqrt(gjx * gjx + gjy * gjy):
+                        sa += g
             out[k] = s
             out_with[k] = sw
+            out_against[k] = sa
 
 
 # ---- escape from moving obstacles after the safety pass ----------------------------------------

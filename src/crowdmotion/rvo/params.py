@@ -69,6 +69,9 @@ class RVOParams(BaseModel):
     squeeze_past : bool      a walker meeting an oncoming one in its way, bound the other
                              way, counts a wall only within 0.5 s, so it steps up to the
                              wall to let the other pass (rvo.deadlock; walkers only)
+    counterflow_safety : float  in (0, 1]: the share of w a walker keeps while it walks into
+                             people bound the other way, so it passes them as close as
+                             people do in counterflow (rvo.density; walkers only; 1 = w)
     smoothing : str          "relaxed" (default): the run's steps relaxed for the characters
                              that play them (smoothed over ``smoothing_window`` and kept
                              apart, ``crowdmotion.path_relaxation.relaxed_steps``), audited
@@ -105,6 +108,7 @@ class RVOParams(BaseModel):
     lane_choice: bool = True
     comfort_accel: Annotated[float, Field(ge=0, le=100, allow_inf_nan=False)] = 0.8
     squeeze_past: bool = True
+    counterflow_safety: Annotated[float, Field(gt=0, le=1, allow_inf_nan=False)] = 0.15
     smoothing: Literal["relaxed", "none"] = "relaxed"
     smoothing_window: Annotated[float, Field(gt=0, le=60.0, allow_inf_nan=False)] = 1.0
 

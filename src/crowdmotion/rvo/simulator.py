@@ -20,7 +20,7 @@ from crowdmotion.rvo import deadlock as _deadlock
 from crowdmotion.rvo.congestion import CongestionRouter
 from crowdmotion.rvo.deadlock import (KEEP_RIGHT_LOOK_S, SQUEEZE_SIDE_M, SQUEEZE_WALL_S, Deadlock,
                                       contact_arrivals)
-from crowdmotion.rvo.density import PERSON_MAX_RADIUS_M, DensitySlowing
+from crowdmotion.rvo.density import COUNTERFLOW_SAFETY, PERSON_MAX_RADIUS_M, DensitySlowing
 from crowdmotion.rvo.lanes import LaneChoice
 from crowdmotion.routing import DistanceFields, distance_fields
 from crowdmotion.rvo.guidance import FIELD_WINDOW, preferred_velocities
@@ -173,6 +173,11 @@ class Simulator(LiveObstacles):
         the wall to let the other pass instead of standing (:mod:`crowdmotion.rvo.deadlock`,
         rule 1); walkers (radius up to 0.4 m) only. False = every wall counts as eq. (3)
         has it.
+    counterflow_safety : float
+        In (0, 1]: the share of w (eq. (3)) a walker keeps while it walks into people bound
+        the other way (sensed ahead, :mod:`crowdmotion.rvo.density`), so that it passes
+        them at the close range real walkers accept in counterflow instead of backing off;
+        walkers (radius up to 0.4 m) only. 1 = w throughout.
     """
 
     def __init__(self, scene: Scene, time_step: float = 0.25, guidance: str = "auto",
@@ -181,7 +186,8 @@ class Simulator(LiveObstacles):
                  rng: np.random.Generator | None = None, keep_right_deg: float = 15.0,
                  patience: float = 2.0, congestion: float = 1.0, replan_s: float = 2.0,
                  density_slowing: bool = True, follow: float = 0.5, lane_choice: bool = True,
-                 comfort_accel: float = 0.8, counterflow: float = 20.0, squeeze_past: bool = True):
+                 comfort_accel: float = 0.8, counterflow: float = 20.0, squeeze_past: bool = True,
+                 counterflow_safety: float = COUNTERFLOW_SAFETY):
         if not isinstance(scene, Scene):
             raise TypeError(f"scene must be a crowdmotion.Scene, got {scene!r}")
         if not (np.isfinite(time_step) and time_step > 0):
@@ -277,10 +283,15 @@ class Simulator(LiveObstacles):
         self.comfort_accel = float(comfort_accel)
         self.lane_choice = bool(lane_choice)
         self.squeeze_past = bool(squeeze_past)
+        if not (isinstance(counterflow_safety, (int, float)) and np.isfinite(counterflow_safety)
+                and 0 < counterflow_safety <= 1):
+            raise ValueError(f"counterflow_safety must be a number in (0, 1], got {counterflow_safety!r}")
+        self.counterflow_safety = float(counterflow_safety)
         self.lanes = LaneChoice(self.dt)
-        # the density sensed ahead slows walkers, and scales following and lane choice
+        # the density sensed ahead slows walkers, scales following and lane choice, and eases w in counterflow
         self.density_slowing = DensitySlowing(scene, bool(density_slowing),
-                                              sense=bool(density_slowing) or self.follow > 0 or self.lane_choice)
+                                              sense=bool(density_slowing) or self.follow > 0 or self.lane_choice
+                                              or self.counterflow_safety < 1)
         self.stats = {"safety_stops": 0, "forced_choices": 0, "agent_steps": 0, "yields": 0,
                       "contact_arrivals": 0, "escapes": 0}
 
@@ -1096,7 +1107,9 @@ class Simulator(LiveObstacles):
         p = self.params
         dl = self.deadlock
         grid = self._grid(steer)
-        slow = self.density_slowing.factors(self.positions, self.velocities, wanted, p["radius"], steer, grid, self.dt)
+        slow = self.density_slowing.factors(self.positions, self.velocities, wanted, p["radius"], steer, grid, self.dt,
+                                            self.goals)
+        safety = p["safety"] * self.density_slowing.safety_factors(self.counterflow_safety)
         vpref = dl.yielding_velocities(self.positions, wanted, p["pref_speed"], p["radius"], steer, grid)
         if self.lane_choice:
             vpref = self.lanes.velocities(self.positions, self.velocities, vpref, p["radius"], p["safety"],
@@ -1109,7 +1122,7 @@ class Simulator(LiveObstacles):
         forced = np.zeros(n, dtype=bool)
         key = step_key(self.rng)
         K.choose_velocities(self.positions, self.velocities, vpref, aim, p["radius"], p["max_speed"],
-                            p["max_neighbors"], p["neighbor_dist"], p["samples"], p["safety"],
+                            p["max_neighbors"], p["neighbor_dist"], p["samples"], safety,
                             steer, *grid, prims.circ_c, prims.circ_r, prims.circ_v, prims.seg_a, prims.seg_b,
                             prims.seg_v, self.dt, key, new, forced, dl.keep_right, KEEP_RIGHT_LOOK_S,
                             self.follow * np.minimum(self.density / FOLLOW_FULL_DENSITY, 1.0),
