@@ -23,7 +23,7 @@ from crowdmotion.rvo.deadlock import (KEEP_RIGHT_LOOK_S, SQUEEZE_SIDE_M, SQUEEZE
 from crowdmotion.rvo.density import COUNTERFLOW_SAFETY, PERSON_MAX_RADIUS_M, DensitySlowing
 from crowdmotion.rvo.lanes import LaneChoice
 from crowdmotion.routing import DistanceFields, distance_fields
-from crowdmotion.rvo.guidance import FIELD_WINDOW, preferred_velocities
+from crowdmotion.rvo.guidance import field_window, preferred_velocities
 from crowdmotion._contact import grid_for
 from crowdmotion.live_obstacles import LiveObstacles
 from crowdmotion.obstacle_primitives import ObstacleSet
@@ -937,7 +937,7 @@ class Simulator(LiveObstacles):
             # each field solved as far as its agents (in or waiting) walk or look before the
             # next fields are taken (_complete_partial catches any that go farther)
             reach = self.params["max_speed"].max() * (self.replan_steps * self.dt + REPLAN_SPREAD_S + self.dt) + \
-                (FIELD_WINDOW + 2) * self._fields.cell
+                (field_window(self._fields.cell) + 2) * self._fields.cell
             present = self.active | self.waiting
             near = [self._router.near(self.positions[present & (self.field_of == k)], reach) for k in now]
             solved.update(zip(now.tolist(), self._router.solve(None, now, weights=self._weights, near=near)))
@@ -956,7 +956,7 @@ class Simulator(LiveObstacles):
             # where an agent's window (and a cell more) holds only solved cells, or cells
             # no field reaches: it reads what the whole search would give
             self._solved_round = np.ones(dist.shape, dtype=bool)
-            size = 2 * (FIELD_WINDOW + 1) + 1
+            size = 2 * (field_window(self._fields.cell) + 1) + 1
             for k in solved:
                 self._solved_round[k] = minimum_filter(np.isfinite(dist[k]) | ~np.isfinite(self._exact[k]), size=size,
                                                        mode="nearest")
