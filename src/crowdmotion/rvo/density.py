@@ -38,16 +38,22 @@ wanted direction over 120° from ours) and whose goal lies the other way too (th
 lines to the two goals over 120° apart: two converging on one door from either side face
 each other, but are bound the same way). While that density is above 0, a walker's w in
 eq. (3) falls linearly to ``counterflow_safety`` × w, reached from ``AGAINST_FULL_DENSITY``
-on. Real walkers in counterflow pass each other at a close range, shoulder past shoulder;
-with the full w, eq. (3) values a short time to collision with each oncoming walker so
-highly that walkers back off instead: in the FZJ BOT-360 runs rebuilt (3.6 m corridor,
-entrances 0.9-2.5 m) 20-25 % of the walkers in the measurement area walked backwards at
-any moment, and they walked 0.2-0.3 m/s slower than the people did. The share is fitted
-to those runs (mean absolute speed error over 27 runs 0.21 m/s with w throughout, 0.17 at
-0.2, 0.16 at 0.15, 0.18 at 0.1, 0.21 at 0.05, where the choice gets too close to keep
-moving); flows bound one way (bottlenecks, doors) are unchanged. Eased, walkers also
-pass in corridors two bodies wide where pairs walking abreast would stand. Bodies wider
-than a person keep w.
+on, and scaled by the density of everyone sensed there, in full from
+``EASE_FULL_DENSITY`` (as lane choice is): in a thin crowd a walker keeps its own w, the
+one its personality gives it (paper 004, Table 4), and passes at the distance that
+personality keeps. Real walkers in counterflow pass each other at a close range,
+shoulder past shoulder; with the full w, eq. (3) values a short time to collision with
+each oncoming walker so highly that walkers back off instead: in the FZJ BOT-360 runs
+rebuilt (3.6 m corridor, entrances 0.9-2.5 m) 20-25 % of the walkers in the measurement
+area walked backwards at any moment, and they walked 0.2-0.3 m/s slower than the people
+did. The share is fitted to those runs without the crowd scaling (mean absolute speed
+error over 27 runs 0.21 m/s with w throughout, 0.17 at 0.2, 0.16 at 0.15, 0.18 at 0.1,
+0.21 at 0.05, where the choice gets too close to keep moving); eased so in every crowd,
+the street crossings of paper 004 §6 (about 0.6 persons/m² where they meet) lost three
+of the personality claims that hold there, and with the scaling they keep them, at 0.20
+over the 27 runs. Flows bound one way (bottlenecks, doors) are unchanged. Eased, walkers
+also pass in corridors two bodies wide where pairs walking abreast would stand. Bodies
+wider than a person keep w.
 """
 
 from __future__ import annotations
@@ -73,7 +79,8 @@ FLOOR_CELL_M = 0.2     # raster of the walkable floor
 FLOOR_MAX_CELLS = 1_000_000
 ONCOMING_MPS = 0.5     # a neighbour coming towards us this fast or faster counts 0 in the slowing density
 COUNTERFLOW_SAFETY = 0.15  # share of w kept while walking into people bound the other way (fitted, BOT-360)
-AGAINST_FULL_DENSITY = 0.05  # persons/m² bound the other way from which w is eased in full
+AGAINST_FULL_DENSITY = 0.05  # persons/m² bound the other way from which w is eased in full ...
+EASE_FULL_DENSITY = 1.0  # ... in a crowd of this many persons/m² (less in a thinner one)
 
 
 def speed_share(density, gamma: float = GAMMA) -> np.ndarray:
@@ -181,9 +188,12 @@ class DensitySlowing:
 
     def safety_factors(self, share: float) -> np.ndarray:
         """(N,) the factor on each agent's w (eq. (3)) in counterflow: 1 − (1 − ``share``)
-        × min(1, ρ_against / AGAINST_FULL_DENSITY), ρ_against the density of those bound
-        the other way as last sensed (1 for everyone when nothing is sensed)."""
-        return 1.0 - (1.0 - share) * np.minimum(self.density_against / AGAINST_FULL_DENSITY, 1.0)
+        × min(1, ρ_against / AGAINST_FULL_DENSITY) × min(1, ρ / EASE_FULL_DENSITY), ρ_against
+        the density of those bound the other way and ρ that of everyone, as last sensed (1
+        for everyone when nothing is sensed)."""
+        against = np.minimum(self.density_against / AGAINST_FULL_DENSITY, 1.0)
+        crowd = np.minimum(self.density / EASE_FULL_DENSITY, 1.0)
+        return 1.0 - (1.0 - share) * against * crowd
 
     def factors(self, pos, vel, heading, radius, active, grid, dt: float, goals) -> np.ndarray:
         """(N,) the factor on each agent's preferred speed: f(ρ) of the density of those
