@@ -33,11 +33,11 @@ def preferred_velocities(pos, goal, pref_speed, active, dt, fields: DistanceFiel
 
     Agents head for the goal at the preferred speed, slowing to land on it. With
     ``fields``, agents without a clear straight line to their goal follow the distance
-    field instead, aiming at the best cell they can see in a window about FIELD_REACH_M across each way
-    (:func:`field_window`). ``lost``
-    (N,), if given, is set True for the agents that need the field and have come to
-    its end (within ``FIELD_END_M``) or find no better cell in it: on a field shared
-    with other goals, at another's goal with their own out of sight.
+    field instead, aiming at the best cell they can see in a window reaching about
+    FIELD_REACH_M each way (:func:`field_window`). ``lost`` (N,), if given, is set True
+    for the agents that need the field and have come to its end (within ``FIELD_END_M``)
+    or find no better cell in it: on a field shared with other goals, at another's goal
+    with their own out of sight.
     """
     to_goal = goal - pos
     dist = row_norms(to_goal)
@@ -52,8 +52,7 @@ def preferred_velocities(pos, goal, pref_speed, active, dt, fields: DistanceFiel
             fdir = np.zeros_like(pos)
             K.field_directions(pos, field_of, fields.dist, float(fields.origin[0]), float(fields.origin[1]),
                                fields.cell, field_window(fields.cell), use, radius, prims.circ_c, prims.circ_r,
-                               prims.seg_a, prims.seg_b,
-                               fdir)
+                               prims.seg_a, prims.seg_b, fdir)
             reach = row_norms(fdir)
             ok = use & (reach > 0)
             if lost is not None:
