@@ -1,9 +1,12 @@
 """Relaxing a simulated run's own steps (path_relaxation.relaxed_steps): smoother, same ends,
 within max_speed, as clean as the steps; MDP's relaxation at fps is tested in tests/mdp."""
 
-import numpy as np
+import warnings
 
-from crowdmotion.path_relaxation import relaxed_steps
+import numpy as np
+import pytest
+
+from crowdmotion.path_relaxation import relaxed_steps, warn_if_straight
 from crowdmotion.trajectories import Trajectories
 
 
@@ -49,3 +52,12 @@ def test_bodies_the_steps_keep_apart_stay_apart():
     assert collision_audit(traj, None).agent_agent == 0
     out = relaxed_steps(traj, 1.0, None, np.full(6, 2.0))
     assert collision_audit(out, None).agent_agent == 0
+
+
+def test_a_relaxation_that_puts_most_steps_back_on_the_plan_says_so():
+    with pytest.warns(UserWarning, match=r"straight moves on 600 of 1000 path steps \(60 %\)"):
+        warn_if_straight({"straight_segments": 600, "segments": 1000})
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        warn_if_straight({"straight_segments": 50, "segments": 1000})  # a few steps put back: smooth enough
+        warn_if_straight({})

@@ -27,6 +27,8 @@ any frame interval still overlapping falls back to the plan's straight move ther
 
 from __future__ import annotations
 
+import warnings
+
 import numpy as np
 from numba import njit, prange
 
@@ -499,7 +501,24 @@ def relaxed_trajectories(traj, fps: float | None, window_s: float, scene: Scene 
     out = keep_clean(smooth, linear, traj, scene, max_speed, "relaxed", warn=False)
     out.metadata["relaxed"] = {"at": "steps" if by_steps else "fps", "fps": 1.0 / linear.dt,
                                "agent_frames_at_fps": at_fps, "limit": RELAX_AT_FPS_MAX}
+    warn_if_straight(out.metadata["resampled"])
     return out
+
+
+# A relaxation that leaves more than this share of the path steps on the plan's own moves
+# has not smoothed the run: the user is told, not left to find it in the pictures
+STRAIGHT_WARN_SHARE = 0.1
+
+
+def warn_if_straight(done: dict) -> None:
+    """Warn when the continuous audit put back more than ``STRAIGHT_WARN_SHARE`` of the
+    path steps (``done``: ``straight_segments`` of ``segments``) on their straight moves."""
+    n, total = int(done.get("straight_segments") or 0), int(done.get("segments") or 0)
+    if total and n > STRAIGHT_WARN_SHARE * total:
+        warnings.warn(f"relaxed smoothing kept the plan's straight moves on {n} of {total} path steps "
+                      f"({100 * n / total:.0f} %): relaxed paths would bring bodies together there (a crowd "
+                      f"pressed this close), so characters bound to them turn and stop sharply; summary.json's "
+                      f"root_motion says how much", UserWarning, stacklevel=3)
 
 
 # A simulated run's own steps (the RVO method): its frames are clear and its agents already

@@ -110,3 +110,19 @@ def test_a_run_relaxed_at_its_own_steps_keeps_every_step_smooth(monkeypatch):
 def test_smoothing_window_must_be_a_positive_number_of_seconds(value):
     with pytest.raises(ValueError, match="smoothing_window"):
         mdp.MDPParams(smoothing_window=value)
+
+
+def test_the_summary_says_how_the_paths_were_smoothed():
+    from crowdmotion.mdp.adapter import run_scenario
+
+    scene = cm.Scene([[0.0, 0.0], [20.0, 10.0]])
+    groups = [cm.Group("a", 4, spawn=cm.Rect([1.0, 3.0], [3.0, 7.0]), goal=cm.Rect([17.0, 3.0], [19.0, 7.0]),
+                       radius=0.3)]
+    _, _, summary = run_scenario(scene, groups, mdp.MDPParams(remove_on_arrival=True), np.random.default_rng(0),
+                                 progress=False)
+    s = summary["smoothing"]
+    assert s["kind"] == "relaxed" and s["window_s"] == 1.0 and s["at"] == "fps"
+    assert s["straight_segments"] == 0 and s["segments"] > 0  # an open floor: every step relaxed
+    _, _, plain = run_scenario(scene, groups, mdp.MDPParams(remove_on_arrival=True, smoothing=None),
+                               np.random.default_rng(0), progress=False)
+    assert plain["smoothing"] == {"kind": "none"}

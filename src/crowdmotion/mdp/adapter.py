@@ -9,6 +9,7 @@ from crowdmotion import metrics
 from crowdmotion.journeys import entry_report
 from crowdmotion.mdp.params import MDPParams
 from crowdmotion.mdp.simulation import MDPRun, run, setup
+from crowdmotion.smoothing import smoothing_report
 
 Params = MDPParams
 
@@ -130,6 +131,7 @@ def run_scenario(scene, groups, params: MDPParams, rng, progress: bool = True):
         summary["entry"] = entry_report(traj.group, a.due, a.entered_at(result.walker), a.entrance)
     if "relaxed" in traj.metadata:  # at fps, or at the run's own steps (a large run: path_relaxation.RELAX_AT_FPS_MAX)
         summary["relaxed"] = dict(traj.metadata["relaxed"])
+    summary["smoothing"] = smoothing_report(traj, params.smoothing or "none", params.smoothing_window)
     return traj, result, summary
 
 
