@@ -23,6 +23,12 @@ NonNegative = Annotated[float, Field(ge=0, le=MAX_MAGNITUDE, allow_inf_nan=False
 _OWN_FIELD = re.compile(r"^([A-Za-z_][\w]*(?:\.[\w]+)*): (.*)$", re.S)
 
 
+def id_range(count: int, things: str = "agents") -> str:
+    """What a live API's error says of the ids there are: "ids run from 0 to 4", or "it
+    has no agents yet" (``things``: what they number)."""
+    return f"ids run from 0 to {count - 1}" if count > 0 else f"it has no {things} yet"
+
+
 def shown(value: Any) -> str:
     """A value as a scenario file writes it (TOML): ``true``, ``'no'``, ``[1.0, 2]``, ``nan``;
     numpy scalars as plain numbers; cut to ``SHOWN_MAX`` characters."""

@@ -272,6 +272,12 @@ def test_the_live_api_refuses_bad_calls_naming_the_agent_and_changes_nothing(cal
     assert np.array_equal(sim.goals, goals) and sim.active.all()
 
 
+def test_a_simulator_without_agents_says_so_when_one_is_named():
+    sim = rvo.Simulator(cm.Scene(bounds=([0, 0], [10, 10])))
+    with pytest.raises(ValueError, match=r"drive: no agent 0 \(it has no agents yet\)"):
+        sim.drive([0], [1.0, 0.0])
+
+
 def test_an_agent_that_left_cannot_be_given_a_goal():
     sim = _sim()
     sim.remove_agents([1])

@@ -36,6 +36,7 @@ import numpy as np
 from scipy.spatial import cKDTree
 
 from crowdmotion._contact import grid_for, line_of_sight, obstacle_safe_moves, resolve_conflicts
+from crowdmotion._validation import id_range
 from crowdmotion.formation.arap import ARAPSolver
 from crowdmotion.formation.comfort import clip_rows, limit_acceleration, spread_vertices, stopping_speed
 from crowdmotion.formation.field import PotentialField, disc_field
@@ -320,7 +321,7 @@ class Simulator(LiveObstacles):
     def _group(self, group, what: str) -> int:
         """``group`` as the id of a group still in the scene (ValueError naming ``what`` otherwise)."""
         if isinstance(group, bool) or not isinstance(group, (int, np.integer)) or not 0 <= group < len(self.groups):
-            raise ValueError(f"{what}: no group {group!r} (ids run from 0 to {len(self.groups) - 1})")
+            raise ValueError(f"{what}: no group {group!r} ({id_range(len(self.groups), 'groups')})")
         g = self.groups[group]
         if g.left_at is not None:
             raise ValueError(f"{what}: formation group {g.name!r} left the scene at t = {g.left_at:g} s")
@@ -389,7 +390,7 @@ class Simulator(LiveObstacles):
         its agents stop, keep their last positions, no longer count as bodies or
         obstacles to the others (``active`` False) and the group counts as done."""
         if isinstance(group, bool) or not isinstance(group, (int, np.integer)) or not 0 <= group < len(self.groups):
-            raise ValueError(f"formation.remove_group: no group {group!r} (ids run from 0 to {len(self.groups) - 1})")
+            raise ValueError(f"formation.remove_group: no group {group!r} ({id_range(len(self.groups), 'groups')})")
         g = self.groups[group]
         if g.left_at is None:
             g.left_at = self.time

@@ -11,6 +11,7 @@ from scipy.spatial import cKDTree
 
 from crowdmotion._rng import step_key
 from crowdmotion._threads import ThreadedKernel
+from crowdmotion._validation import id_range
 from crowdmotion.geometry import finite_array, require_finite_agents, row_norms
 from crowdmotion.groups import Disc, MovingTarget, Points, Rect
 from crowdmotion.placement import standing_points
@@ -685,7 +686,7 @@ class Simulator(LiveObstacles):
         ids = raw.astype(np.int64)
         bad = ids[(ids < 0) | (ids >= self.n_agents)]
         if len(bad):
-            raise ValueError(f"{what}: no agent {int(bad[0])} (ids run from 0 to {self.n_agents - 1})")
+            raise ValueError(f"{what}: no agent {int(bad[0])} ({id_range(self.n_agents)})")
         return ids
 
     def _field_indices(self, goal: np.ndarray, goal_region, solve: bool = True) -> np.ndarray:
