@@ -60,7 +60,7 @@ def test_a_column_rounds_rimea_6s_corner_and_re_forms_beyond_it(seed):
     assert v.measured.startswith("20 of 20 out")
 
 
-@pytest.mark.parametrize("seed", [2, 6])
+@pytest.mark.parametrize("seed", [2, pytest.param(6, marks=pytest.mark.slow)])  # the second with -m slow
 def test_rvo2_blocks_crossing_clears_with_the_seeds_that_once_locked_it(seed):
     # seeds 2 and 6 locked the four streams in the central crossing for good (24 % and 0 %
     # arrived in 2000 s) until gridlocked agents walked round to the right (rvo.deadlock)
