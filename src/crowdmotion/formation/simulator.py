@@ -318,11 +318,16 @@ class Simulator(LiveObstacles):
             raise ValueError(f"{what}: the goal {gc.tolist()} is inside an obstacle (clearance {gclear:.3g} m)")
         return region, gc
 
-    def _group(self, group, what: str) -> int:
-        """``group`` as the id of a group still in the scene (ValueError naming ``what`` otherwise)."""
+    def _group_id(self, group, what: str) -> int:
+        """``group`` as the id of a group the simulator has, in the scene or gone
+        (ValueError naming ``what`` otherwise)."""
         if isinstance(group, bool) or not isinstance(group, (int, np.integer)) or not 0 <= group < len(self.groups):
             raise ValueError(f"{what}: no group {group!r} ({id_range(len(self.groups), 'groups')})")
-        g = self.groups[group]
+        return int(group)
+
+    def _group(self, group, what: str) -> int:
+        """``group`` as the id of a group still in the scene (ValueError naming ``what`` otherwise)."""
+        g = self.groups[self._group_id(group, what)]
         if g.left_at is not None:
             raise ValueError(f"{what}: formation group {g.name!r} left the scene at t = {g.left_at:g} s")
         return int(group)
@@ -389,9 +394,7 @@ class Simulator(LiveObstacles):
         """Take a group out of the scene (the live API; a route's leave stage on arrival):
         its agents stop, keep their last positions, no longer count as bodies or
         obstacles to the others (``active`` False) and the group counts as done."""
-        if isinstance(group, bool) or not isinstance(group, (int, np.integer)) or not 0 <= group < len(self.groups):
-            raise ValueError(f"formation.remove_group: no group {group!r} ({id_range(len(self.groups), 'groups')})")
-        g = self.groups[group]
+        g = self.groups[self._group_id(group, "formation.remove_group")]
         if g.left_at is None:
             g.left_at = self.time
             self.active[g.span] = False
