@@ -87,23 +87,28 @@ class DistanceFields:
     def descend(self, field: int, points: np.ndarray, steps: int) -> np.ndarray:
         """Where walking ``steps`` cells down field ``field`` from each point leads (the
         centre of the last cell reached; the point itself where it has no finite value)."""
+        return self.descent_path(field, points, steps)[:, -1]
+
+    def descent_path(self, field: int, points: np.ndarray, steps: int) -> np.ndarray:
+        """(m, steps + 1, 2): the centres of the cells met walking ``steps`` cells down
+        field ``field`` from each point, one cell at a time to the least-valued of the 8
+        around (the point itself first, and all along where it has no finite value; the
+        last cell repeated once the goal is reached)."""
         shape = np.array(self.dist.shape[1:])
         d = self.dist[field]
         padded = np.pad(d, 1, constant_values=np.inf)
         idx = self.cells(points)
         ok = np.all((idx >= 0) & (idx < shape), axis=1)
         ok[ok] &= np.isfinite(d[idx[ok, 0], idx[ok, 1]])
-        cur = idx.copy()
         moves = np.array([(a, b) for a in (-1, 0, 1) for b in (-1, 0, 1) if a or b])
-        for _ in range(steps):
-            c = cur[ok]
+        out = np.repeat(np.asarray(points, float)[:, None], steps + 1, axis=1)
+        c = idx[ok]
+        for s in range(1, steps + 1):
             around = padded[c[:, 0, None] + 1 + moves[None, :, 0], c[:, 1, None] + 1 + moves[None, :, 1]]
             best = np.argmin(around, axis=1)
             better = around[np.arange(len(c)), best] < padded[c[:, 0] + 1, c[:, 1] + 1]
             c[better] += moves[best[better]]
-            cur[ok] = c
-        out = np.asarray(points, float).copy()
-        out[ok] = self.origin + (cur[ok] + 0.5) * self.cell
+            out[ok, s] = self.origin + (c + 0.5) * self.cell
         return out
 
 

@@ -51,7 +51,7 @@ def test_the_papers_kinematic_mesh_twitches_in_the_same_scene(runs):
     # the term is what makes the difference: switched off, the same block twitches
     scene, out = runs
     rm = metrics.root_motion(out["paper"].trajectories)
-    assert rm["acceleration_mps2"]["p95"] > 4.0, rm
+    assert rm["acceleration_mps2"]["p95"] > 2.0 and rm["acceleration_mps2"]["max"] > 10.0, rm
     assert metrics.collision_audit(out["paper"].trajectories, scene).clean
 
 

@@ -6,6 +6,7 @@ import numpy as np
 import pytest
 
 from crowdmotion.cli import builtin_scenarios
+from crowdmotion.formation import simulator
 from crowdmotion.scenario import load_scenario, parse_scenario, run_scenario
 
 SCENES = {p.stem: p for p in builtin_scenarios()}
@@ -45,8 +46,21 @@ def test_a_planter_across_the_path_tears_edges_that_relink():
     assert result.summary["agent_agent_overlaps"] == 0 and result.summary["agent_obstacle_penetrations"] == 0
 
 
-def test_the_papers_handle_rule_does_not_stand_for_good_at_the_planter():
+def _split_with_exact_handles():
     text = SCENES["formation_split"].read_text().replace("time_step = 0.1", 'time_step = 0.1\nhandles = "exact"')
-    result = run_scenario(parse_scenario(text), progress=False)
-    assert result.trajectories.metadata["stats"]["stall_reliefs"] >= 1  # it stood 200 s before
+    return run_scenario(parse_scenario(text), progress=False)
+
+
+def test_the_papers_handle_rule_goes_round_the_planter():
+    result = _split_with_exact_handles()
+    g = result.summary["formation"]["block"]
+    assert g["recovered_s"] is not None and g["arrived_s"] < 90.0  # the route pulled taut leads round it
+
+
+def test_a_mesh_pressed_against_the_planter_bends_after_a_stall(monkeypatch):
+    # followed only 1.5 m ahead, the route leads straight into the planter's face, and
+    # the paper's handle rule held the block there (200 s) until stall relief bent it
+    monkeypatch.setattr(simulator, "ROUTE_PULL_M", simulator.ROUTE_LOOKAHEAD_M)
+    result = _split_with_exact_handles()
+    assert result.trajectories.metadata["stats"]["stall_reliefs"] >= 1
     assert result.summary["formation"]["block"]["recovered_s"] is not None

@@ -48,3 +48,20 @@ def test_without_walls_between_the_formation_walks_straight_as_before():
     sim, traj = _walk(scene, formation.block(3, 3, spacing=1.2), (50, 0), (8, 0))
     assert sim.groups[0].recovered_at is not None
     assert np.abs(traj.positions[..., 1]).max() < 2.5, "no detour when the goal is in sight"
+
+
+def test_a_block_walking_down_a_corridor_to_its_corner_faces_the_way_it_walks():
+    # the goal lies round the corner; the field's cells lead diagonally into the near wall
+    # first, so a short look down them turned the block 25° off the way it slid along it
+    scene = cm.Scene(bounds=([0, 0], [40, 40]), obstacles=[cm.Box([0, 0], [30, 20]), cm.Box([0, 28], [22, 40])])
+    sim = formation.Simulator(scene, time_step=0.1)
+    sim.add_group(formation.block(4, 4, spacing=1.2), goal=(26.0, 36.0), start=(5.0, 24.0), radius=0.3)
+    centres, headings = [sim.positions.mean(axis=0)], [sim.groups[0].heading]
+    while sim.positions[:, 0].mean() < 18.0 and sim.steps < 400:
+        sim.step()
+        centres.append(sim.positions.mean(axis=0))
+        headings.append(sim.groups[0].heading)
+    travel = np.diff(np.array(centres), axis=0)
+    gap = np.angle(np.exp(1j * (np.array(headings[1:]) - np.arctan2(travel[:, 1], travel[:, 0]))))
+    assert sim.positions[:, 0].mean() >= 18.0
+    assert np.degrees(np.median(np.abs(gap[20:]))) < 12.0

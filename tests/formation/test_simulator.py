@@ -182,15 +182,32 @@ def test_quarter_turn_symmetry_of_templates():
     assert rotational_symmetry(formation.wedge(5).points) == (0.0,)
 
 
-def test_a_square_block_that_arrives_turned_near_a_quarter_turn_recovers_square_facing_its_travel():
+def test_arriving_turned_71_degrees_a_square_block_recovers_a_quarter_turn_round_and_a_column_as_it_stands():
+    from crowdmotion.facing import wrap
+    from crowdmotion.formation.simulator import Simulator
+
+    turn = np.radians(71.0)
+    rot = np.array([[np.cos(turn), -np.sin(turn)], [np.sin(turn), np.cos(turn)]])
+    for template, want in ((formation.block(5, 5, 1.2), np.pi / 2), (formation.block(10, 2, 1.0), turn)):
+        sim = formation.Simulator(Scene(((0, -15), (60, 15))), time_step=0.1)
+        sim.add_group(template, goal=(50, 0), start=(8, 0), heading=0.0, radius=0.3)
+        g = sim.groups[0]
+        centre = np.array([40.0, 0.0])
+        V = (g.mesh.rest - g.mesh.rest.mean(axis=0)) @ rot.T + centre
+        g.heading = turn  # the way it travelled
+        Simulator._arrive(g, V, centre)
+        assert abs(wrap(g.heading - want)) < 1e-9
+        assert abs(wrap(g.heading + g.facing_offset - turn)) <= np.pi / 4, "soldiers face about the way it came"
+
+
+def test_the_block_round_the_planter_ends_square_on_its_start_grid_facing_its_travel():
     from crowdmotion.cli import scenario_path
     from crowdmotion.scenario import load_scenario, run_scenario
 
     result = run_scenario(load_scenario(scenario_path("formation_split")), progress=False)
     pos = result.trajectories.positions
     assert result.summary["formation"]["block"]["recovered_s"] is not None
-    # it arrived turned about 71 degrees (19 short of a quarter turn) and used to end so:
-    # now its agents stand on the start's grid, moved (agents may have swapped places)
+    # its agents end on the start's grid, moved (agents may have swapped places)
     from scipy.spatial import cKDTree
 
     start, end = pos[0] - pos[0].mean(axis=0), pos[-1] - pos[-1].mean(axis=0)

@@ -60,7 +60,9 @@ GROUP_FIELDS = ("radius", "max_speed", "pref_speed", "start", "heading", "name",
 ENTRY_GAP_M = 0.05  # clearance an entering formation needs round each of its bodies
 SLOW_DOWN = 2.0  # metres from the goal over which the attraction fades
 ARRIVAL_TURN_MAX = np.pi / 4  # a mesh that arrives turned less than this from its start heading recovers square to it
-ROUTE_LOOKAHEAD_M = 1.5  # vertices aim this far down the route to the goal
+ROUTE_LOOKAHEAD_M = 1.5  # vertices aim at least this far down the route to the goal ...
+ROUTE_PULL_M = 8.0  # ... and at the farthest point of it they see within this far
+ROUTE_PULL_STRIDE_M = 0.5  # the points of the route tried for sight, this far apart
 STALL_PROGRESS_M = 0.5  # a group that has not come this much nearer its goal ...
 STALL_S = 8.0  # ... for this many seconds is stalled: ...
 STALL_RELIEF_S = 10.0  # ... and bends with uniform handles for this long
@@ -640,11 +642,52 @@ class Simulator(LiveObstacles):
             out[own[see]] = straight  # vertices that see the goal head straight for it
         return out
 
+    def _way_to(self, k: int, X: np.ndarray, d: np.ndarray, dist: np.ndarray) -> np.ndarray:
+        """Unit directions for dislocated agents at X (m, 2) to their vertices ``d`` away
+        (``dist`` metres): straight (eqs. (3)-(4)), or down group ``k``'s route to its
+        goal (string-pulled, :meth:`_descent`) where a static obstacle stands between. The
+        mesh lies on that route, so an agent cut off behind a wall (pushed out of a door
+        the rest went through) comes round it instead of pressing on the wall for good."""
+        way = np.divide(d, dist[:, None], out=np.zeros_like(d), where=dist[:, None] > 0)
+        if self._route_stale:
+            self._build_route()
+        if self._route is None:
+            return way
+        clear = np.empty(len(X), dtype=bool)
+        prims = self._prims
+        line_of_sight(X, X + d, np.full(len(X), self.groups[k].radius), np.ones(len(X), dtype=bool), prims.circ_c,
+                      prims.circ_r, prims.seg_a, prims.seg_b, clear)
+        if not clear.all():
+            way[~clear] = self._descent(k, X[~clear], way[~clear].mean(axis=0))
+        return way
+
     def _descent(self, k: int, X: np.ndarray, straight: np.ndarray) -> np.ndarray:
-        """Unit directions down group ``k``'s distance field, ROUTE_LOOKAHEAD_M ahead, from
-        points X (m, 2); points off the field take the others' mean (or ``straight``)."""
-        steps = max(1, int(np.ceil(ROUTE_LOOKAHEAD_M / self._route.cell)))
-        d = self._route.descend(k, X, steps) - X
+        """Unit directions down group ``k``'s distance field from points X (m, 2), string-
+        pulled: at the farthest point within ROUTE_PULL_M along the field's path (cell by
+        cell, crowdmotion.routing) that a body of the group's radius reaches in a straight
+        line, or ROUTE_LOOKAHEAD_M down the path where none is. The path's cells go
+        diagonally first, as an 8-connected field does: followed a short way ahead, it
+        points 45° into a corridor's wall while the group slides along it; pulled taut it
+        points down the corridor and round its corner. Points off the field take the
+        others' mean (or ``straight``)."""
+        cell = self._route.cell
+        steps = max(1, int(np.ceil(ROUTE_PULL_M / cell)))
+        path = self._route.descent_path(k, X, steps)
+        near = min(steps, max(1, int(np.ceil(ROUTE_LOOKAHEAD_M / cell))))
+        target = path[:, near].copy()
+        left = np.arange(len(X))
+        radius = np.full(len(X), self.groups[k].radius)
+        clear = np.empty(len(X), dtype=bool)
+        prims = self._prims
+        for s in range(steps, near, -max(1, int(round(ROUTE_PULL_STRIDE_M / cell)))):
+            if not len(left):
+                break
+            line_of_sight(X[left], path[left, s], radius[left], np.ones(len(left), dtype=bool), prims.circ_c,
+                          prims.circ_r, prims.seg_a, prims.seg_b, clear[:len(left)])
+            seen = clear[:len(left)]
+            target[left[seen]] = path[left[seen], s]
+            left = left[~seen]
+        d = target - X
         n = np.linalg.norm(d, axis=1, keepdims=True)
         on = n[:, 0] > 1e-9
         out = np.divide(d, n, out=np.zeros_like(d), where=n > 0)
@@ -766,7 +809,7 @@ class Simulator(LiveObstacles):
         p = self.params
         dt = self.dt
         want = np.zeros_like(self.positions)
-        for g in self.groups:
+        for k, g in enumerate(self.groups):
             if not g.in_scene:
                 continue
             o = self.positions[g.span]
@@ -793,8 +836,7 @@ class Simulator(LiveObstacles):
                 l = np.linalg.norm(d, axis=1)
                 f = attraction_magnitude(l, R, g.radius)
                 scale = np.minimum(1.0, f / attraction_magnitude(p.occupy_distance, R, g.radius))
-                v[lost] = g.max_speed * scale[:, None] * np.divide(d, l[:, None], out=np.zeros_like(d),
-                                                                   where=l[:, None] > 0)
+                v[lost] = g.max_speed * scale[:, None] * self._way_to(k, o[lost], d, l)
                 v[lost] += self._repulsion(g.agents[lost], g.max_speed)
                 fvec, fmag = self.field.sample(o[lost])  # small obstacles push too, and slide round
                 v[lost] = self._steer(o[lost], v[lost], fvec, fmag, o[lost] - o.mean(axis=0), g.max_speed,
