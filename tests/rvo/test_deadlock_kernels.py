@@ -9,7 +9,7 @@ import pytest
 from crowdmotion.rvo import deadlock
 from crowdmotion.rvo.deadlock import Deadlock
 
-STATE = ("stuck", "yield_to", "yield_left", "detour", "still")
+STATE = ("stuck", "yield_to", "yield_left", "detour", "still", "cornered")
 
 
 def _crowd(seed: int, n: int = 80):
@@ -28,11 +28,12 @@ def _crowd(seed: int, n: int = 80):
     dl = Deadlock(np.deg2rad(15.0), 2.0)
     dl.grow(n)
     dl.stuck = rng.choice([0.0, 1.0, 1.9, 2.0, 3.5], n)
-    dl.still = rng.choice([0.0, 2.9, 3.0, 4.0], n)
+    dl.still = rng.choice([0.0, 2.9, 3.0, 4.0, 5.0], n)
     dl.detour = rng.random(n) < 0.1
     dl.yield_to = np.where(rng.random(n) < 0.1, rng.integers(0, n, n), -1)
     dl.yield_left = rng.uniform(-0.5, 10.0, n)
     sight = rng.choice([1.0, 3.0, 10.0], n)
+    dl.cornered = rng.random(n) < 0.1
     return dl, pos, wanted, chosen, speed, np.full(n, 0.25), sight, active, goals
 
 
@@ -49,15 +50,16 @@ def test_compiled_update_decides_as_the_numpy_rules(seed, with_goals):
 
 
 def test_the_random_jams_exercise_every_rule():
-    began = ended = detours = 0
+    began = ended = detours = cornered = 0
     for seed in range(20):
         dl, pos, wanted, chosen, speed, radius, sight, active, goals = _crowd(seed)
         yielding = dl.yield_to >= 0
-        before = dl.detour.copy()
+        before, was = dl.detour.copy(), dl.cornered.copy()
         began += dl.update(pos, wanted, chosen, speed, radius, sight, active, 0.25, goals)
         ended += int((yielding & (dl.yield_to < 0)).sum())
         detours += int((dl.detour & ~before).sum())
-    assert began > 0 and ended > 0 and detours > 0
+        cornered += int((dl.cornered & ~was).sum())
+    assert began > 0 and ended > 0 and detours > 0 and cornered > 0
 
 
 def _yielding_velocities_numpy(dl, pos, wanted, pref_speed, radius, active):

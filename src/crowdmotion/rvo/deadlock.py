@@ -31,7 +31,12 @@ break that; none touches the continuous-time guarantee, which the step's safety 
    fronts nose to nose in a corridor waiting for each other for good). While it stands
    in the other's way a yielder backs off, away from the other and turned 30° to its
    right; once out of the way it waits until the other has walked past (or 10 s have
-   gone). A one-body-wide passage thus clears.
+   gone). A one-body-wide passage thus clears. A yielder that stood through at least
+   ``CORNERED_STILL_S`` of its yield and saw it run out (its way back walled off: a walker
+   at a corridor's end, facing two abreast who are bound for where it stands) is
+   *cornered*: until it walks freely again, it outranks every agent it meets
+   head-on, so the other yields instead (a corridor two bodies wide: one of the two steps
+   back into the other lane).
    Two walkers (radius up to ``PERSON_MAX_RADIUS_M``) held up and standing for
    ``ABREAST_STILL_S`` side by side, bound the same way (their v_pref within 60°) with
    each in the other's way — wedged abreast in a door
@@ -96,6 +101,7 @@ STILL = 0.05  # below this fraction of pref_speed an agent stands
 DETOUR_TURN = np.deg2rad(60.0)  # a gridlocked agent walks this far to the right of its way
 ROOM_GAP_M = 0.1  # an agent this near a yielder's way back makes room for it
 ROOM_DEPTH = 4    # bodies deep the making of room passes on
+CORNERED_STILL_S = 0.5 * YIELD_MAX_S  # a yielder that stood this long when its yield ran out could not back off
 
 
 def _turn_right(v: np.ndarray, angle: float) -> np.ndarray:
@@ -121,6 +127,7 @@ class Deadlock:
         self.detour = np.zeros(0, dtype=bool)          # gridlocked: walking round to the right
         self.still = np.zeros(0)                       # seconds standing without a break
         self.abreast = np.zeros(0, dtype=bool)         # the yield is to one wedged beside it, bound its way
+        self.cornered = np.zeros(0, dtype=bool)        # its last yield went nowhere: the others yield to it
 
     def grow(self, n: int) -> None:
         """Make room for ``n`` new agents."""
@@ -130,6 +137,7 @@ class Deadlock:
         self.detour = np.concatenate([self.detour, np.zeros(n, dtype=bool)])
         self.still = np.concatenate([self.still, np.zeros(n)])
         self.abreast = np.concatenate([self.abreast, np.zeros(n, dtype=bool)])
+        self.cornered = np.concatenate([self.cornered, np.zeros(n, dtype=bool)])
 
     def forget(self, ids: np.ndarray) -> None:
         """Clear the stand-off state of agents ``ids`` (given a new goal or taken out):
@@ -140,12 +148,18 @@ class Deadlock:
         self.detour[ids] = False
         self.still[ids] = 0.0
         self.abreast[ids] = False
+        self.cornered[ids] = False
         self.yield_to[np.isin(self.yield_to, ids)] = -1
 
     @staticmethod
     def priority(ids: np.ndarray) -> np.ndarray:
         """A fixed pseudo-random priority per agent id (Knuth's multiplicative hash)."""
         return (np.asarray(ids, dtype=np.uint64) * np.uint64(2654435761)) % np.uint64(2 ** 32)
+
+    def outranks(self, j: np.ndarray, i: np.ndarray) -> np.ndarray:
+        """Whether agent j outranks agent i head-on (so i yields): cornered first, then priority."""
+        cj, ci = self.cornered[j], self.cornered[i]
+        return (cj & ~ci) | ((cj == ci) & (self.priority(j) > self.priority(i)))
 
     def yielding_velocities(self, pos, wanted, pref_speed, radius, active, grid=None) -> np.ndarray:
         """v_pref with yielding agents' replaced by a step back and to the right of the one
@@ -174,7 +188,7 @@ class Deadlock:
         """
         cand = np.empty(len(pos), dtype=np.int64)
         n_cand = _settle(wanted, chosen, pos, pref_speed, radius, active, dt, self.patience, self.stuck,
-                         self.yield_to, self.yield_left, self.still, self.detour, self.abreast, cand)
+                         self.yield_to, self.yield_left, self.still, self.detour, self.abreast, self.cornered, cand)
         if n_cand == 0:
             return 0
         cand = cand[:n_cand]
@@ -185,7 +199,7 @@ class Deadlock:
         _nearest(cand, pos, float(sight.max()), *grid_for(pos, active, radius, pref_speed, dt), d, k)
         return _new_yields(cand, d, k, pos, wanted, radius, sight,
                            goals if goals is not None else pos, goals is not None, self.patience, self.stuck,
-                           self.yield_to, self.yield_left, self.still, self.detour, self.abreast)
+                           self.yield_to, self.yield_left, self.still, self.detour, self.abreast, self.cornered)
 
     def update_numpy(self, pos, wanted, chosen, pref_speed, radius, sight, active, dt, goals=None) -> int:
         """:meth:`update` as numpy array operations: the rules as written, the reference
@@ -201,11 +215,15 @@ class Deadlock:
             ahead = np.einsum("ij,ij->i", pos[j] - pos[y], _unit(wanted[y])) >= radius[y] + radius[j]
             past = np.where(self.abreast[y], ahead, past)
             done = past | ~active[j] | ~active[y] | (self.yield_left[y] <= 0)
+            went_nowhere = ~past & active[j] & active[y] & (self.yield_left[y] <= 0) & ~self.abreast[y] \
+                & (self.still[y] >= CORNERED_STILL_S)
+            self.cornered[y[went_nowhere]] = True
             self.yield_to[y[done]] = -1
             self.abreast[y[done]] = False
         standing = active & (row_norms(chosen) < STILL * pref_speed)
         self.still = np.where(standing, self.still + dt, 0.0)
         self.detour &= self.stuck >= self.patience / 2  # walking again: back on its way
+        self.cornered &= (self.still > 0.0) | (self.stuck > 0.0)  # until it walks freely again
         # new yields: of two agents blocking each other for long, the lower priority steps aside
         cand = np.flatnonzero(self.stuck >= self.patience)
         if len(cand) == 0:
@@ -239,7 +257,7 @@ class Deadlock:
         # head-on, only each agent's nearest such blocker counts, whatever its priority
         head = np.flatnonzero(mutual_way & (facing < -0.5))
         head = head[_nearest_per_agent(i[head], gap[head])]
-        head = head[self.priority(j[head]) > self.priority(i[head])]
+        head = head[self.outranks(j[head], i[head])]
         abreast = np.flatnonzero(mutual_way & (((facing > 0.5) & walkers) | converging)
                                  & (self.priority(j) > self.priority(i)))
         keep = np.concatenate([head, abreast])  # head-on first: it wins a tie
@@ -323,6 +341,14 @@ def _blocks2(pos, wanted, radius, i, j, within):
 @njit(inline="always")
 def _priority(i):
     return (np.uint64(i) * np.uint64(_HASH)) & np.uint64(0xFFFFFFFF)
+
+
+@njit(inline="always")
+def _outranks(j, i, cornered):
+    """:meth:`Deadlock.outranks` for one pair."""
+    if cornered[j] != cornered[i]:
+        return cornered[j]
+    return _priority(j) > _priority(i)
 
 
 @njit(cache=True)
@@ -415,7 +441,7 @@ def _make_room(pos, out, radius, pref_speed, active, yield_to, cell_start, items
 
 @njit(cache=True)
 def _settle(wanted, chosen, pos, pref_speed, radius, active, dt, patience, stuck, yield_to, yield_left, still,
-            detour, abreast, cand):
+            detour, abreast, cornered, cand):
     """The first part of :meth:`Deadlock.update`, in place: held-up time, ends of yields,
     standing time and ends of detours; writes the agents held up for the patience (the
     candidates to yield) into ``cand`` and returns how many."""
@@ -433,6 +459,8 @@ def _settle(wanted, chosen, pos, pref_speed, radius, active, dt, patience, stuck
             ux, uy = _unit2(wanted[j, 0], wanted[j, 1])
             past = (pos[i, 0] - pos[j, 0]) * ux + (pos[i, 1] - pos[j, 1]) * uy <= 0.0
         if past or not active[j] or not active[i] or yield_left[i] <= 0.0:
+            if not past and active[j] and active[i] and not abreast[i] and still[i] >= CORNERED_STILL_S:
+                cornered[i] = True  # its yield ran out where it stood: it could not back off
             yield_to[i] = -1
             abreast[i] = False
     half = patience / 2
@@ -445,6 +473,8 @@ def _settle(wanted, chosen, pos, pref_speed, radius, active, dt, patience, stuck
             still[i] = 0.0
         if detour[i] and not stuck[i] >= half:  # walking again: back on its way
             detour[i] = False
+        if cornered[i] and still[i] == 0.0 and not stuck[i] > 0.0:  # walking freely again
+            cornered[i] = False
         if stuck[i] >= patience:
             cand[n_cand] = i
             n_cand += 1
@@ -474,7 +504,7 @@ def _nearest(cand, pos, dmax, cell_start, items, origin_x, origin_y, h, nx, ny, 
 
 @njit(cache=True)
 def _new_yields(cand, d, k, pos, wanted, radius, sight, goals, use_goals, patience, stuck, yield_to,
-                yield_left, still, detour, abreast):
+                yield_left, still, detour, abreast, cornered):
     """The second part of :meth:`Deadlock.update`: of the candidates' nearest neighbours
     (``d``, ``k`` as :func:`_nearest` gives them: distances, agent ids), detours round gridlocks
     and new yields, each yielder to its nearest blocker. All decisions read the state from
@@ -532,7 +562,7 @@ def _new_yields(cand, d, k, pos, wanted, radius, sight, goals, use_goals, patien
                 side[r] = True
         # head-on, only the nearest counts: the one facing us yields, or we do (by priority); yielding
         # to one behind it, while it yielded to one behind us, left both fronts waiting for good
-        if head_j >= 0 and _priority(head_j) > _priority(i) and head_gap <= best_gap:
+        if head_j >= 0 and _outranks(head_j, i, cornered) and head_gap <= best_gap:
             pick[r] = head_j
             side[r] = False
     count = 0
