@@ -59,6 +59,9 @@ from crowdmotion.scene import Scene
 GROUP_FIELDS = ("radius", "max_speed", "pref_speed", "start", "heading", "name", "reassign", "enter_at")
 ENTRY_GAP_M = 0.05  # clearance an entering formation needs round each of its bodies
 SLOW_DOWN = 2.0  # metres from the goal over which the attraction fades
+FACE_TRAVEL_SPEED = 0.5  # a group under way faster than this share of pref_speed ...
+FACE_TRAVEL_MAX = np.pi / 4  # ... whose travel lies within this of its heading: soldiers face the travel ...
+FACE_TRAVEL_TAU_S = 1.0  # ... followed with this time constant (no faster than MAX_TURN_RATE)
 ARRIVAL_TURN_MAX = np.pi / 4  # a mesh that arrives turned less than this from its start heading recovers square to it
 ROUTE_LOOKAHEAD_M = 1.5  # vertices aim at least this far down the route to the goal ...
 ROUTE_PULL_M = 8.0  # ... and at the farthest point of it they see within this far
@@ -112,6 +115,7 @@ class FormationGroup:
     heading: float = 0.0   # where the rest shape faces now (turned to the direction of travel)
     symmetry: tuple = (0.0,)  # turns (radians) that map the rest shape's slots onto themselves
     facing_offset: float = 0.0  # soldiers face heading + this (set on arrival: see _arrive)
+    travel: float | None = None  # under way, the way its soldiers face (see Simulator._face_travel)
     arrived_at: float | None = None
     recovered_at: float | None = None
     handles: int = 0
@@ -984,6 +988,7 @@ class Simulator(LiveObstacles):
         self.stats["agent_steps"] += int(active.sum())
         self.time += self.dt
         self.steps += 1
+        self._face_travel()
         self._bookkeeping()
         if self.journeys is not None:  # groups bound for an exit leave there; the rest move on
             self.walkers.after_step()
@@ -1045,15 +1050,37 @@ class Simulator(LiveObstacles):
         return all(g.left_at is not None or (g.recovered_at is not None and g.settled_at is not None)
                    for g in self.groups)
 
+    def _face_travel(self) -> None:
+        """Turn each walking group's soldiers toward the way the group travels. The rest
+        shape's heading turns to where the route leads; a wall's field can hold the mesh
+        5-10° off that line for a whole corridor, and soldiers facing the heading then
+        walked crabwise. Under way faster than FACE_TRAVEL_SPEED × pref_speed, with its
+        travel (its agents' mean velocity) within FACE_TRAVEL_MAX of the heading, a group's
+        soldiers face the travel, followed with time constant FACE_TRAVEL_TAU_S so that
+        the step-to-step wobble of the mean does not show; otherwise they turn back to
+        the heading the same way. Arrived, they face the heading (see :meth:`_arrive`)."""
+        for g in self.groups:
+            if not g.in_scene or g.cars or g.arrived_at is not None:
+                g.travel = None
+                continue
+            v = self.velocities[g.span].mean(axis=0)
+            way = float(np.arctan2(v[1], v[0]))
+            fast = float(np.hypot(v[0], v[1])) > FACE_TRAVEL_SPEED * g.pref_speed
+            target = way if fast and abs(float(wrap(way - g.heading))) < FACE_TRAVEL_MAX else g.heading
+            now = g.heading if g.travel is None else g.travel
+            turn = float(wrap(target - now)) * min(1.0, self.dt / FACE_TRAVEL_TAU_S)
+            g.travel = float(wrap(now + np.clip(turn, -MAX_TURN_RATE * self.dt, MAX_TURN_RATE * self.dt)))
+
     def facing(self) -> np.ndarray:
         """(n,) the way each agent faces now, yaw radians: a car along its body (the
         angle of its pair less 90°: the first agent of a pair is on the car's right); a
         soldier in rank his formation's heading (the rest shape's, which turns to the
-        direction of travel), a dislocated agent on the move his own way of travel."""
+        direction of travel) or, under way, the group's travel (:meth:`_face_travel`), a
+        dislocated agent on the move his own way of travel."""
         out = np.empty(len(self.positions))
         speed = np.linalg.norm(self.velocities, axis=1)
         for g in self.groups:
-            out[g.span] = g.heading + g.facing_offset
+            out[g.span] = g.heading + g.facing_offset if g.travel is None else g.travel
             v = self.velocities[g.span]
             away = g.guide.dislocated & (speed[g.span] > 0.25 * g.pref_speed)
             out[g.span][away] = np.arctan2(v[away, 1], v[away, 0])
