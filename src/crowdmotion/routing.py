@@ -84,11 +84,6 @@ class DistanceFields:
                 out |= ok
         return out
 
-    def descend(self, field: int, points: np.ndarray, steps: int) -> np.ndarray:
-        """Where walking ``steps`` cells down field ``field`` from each point leads (the
-        centre of the last cell reached; the point itself where it has no finite value)."""
-        return self.descent_path(field, points, steps)[:, -1]
-
     def descent_path(self, field: int, points: np.ndarray, steps: int) -> np.ndarray:
         """(m, steps + 1, 2): the centres of the cells met walking ``steps`` cells down
         field ``field`` from each point, one cell at a time to the least-valued of the 8

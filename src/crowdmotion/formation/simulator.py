@@ -623,28 +623,27 @@ class Simulator(LiveObstacles):
         if self._route is None:
             return np.broadcast_to(straight, V.shape)
         g = self.groups[k]
-        prims = self._prims
-        n = len(V)
-        radius = np.full(n, g.radius)
-        every = np.ones(n, dtype=bool)
         centroid = V.mean(axis=0, keepdims=True)
-        sight = np.empty(1, dtype=bool)
-        line_of_sight(centroid, g.goal_center[None], radius[:1], every[:1], prims.circ_c, prims.circ_r,
-                      prims.seg_a, prims.seg_b, sight)
-        lead = straight if sight[0] else self._descent(k, centroid, straight)[0]
-        clear = np.empty(n, dtype=bool)
-        line_of_sight(V, V + ROUTE_PROBE_M * lead, radius, every, prims.circ_c, prims.circ_r, prims.seg_a,
-                      prims.seg_b, clear)
+        lead = straight if self._in_reach(centroid, g.goal_center[None], g.radius)[0] \
+            else self._descent(k, centroid, straight)[0]
+        clear = self._in_reach(V, V + ROUTE_PROBE_M * lead, g.radius)
         out = np.empty_like(V)
         out[clear] = lead
         own = np.flatnonzero(~clear)
         if len(own):
-            see = np.empty(len(own), dtype=bool)
-            line_of_sight(V[own], np.broadcast_to(g.goal_center, (len(own), 2)), radius[own], every[own],
-                          prims.circ_c, prims.circ_r, prims.seg_a, prims.seg_b, see)
+            see = self._in_reach(V[own], np.broadcast_to(g.goal_center, (len(own), 2)), g.radius)
             out[own] = self._descent(k, V[own], straight)
             out[own[see]] = straight  # vertices that see the goal head straight for it
         return out
+
+    def _in_reach(self, A: np.ndarray, B: np.ndarray, radius: float) -> np.ndarray:
+        """(m,) whether a body of ``radius`` walks from each point of A to the same row of
+        B in a straight line past the static obstacles placed now."""
+        clear = np.empty(len(A), dtype=bool)
+        prims = self._prims
+        line_of_sight(A, B, np.full(len(A), radius), np.ones(len(A), dtype=bool), prims.circ_c, prims.circ_r,
+                      prims.seg_a, prims.seg_b, clear)
+        return clear
 
     def _way_to(self, k: int, X: np.ndarray, d: np.ndarray, dist: np.ndarray) -> np.ndarray:
         """Unit directions for dislocated agents at X (m, 2) to their vertices ``d`` away
@@ -657,10 +656,7 @@ class Simulator(LiveObstacles):
             self._build_route()
         if self._route is None:
             return way
-        clear = np.empty(len(X), dtype=bool)
-        prims = self._prims
-        line_of_sight(X, X + d, np.full(len(X), self.groups[k].radius), np.ones(len(X), dtype=bool), prims.circ_c,
-                      prims.circ_r, prims.seg_a, prims.seg_b, clear)
+        clear = self._in_reach(X, X + d, self.groups[k].radius)
         if not clear.all():
             way[~clear] = self._descent(k, X[~clear], way[~clear].mean(axis=0))
         return way
@@ -680,15 +676,10 @@ class Simulator(LiveObstacles):
         near = min(steps, max(1, int(np.ceil(ROUTE_LOOKAHEAD_M / cell))))
         target = path[:, near].copy()
         left = np.arange(len(X))
-        radius = np.full(len(X), self.groups[k].radius)
-        clear = np.empty(len(X), dtype=bool)
-        prims = self._prims
         for s in range(steps, near, -max(1, int(round(ROUTE_PULL_STRIDE_M / cell)))):
             if not len(left):
                 break
-            line_of_sight(X[left], path[left, s], radius[left], np.ones(len(left), dtype=bool), prims.circ_c,
-                          prims.circ_r, prims.seg_a, prims.seg_b, clear[:len(left)])
-            seen = clear[:len(left)]
+            seen = self._in_reach(X[left], path[left, s], self.groups[k].radius)
             target[left[seen]] = path[left[seen], s]
             left = left[~seen]
         d = target - X
