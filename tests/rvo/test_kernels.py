@@ -110,3 +110,72 @@ def test_a_walker_squeezes_past_one_bound_the_other_way_but_not_one_bound_its_wa
     door = np.array([[1.0, -5.0], [1.0, -5.0]])
     same = _choose(pos, vel, vpref, samples=200, segs=segs, goals=door, squeeze_s=0.5)
     np.testing.assert_array_equal(same, _choose(pos, vel, vpref, samples=200, segs=segs, goals=door))
+
+
+def _rot(v, a):
+    return np.stack([np.cos(a) * v[:, 0] - np.sin(a) * v[:, 1], np.sin(a) * v[:, 0] + np.cos(a) * v[:, 1]], axis=1)
+
+
+def test_points_ahead_are_the_unit_heading_ahead_of_each_agent():
+    rng = np.random.default_rng(3)
+    pos, heading = rng.normal(size=(50, 2)), rng.normal(size=(50, 2))
+    heading[8] = 0.0  # standing: senses round itself
+    own = np.arange(0, 50, 2)
+    centre, head = np.empty((25, 2)), np.empty((25, 2))
+    K.points_ahead(pos, heading, own, 3.0, centre, head)
+    length = np.linalg.norm(heading[own], axis=1)
+    unit = np.where(length[:, None] > 0, heading[own] / np.maximum(length, 1e-300)[:, None], 0.0)
+    assert np.allclose(head, unit) and np.allclose(centre, pos[own] + 3.0 * unit)
+    assert np.array_equal(head[4], [0.0, 0.0]) and np.array_equal(centre[4], pos[8])
+
+
+def test_raster_lookup_takes_the_cell_holding_each_point_and_zero_outside():
+    rng = np.random.default_rng(4)
+    share = rng.random((30, 20))
+    pts = rng.uniform(-2.0, 8.0, size=(500, 2))
+    out = np.empty(500)
+    K.raster_at(share, -1.0, 0.5, 0.25, pts, out)
+    ix, iy = np.floor((pts[:, 0] + 1.0) / 0.25).astype(int), np.floor((pts[:, 1] - 0.5) / 0.25).astype(int)
+    inside = (ix >= 0) & (ix < 30) & (iy >= 0) & (iy < 20)
+    assert 0 < inside.sum() < 500
+    assert np.array_equal(out[inside], share[ix[inside], iy[inside]]) and np.all(out[~inside] == 0.0)
+
+
+def test_lane_turns_are_due_by_turn_by_a_turned_way_or_near_the_goal_and_kept_in_between():
+    rng = np.random.default_rng(5)
+    n = 40
+    vpref, pos = rng.normal(size=(n, 2)), rng.uniform(0, 20, size=(n, 2))
+    goals = pos + rng.uniform(-10, 10, size=(n, 2))
+    unit = vpref / np.linalg.norm(vpref, axis=1)[:, None]
+    heading = _rot(unit, rng.choice([0.1, 0.5], n))  # last choice 6° or 29° off today's way
+    heading[:3] = 0.0  # never chose
+    active = rng.random(n) > 0.2
+    due = np.empty(n, dtype=bool)
+    K.lanes_due(vpref, heading, pos, goals, active, 7, 4, np.cos(np.deg2rad(20.0)), 4.0, due)
+    turned = np.einsum("ij,ij->i", unit, heading) < np.cos(np.deg2rad(20.0))
+    near = np.linalg.norm(goals - pos, axis=1) < 4.0
+    assert np.array_equal(due, active & (turned | near | ((np.arange(n) + 7) % 4 == 0)))
+    # the due agents record the turn the lane choice gave them; the others turn by the one they keep
+    turn = rng.uniform(-0.4, 0.4, n)
+    chosen = _rot(vpref, rng.uniform(-0.6, 0.6, n))
+    out = chosen.copy()
+    new_turn, new_heading = turn.copy(), heading.copy()
+    K.lanes_keep(vpref, out, due, active, new_turn, new_heading)
+    cross = unit[:, 0] * chosen[:, 1] - unit[:, 1] * chosen[:, 0]
+    assert np.allclose(new_turn[due], np.arctan2(cross, np.einsum("ij,ij->i", unit, chosen))[due])
+    assert np.allclose(new_heading[due], unit[due]) and np.array_equal(new_heading[~due], heading[~due])
+    keep = active & ~due
+    assert np.allclose(out[keep], _rot(vpref, turn)[keep]) and np.array_equal(out[~active], chosen[~active])
+
+
+def test_a_walker_near_its_goal_slows_to_turn_in_at_the_comfortable_acceleration():
+    # goal 2 m away, 90° off the velocity: the circle through it has radius d / 2 = 1 m, so
+    # at a = 0.8 m/s² the turn allows v = sqrt(a · 1 m)
+    pos, goals = np.zeros((3, 2)), np.array([[0.0, 2.0], [10.0, 0.0], [0.0, 2.0]])
+    vel = np.array([[1.0, 0.0], [1.0, 0.0], [1.0, 0.0]])
+    vpref = np.array([[0.0, 1.3], [1.3, 0.0], [0.0, 1.3]])
+    radius = np.array([0.25, 0.25, 0.6])  # the last is no person: it keeps its v_pref
+    out = np.empty((3, 2))
+    K.turned_in(vpref, goals, pos, vel, radius, 0.4, 0.8, out)
+    assert np.allclose(out[0], [0.0, np.sqrt(0.8)])
+    assert np.allclose(out[1], vpref[1]) and np.allclose(out[2], vpref[2])  # heading for it / a robot

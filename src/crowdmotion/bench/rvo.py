@@ -16,7 +16,9 @@ stand by three 2 m exits), whole runs until everyone is out, wall time: see
 Our step is the whole step (guidance, neighbours, N_sample = 50 candidates against
 M = 10 neighbours, the safety pass, the move). pyrvo is timed twice: ``do_step`` alone
 (its C++ core) and with the Python loop that sets preferred velocities and reads the
-positions back, which any pyrvo user has to run. JuPedSim runs at its own dt = 0.01 s
+positions back, which any pyrvo user has to run. The two step in turn, ours then
+pyrvo's, so a machine whose speed drifts mid-run (a shared one does, by a third and more)
+weighs on both alike. JuPedSim runs at its own dt = 0.01 s
 (our dt is 0.25 s), so its column is per iteration and the last column per simulated second.
 """
 
@@ -83,7 +85,10 @@ def ours(pos, goal, steps: int) -> float:
     return (time.perf_counter() - t0) / steps
 
 
-def pyrvo_times(pos, goal, steps: int) -> tuple[float, float]:
+def pyrvo_stepper(pos, goal):
+    """pyrvo's ORCA on an open scene (our defaults' radius, speeds, neighbours), stepped
+    once; returns a function doing one more step that gives (seconds of ``do_step``,
+    seconds with the Python loop that sets preferred velocities and reads positions back)."""
     import pyrvo
 
     sim = pyrvo.RVOSimulator()
@@ -101,18 +106,48 @@ def pyrvo_times(pos, goal, steps: int) -> tuple[float, float]:
         for i in range(n):
             sim.set_agent_pref_velocity(i, (float(v[i, 0]), float(v[i, 1])))
 
-    set_pref()
-    sim.do_step()
-    core = full = 0.0
-    for _ in range(steps):
+    def step() -> tuple[float, float]:
         t0 = time.perf_counter()
         set_pref()
         t1 = time.perf_counter()
         sim.do_step()
         t2 = time.perf_counter()
-        core += t2 - t1
-        full += t2 - t0
-    return core / steps, full / steps
+        return t2 - t1, t2 - t0
+
+    set_pref()
+    sim.do_step()
+    return step
+
+
+def pyrvo_times(pos, goal, steps: int) -> tuple[float, float]:
+    """Seconds per step of pyrvo's ``do_step`` and of its step with the Python loop
+    round it (means of ``steps``)."""
+    step = pyrvo_stepper(pos, goal)
+    core, full = np.mean([step() for _ in range(steps)], axis=0)
+    return float(core), float(full)
+
+
+def side_by_side(pos, goal, steps: int) -> tuple[float, float, float]:
+    """Seconds per step (means of ``steps``) of our whole step, pyrvo's ``do_step`` and
+    pyrvo's step with its Python loop, the two simulators stepping in turn (ours, then
+    pyrvo, each step): a machine that slows down or speeds up mid-run weighs on both alike.
+    pyrvo's figures are NaN where it is not installed."""
+    sim = open_simulator(pos, goal)
+    try:
+        peer = pyrvo_stepper(pos, goal)
+    except ImportError:
+        peer = None
+    mine, core, full = [], [], []
+    for _ in range(steps):
+        t0 = time.perf_counter()
+        sim.step()
+        mine.append(time.perf_counter() - t0)
+        if peer is not None:
+            c, f = peer()
+            core.append(c)
+            full.append(f)
+    nan = float("nan")
+    return float(np.mean(mine)), float(np.mean(core)) if core else nan, float(np.mean(full)) if full else nan
 
 
 def jupedsim_time(pos, goal, steps: int) -> float:
@@ -455,11 +490,7 @@ def open_table(sizes, steps: int) -> list[str]:
     for shape in ("circle", "crossing"):
         for n in sizes:
             pos, goal = lattice(n, np.random.default_rng(1), shape)
-            t_ours = ours(pos, goal, steps)
-            try:
-                core, full = pyrvo_times(pos, goal, steps)
-            except ImportError:
-                core = full = float("nan")
+            t_ours, core, full = side_by_side(pos, goal, steps)
             try:
                 t_j = jupedsim_time(pos, goal, 5 * steps)
             except ImportError:

@@ -61,7 +61,6 @@ from __future__ import annotations
 import numpy as np
 from scipy.ndimage import gaussian_filter
 
-from crowdmotion.geometry import row_norms
 from crowdmotion.rvo import _kernels as K
 from crowdmotion.scene import Scene
 
@@ -117,12 +116,9 @@ class FloorShare:
 
     def at(self, points: np.ndarray) -> np.ndarray:
         """(N,) the floor share at each point (nearest raster cell; 0 outside the bounds)."""
-        # column by column: reductions across an (N, 2) array's short axis are slow
-        ix = np.floor((points[:, 0] - self.origin[0]) / self.cell).astype(np.int64)
-        iy = np.floor((points[:, 1] - self.origin[1]) / self.cell).astype(np.int64)
-        inside = (ix >= 0) & (ix < self.share.shape[0]) & (iy >= 0) & (iy < self.share.shape[1])
-        out = np.zeros(len(points))
-        out[inside] = self.share[ix[inside], iy[inside]]
+        out = np.empty(len(points))
+        K.raster_at(self.share, float(self.origin[0]), float(self.origin[1]), float(self.cell),
+                    np.ascontiguousarray(points, dtype=float), out)
         return out
 
 
@@ -161,9 +157,9 @@ class DensitySlowing:
         raw_with = np.zeros(len(pos))
         raw_against = np.zeros(len(pos))
         s = np.flatnonzero(active & (radius <= PERSON_MAX_RADIUS_M))
-        unit = row_norms(heading[s])[:, None]
-        head = np.divide(heading[s], unit, out=np.zeros_like(heading[s]), where=unit > 0)
-        centre = pos[s] + AHEAD_M * head  # the point sensed round, AHEAD_M in front (the agent itself if standing)
+        head = np.empty((len(s), 2))  # the unit heading ...
+        centre = np.empty((len(s), 2))  # ... and the point sensed round, AHEAD_M in front (the agent itself if standing)
+        K.points_ahead(pos, heading, s, AHEAD_M, centre, head)
         counts = np.empty(len(s))
         counts_with = np.empty(len(s))
         counts_against = np.empty(len(s))

@@ -41,7 +41,6 @@ from __future__ import annotations
 
 import numpy as np
 
-from crowdmotion.geometry import row_norms
 from crowdmotion.rvo import _kernels as K
 from crowdmotion.rvo.density import PERSON_MAX_RADIUS_M
 
@@ -96,20 +95,10 @@ class LaneChoice:
         """(N, 2) ``vpref`` of the ``active`` agents turned towards their lanes: chosen
         now by those whose turn it is (or whose way turned, or near their ``goals``),
         kept by the others."""
-        n = len(vpref)
-        speed = row_norms(vpref)
-        unit = np.divide(vpref, speed[:, None], out=np.zeros_like(vpref), where=speed[:, None] > 0)
-        turned = np.einsum("ij,ij->i", unit, self.heading) < np.cos(np.deg2rad(RETHINK_DEG))
-        near = np.einsum("ij,ij->i", goals - pos, goals - pos) < NEAR_GOAL_M * NEAR_GOAL_M
-        due = active & (turned | near | ((np.arange(n) + self.steps) % self.period == 0))
+        due = np.empty(len(vpref), dtype=np.bool_)
+        K.lanes_due(vpref, self.heading, pos, goals, active, self.steps, self.period, np.cos(np.deg2rad(RETHINK_DEG)),
+                    NEAR_GOAL_M, due)
         self.steps += 1
         out = lane_velocities(pos, vel, vpref, radius, safety, density, due, grid, prims)
-        cross = unit[due, 0] * out[due, 1] - unit[due, 1] * out[due, 0]
-        self.turn[due] = np.arctan2(cross, np.einsum("ij,ij->i", unit[due], out[due]))
-        self.heading[due] = unit[due]
-        keep = np.flatnonzero(active & ~due & (self.turn != 0.0))
-        c, s = np.cos(self.turn[keep]), np.sin(self.turn[keep])
-        v = vpref[keep]
-        out[keep, 0] = c * v[:, 0] - s * v[:, 1]
-        out[keep, 1] = s * v[:, 0] + c * v[:, 1]
+        K.lanes_keep(vpref, out, due, active, self.turn, self.heading)
         return out

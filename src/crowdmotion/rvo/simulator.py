@@ -165,7 +165,7 @@ class Simulator(LiveObstacles):
         Metres per second² of velocity change a walker makes at ease: a change beyond
         ``comfort_accel × time_step`` in one step costs ``COMFORT_WEIGHT`` per m/s beyond
         it in eq. (3)'s penalty, and near its goal a walker slows enough to turn in at this
-        acceleration instead of circling the goal (``_turn_in_factor``); walkers (radius up
+        acceleration instead of circling the goal (``_turned_in``); walkers (radius up
         to 0.4 m) only. 0 = eq. (3)'s free choice. See
         :func:`crowdmotion.rvo._kernels.choose_velocities`.
     squeeze_past : bool
@@ -1002,7 +1002,7 @@ class Simulator(LiveObstacles):
         v, aim = preferred_velocities(self.positions, self.goals, self.params["pref_speed"], self.active, self.dt,
                                       self._fields, self.field_of, prims, self.params["radius"], lost)
         v[~self.active] = 0.0
-        if lost is not None:
+        if lost is not None and lost.any():
             self._own_fields(lost)
         return v, aim
 
@@ -1117,8 +1117,7 @@ class Simulator(LiveObstacles):
                                           self.density, steer, grid, prims, self.goals)
         vpref = vpref * slow[:, None]
         if self.comfort_accel > 0.0:
-            person = self.params["radius"] <= PERSON_MAX_RADIUS_M
-            vpref = vpref * np.where(person, self._turn_in_factor(vpref), 1.0)[:, None]
+            vpref = self._turned_in(vpref)
         new = np.zeros((n, 2))
         forced = np.zeros(n, dtype=bool)
         key = step_key(self.rng)
@@ -1156,20 +1155,14 @@ class Simulator(LiveObstacles):
         person = self.params["radius"] <= PERSON_MAX_RADIUS_M
         return np.where(person, self.comfort_accel * self.dt * np.where(self.deadlock.breaking(), BRISK, 1.0), 0.0)
 
-    def _turn_in_factor(self, vpref: np.ndarray) -> np.ndarray:
-        """(N,) factor on |v_pref| so that an agent near its goal but not heading for it
-        can turn in at the comfortable acceleration a instead of circling it: the circle
-        through the goal tangent to its velocity has radius d / (2 sin θ) (d the distance,
-        θ the angle off the goal, up to 90°), and a turn of radius v² / a needs
-        v ≤ √(a d / (2 sin θ))."""
-        to_goal = self.goals - self.positions
-        d = row_norms(to_goal)
-        sp = row_norms(self.velocities)
-        cos = np.einsum("ij,ij->i", to_goal, self.velocities) / np.maximum(d * sp, 1e-12)
-        sin = np.where(cos > 0.0, np.sqrt(np.clip(1.0 - cos * cos, 0.0, 1.0)), 1.0)
-        cap = np.sqrt(self.comfort_accel * d / (2.0 * np.maximum(sin, 1e-6)))
-        want = row_norms(vpref)
-        return np.minimum(1.0, cap / np.maximum(want, 1e-12))
+    def _turned_in(self, vpref: np.ndarray) -> np.ndarray:
+        """``vpref`` with each walker near its goal but not heading for it slowed so that it
+        can turn in at the comfortable acceleration instead of circling it (the kernel
+        ``turned_in`` gives the bound); wider bodies keep theirs."""
+        out = np.empty_like(vpref)
+        K.turned_in(vpref, self.goals, self.positions, self.velocities, self.params["radius"], PERSON_MAX_RADIUS_M,
+                    self.comfort_accel, out)
+        return out
 
     def _threatened(self, prims, driven: np.ndarray) -> np.ndarray:
         """(N,) 1.0 for agents within two steps' reach of a moving obstacle or a
