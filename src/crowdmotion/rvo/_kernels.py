@@ -259,10 +259,11 @@ def choose_velocities(pos, vel, vpref, aim_dist, radius, vmax, max_nb, nb_dist, 
                 rel[q, 5] = 2.0
                 if follow[i] > 0.0 and un > 0.0:
                     pjx, pjy = vpref[j, 0], vpref[j, 1]
-                    pn = np.sqrt(pjx * pjx + pjy * pjy)
                     side = abs(rel[q, 0] * wy - rel[q, 1] * wx) / un  # |lateral offset| from our line
                     ahead = -(rel[q, 0] * wx + rel[q, 1] * wy) / un   # how far ahead of us along it
-                    if pn > 0.0 and pjx * wx + pjy * wy > 0.9 * pn * un and ahead >= rr_ and side < rr_:
+                    # (the square root only for one in our line ahead: most neighbours are not)
+                    pn = np.sqrt(pjx * pjx + pjy * pjy) if ahead >= rr_ and side < rr_ else 0.0
+                    if pn > 0.0 and pjx * wx + pjy * wy > 0.9 * pn * un:
                         # anticipate only as far as it is under way already: one standing in a
                         # jam is expected to stand
                         free = min(max((vel[j, 0] * pjx + vel[j, 1] * pjy) / (pn * pn), 0.0), 1.0)
