@@ -43,3 +43,26 @@ def test_jupedsim_walks_the_same_small_stand_out():
     pytest.importorskip("jupedsim")
     run = bench.jupedsim_stand(20)
     assert run["out"] == 20 and run["sim_s"] > 10
+
+
+def test_side_by_side_times_both_simulators_on_the_same_open_scene():
+    pytest.importorskip("pyrvo")
+    pos, goal = bench.lattice(60, np.random.default_rng(0), "crossing")
+    ours, core, full = bench.side_by_side(pos, goal, 3)
+    assert ours > 0 and 0 < core < full
+
+
+def test_the_step_parts_script_times_every_part_and_leaves_the_simulator_as_it_was(capsys):
+    import runpy
+    from pathlib import Path
+
+    from crowdmotion.rvo import _kernels, simulator
+
+    before = (simulator.Simulator._guidance, _kernels.choose_velocities)
+    script = Path(__file__).parents[2] / "benchmarks" / "rvo_step_parts.py"
+    runpy.run_path(str(script), run_name="parts")["main"](["--agents", "300", "--steps", "2"])
+    lines = capsys.readouterr().out.splitlines()
+    assert lines[0].startswith("circle, 300 agents") and len(lines) == 13
+    chosen = next(line for line in lines if "choosing velocities" in line)
+    assert float(chosen.split()[-3]) > 0.0  # ms a step
+    assert (simulator.Simulator._guidance, _kernels.choose_velocities) == before
