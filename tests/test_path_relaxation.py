@@ -61,3 +61,17 @@ def test_a_relaxation_that_puts_most_steps_back_on_the_plan_says_so():
         warnings.simplefilter("error")
         warn_if_straight({"straight_segments": 50, "segments": 1000})  # a few steps put back: smooth enough
         warn_if_straight({})
+
+
+def test_relaxing_a_run_whose_steps_mostly_stay_as_they_were_says_so(monkeypatch):
+    import crowdmotion.smoothing as smoothing
+
+    def kept_straight(smooth, linear, traj, scene, max_speed, kind, warn=True):  # every step put back
+        out = linear
+        out.metadata["resampled"] = {"straight_segments": traj.n_frames - 1, "segments": traj.n_frames - 1}
+        return out
+
+    monkeypatch.setattr(smoothing, "keep_clean", kept_straight)
+    pos, dt = _stop_and_go()
+    with pytest.warns(UserWarning, match=r"straight moves on 40 of 40 path steps"):
+        relaxed_steps(Trajectories(pos, dt, radius=np.array([0.25])), 1.0, None, np.array([2.0]))

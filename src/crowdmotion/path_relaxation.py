@@ -541,7 +541,8 @@ def relaxed_steps(traj, window_s: float, scene: Scene | None, max_speed: np.ndar
     (:func:`crowdmotion.smoothing.keep_clean`). An agent active over more than one run of
     frames, or that jumps (``metadata["jumps"]``: a live run's ``place()``), keeps its own
     path. ``metadata["relaxed"]`` says what was done: the window, the iterations and how
-    many path steps (``straight_segments`` of ``segments``) kept their own move."""
+    many path steps (``straight_segments`` of ``segments``) kept their own move; more
+    than ``STRAIGHT_WARN_SHARE`` of them gives a warning (:func:`warn_if_straight`)."""
     from crowdmotion.smoothing import keep_clean, speed_limits
     from crowdmotion.trajectories import Trajectories
 
@@ -568,4 +569,5 @@ def relaxed_steps(traj, window_s: float, scene: Scene | None, max_speed: np.ndar
     out.metadata["relaxed"] = {"at": "steps", "fps": 1.0 / traj.dt, "window_s": float(window_s),
                                "iterations": iterations, "straight_segments": done["straight_segments"],
                                "segments": done["segments"]}
+    warn_if_straight(done)
     return out

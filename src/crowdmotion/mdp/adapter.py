@@ -129,8 +129,8 @@ def run_scenario(scene, groups, params: MDPParams, rng, progress: bool = True):
     if result.arrivals is not None:  # each group's delay (and each entrance's), seconds on the run's time base
         a = result.arrivals
         summary["entry"] = entry_report(traj.group, a.due, a.entered_at(result.walker), a.entrance)
-    if "relaxed" in traj.metadata:  # at fps, or at the run's own steps (a large run: path_relaxation.RELAX_AT_FPS_MAX)
-        summary["relaxed"] = dict(traj.metadata["relaxed"])
+    # how the paths were relaxed (at fps, or at the run's own steps for a large run:
+    # path_relaxation.RELAX_AT_FPS_MAX) is in the smoothing report
     summary["smoothing"] = smoothing_report(traj, params.smoothing or "none", params.smoothing_window)
     return traj, result, summary
 
