@@ -15,6 +15,11 @@ def test_stationary_part_is_the_middle_eighty_percent_of_the_crossings():
     assert np.isnan(stationary(np.array([1.0, 2.0]))[2])
 
 
+def test_the_longest_wait_is_the_widest_gap_between_successive_crossings():
+    assert empirical.longest_wait(np.array([5.0, 1.0, np.nan, 2.0, 9.5])) == 4.5
+    assert np.isnan(empirical.longest_wait(np.array([3.0, np.nan])))
+
+
 def test_density_and_speed_in_an_area_count_who_is_inside():
     # a file of walkers 1 m apart walking +x at 1.2 m/s through an area 2 m x 1 m
     t = np.arange(50) * 0.1
@@ -117,6 +122,7 @@ def test_a_07_m_door_passes_a_dense_crowd_at_one_person_a_second_or_more():
     out = {name: verify.simulate("rvo", setup) for name, setup in case.build("rvo").items()}
     criterion, measured, passed = case.judge(out)
     assert passed, measured
+    assert "longest wait between two passing: " in measured
 
 
 def test_the_counterflow_walkers_have_the_bot_participants_free_speed_the_others_weidmanns():
