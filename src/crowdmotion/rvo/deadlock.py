@@ -43,7 +43,10 @@ break that; none touches the continuous-time guarantee, which the step's safety 
    too narrow for two — settle it the same way: the
    one of lower priority steps back (half its preferred speed, back along its way and
    away from the other) while it stands in the other's way, then waits until the other
-   is a body ahead of it (or ``ABREAST_MAX_S`` have gone). Two walkers converging on
+   is a body ahead of it (or ``ABREAST_MAX_S`` have gone). One that had stood
+   ``ABREAST_STILL_S + ABREAST_SWITCH_S`` when its yield began (its last yield left it
+   where it stood: away from the other ran into the door's corner) and stands still steps
+   straight back along its way instead. Two walkers converging on
    one door, one from beside it along the wall and one from in front (v_pref 60-90°
    apart, the straight lines to their goals within 60°), each in the other's way and both
    standing for ``DETOUR_STILL_S``, settle it as two wedged abreast do (backing off
@@ -62,7 +65,10 @@ break that; none touches the continuous-time guarantee, which the step's safety 
    same way at half its preferred speed, and so do those in its own way back, up to
    ``ROOM_DEPTH`` bodies deep. In a packed crowd the yielder has someone right behind
    it; without this its step back goes nowhere and an arch in a door's mouth stands for
-   good.
+   good. Those stepping back or making room slide along the walls their bodies touch
+   (within ``WALL_TOUCH_M``, :func:`_along_walls`) rather than stepping into them, which
+   the obstacle constraint refuses: pressed on a door's wall face, they stood, and the
+   arch with them.
 
 Lowering w for agents held up ("impatience") was tried and dropped: in a four-way
 crossing (RVO2's Blocks) everyone pushes in and the crossing jams for good.
@@ -101,6 +107,10 @@ STILL = 0.05  # below this fraction of pref_speed an agent stands
 DETOUR_TURN = np.deg2rad(60.0)  # a gridlocked agent walks this far to the right of its way
 ROOM_GAP_M = 0.1  # an agent this near a yielder's way back makes room for it
 ROOM_DEPTH = 4    # bodies deep the making of room passes on
+WALL_TOUCH_M = 0.05  # a wall this near a body: one stepping back or making room slides along it
+# wedged abreast, a yielder that had stood ABREAST_STILL_S + this long when its yield began
+# (its last yield left it where it stood: that way back is shut) and stands still steps straight back
+ABREAST_SWITCH_S = 1.0
 CORNERED_STILL_S = 0.5 * YIELD_MAX_S  # a yielder that stood this long when its yield ran out could not back off
 
 
@@ -161,17 +171,22 @@ class Deadlock:
         cj, ci = self.cornered[j], self.cornered[i]
         return (cj & ~ci) | ((cj == ci) & (self.priority(j) > self.priority(i)))
 
-    def yielding_velocities(self, pos, wanted, pref_speed, radius, active, grid=None) -> np.ndarray:
+    def yielding_velocities(self, pos, wanted, pref_speed, radius, active, grid=None, prims=None) -> np.ndarray:
         """v_pref with yielding agents' replaced by a step back and to the right of the one
         they yield to, and gridlocked agents' turned right by ``DETOUR_TURN``. With
         ``grid`` (``_contact.grid_for`` over the ``active`` agents), the agents in a
-        yielder's way back make room for it (rule 4)."""
+        yielder's way back make room for it (rule 4). With ``prims`` (the obstacles
+        placed now), those stepping back or making room slide along the walls their
+        bodies touch instead of pressing into them (:func:`_along_walls`)."""
         out = np.empty_like(wanted)
         if not _yielding_velocities(pos, wanted, pref_speed, radius, active, self.yield_to, self.detour,
-                                    self.abreast, _DETOUR_CS[0], _DETOUR_CS[1], _YIELD_CS[0], _YIELD_CS[1], out):
+                                    self.abreast, self.still, self.yield_left, _DETOUR_CS[0], _DETOUR_CS[1],
+                                    _YIELD_CS[0], _YIELD_CS[1], out):
             return wanted
         if grid is not None:
             _make_room(pos, out, radius, pref_speed, active, self.yield_to, *grid, ROOM_DEPTH, ROOM_GAP_M)
+        if prims is not None:
+            _along_walls(pos, out, wanted, active, radius, prims.seg_a, prims.seg_b, prims.seg_v, WALL_TOUCH_M)
         return out
 
     def breaking(self) -> np.ndarray:
@@ -352,7 +367,8 @@ def _outranks(j, i, cornered):
 
 
 @njit(cache=True)
-def _yielding_velocities(pos, wanted, pref_speed, radius, active, yield_to, detour, abreast, dc, ds, yc, ys, out):
+def _yielding_velocities(pos, wanted, pref_speed, radius, active, yield_to, detour, abreast, still, yield_left, dc, ds,
+                         yc, ys, out):
     """:meth:`Deadlock.yielding_velocities` into ``out``; False (``out`` untouched) if
     nobody yields or detours."""
     n = pos.shape[0]
@@ -376,8 +392,10 @@ def _yielding_velocities(pos, wanted, pref_speed, radius, active, yield_to, deto
         ax, ay = _unit2(pos[i, 0] - pos[j, 0], pos[i, 1] - pos[j, 1])
         if not _blocks2(pos, wanted, radius, j, i, np.inf):  # out of the other's way: wait
             out[i, 0], out[i, 1] = 0.0, 0.0
-        elif abreast[i]:  # wedged beside it: step back along our way and away from it
+        elif abreast[i]:  # wedged beside it: step back along our way and away from it ...
             ux, uy = _unit2(wx, wy)
+            if still[i] - (ABREAST_MAX_S - yield_left[i]) >= ABREAST_STILL_S + ABREAST_SWITCH_S:
+                ax, ay = 0.0, 0.0  # ... or straight back if it stood that long when the yield began, and since
             bx, by = _unit2(ax - ux, ay - uy)
             out[i, 0], out[i, 1] = 0.5 * bx * pref_speed[i], 0.5 * by * pref_speed[i]
         else:  # head-on: back off, turned to the right
@@ -575,3 +593,33 @@ def _new_yields(cand, d, k, pos, wanted, radius, sight, goals, use_goals, patien
             stuck[i] = 0.0
             count += 1
     return count
+
+
+@njit(cache=True)
+def _along_walls(pos, out, wanted, active, radius, seg_a, seg_b, seg_v, touch):
+    """Agents stepping back or making room (``out`` not their ``wanted``, and moving)
+    slide along the static walls (segments) within ``touch`` metres of their bodies: the
+    part of ``out`` into each such wall is taken away, in place. A yielder pressed on a
+    door's wall or corner otherwise steps into it, the obstacle constraint leaves it
+    standing, and the arch it is part of stands too."""
+    for i in range(pos.shape[0]):
+        vx, vy = out[i, 0], out[i, 1]
+        if not active[i] or (vx == wanted[i, 0] and vy == wanted[i, 1]) or (vx == 0.0 and vy == 0.0):
+            continue
+        px, py, r = pos[i, 0], pos[i, 1], radius[i]
+        for o in range(seg_a.shape[0]):
+            if seg_v[o, 0] != 0.0 or seg_v[o, 1] != 0.0:
+                continue
+            ax, ay, bx, by = seg_a[o, 0], seg_a[o, 1], seg_b[o, 0], seg_b[o, 1]
+            ex, ey = bx - ax, by - ay
+            l2 = ex * ex + ey * ey
+            t = 0.0 if l2 <= 0.0 else min(max(((px - ax) * ex + (py - ay) * ey) / l2, 0.0), 1.0)
+            nx, ny = px - ax - t * ex, py - ay - t * ey
+            d = np.sqrt(nx * nx + ny * ny)
+            if d <= 0.0 or d > r + touch:
+                continue
+            nx, ny = nx / d, ny / d
+            into = vx * nx + vy * ny
+            if into < 0.0:
+                vx, vy = vx - into * nx, vy - into * ny
+        out[i, 0], out[i, 1] = vx, vy

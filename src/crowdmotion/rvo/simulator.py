@@ -1111,7 +1111,7 @@ class Simulator(LiveObstacles):
         slow = self.density_slowing.factors(self.positions, self.velocities, wanted, p["radius"], steer, grid, self.dt,
                                             self.goals)
         safety = p["safety"] * self.density_slowing.safety_factors(self.counterflow_safety)
-        vpref = dl.yielding_velocities(self.positions, wanted, p["pref_speed"], p["radius"], steer, grid)
+        vpref = dl.yielding_velocities(self.positions, wanted, p["pref_speed"], p["radius"], steer, grid, prims)
         if self.lane_choice:
             vpref = self.lanes.velocities(self.positions, self.velocities, vpref, p["radius"], p["safety"],
                                           self.density, steer, grid, prims, self.goals)
