@@ -97,11 +97,18 @@ def _ray_capsule(px, py, vx, vy, ax, ay, bx, by, r):
 
 
 @njit(cache=True)
-def _point_segment_distance(px, py, ax, ay, bx, by):
+def _off_segment(px, py, ax, ay, bx, by):
+    """(dx, dy): point p less the nearest point of segment ab (its outward normal times
+    its distance)."""
     ex, ey = bx - ax, by - ay
     l2 = ex * ex + ey * ey
     s = 0.0 if l2 <= 0.0 else min(max(((px - ax) * ex + (py - ay) * ey) / l2, 0.0), 1.0)
-    dx, dy = px - ax - s * ex, py - ay - s * ey
+    return px - ax - s * ex, py - ay - s * ey
+
+
+@njit(cache=True)
+def _point_segment_distance(px, py, ax, ay, bx, by):
+    dx, dy = _off_segment(px, py, ax, ay, bx, by)
     return np.sqrt(dx * dx + dy * dy)
 
 
@@ -221,10 +228,7 @@ def _first_block(px, py, vx, vy, r, dt, circ_c, circ_r, circ_v, seg_a, seg_b, se
         t = _ray_capsule(px, py, vx - seg_v[o, 0], vy - seg_v[o, 1], seg_a[o, 0], seg_a[o, 1], seg_b[o, 0],
                          seg_b[o, 1], r)
         if t < dt * (1.0 + 1e-6):
-            ex, ey = seg_b[o, 0] - seg_a[o, 0], seg_b[o, 1] - seg_a[o, 1]
-            l2 = ex * ex + ey * ey
-            s = 0.0 if l2 <= 0.0 else min(max(((px - seg_a[o, 0]) * ex + (py - seg_a[o, 1]) * ey) / l2, 0.0), 1.0)
-            nx, ny = px - seg_a[o, 0] - s * ex, py - seg_a[o, 1] - s * ey
+            nx, ny = _off_segment(px, py, seg_a[o, 0], seg_a[o, 1], seg_b[o, 0], seg_b[o, 1])
             ln = np.sqrt(nx * nx + ny * ny)
             normal[0], normal[1] = (nx / ln, ny / ln) if ln > 0 else (0.0, 0.0)
             return True

@@ -86,7 +86,7 @@ import numpy as np
 from numba import njit, prange
 from scipy.spatial import cKDTree
 
-from crowdmotion._contact import grid_for
+from crowdmotion._contact import _off_segment, grid_for
 from crowdmotion._threads import threaded
 from crowdmotion.geometry import row_norms
 from crowdmotion.rvo._kernels import PARALLEL_MIN_AGENTS, _cell_box, _knn, held_up_time
@@ -610,11 +610,7 @@ def _along_walls(pos, out, wanted, active, radius, seg_a, seg_b, seg_v, touch):
         for o in range(seg_a.shape[0]):
             if seg_v[o, 0] != 0.0 or seg_v[o, 1] != 0.0:
                 continue
-            ax, ay, bx, by = seg_a[o, 0], seg_a[o, 1], seg_b[o, 0], seg_b[o, 1]
-            ex, ey = bx - ax, by - ay
-            l2 = ex * ex + ey * ey
-            t = 0.0 if l2 <= 0.0 else min(max(((px - ax) * ex + (py - ay) * ey) / l2, 0.0), 1.0)
-            nx, ny = px - ax - t * ex, py - ay - t * ey
+            nx, ny = _off_segment(px, py, seg_a[o, 0], seg_a[o, 1], seg_b[o, 0], seg_b[o, 1])
             d = np.sqrt(nx * nx + ny * ny)
             if d <= 0.0 or d > r + touch:
                 continue
