@@ -15,6 +15,9 @@ a few minutes on two cores), prints their table and draws:
   OpenTraj ships them in ``datasets/HERMES/Corridor-2D``) the measured runs are measured
   by the same code (``empirical.fzj_bot_trajectories``, ``empirical.bot_measures``),
   printed as a table and drawn beside crowdmotion's.
+
+It also prints how the walkers of each counterflow run (and of each measured run) pass
+the oncoming stream (``empirical.bot_passing``).
 """
 
 from __future__ import annotations
@@ -57,6 +60,18 @@ def fzj_runs(folder: Path) -> dict[str, tuple]:
     if not out:
         raise SystemExit(f"--fzj {folder}: no bot-360-*.txt trajectory files there")
     return out
+
+
+def print_passing(runs: dict) -> None:
+    """How each run's walkers pass the oncoming stream (``empirical.bot_passing``), as a table."""
+    print(f"| run | density | meeting an oncoming one (within {empirical.PASS_AHEAD_M:g} m ahead, "
+          f"{empirical.PASS_SIDE_M:g} m across) | speed then | speed otherwise | slower than "
+          f"{empirical.PASS_STOPPED:g} m/s then | walking backwards |\n|---|---|---|---|---|---|---|")
+    for name, traj in runs.items():
+        rho = empirical.bot_measures(traj, np.random.default_rng(0))[0]
+        p = empirical.bot_passing(traj)
+        print(f"| {name} | {rho:.2f}/m² | {p.meeting:.0%} | {p.speed_meeting:.2f} m/s | {p.speed_others:.2f} m/s | "
+              f"{p.stopped:.0%} | {p.backwards:.1%} |")
 
 
 def _snapshot(ax, traj, title: str) -> None:
@@ -123,6 +138,8 @@ def main() -> None:
     bottle, v2 = run("bottleneck_flow")
     counter, v3 = run("counterflow_lanes")
     print(verify.table([v1, v2, v3]))
+    print_passing({**{name: traj for name, (traj, _) in (measured or {}).items()},
+                   **{f"crowdmotion {name}": o.traj for name, o in counter.items()}})
 
     rho = np.linspace(0.1, 5.3, 300)
     fig, ax = plt.subplots(figsize=(7, 4.5))

@@ -90,6 +90,32 @@ def test_the_counterflow_verdict_sets_a_runs_lanes_beside_the_measured_runs_at_i
     assert "lanes 1.00 vs" in measured
 
 
+def _two_lanes(y_east: float, y_west: float, west_speed: float = -1.2) -> Trajectories:
+    """An east lane at ``y_east`` walking 1.2 m/s and a west lane at ``y_west`` moving
+    ``west_speed`` along x, each a body every 0.5 m, through the measurement area."""
+    x = np.arange(-40, 80) * 0.5  # long enough to fill the area ahead at every frame
+    east = np.stack([np.stack([x + 1.2 * 0.25 * f, np.full_like(x, y_east)], 1) for f in range(40)])
+    west = np.stack([np.stack([x[::-1] + west_speed * 0.25 * f, np.full_like(x, y_west)], 1) for f in range(40)])
+    group = np.array(["east"] * len(x) + ["west"] * len(x))
+    return Trajectories(np.concatenate([east, west], axis=1), 0.25, group=group, radius=0.2)
+
+
+def test_walkers_meet_the_oncoming_stream_only_when_one_must_step_aside_to_pass():
+    apart = empirical.bot_passing(_two_lanes(0.6, 3.0))  # 2.4 m across: they pass without a step aside
+    assert apart.meeting == 0.0 and apart.speed_others == pytest.approx(1.2)
+    assert np.isnan(apart.speed_meeting) and apart.backwards == 0.0
+    close = empirical.bot_passing(_two_lanes(1.6, 2.0))  # 0.4 m across: nose to shoulder
+    assert close.meeting == 1.0 and close.speed_meeting == pytest.approx(1.2) and close.stopped == 0.0
+
+
+def test_a_walker_stepping_back_before_the_oncoming_stream_counts_as_stopped_and_backwards():
+    passing = empirical.bot_passing(_two_lanes(1.6, 2.0, west_speed=0.3))  # the west lane drifts east
+    assert passing.meeting == 1.0
+    assert passing.backwards == pytest.approx(0.5, abs=0.05)  # one walker in two, at every moment
+    assert passing.stopped == pytest.approx(0.5, abs=0.05)
+    assert passing.speed_meeting == pytest.approx((1.2 - 0.3) / 2, abs=0.05)
+
+
 def test_every_empirical_case_cites_its_source_and_runs_the_rvo_method():
     assert {c.name for c in empirical.CASES} == {"fd_open_corridor", "bottleneck_flow", "narrow_door",
                                                  "counterflow_lanes"}

@@ -25,6 +25,8 @@ shared data file ``empirical-references.md``):
 
 from __future__ import annotations
 
+from dataclasses import dataclass
+
 import numpy as np
 
 from crowdmotion.groups import Group, Rect
@@ -297,6 +299,52 @@ def bot_measures(traj: Trajectories, rng: np.random.Generator) -> tuple[float, f
             shuffled.append(lane_order(traj.positions[f, idx], rng.permutation(east[idx])))
     mean = lambda x: float(np.nanmean(x)) if x else float("nan")  # noqa: E731
     return rho, v, mean(lanes), mean(shuffled)
+
+
+#: a walker "meets" an oncoming one within this far ahead (m) and this far across (m): the
+#: two must step aside to pass (two bodies are about 0.45 m wide)
+PASS_AHEAD_M, PASS_SIDE_M = 1.5, 0.5
+#: slower than this along its way (m/s), a walker meeting an oncoming one has stopped for it
+PASS_STOPPED = 0.2
+
+
+@dataclass(frozen=True)
+class Passing:
+    """How walkers pass the oncoming stream in a BOT-360 run (:func:`bot_passing`)."""
+
+    meeting: float    # share of the moments at which a walker meets an oncoming one
+    speed_meeting: float  # mean speed along its own way while it meets one (m/s)
+    speed_others: float   # the same at the other moments
+    stopped: float    # share of the meeting moments spent slower than PASS_STOPPED along its way
+    backwards: float  # share of all moments walking against its own way
+
+
+def bot_passing(traj: Trajectories) -> Passing:
+    """How the walkers in a BOT-360 run's measurement area pass the oncoming stream, over
+    the frames :func:`bot_measures` measures (those holding at least half the area's
+    fullest count): at each frame each walker there either *meets* an oncoming one (within
+    ``PASS_AHEAD_M`` ahead along the corridor and ``PASS_SIDE_M`` across: one of the two
+    must step aside) or not; its speed is its velocity along its own way (east or west),
+    by central differences between frames."""
+    east = np.char.startswith(traj.group.astype(str), "east")
+    way = np.where(east, 1.0, -1.0)
+    along = np.gradient(traj.positions[..., 0], traj.dt, axis=0) * way
+    inside = traj.active_mask & np.all((traj.positions >= BOT_AREA[0]) & (traj.positions <= BOT_AREA[1]), axis=2)
+    busy = inside.sum(axis=1) >= 0.5 * inside.sum(axis=1).max()
+    meets, speeds = [], []
+    for f in np.flatnonzero(busy):
+        here, present = np.flatnonzero(inside[f]), np.flatnonzero(traj.active_mask[f])
+        d = traj.positions[f, present][None] - traj.positions[f, here][:, None]  # (here, present, 2)
+        ahead = d[..., 0] * way[here][:, None]
+        oncoming = way[present][None] != way[here][:, None]
+        meets.append(np.any(oncoming & (ahead > 0) & (ahead <= PASS_AHEAD_M) & (np.abs(d[..., 1]) <= PASS_SIDE_M),
+                            axis=1))
+        speeds.append(along[f, here])
+    if not meets:
+        return Passing(*(float("nan"),) * 5)
+    meet, v = np.concatenate(meets), np.concatenate(speeds)
+    mean = lambda x: float(x.mean()) if len(x) else float("nan")  # noqa: E731
+    return Passing(float(meet.mean()), mean(v[meet]), mean(v[~meet]), mean(v[meet] < PASS_STOPPED), float(np.mean(v < 0)))
 
 
 #: frames per second of the FZJ trajectory files (the data archive's text format)
