@@ -281,13 +281,19 @@ def _bot(method: str) -> dict[str, Setup]:
     return out
 
 
+def _bot_frames(traj: Trajectories) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """(N,) walkers bound east, (T, N) walkers in BOT_AREA, (T,) the frames measured: those
+    holding at least half the area's fullest count."""
+    east = np.char.startswith(traj.group.astype(str), "east")
+    inside = traj.active_mask & np.all((traj.positions >= BOT_AREA[0]) & (traj.positions <= BOT_AREA[1]), axis=2)
+    return east, inside, inside.sum(axis=1) >= 0.5 * inside.sum(axis=1).max()
+
+
 def bot_measures(traj: Trajectories, rng: np.random.Generator) -> tuple[float, float, float, float]:
     """(density, speed, lane order, lane order with the directions shuffled) of a BOT-360
     run: density and speed in BOT_AREA over the frames holding at least half its most
     crowded frame's count, the lane orders in the corridor (x 10-16) every fourth of them."""
-    east = np.char.startswith(traj.group.astype(str), "east")
-    inside = traj.active_mask & np.all((traj.positions >= BOT_AREA[0]) & (traj.positions <= BOT_AREA[1]), axis=2)
-    busy = inside.sum(axis=1) >= 0.5 * inside.sum(axis=1).max()
+    east, inside, busy = _bot_frames(traj)
     start, end = np.flatnonzero(busy)[[0, -1]] * traj.dt if busy.any() else (0.0, 0.0)
     rho, v = area_density_speed(traj, *BOT_AREA, start, end)
     corridor = traj.active_mask & (traj.positions[..., 0] >= 10) & (traj.positions[..., 0] <= 16)
@@ -326,11 +332,9 @@ def bot_passing(traj: Trajectories) -> Passing:
     ``PASS_AHEAD_M`` ahead along the corridor and ``PASS_SIDE_M`` across: one of the two
     must step aside) or not; its speed is its velocity along its own way (east or west),
     by central differences between frames."""
-    east = np.char.startswith(traj.group.astype(str), "east")
+    east, inside, busy = _bot_frames(traj)
     way = np.where(east, 1.0, -1.0)
     along = np.gradient(traj.positions[..., 0], traj.dt, axis=0) * way
-    inside = traj.active_mask & np.all((traj.positions >= BOT_AREA[0]) & (traj.positions <= BOT_AREA[1]), axis=2)
-    busy = inside.sum(axis=1) >= 0.5 * inside.sum(axis=1).max()
     meets, speeds = [], []
     for f in np.flatnonzero(busy):
         here, present = np.flatnonzero(inside[f]), np.flatnonzero(traj.active_mask[f])
