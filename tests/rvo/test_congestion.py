@@ -99,6 +99,45 @@ def test_an_agent_is_led_along_the_side_its_own_stream_walks_on():
     np.testing.assert_allclose(with_it, CongestionRouter(f, 1.0, 0.0).resolve(north, f.dist)[0], rtol=0.01)
 
 
+def test_a_stream_over_the_whole_width_leads_a_walker_to_its_own_right_of_it():
+    # the west-bound stream fills the corridor's width, mirrored across its middle: read at
+    # the move, an east-bound walker finds neither half dearer; read a step to its right
+    # (keep right, the default), the north half (its left) is the dearer one
+    scene = cm.Scene(bounds=([0, 0], [30, 4]))
+    f = distance_fields(scene, [Rect([29, 0.5], [29.8, 3.5])], 0.25, 0.25)
+    (south, vs), (north, vn) = _stream(0.625, 1.625, -1.0), _stream(2.375, 3.375, -1.0)
+    pos, vel = np.vstack([south, north]), np.vstack([vs, vn])
+    row, s_col, n_col = int(12 / 0.25), 4, 11  # x = 12 m; cells mirrored (y 1.125, 2.875 m)
+    at_move = CongestionRouter(f, 1.0, 20.0, keep_right=False).resolve(pos, f.dist, vel)[0]
+    kept = CongestionRouter(f, 1.0, 20.0).resolve(pos, f.dist, vel)[0]
+    assert abs(at_move[row, n_col] - at_move[row, s_col]) < 0.05
+    assert kept[row, n_col] - kept[row, s_col] > 1.0
+    # and for a walker bound west, the stream bound east: the south half is its left
+    east = CongestionRouter(f, 1.0, 20.0).graph.beside(0.3)
+    back = distance_fields(scene, [Rect([0.2, 0.5], [1.0, 3.5])], 0.25, 0.25)
+    mirrored = CongestionRouter(back, 1.0, 20.0).resolve(pos, back.dist, -vel)[0]
+    assert mirrored[row, s_col] - mirrored[row, n_col] > 1.0
+    src_right, _, src_left, _ = east  # 0.3 m to the right of a move along +x: one cell lower in y
+    g = CongestionRouter(f, 1.0, 20.0).graph
+    cell = g.cell_index[g.src]
+    along_x = (g.unit[:, 0] == 1) & (g.unit[:, 1] == 0) & (cell % 16 == 8)  # from the cells of y 2.0-2.25 m
+    assert along_x.any()
+    np.testing.assert_array_equal(src_right[along_x], cell[along_x] - 1)
+    np.testing.assert_array_equal(src_left[along_x], cell[along_x] + 1)
+
+
+def test_two_streams_reaching_a_passage_at_once_pass_on_their_right():
+    # the built-in blocked street at seed 0: read at the move, the two fronts met across
+    # the 3.5 m side passage and stood (4 of 60 home in 375 s)
+    from crowdmotion.builtin import builtin_scenarios
+    from crowdmotion.scenario import load_scenario, run_scenario
+
+    path = next(p for p in builtin_scenarios() if p.stem == "rvo_blocked_street")
+    summary = run_scenario(load_scenario(path), seed=0, progress=False).summary
+    assert summary["arrival_rate"] == 1.0 and summary["agent_agent_overlaps"] == 0
+    assert summary["mean_time_to_goal_s"] < 60.0
+
+
 def test_a_stream_crossing_at_right_angles_costs_nothing_extra():
     f = _fields()
     pos = np.stack(np.meshgrid(np.linspace(2, 6, 9), np.linspace(2, 8, 9)), -1).reshape(-1, 2)

@@ -22,16 +22,24 @@ continuum crowds take the speed a crowd allows in a direction from the flow ther
 that a cell where everyone walks towards you is slow to cross in your direction and fast
 in theirs. Here a move in direction n̂ costs, per metre,
 
-    1 + congestion · ρ + counterflow · max(0, −J · n̂)
+    1 + congestion · ρ + counterflow · max(0, −J(x + d · r̂) · n̂)
 
 with J the crowd's flux (Σ of the agents' velocities per m², smoothed as ρ is; persons
-per metre per second). In a corridor where two streams meet, each agent's field then
-leads along the side its own stream already walks on, every agent going that way
-strengthens that side's flux, and the streams sort themselves into lanes (Treuille et
-al. show this instability forming lanes in counterflow). The field is no longer the
-same in both directions, so it is solved on the directed graph. A flow in one direction
-only (a queue, a bottleneck, everyone to one exit) costs nothing extra, and neither does
-a crossing at right angles: J · n̂ = 0.
+per metre per second), read ``KEEP_RIGHT_M`` = d to the right (r̂) of the move. In a
+corridor where two streams meet, each agent's field then leads along the side its own
+stream already walks on, every agent going that way strengthens that side's flux, and
+the streams sort themselves into lanes (Treuille et al. show this instability forming
+lanes in counterflow). Read at the move itself (d = 0), two streams that reach a
+passage at once, each spread over its width, found no side dearer than the other: their
+fronts met across the whole width and stood (the built-in ``rvo_blocked_street``: 4 of
+60 home at seed 0, and 6 more of seeds 0-59 took over a minute on average). Read a
+little to the right, a walker finds the oncoming stream's flux where the stream would
+be if it kept to its own right, and is led to its own right of it: the pedestrians'
+keep-right convention (docs/rvo.md, "Keep right"), which every stream follows, so the
+two settle on opposite sides before their fronts meet. ``keep_right_deg = 0`` reads it
+at the move. The field is no longer the same in both directions, so it is solved on the
+directed graph. A flow in one direction only (a queue, a bottleneck, everyone to one
+exit) costs nothing extra, and neither does a crossing at right angles: J · n̂ = 0.
 """
 
 from __future__ import annotations
@@ -45,6 +53,7 @@ from crowdmotion._threads import threaded
 from crowdmotion.routing import DistanceFields
 
 SMOOTH_M = 0.75          # density is smoothed with a Gaussian of this many metres
+KEEP_RIGHT_M = 0.3       # the oncoming flux is read this far to the right of a move (at least a cell)
 MAX_CELLS = 1_000_000    # larger fields keep the exact distances (re-solving would cost seconds)
 
 
@@ -54,6 +63,7 @@ class GridGraph:
 
     def __init__(self, free: np.ndarray, cell: float):
         shape = free.shape
+        self.cell = float(cell)
         node = np.full(shape, -1, dtype=np.int64)
         node[free] = np.arange(free.sum())
         self.node = node
@@ -86,6 +96,24 @@ class GridGraph:
         indptr = np.zeros(n + 1, dtype=np.int64)
         np.cumsum(np.bincount(rows, minlength=n), out=indptr[1:])
         self._layout = (order, cols[order].astype(np.int64), indptr)
+
+    def beside(self, metres: float) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+        """The cells ``metres`` to the right of each edge's two cells (flattened grid
+        indices, clamped to the grid): (src, dst) walking src -> dst, then (src, dst)
+        walking dst -> src, whose right is the other side. Rounded to whole cells, at
+        least one cell each way across the edge when ``metres`` > 0; the edge's own cells
+        when 0."""
+        shape = np.array(self.node.shape)
+        src = np.stack(np.unravel_index(self.cell_index[self.src], tuple(shape)), axis=1)
+        dst = np.stack(np.unravel_index(self.cell_index[self.dst], tuple(shape)), axis=1)
+        right = np.stack([self.unit[:, 1], -self.unit[:, 0]], axis=1)
+        off = np.rint(right * max(metres, self.cell) / self.cell).astype(np.int64) if metres > 0 else 0 * src
+
+        def flat(ij: np.ndarray) -> np.ndarray:
+            ij = np.clip(ij, 0, shape - 1)
+            return ij[:, 0] * shape[1] + ij[:, 1]
+
+        return flat(src + off), flat(dst + off), flat(src - off), flat(dst - off)
 
     def csr(self, weighted: np.ndarray) -> csr_matrix:
         """The graph :meth:`weighted` gave as a scipy sparse matrix (row: from, column: to)."""
@@ -234,7 +262,10 @@ class CongestionRouter:
     """Re-solves a :class:`DistanceFields` with density-weighted cell costs, and costs for
     walking against the crowd's flux."""
 
-    def __init__(self, fields: DistanceFields, congestion: float, counterflow: float = 0.0):
+    def __init__(self, fields: DistanceFields, congestion: float, counterflow: float = 0.0,
+                 keep_right: bool = True):
+        """``keep_right``: read the oncoming flux ``KEEP_RIGHT_M`` to the right of each move
+        (else at the move; see the module docstring)."""
         self.fields = fields
         self.congestion = float(congestion)
         self.counterflow = float(counterflow)
@@ -242,6 +273,8 @@ class CongestionRouter:
         self.enabled = (self.congestion > 0 or self.counterflow > 0) and free.size <= MAX_CELLS
         if self.enabled:
             self.graph = GridGraph(free, fields.cell)
+            if self.counterflow > 0:
+                self._read_at = self.graph.beside(KEEP_RIGHT_M if keep_right else 0.0)
 
     def bins(self, positions: np.ndarray) -> np.ndarray:
         """(N,) each agent's cell of the field grid, flattened (−1 off the grid)."""
@@ -267,14 +300,18 @@ class CongestionRouter:
     def against(self, positions: np.ndarray, velocities: np.ndarray,
                 bins: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
         """Extra cost per metre of walking each edge of the graph src -> dst and dst -> src:
-        ``counterflow`` × the flux coming the other way, max(0, ∓J · n̂), J taken at the
-        edge's middle (the mean of its two cells)."""
+        ``counterflow`` × the flux coming the other way, max(0, ∓J · n̂), J the mean of
+        its two cells, read ``KEEP_RIGHT_M`` to the right of the way walked (with
+        ``keep_right``; else at the edge's own cells)."""
         g = self.graph
         b = self.bins(positions) if bins is None else bins
-        jx = self.density(positions, velocities[:, 0], b).ravel()[g.cell_index]
-        jy = self.density(positions, velocities[:, 1], b).ravel()[g.cell_index]
-        along = 0.5 * ((jx[g.src] + jx[g.dst]) * g.unit[:, 0] + (jy[g.src] + jy[g.dst]) * g.unit[:, 1])
-        return self.counterflow * np.maximum(-along, 0.0), self.counterflow * np.maximum(along, 0.0)
+        jx = self.density(positions, velocities[:, 0], b).ravel()
+        jy = self.density(positions, velocities[:, 1], b).ravel()
+        fwd_a, fwd_b, back_a, back_b = self._read_at
+        ux, uy = g.unit[:, 0], g.unit[:, 1]
+        ahead = 0.5 * ((jx[fwd_a] + jx[fwd_b]) * ux + (jy[fwd_a] + jy[fwd_b]) * uy)  # J · n̂ walking src -> dst
+        back = 0.5 * ((jx[back_a] + jx[back_b]) * ux + (jy[back_a] + jy[back_b]) * uy)  # ... and dst -> src
+        return self.counterflow * np.maximum(-ahead, 0.0), self.counterflow * np.maximum(back, 0.0)
 
     def resolve(self, positions: np.ndarray, exact: np.ndarray, velocities: np.ndarray | None = None,
                 fields: np.ndarray | None = None) -> np.ndarray:

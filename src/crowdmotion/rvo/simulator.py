@@ -894,7 +894,8 @@ class Simulator(LiveObstacles):
             self._exact = fields.dist
             self._solved = np.zeros(len(self._goal_regions), dtype=bool)
             self._solved[regions] = True
-            self._router = CongestionRouter(self._fields, self.congestion, self.counterflow)
+            self._router = CongestionRouter(self._fields, self.congestion, self.counterflow,
+                                            keep_right=self.deadlock.keep_right > 0)
         self._fields_stale = False
 
     def _require(self, regions) -> None:
