@@ -25,19 +25,27 @@ in theirs. Here a move in direction n̂ costs, per metre,
     1 + congestion · ρ + counterflow · max(0, −J(x + d · r̂) · n̂)
 
 with J the crowd's flux (Σ of the agents' velocities per m², smoothed as ρ is; persons
-per metre per second), read ``KEEP_RIGHT_M`` = d to the right (r̂) of the move. In a
-corridor where two streams meet, each agent's field then leads along the side its own
-stream already walks on, every agent going that way strengthens that side's flux, and
-the streams sort themselves into lanes (Treuille et al. show this instability forming
-lanes in counterflow). Read at the move itself (d = 0), two streams that reach a
-passage at once, each spread over its width, found no side dearer than the other: their
-fronts met across the whole width and stood (the built-in ``rvo_blocked_street``: 4 of
-60 home at seed 0, and 6 more of seeds 0-59 took over a minute on average). Read a
-little to the right, a walker finds the oncoming stream's flux where the stream would
-be if it kept to its own right, and is led to its own right of it: the pedestrians'
-keep-right convention (docs/rvo.md, "Keep right"), which every stream follows, so the
-two settle on opposite sides before their fronts meet. ``keep_right_deg = 0`` reads it
-at the move. The field is no longer the same in both directions, so it is solved on the
+per metre per second). In a corridor where two streams meet, each agent's field then
+leads along the side its own stream already walks on, every agent going that way
+strengthens that side's flux, and the streams sort themselves into lanes (Treuille et
+al. show this instability forming lanes in counterflow).
+
+Keeping right: J is read ``KEEP_RIGHT_M`` = d to the right (r̂) of the move, J(x + d · r̂)
+(rounded to the field's cells: at the move on cells over 2d, the fields of bodies that
+wide). A walker then finds an oncoming stream's flux where the stream would be if it
+kept to its own right, and is led to its own right of it: the pedestrians' keep-right
+convention (docs/rvo.md, "Keep right"), which every stream follows, so two streams
+settle on opposite sides before their fronts meet. Read at the move, two streams that
+reach a passage at once, each spread over its width, found no side dearer than the
+other: their fronts met across the whole width and stood (the built-in
+``rvo_blocked_street``: 4 of 60 home at seed 0; over seeds 0-59, 6 more took over a
+minute on average); read to the right, all 60 seeds empty. Read to the right only where
+the flux there comes head-on (within 45° of straight against the move), the crowds
+converging on the 0.7 m door of ``crowdmotion verify --empirical`` stood less (seeds 0-4
+and 10-74: no run under 1 person/s, against 7), but the 0.8 m bottleneck clogged more
+(seeds 0-29: 2 runs under 1 person/s, against none; seeds 0-2 then fail the case):
+within what the seeds alone move, and not kept. ``keep_right_deg = 0`` reads J at the
+move. The field is no longer the same in both directions, so it is solved on the
 directed graph. A flow in one direction only (a queue, a bottleneck, everyone to one
 exit) costs nothing extra, and neither does a crossing at right angles: J · n̂ = 0.
 """
@@ -53,7 +61,7 @@ from crowdmotion._threads import threaded
 from crowdmotion.routing import DistanceFields
 
 SMOOTH_M = 0.75          # density is smoothed with a Gaussian of this many metres
-KEEP_RIGHT_M = 0.3       # the oncoming flux is read this far to the right of a move (at least a cell)
+KEEP_RIGHT_M = 0.3       # the oncoming flux is read this far to the right of a move (rounded to cells)
 MAX_CELLS = 1_000_000    # larger fields keep the exact distances (re-solving would cost seconds)
 
 
@@ -100,14 +108,13 @@ class GridGraph:
     def beside(self, metres: float) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
         """The cells ``metres`` to the right of each edge's two cells (flattened grid
         indices, clamped to the grid): (src, dst) walking src -> dst, then (src, dst)
-        walking dst -> src, whose right is the other side. Rounded to whole cells, at
-        least one cell each way across the edge when ``metres`` > 0; the edge's own cells
-        when 0."""
+        walking dst -> src, whose right is the other side. Rounded to whole cells: on
+        cells over twice ``metres`` (the fields of bodies that wide), the edge's own."""
         shape = np.array(self.node.shape)
         src = np.stack(np.unravel_index(self.cell_index[self.src], tuple(shape)), axis=1)
         dst = np.stack(np.unravel_index(self.cell_index[self.dst], tuple(shape)), axis=1)
         right = np.stack([self.unit[:, 1], -self.unit[:, 0]], axis=1)
-        off = np.rint(right * max(metres, self.cell) / self.cell).astype(np.int64) if metres > 0 else 0 * src
+        off = np.rint(right * metres / self.cell).astype(np.int64)
 
         def flat(ij: np.ndarray) -> np.ndarray:
             ij = np.clip(ij, 0, shape - 1)
@@ -300,8 +307,8 @@ class CongestionRouter:
     def against(self, positions: np.ndarray, velocities: np.ndarray,
                 bins: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
         """Extra cost per metre of walking each edge of the graph src -> dst and dst -> src:
-        ``counterflow`` × the flux coming the other way, max(0, ∓J · n̂), J the mean of
-        its two cells, read ``KEEP_RIGHT_M`` to the right of the way walked (with
+        ``counterflow`` × the flux coming the other way, max(0, ∓J · n̂), J the mean of the
+        edge's two cells, read ``KEEP_RIGHT_M`` to the right of the way walked (with
         ``keep_right``; else at the edge's own cells)."""
         g = self.graph
         b = self.bins(positions) if bins is None else bins

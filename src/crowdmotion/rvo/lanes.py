@@ -31,8 +31,8 @@ it is placed or given a new goal; within ``NEAR_GOAL_M`` of its goal (walking up
 place in a queue, stepping in at a door) it chooses at every step, as the turn kept from
 farther off would carry it past the spot. People settle on a gap and walk for it rather than
 re-deciding several times a second, and a walker that holds its gap for a second keeps to
-the lane it forms (the BOT-360 corridors: 34 of 54 runs within 0.2 m/s of the measured
-speed, against 32 choosing every half second; docs/verification.md). At the default
+the lane it forms (the BOT-360 corridors: 35 of 54 runs within 0.2 m/s of the measured
+speed, against 27 choosing every half second; docs/verification.md). At the default
 0.25 s step this does a quarter of the term's work; at a game's 60 frames a second it is
 done for one agent in 60 each frame.
 """
