@@ -45,7 +45,9 @@ class RVOParams(BaseModel):
                              arrives anywhere in it: evacuees take the nearest exit)
     spawn_gap : float        extra clearance, metres, between agents sampled in a region
     keep_right_deg : float   degrees an agent turns v_pref right for an oncoming agent
-                             ahead (0 = off); rvo.deadlock, a documented addition
+                             ahead; 0 = off, and then the counterflow field reads the
+                             oncoming flux at the move, not to its right; rvo.deadlock,
+                             rvo.congestion, documented additions
     patience : float         seconds two agents may hold each other up before the one
                              of lower priority yields (rvo.deadlock)
     congestion : float       field guidance cost per metre 1 + congestion × density

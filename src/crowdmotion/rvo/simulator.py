@@ -127,7 +127,9 @@ class Simulator(LiveObstacles):
         Source of the candidate samples (default ``default_rng(0)``).
     keep_right_deg : float
         Degrees by which an agent turns its v_pref to the right when an oncoming agent is
-        ahead (0 = off); see :mod:`crowdmotion.rvo.deadlock`.
+        ahead; 0 = off, and the counterflow field then reads the oncoming flux at each
+        move rather than to its right; see :mod:`crowdmotion.rvo.deadlock` and
+        :mod:`crowdmotion.rvo.congestion`.
     patience : float
         Seconds two agents may hold each other up before the one of lower priority
         yields; see :mod:`crowdmotion.rvo.deadlock`.
