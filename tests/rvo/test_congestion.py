@@ -4,7 +4,7 @@ import numpy as np
 
 import crowdmotion as cm
 from crowdmotion.groups import Rect
-from crowdmotion.rvo.congestion import CongestionRouter
+from crowdmotion.rvo.congestion import KEEP_RIGHT_M, CongestionRouter
 from crowdmotion.routing import distance_fields
 
 
@@ -113,14 +113,14 @@ def test_a_stream_over_the_whole_width_leads_a_walker_to_its_own_right_of_it():
     assert abs(at_move[row, n_col] - at_move[row, s_col]) < 0.05
     assert kept[row, n_col] - kept[row, s_col] > 1.0
     # and for a walker bound west, the stream bound east: the south half is its left
-    east = CongestionRouter(f, 1.0, 20.0).graph.beside(0.3)
     back = distance_fields(scene, [Rect([0.2, 0.5], [1.0, 3.5])], 0.25, 0.25)
     mirrored = CongestionRouter(back, 1.0, 20.0).resolve(pos, back.dist, -vel)[0]
     assert mirrored[row, s_col] - mirrored[row, n_col] > 1.0
-    src_right, _, src_left, _ = east  # 0.3 m to the right of a move along +x: one cell lower in y
+    # KEEP_RIGHT_M (0.3 m) to the right of a move along +x on 0.25 m cells: one cell lower in y
     g = CongestionRouter(f, 1.0, 20.0).graph
+    src_right, _, src_left, _ = g.beside(KEEP_RIGHT_M)
     cell = g.cell_index[g.src]
-    along_x = (g.unit[:, 0] == 1) & (g.unit[:, 1] == 0) & (cell % 16 == 8)  # from the cells of y 2.0-2.25 m
+    along_x = (g.unit[:, 0] == 1) & (g.unit[:, 1] == 0) & (cell % f.blocked.shape[1] == 8)  # y 2.0-2.25 m
     assert along_x.any()
     np.testing.assert_array_equal(src_right[along_x], cell[along_x] - 1)
     np.testing.assert_array_equal(src_left[along_x], cell[along_x] + 1)

@@ -315,9 +315,11 @@ class CongestionRouter:
         jx = self.density(positions, velocities[:, 0], b).ravel()
         jy = self.density(positions, velocities[:, 1], b).ravel()
         fwd_a, fwd_b, back_a, back_b = self._read_at
-        ux, uy = g.unit[:, 0], g.unit[:, 1]
-        ahead = 0.5 * ((jx[fwd_a] + jx[fwd_b]) * ux + (jy[fwd_a] + jy[fwd_b]) * uy)  # J · n̂ walking src -> dst
-        back = 0.5 * ((jx[back_a] + jx[back_b]) * ux + (jy[back_a] + jy[back_b]) * uy)  # ... and dst -> src
+
+        def along(a: np.ndarray, b: np.ndarray) -> np.ndarray:  # J · n̂, J the mean of cells a and b
+            return 0.5 * ((jx[a] + jx[b]) * g.unit[:, 0] + (jy[a] + jy[b]) * g.unit[:, 1])
+
+        ahead, back = along(fwd_a, fwd_b), along(back_a, back_b)  # walking src -> dst, and dst -> src
         return self.counterflow * np.maximum(-ahead, 0.0), self.counterflow * np.maximum(back, 0.0)
 
     def resolve(self, positions: np.ndarray, exact: np.ndarray, velocities: np.ndarray | None = None,
