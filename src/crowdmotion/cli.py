@@ -387,8 +387,8 @@ def _run_report(path: Path, traj, groups: dict | None = None) -> dict:
         if journeys is not None and not (isinstance(journeys, dict) and isinstance(journeys.get("stages"), dict)):
             raise ValueError(f"{summary_file}: a damaged run summary: journeys is not a table of stages")
         for name, row in report.items():
-            if row["time_to_goal_s"] is None:
-                row["time_to_goal_s"] = by_group.get(name)
+            if by_group.get(name) is not None:  # measured by the method, where the frames may miss the last
+                row["time_to_goal_s"] = by_group[name]
             if journeys is not None and name in journeys["stages"]:
                 row["journeys"] = {"stages": journeys["stages"][name],
                                    **journeys.get("groups", {}).get(name, {"queues": {}, "exits": {}})}

@@ -288,6 +288,16 @@ def root_motion(traj: Trajectories, fps: float = ROOT_FPS) -> dict:
             "deviation_from_1s_average_m": stats(wobble[wob_ok]), "agents_measured": int(len(pick))}
 
 
+def with_arrival_times(report: dict, by_group: dict) -> dict:
+    """``report`` (:func:`group_report`) with each group's ``time_to_goal_s`` the one the
+    method measured (``by_group``, :func:`time_to_goal_by_group`) where it measured one:
+    the frames alone miss the agents that arrive in the run's last frame, which stay in it."""
+    for name, row in report.items():
+        if by_group.get(name) is not None:
+            row["time_to_goal_s"] = by_group[name]
+    return report
+
+
 def time_to_goal_by_group(traj: Trajectories, arrival_time: np.ndarray) -> dict:
     """Mean arrival time of each group's arrived agents (None where nobody arrived)."""
     t = np.asarray(arrival_time, dtype=float)
@@ -331,7 +341,8 @@ def group_report(traj: Trajectories) -> dict:
     group's clusters of two or more: A− of paper 004 §6 walks in clusters),
     ``time_to_goal_s`` (mean time from an agent's first frame to its last, over the agents
     that left: from entering, as the run's ``time_to_goal_by_group_s`` counts it, to within a
-    frame; None when nobody left) and
+    frame; None when nobody left; a run's summary puts the method's own arrival times there,
+    :func:`with_arrival_times`) and
     ``path_length_ratio`` (path length over start-to-end distance).
     """
     act = traj.active_mask
