@@ -46,11 +46,12 @@ def test_a_log_gets_whole_lines_now_and_then_not_a_bar_redrawn_in_place(monkeypa
         bar.done(200)  # under LINE_EVERY_S since the last line: nothing
         clock["t"] += progress.LINE_EVERY_S
         bar.advance(200)
-    assert log.getvalue().splitlines()[1:] == ["rvo steps: 400/2,000 steps (20 %) in 14 s"]
+    assert log.getvalue().splitlines()[1:] == ["rvo steps: 400/2,000 steps (20 %) in 14 s",
+                                               "rvo steps: done in 14 s after 400 of at most 2,000 steps"]
     assert "\r" not in log.getvalue()
 
 
-def test_a_log_ends_on_the_count_the_run_reached(monkeypatch):
+def test_a_log_ends_on_the_count_the_run_reached_and_says_it_is_done(monkeypatch):
     clock = {"t": 100.0}
     monkeypatch.setattr(progress.time, "monotonic", lambda: clock["t"])
     log = io.StringIO()
@@ -59,7 +60,13 @@ def test_a_log_ends_on_the_count_the_run_reached(monkeypatch):
         clock["t"] += 3.0
         bar.done(860)  # everyone arrived: the run ends before its step limit, within LINE_EVERY_S
     assert log.getvalue().splitlines() == ["rvo steps: 10/2,000 steps (0 %) in 0 s",
-                                           "rvo steps: 860/2,000 steps (43 %) in 3 s"]
+                                           "rvo steps: done in 3 s after 860 of at most 2,000 steps"]
+    log = io.StringIO()
+    with step_bar(20, "rvo steps", file=log) as bar:  # to its limit: the count as ever
+        bar.done(1)
+        clock["t"] += 2.0
+        bar.done(20)
+    assert log.getvalue().splitlines()[-1] == "rvo steps: 20/20 steps (100 %) in 2 s"
 
 
 def test_a_disabled_bar_writes_nothing():

@@ -44,10 +44,11 @@ class LineBar:
     """``StepBar``'s interface for output that is not a terminal (a log file, a pipe, a
     render farm's job log): a bar redrawn in place would leave a stale line there, so this
     writes a whole line at the first step reported (the kernels are loaded, the clock
-    starts) and then at most every ``LINE_EVERY_S`` seconds."""
+    starts) and then at most every ``LINE_EVERY_S`` seconds. ``limit``: the total is an
+    upper bound the loop may end before (a run's step limit), not a count of things."""
 
-    def __init__(self, total: int | None, desc: str, unit: str, file):
-        self.total, self.desc, self.unit, self.file = total, desc, unit, file
+    def __init__(self, total: int | None, desc: str, unit: str, file, limit: bool = False):
+        self.total, self.desc, self.unit, self.file, self.limit = total, desc, unit, file, limit
         self.n = 0
         self.start: float | None = None
         self.last = 0.0
@@ -66,10 +67,19 @@ class LineBar:
 
     def finish(self) -> None:
         """A last line with the final count, where the last line gave an earlier one (a log
-        otherwise ends on "1/8 runs (12 %) in 0 s")."""
-        if self.start is not None and self.n != self.shown:
+        otherwise ends on "1/8 runs (12 %) in 0 s"); a loop that ended before its ``limit``
+        (a run whose agents all arrived before its step limit) says it is done, where
+        "860/2,000 steps (43 %)" read as a run that stopped."""
+        if self.start is None:
+            return
+        now = time.monotonic()
+        if self.limit and self.total and self.n < self.total:
             self.shown = self.n
-            print(self.line(time.monotonic()), file=self.file, flush=True)
+            print(f"{self.desc}: done in {now - self.start:.0f} s after {self.n:,} of at most {self.total:,} "
+                  f"{self.unit}s", file=self.file, flush=True)
+        elif self.n != self.shown:
+            self.shown = self.n
+            print(self.line(now), file=self.file, flush=True)
 
     def advance(self, k: int = 1) -> None:
         self.done(self.n + k)
@@ -146,7 +156,7 @@ def step_bar(total: int | None, desc: str, enabled: bool = True, unit: str = "st
     try:
         stream = sys.stderr if file is None else file
         if enabled and not _terminal(stream):
-            line = LineBar(total, desc, unit, stream)
+            line = LineBar(total, desc, unit, stream, limit=True)
             yield line
             line.finish()  # a log ends on the count the loop reached, not on its first step
             return
