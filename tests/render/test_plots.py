@@ -121,3 +121,21 @@ def test_an_obstacle_that_stood_for_part_of_the_run_is_a_dashed_outline_in_paths
     assert [p.get_visible() for p in plots.move_obstacles(ax, movers, 1.0)] == [True]
     assert [p.get_visible() for p in plots.move_obstacles(ax, movers, 4.0)] == [False]
     plt.close(fig)
+
+
+def test_routes_without_a_queue_get_the_exits_alone_not_an_empty_panel(captured, tmp_path):
+    from types import SimpleNamespace
+
+    class Queue:
+        stage = SimpleNamespace(name="gate")
+
+        def report(self):
+            return {"length_per_s": [0, 3, 5, 2, 0]}
+
+    exits = {"north": [3.0, 4.5, 6.0], "south": [5.0]}
+    plots.plot_journeys(SimpleNamespace(queues=[], exits=exits), tmp_path / "j.png")
+    plots.plot_journeys(SimpleNamespace(queues=[Queue()], exits=exits), tmp_path / "j.png")
+    alone, both = captured
+    assert [ax.get_title() for ax in alone.axes] == ["exits"]
+    assert [ax.get_title() for ax in both.axes] == ["queues", "exits"]
+    assert all(ax.has_data() for ax in alone.axes + both.axes)

@@ -353,17 +353,21 @@ REPORT_PANELS = (
 def plot_journeys(journeys, path, title: str = "") -> Path:
     """What researchers read off a run with routes (``crowdmotion.journeys.Journeys``):
     each queue's length every second, and the persons who have left by each exit over
-    time (the N-t curve whose slope is the exit's flow)."""
+    time (the N-t curve whose slope is the exit's flow). A run whose routes hold no queue
+    gets the exits alone."""
     queues = {q.stage.name: q.report()["length_per_s"] for q in journeys.queues}
     exits = {name: np.sort(np.asarray(t, dtype=float)) for name, t in journeys.exits.items()}
-    fig, (left, right) = plt.subplots(1, 2, figsize=(11, 3.8), layout="constrained")
-    for name, lengths in queues.items():
-        left.step(np.arange(len(lengths)), lengths, where="post", label=name)
-    left.set_xlabel("t (s)")
-    left.set_ylabel("persons in line")
-    left.set_title("queues" if queues else "queues: none on the routes", fontsize=10)
+    fig, axes = plt.subplots(1, 2 if queues else 1, figsize=(11 if queues else 5.8, 3.8), layout="constrained",
+                             squeeze=False)
     if queues:
+        left = axes[0, 0]
+        for name, lengths in queues.items():
+            left.step(np.arange(len(lengths)), lengths, where="post", label=name)
+        left.set_xlabel("t (s)")
+        left.set_ylabel("persons in line")
+        left.set_title("queues", fontsize=10)
         left.legend(fontsize=8)
+    right = axes[0, -1]
     for name, t in exits.items():
         right.step(np.r_[0.0, t], np.arange(len(t) + 1), where="post", label=f"{name} ({len(t)})")
     right.set_xlabel("t (s)")
