@@ -139,3 +139,16 @@ def test_routes_without_a_queue_get_the_exits_alone_not_an_empty_panel(captured,
     assert [ax.get_title() for ax in alone.axes] == ["exits"]
     assert [ax.get_title() for ax in both.axes] == ["queues", "exits"]
     assert all(ax.has_data() for ax in alone.axes + both.axes)
+
+
+def test_a_moving_obstacle_in_the_paths_picture_is_explained_in_its_legend(captured, tmp_path):
+    # the walkers' paths cross the spot it stood on at the start: the legend says so
+    scene = cm.Scene(bounds=([0, 0], [20, 10]),
+                     obstacles=[cm.Circle([10, 2], 1.0, path=([0, 10], [[0, 0], [0, 6]]))])
+    pos = np.linspace([[1.0, 2.0]], [[19.0, 2.0]], 11)
+    plots.plot_paths(Trajectories(pos, 1.0), scene, tmp_path / "p.png")
+    labels = [t.get_text() for t in captured[0].axes[0].get_legend().get_texts()]
+    assert "moving obstacle, at the start" in labels and "its path" in labels
+    still = cm.Scene(bounds=([0, 0], [20, 10]), obstacles=[cm.Circle([10, 8], 1.0)])
+    plots.plot_paths(Trajectories(pos, 1.0), still, tmp_path / "q.png")
+    assert "its path" not in [t.get_text() for t in captured[1].axes[0].get_legend().get_texts()]

@@ -288,6 +288,11 @@ def plot_paths(traj: Trajectories, scene: Scene, path, title: str = "", goals=No
         from matplotlib.lines import Line2D
 
         handles.append(Line2D([], [], ls="--", color="darkgoldenrod", lw=1.6, label="target's path, as followed"))
+    if traj.dim == 2 and any(ob.is_moving for ob in scene.obstacles):  # paths cross where it stood at the start
+        from matplotlib.lines import Line2D
+
+        handles.append(patches.Patch(facecolor="0.35", edgecolor="0.1", alpha=0.5, label="moving obstacle, at the start"))
+        handles.append(Line2D([], [], ls="--", color="k", lw=1, label="its path"))
     legend_outside(ax, handles)
     note = f" ({len(drawn)} of {traj.n_agents} paths drawn)" if len(drawn) < traj.n_agents else ""
     ax.set_title((title or f"{traj.n_agents} agents, {traj.n_frames} frames") + note)
