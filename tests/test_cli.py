@@ -27,6 +27,20 @@ def test_validate_run_and_errors(tmp_path, capsys):
     assert main(["run", str(tmp_path / "missing.toml")]) == 2
 
 
+def test_render_keeps_the_run_s_own_paths_picture_and_draws_one_where_it_has_none(tmp_path, capsys):
+    path = tmp_path / "s.toml"
+    path.write_text(GOOD)
+    drawn, bare = tmp_path / "drawn", tmp_path / "bare"
+    assert main(["run", str(path), "-o", str(drawn), "-q"]) == 0
+    assert main(["run", str(path), "-o", str(bare), "-q", "--plots", "none"]) == 0
+    own = (drawn / "paths.png").read_bytes()  # with the run's goals and its scenario's name
+    for folder in (drawn, bare):
+        assert main(["render", str(folder), "--to", "gif", "--max-frames", "2", "-q"]) == 0
+    assert (drawn / "paths.png").read_bytes() == own
+    assert (bare / "paths.png").stat().st_size > 5_000 and (bare / "density.png").is_file()
+    assert "paths.png" in json.loads((bare / "manifest.json").read_text())["files"]
+
+
 def test_run_plots_option_replaces_the_scenarios_pictures(tmp_path, capsys):
     path = tmp_path / "s.toml"
     path.write_text(GOOD)

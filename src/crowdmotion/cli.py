@@ -625,8 +625,8 @@ def cmd_render(args) -> int:
         written.append(plot_density(traj, folder / "density.png", cell=args.cell))
         add(written[-1])
         scene = scene_of(traj)
-        if scene is not None:
-            written.append(plot_paths(traj, scene, folder / "paths.png"))
+        if scene is not None and not (folder / "paths.png").exists():  # the run's own has its goals and name
+            written.append(plot_paths(traj, scene, folder / "paths.png", title=traj.metadata.get("scenario", "")))
             add(written[-1])
     for f in written:
         print(f"wrote {f}")
@@ -926,7 +926,7 @@ def build_parser() -> argparse.ArgumentParser:
                    help="an existing folder to write crowdmotion_blender.zip into (default: the current folder)")
     p.set_defaults(func=cmd_blender_addon)
 
-    p = sub.add_parser("render", help="animation (MP4/GIF), density map and paths of a run")
+    p = sub.add_parser("render", help="animation (MP4/GIF) and density map of a run (and its paths if the run drew none)")
     p.add_argument("output", help="a run's output folder (or a trajectories file)")
     p.add_argument("--to", choices=["mp4", "gif"], default="mp4", help="animation format (default mp4, H.264)")
     p.add_argument("--fps", type=_fps,
