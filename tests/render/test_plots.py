@@ -151,4 +151,6 @@ def test_a_moving_obstacle_in_the_paths_picture_is_explained_in_its_legend(captu
     assert "moving obstacle, at the start" in labels and "its path" in labels
     still = cm.Scene(bounds=([0, 0], [20, 10]), obstacles=[cm.Circle([10, 8], 1.0)])
     plots.plot_paths(Trajectories(pos, 1.0), still, tmp_path / "q.png")
-    assert "its path" not in [t.get_text() for t in captured[1].axes[0].get_legend().get_texts()]
+    still_labels = [t.get_text() for t in captured[1].axes[0].get_legend().get_texts()]
+    assert "its path" not in still_labels and "obstacle" in still_labels  # grey rocks are not end dots
+    assert "obstacle" not in labels

@@ -288,6 +288,8 @@ def plot_paths(traj: Trajectories, scene: Scene, path, title: str = "", goals=No
         from matplotlib.lines import Line2D
 
         handles.append(Line2D([], [], ls="--", color="darkgoldenrod", lw=1.6, label="target's path, as followed"))
+    if any(not (ob.is_moving or ob.is_timed) for ob in scene.obstacles):  # small rocks look like the end dots
+        handles.append(patches.Patch(facecolor="0.35", edgecolor="0.1", alpha=0.85, label="obstacle"))
     if traj.dim == 2 and any(ob.is_moving for ob in scene.obstacles):  # paths cross where it stood at the start
         from matplotlib.lines import Line2D
 
