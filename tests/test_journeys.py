@@ -330,7 +330,7 @@ def test_validate_refuses_a_queue_stage_for_a_pso_group():
 
 
 @pytest.mark.parametrize("old,new,message", [
-    ("rate = 0.5", "rate = 0.0", r"groups.0.route.0.rate \(group 'riders'\): Input should be greater than 0"),
+    ("rate = 0.5", "rate = 0.0", r"groups.0.route.0.rate \(group 'riders'\): must be more than 0"),
     ("rate = 0.5", "rate = 0.5\nspacing = 0.3", r"route.0 \(queue 'gate'\): spacing 0.3 m is less than a body"),
     ("direction = [-1.0, 0.0]", "direction = [1.0, 0.0]", r"route.0 \(queue 'gate'\): place 16 in line at \[40.4, 10\] "
                                                           "lies outside scene.bounds"),
@@ -464,10 +464,10 @@ def test_with_rechoose_late_agents_bound_for_a_gate_whose_queue_grows_switch_to_
 @pytest.mark.parametrize("written,message", [
     ('by = "nearest", rechoose = 2.0,', r'groups\.0\.route\.0 \(group \'late\'\): rechoose and rechoose_margin go with '
                                         r'by = "least_crowded", not by = \'nearest\''),
-    ('by = "least_crowded", rechoose = -1.0,', r"groups\.0\.route\.0\.rechoose \(group 'late'\): Input should be "
-                                               r"greater than 0 \(got -1\.0\)"),
-    ('by = "least_crowded", rechoose = nan,', r"groups\.0\.route\.0\.rechoose \(group 'late'\): Input should be a "
-                                              r"finite number \(got nan\)"),
+    ('by = "least_crowded", rechoose = -1.0,', r"groups\.0\.route\.0\.rechoose \(group 'late'\): must be more "
+                                               r"than 0 \(got -1\.0\)"),
+    ('by = "least_crowded", rechoose = nan,', r"groups\.0\.route\.0\.rechoose \(group 'late'\): must be a finite "
+                                              r"number \(got nan\)"),
     ('by = "least_crowded", rechoose_margin = 1.0,', r"groups\.0\.route\.0 \(group 'late'\): rechoose_margin goes "
                                                      r"with rechoose"),
 ])
@@ -733,7 +733,7 @@ def test_set_route_sends_live_agents_along_the_branch_whose_first_place_is_neare
 
 
 @pytest.mark.parametrize("old,new,message", [
-    ('time = 5.0 },', 'time = -5.0 },', r"groups.0.route.0.among.0.1.time \(group 'walkers'\): Input should be greater"),
+    ('time = 5.0 },', 'time = -5.0 },', r"groups.0.route.0.among.0.1.time \(group 'walkers'\): must be at least 0"),
     ('by = "weights", weights = [3, 7]', 'by = "nearest"',
      None),  # a branch beginning with a goto is weighed by it: accepted
     ('{ kind = "goto", name = "fountain"', '{ kind = "wait", time = 1.0 }, { kind = "goto", name = "fountain"',

@@ -142,7 +142,7 @@ def test_pso_scenario_block_is_the_api_params():
 
 
 @pytest.mark.parametrize("old,new,words", [
-    ("iterations = 80", "iterations = 0", ["pso.iterations", "greater than 0", "got 0"]),
+    ("iterations = 80", "iterations = 0", ["pso.iterations", "must be more than 0", "got 0"]),
     ("v_max = [0.5, 0.5]", "v_max = [0.5, -1]", ["pso.v_max.1", "got -1"]),
     ("v_max = [0.5, 0.5]", "v_max = [0.5]\nthreshold = nan", ["pso.threshold"]),
     ('layout = "grouped"', 'layout = "ring"', ["pso.obstacle_field.layout", "'ring'"]),
@@ -244,7 +244,7 @@ def test_reassign_no_is_refused_not_read_as_true():
 @pytest.mark.parametrize("attrs,words", [
     ("pref_speed_rang = [1.0, 1.2]", ["groups.0.attributes.pref_speed_rang", "did you mean 'pref_speed_range'?"]),
     ("samples = 1e8", ["groups.0.attributes.samples", "whole number"]),
-    ("samples = 100000000", ["groups.0.attributes.samples", "less than or equal to 10000"]),
+    ("samples = 100000000", ["groups.0.attributes.samples", "must be at most 10000"]),
     ("max_neighbors = -1", ["groups.0.attributes.max_neighbors", "got -1"]),
     ("safety = nan", ["groups.0.attributes.safety", "got nan"]),
     ("pref_speed_range = [1.2, 1.0]", ["groups.0.attributes.pref_speed_range", "low 1.2 exceeds high 1"]),
@@ -283,7 +283,7 @@ def test_formats_empty_is_refused():
 
 
 @pytest.mark.parametrize("old,new,words", [
-    ("max_steps = 50", "max_steps = 50\ntime_step = 1e6", ["rvo.time_step", "less than or equal to 10"]),
+    ("max_steps = 50", "max_steps = 50\ntime_step = 1e6", ["rvo.time_step", "must be at most 10"]),
     ("max_steps = 50", "max_steps = 1000000", ["more than a day", "rvo.max_steps", "rvo.time_step"]),
 ])
 def test_an_absurd_time_step_or_duration_is_refused(old, new, words):

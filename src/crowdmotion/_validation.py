@@ -83,7 +83,17 @@ def _message(e: dict) -> str:
         msg = "must be a string (in quotes)"
     elif kind == "missing":
         msg = "is missing: the scenario must give it"
+    elif kind in _BOUNDS and e.get("ctx"):  # "Input should be greater than 0": pydantic's words for a bound
+        words, key = _BOUNDS[kind]
+        bound = e["ctx"].get(key)
+        msg = f"must be {words} {shown(int(bound) if isinstance(bound, float) and bound.is_integer() else bound)}"
+    elif kind == "finite_number":
+        msg = "must be a finite number"
     return msg
+
+
+_BOUNDS = {"greater_than": ("more than", "gt"), "greater_than_equal": ("at least", "ge"),
+           "less_than": ("less than", "lt"), "less_than_equal": ("at most", "le")}
 
 
 def error_lines(err: ValidationError, prefix: str = "", known: Iterable[str] = (),
