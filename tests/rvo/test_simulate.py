@@ -243,30 +243,14 @@ def test_params_may_be_a_dict_and_anything_else_is_refused_by_name():
         rvo.simulate(scene, [group], {"smoothing_window": -1.0})
 
 
-def test_each_group_s_time_to_goal_is_the_one_the_run_measured_last_arrivals_included(tmp_path):
+def test_each_group_s_time_to_goal_is_the_one_the_run_measured_last_arrivals_included():
     # the run ends at the step the last walker arrives, which leaves it in the last frame:
     # the frames alone would leave it out of its group's mean
-    path = tmp_path / "crossing.toml"
-    path.write_text("""
-name = "crossing"
-method = "rvo"
-seed = 3
-[scene]
-bounds = [[0.0, 0.0], [24.0, 6.0]]
-[[groups]]
-name = "east"
-count = 8
-spawn = { shape = "rect", lower = [1.0, 0.5], upper = [5.0, 5.5] }
-goal = { shape = "rect", lower = [19.0, 0.5], upper = [23.0, 5.5] }
-[[groups]]
-name = "west"
-count = 8
-spawn = { shape = "rect", lower = [19.0, 0.5], upper = [23.0, 5.5] }
-goal = { shape = "rect", lower = [1.0, 0.5], upper = [5.0, 5.5] }
-""")
+    from crowdmotion.builtin import builtin_scenarios
     from crowdmotion.scenario import load_scenario, run_scenario
 
-    summary = run_scenario(load_scenario(path), progress=False).summary
+    street = next(p for p in builtin_scenarios() if p.stem == "rvo_street_C")
+    summary = run_scenario(load_scenario(street), progress=False).summary
     measured = summary["time_to_goal_by_group_s"]
     assert summary["arrival_rate"] == 1.0
     assert {g: summary["groups"][g]["time_to_goal_s"] for g in measured} == pytest.approx(measured)
