@@ -147,7 +147,10 @@ def write_plots(scene, result: MDPRun, out, which, title: str = "") -> list:
         if result.journeys is not None:
             written.append(plot_journeys(result.journeys, out / "journeys.png", title=title))
     if "values" in which:
+        # with moving obstacles the field is re-solved at every step: the last one is drawn
+        when = (f"\nat the end, t = {result.trajectories.times[-1]:.0f} s: moving obstacles where they stood then"
+                if any(ob.is_moving for ob in scene.obstacles) else "")
         written.append(plot_values(result.values[0], out / "values.png", result.grid.cell_size,
-                                   tuple(result.grid.origin), title=f"{title}: state values",
+                                   tuple(result.grid.origin), title=f"{title}: state values{when}",
                                    goal_cells=result.goal_cells[0]))
     return written
