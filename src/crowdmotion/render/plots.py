@@ -264,8 +264,9 @@ def plot_paths(traj: Trajectories, scene: Scene, path, title: str = "", goals=No
             ax.plot(track[:, 0], track[:, 1], track[:, 2], "--", color="darkgoldenrod", lw=1.6)
         if goals is not None:
             g = np.atleast_2d(goals)
-            if len(g) > FEW_TARGETS:  # goal cells: small and faint, under the agents that end there
-                ax.scatter(g[:, 0], g[:, 1], g[:, 2], marker="s", color="gold", alpha=0.25, s=10)
+            if len(g) > FEW_TARGETS:  # goal cells: a gold box round them (faint dots alone vanish in 3D)
+                ax.scatter(g[:, 0], g[:, 1], g[:, 2], marker="s", color="gold", alpha=0.5, s=10)
+                _box_3d(ax, g.min(axis=0), g.max(axis=0), face="gold", edge="darkgoldenrod", alpha=0.25)
             else:
                 ax.scatter(g[:, 0], g[:, 1], g[:, 2], marker="*", color="gold", edgecolor="k", s=200)
         ax.set_xlim(scene.lower[0], scene.upper[0])
@@ -301,7 +302,7 @@ def plot_paths(traj: Trajectories, scene: Scene, path, title: str = "", goals=No
     return _save(fig, path)
 
 
-def _box_3d(ax, lo, hi) -> None:
+def _box_3d(ax, lo, hi, face: str = "0.5", edge: str = "0.2", alpha: float = 0.3) -> None:
     from mpl_toolkits.mplot3d.art3d import Poly3DCollection
 
     x0, y0, z0 = lo
@@ -314,7 +315,7 @@ def _box_3d(ax, lo, hi) -> None:
         [(x0, y0, z0), (x0, y1, z0), (x0, y1, z1), (x0, y0, z1)],
         [(x1, y0, z0), (x1, y1, z0), (x1, y1, z1), (x1, y0, z1)],
     ]
-    ax.add_collection3d(Poly3DCollection(faces, facecolor="0.5", edgecolor="0.2", alpha=0.3))
+    ax.add_collection3d(Poly3DCollection(faces, facecolor=face, edgecolor=edge, alpha=alpha))
 
 
 def plot_values(values: np.ndarray, path, cell_size: float = 1.0, origin=(0.0, 0.0), title: str = "",
