@@ -1,5 +1,6 @@
 """The interactive RVO simulator as a user drives it: bad state set by hand is refused."""
 
+import re
 import warnings
 
 import numpy as np
@@ -119,6 +120,25 @@ def test_goals_no_body_can_reach_are_refused_when_added_and_the_simulation_goes_
     with pytest.raises(ValueError, match="outside the scene bounds"):
         sim.set_goals([1], [18, -3])
     assert sim.n_agents == 2 and np.allclose(sim.goals, [18, 5])
+    sim.step()
+
+
+@pytest.mark.parametrize("region", [cm.Rect([40, 40], [50, 50]), cm.Disc([50, 50], 2.0),
+                                    cm.Points([[25, 25], [-3, 4]])])
+def test_a_goal_region_wholly_outside_the_scene_is_refused_before_the_first_step_and_after(region):
+    # taken in before the first step, it made that step and every later one fail, even
+    # once the agent sent there had gone
+    for stepped in (False, True):
+        sim = _sim()
+        if stepped:
+            sim.step()
+        with pytest.raises(ValueError, match=r"goal_region: .* lies outside the scene bounds \[0.0, 0.0\]-\[20.0, 20.0\]"):
+            sim.add_agents([[5, 15]], [[19, 19]], goal_region=region)
+        with pytest.raises(ValueError, match="goal_region: .* lies outside the scene bounds"):
+            sim.set_goals([0], [19, 19], goal_region=region)
+        assert sim.n_agents == 3
+        sim.step()
+    sim.add_agents([[5, 15]], [[19, 19]], goal_region=cm.Rect([18, 18], [25, 25]))  # partly inside: its part serves
     sim.step()
 
 
@@ -806,3 +826,12 @@ def test_an_agent_sent_to_a_goal_walled_in_is_warned_of_once_at_the_next_step():
         warnings.simplefilter("error")
         sim.step()  # said once
     assert sim.unreachable().tolist() == [False, True]
+
+
+@pytest.mark.parametrize("kwargs,name", [({"time_step": "0.1"}, "time_step"), ({"time_step": None}, "time_step"),
+                                         ({"patience": [2.0]}, "patience"), ({"replan_s": True}, "replan_s"),
+                                         ({"counterflow": "20"}, "counterflow")])
+def test_a_setting_that_is_no_number_is_refused_naming_it(kwargs, name):
+    # numpy's isfinite refused a string with a TypeError that named no argument
+    with pytest.raises(ValueError, match=rf"^{name} must be .*, got {re.escape(repr(next(iter(kwargs.values()))))}$"):
+        rvo.Simulator(cm.Scene(bounds=([0, 0], [10, 10])), **kwargs)

@@ -193,23 +193,23 @@ class Simulator(LiveObstacles):
                  counterflow_safety: float = COUNTERFLOW_SAFETY):
         if not isinstance(scene, Scene):
             raise TypeError(f"scene must be a crowdmotion.Scene, got {scene!r}")
-        if not (np.isfinite(time_step) and time_step > 0):
+        if not (_real(time_step) and time_step > 0):
             raise ValueError(f"time_step must be a positive number of seconds, got {time_step!r}")
         if guidance not in ("auto", "direct", "field"):
             raise ValueError(f"guidance must be 'auto', 'direct' or 'field', got {guidance!r}")
-        if not (np.isfinite(arrival_radius) and arrival_radius > 0):
+        if not (_real(arrival_radius) and arrival_radius > 0):
             raise ValueError(f"arrival_radius must be a positive number of metres, got {arrival_radius!r}")
         if dominant not in ("abs", "max"):
             raise ValueError(f"dominant must be 'abs' or 'max', got {dominant!r}")
-        if not (np.isfinite(keep_right_deg) and 0 <= keep_right_deg < 90):
+        if not (_real(keep_right_deg) and 0 <= keep_right_deg < 90):
             raise ValueError(f"keep_right_deg must be in [0, 90) degrees, got {keep_right_deg!r}")
-        if not (np.isfinite(patience) and patience > 0):
+        if not (_real(patience) and patience > 0):
             raise ValueError(f"patience must be a positive number of seconds, got {patience!r}")
-        if not (np.isfinite(congestion) and congestion >= 0):
+        if not (_real(congestion) and congestion >= 0):
             raise ValueError(f"congestion must be a number >= 0, got {congestion!r}")
-        if not (isinstance(counterflow, (int, float)) and np.isfinite(counterflow) and counterflow >= 0):
+        if not (_real(counterflow) and counterflow >= 0):
             raise ValueError(f"counterflow must be a number >= 0, got {counterflow!r}")
-        if not (np.isfinite(replan_s) and replan_s > 0):
+        if not (_real(replan_s) and replan_s > 0):
             raise ValueError(f"replan_s must be a positive number of seconds, got {replan_s!r}")
         self.congestion = float(congestion)
         self.counterflow = float(counterflow)
@@ -346,6 +346,8 @@ class Simulator(LiveObstacles):
             raise ValueError(f"positions must be a non-empty (N, 2) array, got shape {pos.shape}")
         n = len(pos)
         goal, target = self._goal_points(goals, n)
+        if goal_region is not None:
+            self._check_goal_region(goal_region)
         anywhere = bool(arrive_anywhere)
         if anywhere and not isinstance(goal_region, (Rect, Disc)):
             raise ValueError(f"arrive_anywhere needs a Rect or Disc goal_region, got {goal_region!r}")
@@ -444,6 +446,8 @@ class Simulator(LiveObstacles):
         # a goal for each: an id given twice would leave its goals unmatched
         ids = self._distinct_ids(agents, "set_goals") if one_each else self._agent_ids(agents, "set_goals")
         goal, target = self._goal_points(goals, len(ids))
+        if goal_region is not None:
+            self._check_goal_region(goal_region)
         self._ensure_fields()
         if arrive_anywhere and not isinstance(goal_region, (Rect, Disc)):
             raise ValueError(f"arrive_anywhere needs a Rect or Disc goal_region, got {goal_region!r}")
@@ -548,6 +552,22 @@ class Simulator(LiveObstacles):
                 raise ValueError("goals: a 2D moving target is needed")
             return np.tile(goals.at(self.time), (n, 1)), goals
         return _xy_each(goals, n, "goals"), None
+
+    def _check_goal_region(self, region) -> None:
+        """Refuse a goal region with no part inside the scene bounds: its guidance field
+        has no cell to start from, and before the first step it would have been taken in
+        only to make every step after it fail."""
+        lo, hi = self.scene.lower, self.scene.upper
+        if isinstance(region, Rect):
+            inside = bool(np.all(region.lower[:2] <= hi) and np.all(region.upper[:2] >= lo))
+        elif isinstance(region, Disc):
+            inside = bool(np.linalg.norm(region.center[:2] - np.clip(region.center[:2], lo, hi)) <= region.radius)
+        elif isinstance(region, Points):
+            inside = bool(np.any(np.all((region.points[:, :2] >= lo) & (region.points[:, :2] <= hi), axis=1)))
+        else:
+            return
+        if not inside:
+            raise ValueError(f"goal_region: {region!r} lies outside the scene bounds {lo.tolist()}-{hi.tolist()}")
 
     def _standing_goals(self, goal: np.ndarray, radius: np.ndarray, goal_region) -> np.ndarray:
         """``goal`` with each point a body of its agent's ``radius`` cannot stand on
@@ -1281,6 +1301,13 @@ def warm_up(max_agents: int | None = None) -> int:
                     kernel.threaded.compile(signature)
                     ready += 1
     return ready
+
+
+def _real(value) -> bool:
+    """Whether ``value`` is one finite real number (not a string, a list or a bool, which
+    numpy's isfinite refuses with a TypeError naming no argument)."""
+    return isinstance(value, (int, float, np.integer, np.floating)) and not isinstance(value, bool) \
+        and bool(np.isfinite(value))
 
 
 def _ordinal(i: int) -> str:
