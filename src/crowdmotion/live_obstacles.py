@@ -53,6 +53,21 @@ class LiveObstacles:
         not a 2D shape, lies wholly outside the scene's bounds (nobody would meet it: an
         obstacle moved out of the way is taken out with :meth:`remove_obstacle`), any
         agent still walking stands within its radius of it, or it covers an agent's goal."""
+        self._check_new_obstacle(obstacle)
+        scene = self._own_scene()
+        scene.obstacles.append(obstacle.during(self._clock(), np.inf))
+        self._obstacles_changed()
+        try:
+            self._obstacles_check()  # a goal it covers, or a way it closes for good, shows here
+        except ValueError as exc:
+            scene.obstacles.pop()
+            self._obstacles_changed()
+            raise ValueError(f"add_obstacle: {obstacle!r} cannot go in: {exc}") from None
+        return len(scene.obstacles) - 1
+
+    def _check_new_obstacle(self, obstacle) -> None:
+        """:meth:`add_obstacle`'s checks that need nothing changed first: the shape, the
+        bounds and the agents it would stand on (ValueError)."""
         if not isinstance(obstacle, Obstacle):
             raise ValueError(f"add_obstacle: a Circle, Box or Polygon is needed, got {obstacle!r}")
         if obstacle.dim != 2 or obstacle.is_timed:
@@ -68,16 +83,6 @@ class LiveObstacles:
             k = int(np.argmin(clear))
             raise ValueError(f"add_obstacle: agent {int(live[k])} at {np.round(pos[k], 3).tolist()} "
                              f"would stand inside {obstacle!r} (penetration {-clear[k]:.3f} m)")
-        scene = self._own_scene()
-        scene.obstacles.append(obstacle.during(self._clock(), np.inf))
-        self._obstacles_changed()
-        try:
-            self._obstacles_check()  # a goal it covers, or a way it closes for good, shows here
-        except ValueError as exc:
-            scene.obstacles.pop()
-            self._obstacles_changed()
-            raise ValueError(f"add_obstacle: {obstacle!r} cannot go in: {exc}") from None
-        return len(scene.obstacles) - 1
 
     def remove_obstacle(self, index: int) -> None:
         """Take obstacle ``index`` of ``scene.obstacles`` out of the scene now (the live API:
@@ -95,9 +100,12 @@ class LiveObstacles:
         """Move obstacle ``index`` of ``scene.obstacles`` now (the live API: a barrier
         pushed aside): ``to`` is the obstacle in its new place (a Circle, Box or Polygon)
         or an offset (dx, dy) of the old one. Done as :meth:`remove_obstacle` then
-        :meth:`add_obstacle`, with their checks: a ValueError, changing nothing, if the
-        obstacle is not in the scene now or moves along a path, or if in its new place an
-        agent still walking would stand inside it or it covers an agent's goal. ``scene``
+        :meth:`add_obstacle`, with their checks: a ValueError, changing nothing (the run
+        goes on exactly as without the call), if the obstacle is not in the scene now or
+        moves along a path, or if in its new place it is no 2D shape at rest, lies wholly
+        outside the bounds or an agent still walking would stand inside it. One that would
+        cover an agent's goal is put back where it stood, with a ValueError too; the
+        fields are then rebuilt, as for any change of the obstacles. ``scene``
         keeps the old one, standing until now, and the moved one from now on, so the audit
         and the player see each where it stood; returns the moved one's index."""
         obs = self.scene.obstacles
@@ -108,10 +116,14 @@ class LiveObstacles:
         if old.is_moving:
             raise ValueError(f"move_obstacle: obstacle {index} moves along its path; it cannot be moved as well")
         new = to if isinstance(to, Obstacle) else shifted(old, to)
+        try:  # refused before anything changes: the fields and the run go on as they were
+            self._check_new_obstacle(new)
+        except ValueError as exc:
+            raise ValueError(str(exc).replace("add_obstacle:", f"move_obstacle: obstacle {index} moved,", 1)) from None
         self.remove_obstacle(index)
         try:
             return self.add_obstacle(new)
-        except ValueError as exc:
+        except ValueError as exc:  # a goal it would cover: put back as it stood, the fields rebuilt
             self.scene.obstacles[index] = old  # put back as it stood: nothing changed
             self._obstacles_changed()
             raise ValueError(str(exc).replace("add_obstacle:", f"move_obstacle: obstacle {index} moved,", 1)) from None

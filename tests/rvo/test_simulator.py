@@ -376,6 +376,26 @@ def test_an_obstacle_put_or_moved_wholly_outside_the_bounds_is_refused():
     assert half_out == len(sim.scene.obstacles) - 1
 
 
+def test_a_move_refused_for_an_agent_in_the_way_leaves_the_run_as_it_would_have_been():
+    # the refusal used to take the obstacle out and put it back, rebuilding the fields:
+    # the run went on differently (up to metres apart later)
+    def crowd():
+        scene = cm.Scene(bounds=([0, 0], [30, 30]), obstacles=[cm.Box([8, 8], [12, 12]), cm.Box([18, 20], [22, 24])])
+        sim = rvo.Simulator(scene, time_step=1 / 30, rng=np.random.default_rng(2))
+        starts = np.array([[x, y] for x in (2.0, 4.0) for y in np.arange(2.0, 28.0, 2.5)])
+        sim.add_agents(starts, np.c_[np.full(len(starts), 27.0), starts[::-1, 1]])
+        return sim
+
+    tried, untouched = crowd(), crowd()
+    for step in range(120):
+        if step == 30:
+            with pytest.raises(ValueError, match="move_obstacle: obstacle 1 moved, agent .* would stand inside"):
+                tried.move_obstacle(1, cm.Box(tried.positions[0] - 1, tried.positions[0] + 1))
+        tried.step()
+        untouched.step()
+    assert np.array_equal(tried.positions, untouched.positions, equal_nan=True)
+
+
 def test_a_wall_put_across_the_way_sends_the_agents_round_it():
     sim = rvo.Simulator(cm.Scene(bounds=([0, 0], [20, 10])))
     sim.add_agents([[2, 5]], [18, 5])
