@@ -483,7 +483,7 @@ def test_a_crowd_rerouted_mid_run_thinned_and_let_through_a_door_that_opens_foll
     sim = rvo.Simulator(scene, rng=np.random.default_rng(2), remove_on_arrival=False)
     door = sim.add_obstacle(cm.Box([19.5, 6], [20.5, 8]))  # shut
     starts = np.array([[2.0 + 1.2 * (k % 9), 9.0 + 1.1 * (k // 9)] for k in range(40)])
-    ids = sim.add_agents(starts, starts)
+    ids = sim.add_agents(starts, [6, 3])  # as docs/journeys.md writes it: the route decides
     west = Leave(cm.groups.Rect([0, 1], [0.5, 5]), name="west")
     sim.set_route(ids, [GoTo(cm.groups.Disc([6, 3], 2.5), arrive="free_point"), Wait({"uniform": [20.0, 30.0]}), west])
     frames, present = [sim.positions.copy()], [sim.present.copy()]
