@@ -12,6 +12,7 @@ from crowdmotion.scene import Scene
 from crowdmotion.trajectories import Trajectories, resample
 
 MAX_ROUNDS = 50
+EASE_MIN_S = 0.25  # a step kept straight eases back to the smooth path over at least this long
 FIXED_PER_ROUND = 100_000  # overlaps listed (and their steps made straight) per audit round
 
 
@@ -24,9 +25,10 @@ def resample_checked(traj: Trajectories, fps: float, kind: str, scene: Scene | N
     if that makes bodies overlap. A spline
     rounds corners and can bring two bodies together, or overshoot past ``max_speed`` (a
     per-agent (N,) array). Every step of an agent's path (a segment between two input
-    frames) where that happens falls back to the straight move, and the steps on either
-    side ease from the spline into it and back (a cubic blend with level ends, so the path
-    keeps its tangent even where the spline does not pass through the frames); the audit
+    frames) where that happens falls back to the straight move, and the path eases from
+    the spline into it and back over a step either side, or ``EASE_MIN_S`` where the steps
+    are shorter (a cubic blend with level ends, so the path keeps its tangent even where
+    the spline does not pass through the frames); the audit
     runs again until it is as clean as the straight moves. The metadata say how many segments fell back
     (``resampled.straight_segments`` of ``resampled.segments``); a warning says so too.
     """
@@ -77,14 +79,23 @@ def keep_clean(smooth: Trajectories, linear: Trajectories, traj: Trajectories, s
     outrun(smooth)
     base = collision_audit(linear, scene)
 
-    u = np.clip(smooth.times / traj.dt - seg, 0.0, 1.0)[:, None]
-    ease = u * u * (3.0 - 2.0 * u)  # 0 -> 1 with level ends: the blend keeps the path's tangent
-    before = np.maximum(seg - 1, 0)
-    after = np.minimum(seg + 1, traj.n_frames - 2)
+    u = np.clip(smooth.times / traj.dt - seg, 0.0, 1.0)[:, None]  # where each frame lies in its step
+    ramp = max(EASE_MIN_S / traj.dt, 1.0)  # steps the blend takes to ease back to the spline
+    steps = np.arange(traj.n_frames - 1)[:, None]
 
     def mixed() -> tuple[Trajectories, np.ndarray]:
-        # straight on a flagged step, easing back to the spline over the steps beside it
-        w = np.maximum.reduce([straight[seg].astype(float), straight[before] * (1.0 - ease), straight[after] * ease])
+        # straight on a flagged step, easing back to the spline over ``ramp`` steps either
+        # side (a cubic with level ends: the blend keeps the path's tangent); at the run's
+        # own steps (a frame per step) a step's worth of ease is a jump from one path to the
+        # other within a frame, which at 60 steps a second outran the speed limit by the
+        # paths' gap times 60, flagged the next step, and so on until every step was straight
+        flagged = np.where(straight, steps, -np.inf)
+        left = np.maximum.accumulate(flagged, axis=0)[seg]  # the nearest flagged step at or before
+        right = np.minimum.accumulate(np.where(straight, steps, np.inf)[::-1], axis=0)[::-1][seg]
+        here = seg[:, None]
+        gap = np.where(left == here, 0.0, np.minimum(here - left - 1 + u, right - here - u))  # in steps
+        x = np.clip(gap / ramp, 0.0, 1.0)
+        w = 1.0 - x * x * (3.0 - 2.0 * x)
         pos = smooth.positions + w[:, :, None] * (linear.positions - smooth.positions)
         own = smooth.has_own_facing  # a method's own facing is kept, not derived again
         return Trajectories(pos, smooth.dt, ids=smooth.ids, group=smooth.group, radius=smooth.radius,

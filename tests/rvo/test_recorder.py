@@ -1,5 +1,7 @@
 """Recording a live simulation: the Trajectories a game that steps the crowd itself exports."""
 
+import warnings
+
 import numpy as np
 import pytest
 
@@ -119,3 +121,37 @@ def test_a_jump_resampled_to_24_fps_stays_a_jump(kind):
     assert np.allclose(before[out.times[:len(before)] >= 1.0], 3.0), "it holds its place until the step ends"
     assert out.metadata["jumps"] == [[pytest.approx(out.times[len(before) - 1]), 0]]
     assert collision_audit(out, scene).agent_obstacle == 0
+
+
+def test_a_game_s_crowd_stepped_at_60_fps_keeps_its_relaxed_paths_and_their_speed_limits():
+    # 200 walkers bound for the room's corners, stepped at 60 steps a second, 20 more added
+    # at 5 s: a step kept straight used to jump back to the relaxed path within one frame,
+    # outrun the speed limit by the paths' gap times 60, flag the next step, and so on
+    # until every step of every path was straight (a warning said 100 %)
+    scene = cm.Scene(bounds=([0, 0], [30, 30]), obstacles=[cm.Box([8, 8], [12, 12]), cm.Box([18, 17], [22, 21])])
+    corners = [cm.Rect([1, 1], [5, 5]), cm.Rect([25, 1], [29, 5]), cm.Rect([1, 25], [5, 29]), cm.Rect([25, 25], [29, 29])]
+    grid = np.array([[x, y] for x in np.arange(1.0, 29.1, 1.3) for y in np.arange(1.0, 29.1, 1.3)])
+    free = grid[~np.any([np.all((grid > np.array(b.lower) - 0.6) & (grid < np.array(b.upper) + 0.6), axis=1)
+                         for b in scene.obstacles], axis=0)]
+    rng = np.random.default_rng(0)
+    starts = free[rng.choice(len(free), 200, replace=False)]
+    sim = rvo.Simulator(scene, time_step=1 / 60, remove_on_arrival=False, rng=np.random.default_rng(1))
+    sim.add_goal_regions(corners)
+    for k, corner in enumerate(corners):
+        sim.add_agents(starts[k::4], corner.center, goal_region=corner)
+    rec = rvo.Recorder(sim)
+    for step in range(320):
+        if step == 300:  # 20 more, where nobody stands now
+            near = np.linalg.norm(free[:, None] - sim.positions[sim.present][None], axis=2).min(axis=1)
+            sim.add_agents(free[near > 0.9][:20], corners[0].center, goal_region=corners[0])
+        sim.step()
+        rec.record()
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")  # no "kept the plan's straight moves on ..." warning
+        traj = rec.trajectories()
+    relaxed = traj.metadata["relaxed"]
+    assert relaxed["straight_segments"] < 0.01 * relaxed["segments"]
+    rep = collision_audit(traj, scene)
+    assert rep.agent_agent == 0 and rep.agent_obstacle == 0
+    speed = np.linalg.norm(np.diff(traj.positions, axis=0), axis=-1) / traj.dt
+    assert (speed <= sim.params["max_speed"][None] + 1e-9)[traj.active_mask[:-1] & traj.active_mask[1:]].all()
