@@ -31,6 +31,13 @@ def box_of(points: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     return np.array([x.min(), y.min()]), np.array([x.max(), y.max()])
 
 
+def finite_number(value) -> bool:
+    """Whether ``value`` is one finite real number: not a bool, a string or a list (numpy's
+    isfinite refuses a string with a TypeError that names nothing)."""
+    return isinstance(value, (int, float, np.integer, np.floating)) and not isinstance(value, bool) \
+        and bool(np.isfinite(value))
+
+
 def finite_array(value, name: str, dtype=float) -> np.ndarray:
     """``value`` as a numpy array, or a ValueError naming ``name`` if any entry is NaN/inf."""
     try:

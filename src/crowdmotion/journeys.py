@@ -41,6 +41,7 @@ from typing import Protocol
 import numpy as np
 
 from crowdmotion._rng import uniforms
+from crowdmotion.geometry import finite_number
 from crowdmotion.groups import Disc, Points, Rect
 from crowdmotion.placement import spawn_positions
 from crowdmotion.queues import ServiceQueue, wait_row
@@ -196,8 +197,7 @@ def _shown_times(spec: dict) -> dict:
 
 
 def _number(value, where: str) -> float:
-    if isinstance(value, bool) or not isinstance(value, (int, float, np.integer, np.floating)) \
-            or not np.isfinite(value) or value < 0:
+    if not finite_number(value) or value < 0:
         raise ValueError(f"{where} must be a finite number >= 0, got {value!r}")
     return float(value)
 

@@ -65,6 +65,7 @@ from dataclasses import asdict, dataclass, fields
 import numpy as np
 
 from crowdmotion.facing import wrap
+from crowdmotion.geometry import finite_number
 
 STATES = ("idle", "walk", "run", "turn", "move")
 IDLE, WALK, RUN, TURN, MOVE = range(len(STATES))
@@ -122,8 +123,7 @@ class LocomotionParams:
                 if not isinstance(value, (bool, np.bool_)):
                     raise ValueError(f"LocomotionParams.{f.name} must be True or False, got {value!r}")
                 continue
-            if isinstance(value, bool) or not isinstance(value, (int, float, np.integer, np.floating)) \
-                    or not math.isfinite(value):
+            if not finite_number(value):
                 raise ValueError(f"LocomotionParams.{f.name} must be a finite number, got {value!r}")
             zero_ok = f.name in ("stride_exponent", "walk_stop", "turn_stop", "min_state_s")
             if value < 0 or (value == 0 and not zero_ok):

@@ -26,7 +26,7 @@ from typing import Union
 import numpy as np
 
 from crowdmotion._rng import uniforms
-from crowdmotion.geometry import finite_array
+from crowdmotion.geometry import finite_array, finite_number
 from crowdmotion.groups import Disc, Points, Rect, describe_region
 from crowdmotion.stage_kinds import KINDS  # noqa: F401 (re-exported: the kinds of the stages below)
 
@@ -156,8 +156,7 @@ class Wait:
             self.time = {law: (a, b)}
             default = f"wait {law}({a:g}, {b:g}) s"
         else:
-            if isinstance(t, bool) or not isinstance(t, (int, float, np.integer, np.floating)) \
-                    or not np.isfinite(t) or t < 0:
+            if not finite_number(t) or t < 0:
                 raise ValueError(f"wait.time must be a number of seconds >= 0, got {t!r}")
             self.time = float(t)
             default = f"wait {self.time:g} s"
@@ -204,13 +203,11 @@ class Queue:
         if self.head.shape != (2,):
             raise ValueError(f"queue.head must be a 2D point, got {self.head.tolist()}")
         r = self.rate
-        if isinstance(r, bool) or not isinstance(r, (int, float, np.integer, np.floating)) or not np.isfinite(r) \
-                or r <= 0:
+        if not finite_number(r) or r <= 0:
             raise ValueError(f"queue.rate must be > 0 persons per second, got {r!r}")
         self.rate = float(r)
         s = self.spacing
-        if isinstance(s, bool) or not isinstance(s, (int, float, np.integer, np.floating)) or not np.isfinite(s) \
-                or s <= 0:
+        if not finite_number(s) or s <= 0:
             raise ValueError(f"queue.spacing must be > 0 metres, got {s!r}")
         self.spacing = float(s)
         if (self.direction is None) == (self.line is None):
@@ -336,8 +333,7 @@ class Choose:
 
 def _seconds(value, what: str, positive: bool) -> float:
     """``value`` as a finite number of seconds (> 0, or >= 0), else ValueError naming ``what``."""
-    if isinstance(value, bool) or not isinstance(value, (int, float, np.integer, np.floating)) \
-            or not np.isfinite(value) or value < 0 or (positive and value == 0):
+    if not finite_number(value) or value < 0 or (positive and value == 0):
         raise ValueError(f"{what} must be a number of seconds {'> 0' if positive else '>= 0'}, got {value!r}")
     return float(value)
 

@@ -12,7 +12,7 @@ from scipy.spatial import cKDTree
 from crowdmotion._rng import step_key
 from crowdmotion._threads import ThreadedKernel
 from crowdmotion._validation import id_range
-from crowdmotion.geometry import finite_array, require_finite_agents, row_norms
+from crowdmotion.geometry import finite_array, finite_number, require_finite_agents, row_norms
 from crowdmotion.groups import Disc, MovingTarget, Points, Rect
 from crowdmotion.placement import standing_points
 from crowdmotion.rvo import _kernels as K
@@ -193,23 +193,23 @@ class Simulator(LiveObstacles):
                  counterflow_safety: float = COUNTERFLOW_SAFETY):
         if not isinstance(scene, Scene):
             raise TypeError(f"scene must be a crowdmotion.Scene, got {scene!r}")
-        if not (_real(time_step) and time_step > 0):
+        if not (finite_number(time_step) and time_step > 0):
             raise ValueError(f"time_step must be a positive number of seconds, got {time_step!r}")
         if guidance not in ("auto", "direct", "field"):
             raise ValueError(f"guidance must be 'auto', 'direct' or 'field', got {guidance!r}")
-        if not (_real(arrival_radius) and arrival_radius > 0):
+        if not (finite_number(arrival_radius) and arrival_radius > 0):
             raise ValueError(f"arrival_radius must be a positive number of metres, got {arrival_radius!r}")
         if dominant not in ("abs", "max"):
             raise ValueError(f"dominant must be 'abs' or 'max', got {dominant!r}")
-        if not (_real(keep_right_deg) and 0 <= keep_right_deg < 90):
+        if not (finite_number(keep_right_deg) and 0 <= keep_right_deg < 90):
             raise ValueError(f"keep_right_deg must be in [0, 90) degrees, got {keep_right_deg!r}")
-        if not (_real(patience) and patience > 0):
+        if not (finite_number(patience) and patience > 0):
             raise ValueError(f"patience must be a positive number of seconds, got {patience!r}")
-        if not (_real(congestion) and congestion >= 0):
+        if not (finite_number(congestion) and congestion >= 0):
             raise ValueError(f"congestion must be a number >= 0, got {congestion!r}")
-        if not (_real(counterflow) and counterflow >= 0):
+        if not (finite_number(counterflow) and counterflow >= 0):
             raise ValueError(f"counterflow must be a number >= 0, got {counterflow!r}")
-        if not (_real(replan_s) and replan_s > 0):
+        if not (finite_number(replan_s) and replan_s > 0):
             raise ValueError(f"replan_s must be a positive number of seconds, got {replan_s!r}")
         self.congestion = float(congestion)
         self.counterflow = float(counterflow)
@@ -1301,13 +1301,6 @@ def warm_up(max_agents: int | None = None) -> int:
                     kernel.threaded.compile(signature)
                     ready += 1
     return ready
-
-
-def _real(value) -> bool:
-    """Whether ``value`` is one finite real number (not a string, a list or a bool, which
-    numpy's isfinite refuses with a TypeError naming no argument)."""
-    return isinstance(value, (int, float, np.integer, np.floating)) and not isinstance(value, bool) \
-        and bool(np.isfinite(value))
 
 
 def _ordinal(i: int) -> str:
