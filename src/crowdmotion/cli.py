@@ -373,7 +373,7 @@ def _run_report(path: Path, traj, groups: dict | None = None) -> dict:
     measures are the run's own where it gave them (``groups``, or summary.json's
     ``groups``): an RVO run takes them on its steps as simulated, the model's motion,
     not on the frames relaxed for characters that its file holds."""
-    from crowdmotion.metrics import group_report
+    from crowdmotion.metrics import group_report, with_arrival_times
 
     summary_file = path.parent / "summary.json"
     summary = _read_json(summary_file, "run summary") if summary_file.is_file() else {}
@@ -386,9 +386,8 @@ def _run_report(path: Path, traj, groups: dict | None = None) -> dict:
         journeys = summary.get("journeys")
         if journeys is not None and not (isinstance(journeys, dict) and isinstance(journeys.get("stages"), dict)):
             raise ValueError(f"{summary_file}: a damaged run summary: journeys is not a table of stages")
+        with_arrival_times(report, by_group)  # measured by the method, where the frames may miss the last
         for name, row in report.items():
-            if by_group.get(name) is not None:  # measured by the method, where the frames may miss the last
-                row["time_to_goal_s"] = by_group[name]
             if journeys is not None and name in journeys["stages"]:
                 row["journeys"] = {"stages": journeys["stages"][name],
                                    **journeys.get("groups", {}).get(name, {"queues": {}, "exits": {}})}

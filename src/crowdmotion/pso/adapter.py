@@ -187,18 +187,19 @@ def run_scenario(scene, groups, params: PSOParams, rng, progress: bool = True):
     # seconds from entering (t = 0 for swarms there from the start) to the goal
     entered = np.zeros(len(arrived)) if result.entered_at is None else np.nan_to_num(result.entered_at)
     taken = np.where(arrived, sr.arrival_iteration * sr.iteration_time - entered, np.nan)
+    by_group = metrics.time_to_goal_by_group(traj, taken)
     summary.update({
         "method": "pso",
         "iterations": int(sr.paths.shape[0] - 1),
         "arrival_rate": sr.arrival_rate,
         "within_threshold_rate": float(sr.within_threshold().mean()),
         "mean_time_to_goal_s": float(taken[arrived].mean()) if arrived.any() else None,
-        "time_to_goal_by_group_s": metrics.time_to_goal_by_group(traj, taken),
+        "time_to_goal_by_group_s": by_group,
         "groups_gathered": {n: bool(sr.stopped[names == n].all()) for n in result.group_names},
         "rules": dict(sr.stats),
         "generated_obstacles": len(result.scene.obstacles) - len(scene.obstacles),
         "smoothing": smoothing_report(traj, params.smoothing, params.smoothing_window),
-        "groups": metrics.with_arrival_times(metrics.group_report(traj), metrics.time_to_goal_by_group(traj, taken)),
+        "groups": metrics.with_arrival_times(metrics.group_report(traj), by_group),
         **({} if result.journeys is None else {"journeys": result.journeys.report(result.group_names)}),
     })
     if result.due is not None:  # each swarm's delay, as one unit
