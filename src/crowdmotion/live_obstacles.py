@@ -54,6 +54,11 @@ class LiveObstacles:
         obstacle moved out of the way is taken out with :meth:`remove_obstacle`), any
         agent still walking stands within its radius of it, or it covers an agent's goal."""
         self._check_new_obstacle(obstacle)
+        return self._put_in(obstacle)
+
+    def _put_in(self, obstacle: Obstacle) -> int:
+        """:meth:`add_obstacle` for one its first checks passed: in, and out again (a
+        ValueError) if it covers a goal."""
         scene = self._own_scene()
         scene.obstacles.append(obstacle.during(self._clock(), np.inf))
         self._obstacles_changed()
@@ -67,7 +72,8 @@ class LiveObstacles:
 
     def _check_new_obstacle(self, obstacle) -> None:
         """:meth:`add_obstacle`'s checks that need nothing changed first: the shape, the
-        bounds and the agents it would stand on (ValueError)."""
+        bounds and the agents it would stand on (ValueError; :meth:`move_obstacle` runs
+        them before it takes the old one out)."""
         if not isinstance(obstacle, Obstacle):
             raise ValueError(f"add_obstacle: a Circle, Box or Polygon is needed, got {obstacle!r}")
         if obstacle.dim != 2 or obstacle.is_timed:
@@ -116,17 +122,18 @@ class LiveObstacles:
         if old.is_moving:
             raise ValueError(f"move_obstacle: obstacle {index} moves along its path; it cannot be moved as well")
         new = to if isinstance(to, Obstacle) else shifted(old, to)
+        moved = f"move_obstacle: obstacle {index} moved,"
         try:  # refused before anything changes: the fields and the run go on as they were
             self._check_new_obstacle(new)
         except ValueError as exc:
-            raise ValueError(str(exc).replace("add_obstacle:", f"move_obstacle: obstacle {index} moved,", 1)) from None
+            raise ValueError(str(exc).replace("add_obstacle:", moved, 1)) from None
         self.remove_obstacle(index)
         try:
-            return self.add_obstacle(new)
+            return self._put_in(new)
         except ValueError as exc:  # a goal it would cover: put back as it stood, the fields rebuilt
-            self.scene.obstacles[index] = old  # put back as it stood: nothing changed
+            self.scene.obstacles[index] = old
             self._obstacles_changed()
-            raise ValueError(str(exc).replace("add_obstacle:", f"move_obstacle: obstacle {index} moved,", 1)) from None
+            raise ValueError(str(exc).replace("add_obstacle:", moved, 1)) from None
 
     def _obstacle_index(self, index, what: str) -> None:
         """Refuse an index that names no obstacle of ``scene.obstacles``."""
