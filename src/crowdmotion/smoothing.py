@@ -89,9 +89,8 @@ def keep_clean(smooth: Trajectories, linear: Trajectories, traj: Trajectories, s
         # own steps (a frame per step) a step's worth of ease is a jump from one path to the
         # other within a frame, which at 60 steps a second outran the speed limit by the
         # paths' gap times 60, flagged the next step, and so on until every step was straight
-        flagged = np.where(straight, steps, -np.inf)
-        left = np.maximum.accumulate(flagged, axis=0)[seg]  # the nearest flagged step at or before
-        right = np.minimum.accumulate(np.where(straight, steps, np.inf)[::-1], axis=0)[::-1][seg]
+        left = np.maximum.accumulate(np.where(straight, steps, -np.inf), axis=0)[seg]  # nearest flagged at or before
+        right = np.minimum.accumulate(np.where(straight, steps, np.inf)[::-1], axis=0)[::-1][seg]  # at or after
         here = seg[:, None]
         gap = np.where(left == here, 0.0, np.minimum(here - left - 1 + u, right - here - u))  # in steps
         x = np.clip(gap / ramp, 0.0, 1.0)
