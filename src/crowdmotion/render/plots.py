@@ -46,8 +46,7 @@ def _draw_obstacles_2d(ax, scene: Scene, t: float = 0.0, moving: bool | None = N
         if at_t and not standing and not animated:
             continue
         shift = ob.offset(t)[:2]
-        style = dict(facecolor="0.35", edgecolor="0.1", alpha=0.5 if ob.is_moving else 0.85, zorder=2,
-                     animated=animated and changes)
+        style = dict(**_obstacle_look(ob.is_moving), zorder=2, animated=animated and changes)
         if ob.is_timed and not at_t:  # stood for part of the run only
             style.update(facecolor="none", linestyle="--", linewidth=1.2, alpha=0.9)
         if isinstance(ob, (Circle, Sphere)):
@@ -64,6 +63,11 @@ def _draw_obstacles_2d(ax, scene: Scene, t: float = 0.0, moving: bool | None = N
         if ob.is_moving:
             ax.plot(ob.path.positions[:, 0], ob.path.positions[:, 1], "k--", lw=1, zorder=2)
     return drawn
+
+
+def _obstacle_look(moving: bool) -> dict:
+    """How an obstacle is filled seen from above (the legend's patch draws the same)."""
+    return dict(facecolor="0.35", edgecolor="0.1", alpha=0.5 if moving else 0.85)
 
 
 def move_obstacles(ax, drawn: list, t: float, t0: float = 0.0) -> list:
@@ -289,12 +293,12 @@ def plot_paths(traj: Trajectories, scene: Scene, path, title: str = "", goals=No
         from matplotlib.lines import Line2D
 
         handles.append(Line2D([], [], ls="--", color="darkgoldenrod", lw=1.6, label="target's path, as followed"))
-    if any(not (ob.is_moving or ob.is_timed) for ob in scene.obstacles):  # small rocks look like the end dots
-        handles.append(patches.Patch(facecolor="0.35", edgecolor="0.1", alpha=0.85, label="obstacle"))
+    if traj.dim == 2 and any(not (ob.is_moving or ob.is_timed) for ob in scene.obstacles):
+        handles.append(patches.Patch(**_obstacle_look(False), label="obstacle"))  # small rocks look like end dots
     if traj.dim == 2 and any(ob.is_moving for ob in scene.obstacles):  # paths cross where it stood at the start
         from matplotlib.lines import Line2D
 
-        handles.append(patches.Patch(facecolor="0.35", edgecolor="0.1", alpha=0.5, label="moving obstacle, at the start"))
+        handles.append(patches.Patch(**_obstacle_look(True), label="moving obstacle, at the start"))
         handles.append(Line2D([], [], ls="--", color="k", lw=1, label="its path"))
     legend_outside(ax, handles)
     note = f" ({len(drawn)} of {traj.n_agents} paths drawn)" if len(drawn) < traj.n_agents else ""
