@@ -26,3 +26,16 @@ def test_the_python_examples_of_a_page_run_as_written(page, tmp_path, monkeypatc
     assert code, f"{page} has no Python example"
     monkeypatch.chdir(tmp_path)  # whatever an example writes lands here
     exec(compile(code, str(path), "exec"), {"__name__": "__example__"})
+
+
+def test_the_whole_scenarios_a_page_shows_load_as_written():
+    """A TOML block with a method and a scene is a whole scenario a user may save and run;
+    the others are fragments of one (a group's table, a method's parameters)."""
+    from crowdmotion.scenario import parse_scenario
+
+    whole = [(page.name, block) for page in sorted(DOCS.glob("*.md"))
+             for block in re.findall(r"```toml\n(.*?)```", page.read_text(), re.S)
+             if re.search(r"^method\s*=", block, re.M) and re.search(r"^\[scene\]", block, re.M)]
+    assert len(whole) >= 4
+    for name, block in whole:
+        parse_scenario(block, f"docs/{name}")
