@@ -464,7 +464,7 @@ STEP_RATE_SETTLE = 20
 
 
 def relaxed_trajectories(traj, fps: float | None, window_s: float, scene: Scene | None, max_speed: np.ndarray,
-                         margin: float = 0.01, settle: int = 0, keep_speed: bool = False):
+                         margin: float = 0.01, settle: int = 0, keep_speed: bool = False, stretch: bool = False):
     """A run's :class:`~crowdmotion.trajectories.Trajectories` at ``fps`` (None: at its
     own steps), relaxed (:func:`relax`: smoothed over ``window_s`` seconds, bodies kept
     ``margin`` apart and out of the obstacles, ``settle`` rounds of pushes at the end),
@@ -476,7 +476,10 @@ def relaxed_trajectories(traj, fps: float | None, window_s: float, scene: Scene 
     ``RELAX_AT_FPS_MAX``). ``metadata["relaxed"]`` says which, and
     ``metadata["resampled"]`` how many steps fell back. ``keep_speed``: the relaxation
     itself keeps every agent within its ``max_speed`` (or its own fastest step, where that
-    is faster), so that few steps need to fall back for speed."""
+    is faster), so that few steps need to fall back for speed. ``stretch``: where the relaxed
+    paths (or the run's own moves the audit puts back) are faster than an agent's
+    ``max_speed``, the whole run is played that many times slower before the audit
+    (``metadata["slowed_by"]``), so that no agent outruns its ``max_speed``."""
     from crowdmotion.smoothing import keep_clean, speed_limits
     from crowdmotion.trajectories import Trajectories, resample
 
@@ -498,11 +501,51 @@ def relaxed_trajectories(traj, fps: float | None, window_s: float, scene: Scene 
                     settle=settle, max_speed=top)
     smooth = Trajectories(pos, linear.dt, ids=linear.ids, group=linear.group, radius=linear.radius,
                           active=linear.active, metadata={**linear.metadata}, stage=linear.stage)
-    out = keep_clean(smooth, linear, traj, scene, max_speed, "relaxed", warn=False)
+    # stretch: the relaxed paths' own top speed sets the time base; a step the audit puts back
+    # on the run's own move can be faster still (a diagonal), and then the run is slowed
+    # that much more and audited again; the last try slows it for the run's own steps too
+    ratio = _fastest(smooth, max_speed) if stretch else 0.0
+    for attempt in range(STRETCH_TRIES + 1):
+        if attempt == STRETCH_TRIES:
+            ratio = max(ratio, _fastest(traj, max_speed))
+        played = _played_slower(smooth, linear, traj, ratio, by_steps)
+        out = keep_clean(*played, scene, max_speed, "relaxed", warn=False)
+        more = _fastest(out, max_speed) if stretch else 0.0
+        if more <= 1.0 + 1e-9:
+            break
+        ratio = max(ratio, 1.0) * more
+    linear = played[1]
     out.metadata["relaxed"] = {"at": "steps" if by_steps else "fps", "fps": 1.0 / linear.dt,
                                "agent_frames_at_fps": at_fps, "limit": RELAX_AT_FPS_MAX}
     warn_if_straight(out.metadata["resampled"])
     return out
+
+
+STRETCH_TRIES = 2  # slowings of a stretched run before the last, which also fits the run's own steps
+
+
+def _played_slower(smooth, linear, traj, ratio: float, by_steps: bool):
+    """(smooth, linear, traj) played ``ratio`` times slower where ``ratio`` > 1 (as they are
+    otherwise): at the run's steps (``by_steps``) the same frames, each lasting longer; at
+    fps new frames between the old ones (:func:`crowdmotion.trajectories.slowed`), whose
+    straight moves cut the old ones' corners a little, so they are audited after."""
+    from crowdmotion.trajectories import Trajectories, slowed
+
+    if ratio <= 1.0:
+        return smooth, linear, traj
+    traj = Trajectories(traj.positions, traj.dt * ratio, ids=traj.ids, group=traj.group, radius=traj.radius,
+                        active=traj.active, metadata={**traj.metadata, "slowed_by": ratio}, stage=traj.stage)
+    if by_steps:
+        smooth = Trajectories(smooth.positions, traj.dt, ids=traj.ids, group=traj.group, radius=traj.radius,
+                              active=traj.active, metadata={**traj.metadata}, stage=traj.stage)
+        return smooth, traj, traj
+    return slowed(smooth, ratio), slowed(linear, ratio), traj
+
+
+def _fastest(traj, max_speed: np.ndarray) -> float:
+    """The largest ratio of an agent's step speed to its ``max_speed`` in ``traj``."""
+    ok = traj.active_mask[:-1] & traj.active_mask[1:]
+    return float(np.max(np.where(ok, traj.speed[:-1] / max_speed[None, :], 0.0), initial=0.0))
 
 
 # A relaxation that leaves more than this share of the path steps on the plan's own moves

@@ -306,6 +306,28 @@ def resample(traj: Trajectories, fps: float, kind: str = "linear") -> Trajectori
                         metadata=meta, facing=facing, stage=stage)
 
 
+def slowed(traj: Trajectories, factor: float) -> Trajectories:
+    """``traj`` played ``factor`` times slower at its own frame rate: the frames at
+    t / factor, linearly between the old ones (an agent is active at a new frame when it is
+    at both old frames around it). A new frame's straight move to the next cuts the
+    corner at an old frame between them a little: audit the result where that matters."""
+    n = int(np.floor((traj.n_frames - 1) * factor + 1e-9)) + 1
+    u = np.arange(n) / factor
+    k = np.minimum(np.floor(u).astype(int), traj.n_frames - 2)
+    s = (u - k)[:, None, None]
+    pos = traj.positions[k] * (1 - s) + traj.positions[k + 1] * s
+    held = np.minimum(np.ceil(u - 1e-9).astype(int), traj.n_frames - 1)  # the old frame each new one ends in
+    active = None
+    if traj.active is not None:
+        active = traj.active[k] & traj.active[held]
+    meta = {**traj.metadata, "slowed_by": factor}
+    stage = None
+    if traj.stage is not None:  # each new frame in the stage of the old frame it ends in, as resample does
+        stage = traj.stage[held] if active is None else np.where(active, traj.stage[held], -1).astype(traj.stage.dtype)
+    return Trajectories(pos, traj.dt, ids=traj.ids, group=traj.group, radius=traj.radius, active=active, metadata=meta,
+                        stage=stage)
+
+
 def _along(P: np.ndarray, u: np.ndarray, kind: str) -> np.ndarray:
     """Positions at ``u`` (steps from frame 0, within the frames) along the frames ``P``
     (T, N, D) joined by ``kind`` (see :func:`resample`)."""

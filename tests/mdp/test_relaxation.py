@@ -106,6 +106,26 @@ def test_a_run_relaxed_at_its_own_steps_keeps_every_step_smooth(monkeypatch):
     assert rm["acceleration_mps2"]["p95"] <= 2.0 and rm["deviation_from_1s_average_m"]["p95"] <= 0.05, rm
 
 
+def test_a_crowd_queueing_at_a_door_keeps_its_relaxed_paths():
+    # 80 people pressed in a queue before a 1 m door: the relaxed paths settle and keep
+    # within each walker's speed, so that no step needs the plan's straight move; putting
+    # steps back one by one brought the bodies beside them together in turn, until every
+    # step was straight and the walkers turned and stopped as the plan does
+    from crowdmotion.metrics import root_motion
+
+    scene = cm.Scene([[0.0, 0.0], [14.0, 8.0]], [cm.Box([10.0, 0.0], [10.5, 3.5]), cm.Box([10.0, 4.5], [10.5, 8.0])])
+    room = cm.Group("room", 80, spawn=cm.Rect([0.5, 0.5], [9.5, 7.5]), goal=cm.Rect([12.0, 1.0], [13.5, 7.0]),
+                    radius=0.22)
+    tr = run(scene, [room], mdp.MDPParams(remove_on_arrival=True), np.random.default_rng(0)).trajectories
+    assert tr.metadata["relaxed"]["at"] == "fps"
+    assert tr.metadata["resampled"]["straight_segments"] < 0.01 * tr.metadata["resampled"]["segments"]
+    assert collision_audit(tr, scene).clean
+    ok = tr.active_mask[:-1] & tr.active_mask[1:]
+    assert np.nanmax(tr.speed[:-1][ok]) <= 1.5 + 1e-9
+    rm = root_motion(tr)
+    assert rm["acceleration_mps2"]["p95"] <= 2.0 and rm["deviation_from_1s_average_m"]["p95"] <= 0.05, rm
+
+
 @pytest.mark.parametrize("value", [float("nan"), -1.0, 0.0])
 def test_smoothing_window_must_be_a_positive_number_of_seconds(value):
     with pytest.raises(ValueError, match="smoothing_window"):
