@@ -101,3 +101,28 @@ def test_a_sweep_report_gives_each_setting_its_own_intervals_and_a_second_sweep_
     assert main(["report", str(out / "runs")]) == 2
     assert f"it holds a sweep's runs; give the sweep's folder ({out})" in capsys.readouterr().err
     assert pq.read_table(out / "sweep.parquet").num_rows == 1
+
+
+@pytest.mark.parametrize("name,message", [
+    ("groups.5.count", "groups has 1 entry (0 to 0), no 5"),
+    ("groups.x.count", "groups is a list: groups.x needs a whole number (0 for its first entry), not 'x'"),
+    ("groups.0.count.x", "groups.0.count is a value (4), not a table with fields"),
+    ("scene.obstacles.3.radius", "scene.obstacles has 1 entry (0 to 0), no 3"),
+])
+def test_a_sweep_setting_that_leads_nowhere_is_refused_naming_it(tmp_path, name, message):
+    path = tmp_path / "s.toml"
+    path.write_text(GOOD)
+    with pytest.raises(ValueError, match=f"sweep setting {name}: " + message.replace("(", r"\(").replace(")", r"\)")):
+        plan(path, [0], {name: [3]})
+    path.write_text(GOOD.replace('obstacles = [{ shape = "circle", center = [5, 5], radius = 1 }]', ""))
+    with pytest.raises(ValueError, match="the scenario gives no scene.obstacles to set entry 0 of"):
+        plan(path, [0], {"scene.obstacles.0.radius": [3]})
+
+
+def test_sweep_set_reads_arrays_and_bare_words_as_values():
+    from crowdmotion.cli import _setting
+
+    assert _setting("groups.0.spawn.upper=[4.3, 3.7],[5, 6]") == ("groups.0.spawn.upper", [[4.3, 3.7], [5, 6]])
+    assert _setting("rvo.safety=1,3,7.5") == ("rvo.safety", [1, 3, 7.5])
+    assert _setting("groups.0.personality=O+, O-") == ("groups.0.personality", ["O+", "O-"])
+    assert _setting('groups.0.name="a,b",c') == ("groups.0.name", ["a,b", "c"])

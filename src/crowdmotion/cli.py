@@ -681,12 +681,31 @@ def _setting(text: str) -> tuple[str, list]:
         raise argparse.ArgumentTypeError(f"--set {text!r}: the seed is not a setting: give the seeds to run with "
                                          f"--seeds (e.g. --seeds {values})")
     out = []
-    for v in values.split(","):
+    for v in _top_level_items(values):
         try:
             out.append(tomllib.loads(f"v = {v}")["v"])
         except tomllib.TOMLDecodeError:
-            out.append(v)
+            out.append(v.strip())
     return key, out
+
+
+def _top_level_items(text: str) -> list[str]:
+    """``text`` split at the commas outside brackets, braces and quotes:
+    ``[4.3, 3.7],[5, 6]`` -> ``["[4.3, 3.7]", "[5, 6]"]``."""
+    items, depth, quote, start = [], 0, "", 0
+    for i, c in enumerate(text):
+        if quote:
+            quote = "" if c == quote else quote
+        elif c in "\"'":
+            quote = c
+        elif c in "[{":
+            depth += 1
+        elif c in "]}":
+            depth -= 1
+        elif c == "," and depth == 0:
+            items.append(text[start:i])
+            start = i + 1
+    return items + [text[start:]]
 
 
 def cmd_sweep(args) -> int:

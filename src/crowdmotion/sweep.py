@@ -9,6 +9,7 @@ Parquet table with every run's metrics.
 from __future__ import annotations
 
 import itertools
+import warnings
 import json
 from pathlib import Path
 from typing import Any, Iterable, Sequence
@@ -30,20 +31,35 @@ SUMMARY_KEYS = ("agents", "frames", "duration_s", "mean_path_length_m", "mean_sp
 
 def _with_setting(data: dict, dotted: str, value: Any) -> dict:
     """A copy of the scenario dict with ``dotted`` (e.g. ``rvo.safety``, ``groups.0.count``)
-    set to ``value``."""
+    set to ``value``; a name that leads nowhere in the scenario is refused, naming it."""
     out = json.loads(json.dumps(data))
     keys = dotted.split(".")
     node = out
-    for k in keys[:-1]:
+    for depth, k in enumerate(keys):
+        here = ".".join(keys[:depth + 1])
+        last = depth == len(keys) - 1
         if isinstance(node, list):
-            node = node[int(k)]
+            if not k.isdigit():
+                raise ValueError(f"sweep setting {dotted}: {'.'.join(keys[:depth])} is a list: {here} needs a "
+                                 f"whole number (0 for its first entry), not {k!r}")
+            if int(k) >= len(node):
+                raise ValueError(f"sweep setting {dotted}: {'.'.join(keys[:depth])} has {len(node)} "
+                                 f"entr{'y' if len(node) == 1 else 'ies'} (0 to {len(node) - 1}), no {k}")
+            if last:
+                node[int(k)] = value
+            else:
+                node = node[int(k)]
+        elif isinstance(node, dict):
+            if last:
+                node[k] = value
+            elif k not in node and keys[depth + 1].isdigit():
+                raise ValueError(f"sweep setting {dotted}: the scenario gives no {here} to set entry "
+                                 f"{keys[depth + 1]} of")
+            else:
+                node = node.setdefault(k, {})
         else:
-            node = node.setdefault(k, {})
-    last = keys[-1]
-    if isinstance(node, list):
-        node[int(last)] = value
-    else:
-        node[last] = value
+            raise ValueError(f"sweep setting {dotted}: {'.'.join(keys[:depth])} is a value "
+                             f"({shown(node)}), not a table with fields")
     return out
 
 
@@ -76,7 +92,9 @@ def run_one(data: dict, seed: int, setting: dict, path: str) -> dict:
     return its row of the summary table."""
     from crowdmotion.scenario import run_scenario
 
-    sc = build(validate_spec(data, "sweep"), "sweep")
+    with warnings.catch_warnings():  # the scenario's own warnings: plan() has shown them
+        warnings.simplefilter("ignore")
+        sc = build(validate_spec(data, "sweep"), "sweep")
     result = run_scenario(sc, seed=seed, progress=False)
     result.trajectories.save(path)
     s = result.summary
