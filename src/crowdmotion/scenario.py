@@ -735,7 +735,7 @@ class Scenario:
     def params(self):
         from crowdmotion.registry import method_params
 
-        return method_params(self.spec.method, getattr(self.spec, self.spec.method).model_dump())
+        return method_params(self.spec.method, getattr(self.spec, self.spec.method).model_dump(exclude_unset=True))
 
 
 PARAMS: dict[str, type[BaseModel]] = {"mdp": MDPParams, "rvo": RVOParams, "pso": PSOParams,

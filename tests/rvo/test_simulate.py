@@ -1,5 +1,7 @@
 """RVO crowds: the antipodal circle, head-on pairs, obstacles, guidance, determinism, bad input."""
 
+import warnings
+
 import numpy as np
 import pytest
 
@@ -254,3 +256,30 @@ def test_each_group_s_time_to_goal_is_the_one_the_run_measured_last_arrivals_inc
     measured = summary["time_to_goal_by_group_s"]
     assert summary["arrival_rate"] == 1.0
     assert {g: summary["groups"][g]["time_to_goal_s"] for g in measured} == pytest.approx(measured)
+
+
+def test_a_personality_and_the_parameters_it_sets_are_not_given_together(tmp_path):
+    # a group's own safety beside its personality was dropped without a word; an [rvo] one
+    # that no group takes (every group has a personality) changes nothing and says so
+    from crowdmotion.scenario import ScenarioError, parse_scenario
+
+    text = """
+name = "p"
+method = "rvo"
+[scene]
+bounds = [[0, 0], [20, 6]]
+[[groups]]
+name = "a"
+count = 4
+personality = "O+"
+spawn = { shape = "rect", lower = [1, 1], upper = [4, 5] }
+goal = { shape = "rect", lower = [16, 1], upper = [19, 5] }
+"""
+    with pytest.raises(ScenarioError, match=r"groups.0\) attributes.safety: the group's personality 'O\+' sets"):
+        parse_scenario(text + "attributes = { safety = 1.0 }\n")
+    with pytest.warns(UserWarning, match=r"rvo.safety = 2.0 changes nothing here: every group has a personality"):
+        parse_scenario(text + "[rvo]\nsafety = 2.0\n")
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        parse_scenario(text + "[rvo]\ntime_step = 0.2\n")  # not one of the four: no word
+        parse_scenario(text.replace('personality = "O+"\n', "") + "[rvo]\nsafety = 2.0\n")  # taken

@@ -2,12 +2,16 @@
 
 from __future__ import annotations
 
+import warnings
+
 import numpy as np
+
 from crowdmotion.progress import step_bar
 
 from crowdmotion import metrics
 from crowdmotion.journeys import entry_report
 from crowdmotion.rvo.params import RVOParams
+from crowdmotion.rvo.personality import PARAM_KEYS
 from crowdmotion.rvo.simulation import RVORun, build_journeys, build_simulator, run
 from crowdmotion.smoothing import smoothing_report
 
@@ -35,6 +39,11 @@ def check_scenario(scene, groups, params: RVOParams) -> None:
         # a group entering over time need not fit all at once (build_simulator checks its enter table)
         if "enter" not in g.attributes:
             check_spawn_capacity(scene, k, g, params.spawn_gap)
+    given = [key for key in PARAM_KEYS if key in params.model_fields_set]
+    if given and groups and all(g.attributes.get("personality") is not None for g in groups):
+        warnings.warn(f"rvo.{given[0]} = {getattr(params, given[0])} changes nothing here: every group has a "
+                      f"personality, which sets {', '.join(PARAM_KEYS)} (Table 4 of paper 004); [rvo]'s "
+                      f"apply to groups without one", stacklevel=2)
     rng = np.random.default_rng(0)
     sim = build_simulator(scene, groups, params, rng)
     journeys = build_journeys(sim, scene, groups, rng)

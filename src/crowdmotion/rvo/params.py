@@ -28,9 +28,11 @@ class RVOParams(BaseModel):
     time_step : float        simulation step Δt, seconds
     max_steps : int          stop after this many steps even if agents are still walking
     max_neighbors : int      [M] nearest neighbours considered (groups without a personality)
-    neighbor_dist : float    [D] metres within which neighbours count
-    samples : int            [N_sample] random candidate velocities per agent and step
-    safety : float           [w] weight of 1/tc in the penalty, eq. (3)
+    neighbor_dist : float    [D] metres within which neighbours count (groups without a personality)
+    samples : int            [N_sample] random candidate velocities per agent and step (groups
+                             without a personality)
+    safety : float           [w] weight of 1/tc in the penalty, eq. (3) (groups without a
+                             personality)
     dominant : "abs"|"max"   f(ψ): largest |ψk| (default) or the paper's literal max ψk
     guidance : str           "auto", "direct" or "field" (exact MDP distance field)
     field_cell : float|None  guidance grid cell, metres (default: agent radius)
@@ -123,14 +125,15 @@ class RVOParams(BaseModel):
 
 class RVOAttributes(BaseModel):
     """What a group's ``attributes`` table may hold with the RVO method: its own values of
-    four of [rvo]'s parameters (bounded as there), and differing walking speeds.
+    four of [rvo]'s parameters (bounded as there; not beside a personality, which sets
+    them), and differing walking speeds.
 
     pref_speed_range : list  [low, high]: each agent's preferred speed drawn uniformly
                              from it, m/s, within max_speed (RiMEA test 7)
-    max_neighbors : int      [M] as [rvo] max_neighbors, for this group
-    neighbor_dist : float    [D] as [rvo] neighbor_dist, metres
-    samples : int            [N_sample] as [rvo] samples
-    safety : float           [w] as [rvo] safety
+    max_neighbors : int      [M] as [rvo] max_neighbors, for this group (without a personality)
+    neighbor_dist : float    [D] as [rvo] neighbor_dist, metres (without a personality)
+    samples : int            [N_sample] as [rvo] samples (without a personality)
+    safety : float           [w] as [rvo] safety (without a personality)
     """
 
     model_config = ConfigDict(extra="forbid", frozen=True)

@@ -88,6 +88,11 @@ def build_simulator(scene: Scene, groups: Sequence[Group], params: RVOParams, rn
             if doors is None else entry_points(scene, g, doors, params.spawn_gap, rng)
         goals = goal_points(g, starts, params.goal_assignment, rng)
         persona = g.attributes.get("personality")
+        both = [key for key in PARAM_KEYS if persona is not None and key in g.attributes]
+        if both:  # the Simulator refuses the same clash in add_agents
+            raise ValueError(f"{where(k, g)} attributes.{both[0]}: the group's personality {persona!r} sets "
+                             f"{', '.join(PARAM_KEYS)} (Table 4 of paper 004); give either the personality or "
+                             f"those attributes")
         try:
             if persona is None:
                 kw = {key: g.attributes.get(key, getattr(params, key)) for key in PARAM_KEYS}
