@@ -97,3 +97,25 @@ def test_a_log_ends_on_the_final_count_not_the_first(monkeypatch):
         for _ in range(8):
             bar.update(1)
     assert log.getvalue().splitlines() == ["sweep runs: 1/8 runs (12 %) in 0 s", "sweep runs: 8/8 runs (100 %) in 0 s"]
+
+
+def test_a_count_of_cases_on_a_log_counts_its_time_from_the_start(monkeypatch):
+    # the first case done after 19 s read "1/1 cases (100 %) in 0 s": a count of scenes,
+    # cases or runs has no kernels to load before its clock starts, as a step loop does
+    from crowdmotion.progress import counter
+
+    clock = [100.0]
+    monkeypatch.setattr(progress, "time", SimpleNamespace(monotonic=lambda: clock[0]))
+    log = io.StringIO()
+    with counter(1, "verify", "case", file=log) as bar:
+        clock[0] += 19.0
+        bar.update(1)
+    assert log.getvalue().splitlines() == ["verify: 1/1 cases (100 %) in 19 s"]
+    log = io.StringIO()
+    with step_bar(10, "rvo steps", file=log) as steps:  # a step loop: from its first step
+        clock[0] += 5.0
+        steps.done(1)
+        clock[0] += 2.0
+        steps.done(10)
+    assert log.getvalue().splitlines()[0] == "rvo steps: 1/10 steps (10 %) in 0 s"
+    assert log.getvalue().splitlines()[-1] == "rvo steps: 10/10 steps (100 %) in 2 s"

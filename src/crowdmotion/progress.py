@@ -47,18 +47,25 @@ class LineBar:
     starts) and then at most every ``LINE_EVERY_S`` seconds. ``limit``: the total is an
     upper bound the loop may end before (a run's step limit), not a count of things."""
 
-    def __init__(self, total: int | None, desc: str, unit: str, file, limit: bool = False):
+    def __init__(self, total: int | None, desc: str, unit: str, file, limit: bool = False,
+                 clock_from_first: bool = True):
         self.total, self.desc, self.unit, self.file, self.limit = total, desc, unit, file, limit
         self.n = 0
-        self.start: float | None = None
+        # a step loop's clock starts at its first step (its kernels loaded); a count of
+        # scenes, cases or runs counts from the start, where "1/1 cases in 0 s" was a
+        # case that took 19 s
+        self.start: float | None = None if clock_from_first else time.monotonic()
+        self.reported = False
         self.last = 0.0
         self.shown = -1  # the count the last line gave
 
     def done(self, n: int) -> None:
         now = time.monotonic()
-        first = self.start is None
-        if first:  # the first report (kernels loaded): the clock starts here, and a line says so
-            self.start = self.last = now
+        first = not self.reported
+        if first:  # the first report (kernels loaded): a line says so
+            self.reported = True
+            self.start = now if self.start is None else self.start
+            self.last = now
         self.n = n
         if first or now - self.last >= LINE_EVERY_S:
             self.last = now
@@ -70,7 +77,7 @@ class LineBar:
         otherwise ends on "1/8 runs (12 %) in 0 s"); a loop that ended before its ``limit``
         (a run whose agents all arrived before its step limit) says it is done, where
         "860/2,000 steps (43 %)" read as a run that stopped."""
-        if self.start is None:
+        if not self.reported:
             return
         now = time.monotonic()
         if self.limit and self.total and self.n < self.total:
@@ -118,7 +125,7 @@ def counter(total: int | None, desc: str, unit: str, enabled: bool = True, leave
     :class:`LineBar` on a log (on ``file``, default stderr), nothing when not ``enabled``."""
     stream = sys.stderr if file is None else file
     if enabled and not _terminal(stream):
-        bar = LineBar(total, desc, unit, stream)
+        bar = LineBar(total, desc, unit, stream, clock_from_first=False)
         yield bar
         bar.finish()
         return

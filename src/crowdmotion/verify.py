@@ -10,6 +10,7 @@ the measured value, pass or fail, the continuous-time audit and the wall time.
 
 from __future__ import annotations
 
+import re
 import time
 from pathlib import Path
 
@@ -451,8 +452,14 @@ def run_case(case: Case, method: str, out: Path | None = None, seed: int = 0) ->
         from crowdmotion.render import plot_paths
 
         name, first = next(iter(outcomes.items()))
+        # the drawn setup's own measures, where the case lists one per setup ("name: ...;
+        # name/seed: ..."): a title holding all nine BOT runs' was a picture 10,810 px wide
+        names = {n for key in outcomes for n in (key, key.rsplit("/", 1)[0])}  # "UO b_in 1 b_out 1.8/0": seed 0
+        parts = re.split(rf"; (?=(?:{'|'.join(map(re.escape, names))})[:/])", measured)
+        own = [part for part in parts for n in {name, name.rsplit("/", 1)[0]} if part.startswith((f"{n}:", f"{n}/"))]
+        own = [part.removeprefix(f"{name.rsplit('/', 1)[0]}:").removeprefix(f"{name}:").lstrip() for part in own]
         picture = plot_paths(first.traj, first.setup.scene, Path(out) / f"{case.name}_{method}.png",
-                             title=f"{case.source}, {method} ({name}): {measured}")
+                             title=f"{case.source}, {method} ({name}): {own[0] if own else measured}")
     return Verdict(case.name, method, criterion, measured, passed and overlaps == 0 and penetrations == 0,
                    overlaps, penetrations, time.perf_counter() - t0, picture)
 

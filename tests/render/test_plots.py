@@ -154,3 +154,17 @@ def test_a_moving_obstacle_in_the_paths_picture_is_explained_in_its_legend(captu
     still_labels = [t.get_text() for t in captured[1].axes[0].get_legend().get_texts()]
     assert "its path" not in still_labels and "obstacle" in still_labels  # grey rocks are not end dots
     assert "obstacle" not in labels
+
+
+def test_a_long_corridor_is_drawn_high_enough_to_see_and_says_its_y_is_stretched(tmp_path):
+    # a 120 x 4 m corridor to scale was a strip 125 px high, its title over the y label;
+    # a verify case's title listed every run's measures (a picture 10,810 px wide)
+    from PIL import Image
+
+    tr = Trajectories(np.stack([np.linspace([1, 2], [100, 2], 20)] * 3, axis=1), 0.5)
+    title = "; ".join(f"run {k}: 1.00 m/s" for k in range(40))
+    out = plots.plot_paths(tr, cm.Scene(bounds=([0, 0], [120, 4])), tmp_path / "p.png", title=title)
+    width, height = Image.open(out).size
+    assert height >= 250 and width <= 1400, (width, height)
+    tall = plots.plot_paths(tr, cm.Scene(bounds=([0, 0], [120, 1200])), tmp_path / "t.png")
+    assert Image.open(tall).size[1] <= 1400

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import textwrap
 from pathlib import Path
 
 import matplotlib
@@ -87,6 +88,8 @@ def _group_colours(traj: Trajectories) -> dict:
     return group_colours(traj.group.tolist())
 
 
+MAX_ASPECT = 6.0  # a scene's picture is at most this many times longer than high (or higher than long)
+TITLE_WIDTH = 90  # characters a title's line holds before it wraps (the figure keeps its width)
 MAX_PATHS = 400  # more paths than this turn into a solid block: draw an even sample
 
 
@@ -220,8 +223,17 @@ def plot_paths(traj: Trajectories, scene: Scene, path, title: str = "", goals=No
     drawn = np.arange(traj.n_agents)
     if traj.n_agents > MAX_PATHS:  # an even sample: every group keeps its share
         drawn = drawn[np.linspace(0, traj.n_agents - 1, MAX_PATHS).astype(int)]
+    note = f" ({len(drawn)} of {traj.n_agents} paths drawn)" if len(drawn) < traj.n_agents else ""
     if traj.dim == 2:
-        fig, ax = plt.subplots(figsize=(8, 8 * (scene.upper[1] - scene.lower[1]) / (scene.upper[0] - scene.lower[0]) + 0.8))
+        # a scene far longer than wide (a 120 x 4 m corridor) drawn to scale is a strip a
+        # few pixels high: y is drawn stretched (or, far taller than wide, squeezed) to
+        # MAX_ASPECT, and the title says so
+        shape = (scene.upper[1] - scene.lower[1]) / (scene.upper[0] - scene.lower[0])
+        aspect = float(np.clip(shape, 1 / MAX_ASPECT, MAX_ASPECT)) / shape
+        if abs(aspect - 1.0) > 1e-9:
+            note += f", y scale × {aspect:.2g}"
+        width = 8 * min(1.0, 1.5 / (shape * aspect))  # a tall scene: narrower, not metres high
+        fig, ax = plt.subplots(figsize=(width, width * shape * aspect + 0.8))
         _draw_obstacles_2d(ax, scene)
         # one collection each for the paths, starts and ends (an artist per agent cost
         # 2 ms an agent)
@@ -231,7 +243,7 @@ def plot_paths(traj: Trajectories, scene: Scene, path, title: str = "", goals=No
         ends = np.array([w[-1] for w in walks]).reshape(-1, 2)
         ax.scatter([w[0, 0] for w in walks], [w[0, 1] for w in walks], s=16, facecolors="none", edgecolors=rgba,
                    linewidths=1.0, zorder=4)
-        ax.add_collection(EllipseCollection(2 * traj.radius[drawn], 2 * traj.radius[drawn], 0.0, units="xy",
+        ax.add_collection(EllipseCollection(2 * traj.radius[drawn], 2 * traj.radius[drawn] / aspect, 0.0, units="xy",
                                             offsets=ends, offset_transform=ax.transData, facecolors=rgba,
                                             edgecolors=rgba, zorder=5), autolim=False)
         for track in goal_paths or []:
@@ -244,7 +256,7 @@ def plot_paths(traj: Trajectories, scene: Scene, path, title: str = "", goals=No
                 ax.plot(g[:, 0], g[:, 1], "*", color="gold", mec="k", mew=0.7, ms=13, zorder=6)
         ax.set_xlim(scene.lower[0], scene.upper[0])
         ax.set_ylim(scene.lower[1], scene.upper[1])
-        ax.set_aspect("equal")
+        ax.set_aspect(aspect)
         ax.set_xlabel("x (m)")
         ax.set_ylabel("y (m)")
     else:
@@ -301,8 +313,7 @@ def plot_paths(traj: Trajectories, scene: Scene, path, title: str = "", goals=No
         handles.append(patches.Patch(**_obstacle_look(True), label="moving obstacle, at the start"))
         handles.append(Line2D([], [], ls="--", color="k", lw=1, label="its path"))
     legend_outside(ax, handles)
-    note = f" ({len(drawn)} of {traj.n_agents} paths drawn)" if len(drawn) < traj.n_agents else ""
-    ax.set_title((title or f"{traj.n_agents} agents, {traj.n_frames} frames") + note)
+    ax.set_title(textwrap.fill((title or f"{traj.n_agents} agents, {traj.n_frames} frames") + note, TITLE_WIDTH))
     return _save(fig, path)
 
 
