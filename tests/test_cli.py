@@ -361,6 +361,12 @@ def test_report_measures_an_rvo_run_s_groups_on_its_steps_not_the_relaxed_frames
     relaxed = group_report(Trajectories.load(out / "trajectories.parquet"))
     key = "heading_change_rate_rad_s"
     assert report["a"][key] == summary["groups"]["a"][key] != relaxed["a"][key]
+    assert "measured by the run itself (summary.json" in capsys.readouterr().out
+    lone = tmp_path / "lone"  # the file on its own: measured on its frames, and the report says so
+    lone.mkdir()
+    (lone / "t.parquet").write_bytes((out / "trajectories.parquet").read_bytes())
+    assert main(["report", str(lone / "t.parquet")]) == 0
+    assert "measured on the frames of t.parquet (no summary.json of the run beside it)" in capsys.readouterr().out
     assert main(["sweep", str(path), "--seeds", "0:2", "-o", str(tmp_path / "sw"), "-q"]) == 0
     row = pq.read_table(tmp_path / "sw" / "sweep.parquet").to_pylist()[0]
     assert json.loads(row["groups"])["a"][key] != group_report(Trajectories.load(row["file"]))["a"][key]

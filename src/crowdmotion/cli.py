@@ -438,6 +438,15 @@ def cmd_report(args) -> int:
     report = _run_report(path, traj)
     _print_report_table(report, lambda row, k, fmt: "-" if row[k] is None else fmt.format(row[k]))
     _print_journeys(report)
+    summary_file = path.parent / "summary.json"
+    if not summary_file.is_file():  # a file on its own: its frames as written (an RVO run's relaxed for characters)
+        print(f"measured on the frames of {path.name} (no summary.json of the run beside it): an RVO run's "
+              f"relaxed frames, and an agent still in the last frame counts as not arrived; the run's own "
+              f"folder gives the run's own measures")
+    elif _own_groups(_read_json(summary_file, "run summary").get("groups")) is not None:
+        print(f"measured by the run itself ({summary_file.name}; an RVO run on its steps as simulated)")
+    else:
+        print(f"measured on the frames of {path.name}, with the arrival times of {summary_file.name}")
     dest = path.parent / "report.json"
     with adding_to_run(dest.parent) as add:  # listed with the run's files: run --overwrite removes it too
         with atomic_path(dest) as tmp:
