@@ -6,8 +6,9 @@ Runs rvo_station_concourse, rvo_town_square and rvo_stand_exits at their default
 docs/img/<scene>.png (every path over the scene) and the concourse's queues and exits over
 time (docs/img/rvo_station_concourse_journeys.png), and prints per scene its run time, the
 audit, the time the last agent left, and per queue its waits, per exit who left by it;
-then the stand three ways (a random point of the concourse, the nearest exit, the least
-crowded exit) with the evacuation time of each.
+then the stand four ways (a random point of the concourse, the nearest exit, the least
+crowded exit chosen once and weighed again) with the evacuation time of each, and how
+many came out by another exit's door.
 """
 
 from __future__ import annotations
@@ -25,6 +26,26 @@ from crowdmotion.scenario import load_scenario, parse_scenario, run_scenario
 IMG = Path(__file__).parent / "img"
 SCENES = ("rvo_station_concourse", "rvo_town_square", "rvo_stand_exits")
 CONCOURSE = 'goal = { shape = "rect", lower = [0.5, 0.5], upper = [29.5, 5.0] }\nattributes ='
+
+
+DOORS = {"west exit": (4.0, 6.0), "middle exit": (10.0, 12.0), "east exit": (25.0, 27.0)}  # rvo_stand_exits
+WALL_Y = 8.5
+
+
+def other_door(res) -> int:
+    """Spectators of rvo_stand_exits who came out by a door other than their exit's (the
+    one whose strip they left by) and walked under the wall to it."""
+    traj, names = res.trajectories, res.trajectories.metadata["stages"]["spectators"]
+    count = 0
+    for a in range(traj.n_agents):
+        seen = traj.stage[:, a][traj.stage[:, a] >= 0]
+        exit_ = names[int(seen[-1])]["name"] if len(seen) else None
+        y = traj.positions[:, a, 1]
+        cross = np.flatnonzero(traj.active_mask[:-1, a] & traj.active_mask[1:, a] & (y[:-1] >= WALL_Y) & (y[1:] < WALL_Y))
+        if exit_ in DOORS and len(cross):
+            lo, hi = DOORS[exit_]
+            count += not lo <= traj.positions[cross[0], a, 0] <= hi
+    return count
 
 
 def last_out(traj) -> float:
@@ -75,7 +96,8 @@ def main() -> None:
         exits = s.get("journeys", {}).get("exits", {})
         split = " (" + ", ".join(f"{e}: {v['left']}" for e, v in sorted(exits.items())) + ")" if exits else ""
         print(f"| {label} | {last_out(res.trajectories):.2f} s{split} | {s['agent_agent_overlaps']} / "
-              f"{s['agent_obstacle_penetrations']} |")
+              f"{s['agent_obstacle_penetrations']} |" + (f" {other_door(res)} came out by another exit's door"
+                                                          if exits else ""))
 
 
 if __name__ == "__main__":

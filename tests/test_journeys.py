@@ -784,3 +784,55 @@ def test_validate_warns_when_people_are_due_after_the_run_ends():
     with pytest.warns(UserWarning, match=r"group 'commuters' \(groups\.0\) enter: 69 of 120 agents are due after "
                                          r"the run ends at 25 s \(\[rvo\] max_steps x time_step\), the last at 59\.5 s"):
         parse_scenario(STREAM.replace("max_steps = 1200", "max_steps = 100"))
+
+
+DOOR_EXIT = """
+name = "door exit"
+method = "rvo"
+seed = 0
+
+[scene]
+bounds = [[0.0, 0.0], [9.0, 6.0]]
+obstacles = [
+  { shape = "box", lower = [6.0, 0.0], upper = [6.3, 2.5] },
+  { shape = "box", lower = [6.0, 3.5], upper = [6.3, 6.0] },
+]
+
+[[groups]]
+name = "room"
+count = 30
+spawn = { shape = "rect", lower = [0.5, 0.5], upper = [5.5, 5.5] }
+
+[[groups.route]]
+kind = "leave"
+name = "door"
+area = { shape = "rect", lower = [6.3, 2.5], upper = [7.0, 3.5] }
+"""
+
+
+def _last_seen(traj) -> np.ndarray:
+    """(N, 2) where each agent was last active."""
+    last = traj.n_frames - 1 - np.argmax(traj.active_mask[::-1], axis=0)
+    return traj.positions[last, np.arange(traj.n_agents)]
+
+
+def test_walkers_leaving_by_an_exit_area_behind_a_door_pass_the_door_first():
+    # heading for the area's edge, each left up to arrival_radius short of it: in front of
+    # the door, so that nobody ever walked through it (a door-line count saw no one)
+    result = _audited(run_scenario(parse_scenario(DOOR_EXIT), progress=False))
+    end = _last_seen(result.trajectories)
+    assert result.summary["arrival_rate"] == 1.0
+    assert np.all(end[:, 0] >= 6.3) and np.all((end[:, 1] >= 2.5) & (end[:, 1] <= 3.5)), end
+
+
+def test_walkers_leaving_by_a_strip_too_thin_for_their_centre_still_leave():
+    # an exit strip along the scene's edge narrower than a body: its inside cannot be
+    # reached, and each leaves where its body fits against the edge
+    sim = rvo.Simulator(cm.Scene([[0.0, 0.0], [9.0, 6.0]]))
+    strip = cm.Rect([8.9, 2.0], [9.0, 4.0])
+    sim.add_agents(np.array([[1.0, 3.0], [1.0, 2.0]]), strip.center, goal_region=strip, arrive_anywhere=True)
+    for _ in range(200):
+        sim.step()
+        if not sim.active.any():
+            break
+    assert not sim.active.any() and np.all(sim.positions[:, 0] >= 8.5), sim.positions

@@ -36,7 +36,8 @@ class RVOParams(BaseModel):
     dominant : "abs"|"max"   f(ψ): largest |ψk| (default) or the paper's literal max ψk
     guidance : str           "auto", "direct" or "field" (exact MDP distance field)
     field_cell : float|None  guidance grid cell, metres (default: agent radius)
-    remove_on_arrival : bool  agents leave once within arrival_radius of their goal
+    remove_on_arrival : bool  agents leave once within arrival_radius of their goal (once
+                             inside it, for a goal region they arrive anywhere in)
     arrival_radius : float   metres
     goal_assignment : str    how region goals become points: "sample" (uniform in the goal
                              region, each where the agent's body fits), "shift" (start +

@@ -14,7 +14,7 @@ from crowdmotion._threads import ThreadedKernel
 from crowdmotion._validation import id_range
 from crowdmotion.geometry import finite_array, finite_number, require_finite_agents, row_norms
 from crowdmotion.groups import Disc, MovingTarget, Points, Rect
-from crowdmotion.placement import standing_points
+from crowdmotion.placement import GOAL_CLEARANCE_M, standing_points
 from crowdmotion.rvo import _kernels as K
 from crowdmotion.rvo import congestion as _congestion
 from crowdmotion.rvo import deadlock as _deadlock
@@ -84,6 +84,29 @@ def _xy_each(value, n: int, name: str) -> np.ndarray:
     if xy.shape != (n, 2):
         raise ValueError(f"{name} must be (2,) or ({n}, 2), got shape {xy.shape}")
     return xy
+
+
+# an agent that leaves on entering its goal region (an exit, a safe area) walks for the
+# region's nearest point this far inside it (less in a thinner region, and moved to where
+# its body fits), so that it walks in: heading for the region's edge, it left up to
+# ``arrival_radius`` short of it (short of the door it was to pass, for an exit area just
+# behind one). It leaves once its centre is in the region, or within AIM_REACHED_M of that
+# point (a strip along a wall too thin to hold its centre)
+LEAVE_INSET_M = 0.25
+AIM_REACHED_M = 0.1
+
+
+def _inset_nearest(region, points: np.ndarray) -> np.ndarray:
+    """The nearest points of ``region`` (a Rect or Disc) shrunk by ``LEAVE_INSET_M`` (or to
+    its middle, where it is thinner than twice that)."""
+    p = np.asarray(points, dtype=float)
+    if isinstance(region, Rect):
+        m = np.minimum(LEAVE_INSET_M, (region.upper - region.lower) / 2)
+        return np.clip(p, region.lower + m, region.upper - m)
+    off = p - region.center
+    d = np.linalg.norm(off, axis=-1, keepdims=True)
+    inner = max(region.radius - LEAVE_INSET_M, 0.0)
+    return region.center + off * np.minimum(1.0, inner / np.maximum(d, 1e-300))
 
 
 class Simulator(LiveObstacles):
@@ -217,6 +240,7 @@ class Simulator(LiveObstacles):
         self.scene = scene  # with every obstacle ever in it, each with the time it stood (for the audit)
         self.journeys = None  # the route state machine, once a route is set (set_route, or a scenario's)
         self._now = scene   # the obstacles standing now
+        self._inset_clear: dict = {}  # _inset_clearance of a region, with the static obstacles it was found among
         self._scene_owned = False
         self.dt = float(time_step)
         self.guidance = guidance
@@ -328,7 +352,8 @@ class Simulator(LiveObstacles):
         arrive_anywhere : head for the nearest point of ``goal_region`` (a Rect or Disc;
             along the guidance field where walls are in the way) and arrive anywhere in
             it, instead of at the given goal points (an evacuee reaching safety, a
-            walker entering a square).
+            walker entering a square). Agents that leave on arrival head for the
+            nearest point ``LEAVE_INSET_M`` inside it and leave once their centre is in it.
         enter_at : when each agent is due to enter, seconds (default: now). Until then,
             and after it while someone stands on its start position, it waits off-scene
             (``waiting``): not drawn, not avoided, not stepped; it enters at the end of the
@@ -351,9 +376,9 @@ class Simulator(LiveObstacles):
         anywhere = bool(arrive_anywhere)
         if anywhere and not isinstance(goal_region, (Rect, Disc)):
             raise ValueError(f"arrive_anywhere needs a Rect or Disc goal_region, got {goal_region!r}")
-        if anywhere:
-            goal = goal_region.nearest(pos)
         rad = _per_agent(radius, n, "radius")
+        if anywhere:
+            goal = self._aims(goal_region, pos, np.full(n, self.remove_on_arrival), rad)
         if target is None and not anywhere:
             goal = self._standing_goals(goal, rad, goal_region)
         vmax = _per_agent(max_speed, n, "max_speed")
@@ -457,9 +482,10 @@ class Simulator(LiveObstacles):
         self._release_targets(ids)
         if target is not None:
             self._targets.append((target, ids))
-        self.goals[ids] = goal_region.nearest(self.positions[ids]) if arrive_anywhere else goal
-        self.anywhere[ids] = bool(arrive_anywhere)
         self.leaves[ids] = self.remove_on_arrival if leave is None else bool(leave)
+        self.goals[ids] = (self._aims(goal_region, self.positions[ids], self.leaves[ids], self.params["radius"][ids])
+                           if arrive_anywhere else goal)
+        self.anywhere[ids] = bool(arrive_anywhere)
         self.field_of[ids] = field
         self.arrival_time[ids] = np.nan
         self.deadlock.forget(ids)
@@ -613,13 +639,48 @@ class Simulator(LiveObstacles):
         self._targets = [(t, held) for t, held in self._targets if len(held)]
 
     def _nearest_goals(self) -> None:
-        """Agents that arrive anywhere in their goal region head for its nearest point."""
+        """Agents that arrive anywhere in their goal region head for its nearest point (those
+        that leave there, for the nearest point ``LEAVE_INSET_M`` inside it)."""
         walking = self.anywhere & self.active
         if not walking.any():
             return
         for k in np.unique(self.field_of[walking]):
             ids = np.flatnonzero(walking & (self.field_of == k))
-            self.goals[ids] = self._goal_regions[k].nearest(self.positions[ids])
+            self.goals[ids] = self._aims(self._goal_regions[k], self.positions[ids], self.leaves[ids],
+                                         self.params["radius"][ids])
+
+    def _aims(self, region, points: np.ndarray, leaving: np.ndarray, radius: np.ndarray) -> np.ndarray:
+        """The goal points of agents at ``points`` that arrive anywhere in ``region`` (a Rect
+        or Disc): its nearest point, or for those ``leaving`` there the nearest point
+        ``LEAVE_INSET_M`` inside it, moved to where a body of ``radius`` fits."""
+        out = region.nearest(points)
+        if leaving.any():
+            aims, r = _inset_nearest(region, points[leaving]), radius[leaving]
+            if r.max() + GOAL_CLEARANCE_M > self._inset_clearance(region):  # some may not fit
+                aims = standing_points(self._now, aims, r)
+            out[leaving] = aims
+        return out
+
+    def _inset_clearance(self, region) -> float:
+        """A lower bound of the clearance of every point of ``region`` shrunk by
+        ``LEAVE_INSET_M`` from the scene's edge and the static obstacles (their boxes): a
+        body of a smaller radius fits at every aim point there as it is (a safe area in
+        the open, an exit area behind a door), and none need moving, step after step."""
+        statics = self._now.static_obstacles
+        key = (repr(region), tuple(map(id, statics)))
+        if key not in self._inset_clear:
+            if isinstance(region, Rect):
+                m = np.minimum(LEAVE_INSET_M, (region.upper - region.lower) / 2)
+                lo, hi = region.lower + m, region.upper - m
+            else:
+                inner = max(region.radius - LEAVE_INSET_M, 0.0)
+                lo, hi = region.center - inner, region.center + inner
+            clear = float(min(np.min(lo - self._now.lower), np.min(self._now.upper - hi)))
+            for ob in statics:
+                olo, ohi = ob.bounds()
+                clear = min(clear, float(np.linalg.norm(np.maximum(0.0, np.maximum(olo - hi, lo - ohi)))))
+            self._inset_clear[key] = clear
+        return self._inset_clear[key]
 
     @property
     def waiting(self) -> np.ndarray:
@@ -1150,7 +1211,7 @@ class Simulator(LiveObstacles):
                             prims.seg_v, self.dt, key, new, forced, dl.keep_right, KEEP_RIGHT_LOOK_S,
                             self.follow * np.minimum(self.density / FOLLOW_FULL_DENSITY, 1.0),
                             self._comfort_reach(), self.goals,
-                            np.where(self.leaves, self.arrival_radius, 0.0), self._squeeze_s(), SQUEEZE_SIDE_M)
+                            self._leave_reach(), self._squeeze_s(), SQUEEZE_SIDE_M)
         # safety: of two agents that would touch during the step, the one with the lower
         # (random, per step) priority stands still instead, until none would
         # agents a moving obstacle bears down on go first: standing still is no refuge for them
@@ -1177,6 +1238,14 @@ class Simulator(LiveObstacles):
         bodies wider than a person (robots, vehicles: eq. (3) alone)."""
         person = self.params["radius"] <= PERSON_MAX_RADIUS_M
         return np.where(person, self.comfort_accel * self.dt * np.where(self.deadlock.breaking(), BRISK, 1.0), 0.0)
+
+    def _leave_reach(self) -> np.ndarray:
+        """(N,) how near its goal point a move must bring an agent for it to leave within
+        the step (the choice then ignores what it would meet after): ``arrival_radius`` for
+        those that leave at their goal, 0 for those that stay, and for those that leave on
+        entering their goal region (aiming ``LEAVE_INSET_M`` inside it) 0 too: they leave
+        where the region begins, which the choice does not know."""
+        return np.where(self.leaves & ~self.anywhere, self.arrival_radius, 0.0)
 
     def _turned_in(self, vpref: np.ndarray) -> np.ndarray:
         """``vpref`` with each walker near its goal but not heading for it slowed so that it
@@ -1210,6 +1279,10 @@ class Simulator(LiveObstacles):
     def _arrivals(self) -> None:
         d = row_norms(self.goals - self.positions)
         now = self.active & ~self.driven & (d <= self.arrival_radius) & np.isnan(self.arrival_time)
+        exits = self.active & ~self.driven & self.anywhere & self.leaves & np.isnan(self.arrival_time)
+        for k in np.unique(self.field_of[exits]):  # those leaving at a region: once their centre is in it
+            ids = np.flatnonzero(exits & (self.field_of == k))
+            now[ids] = self._goal_regions[k].contains(self.positions[ids]) | (d[ids] <= AIM_REACHED_M)
         stays = ~self.leaves
         if stays.any():  # arrivals that stay: the next arrive by touching them
             arrived = ~np.isnan(self.arrival_time) & (stays | self.active)  # not those that left
