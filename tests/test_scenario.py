@@ -320,3 +320,12 @@ def test_a_goal_region_reaching_outside_the_bounds_is_refused_where_goal_points_
     _refused(RVO.replace('goal = { shape = "rect", lower = [25, 1], upper = [29, 9] }',
                          'goal = { shape = "rect", lower = [25, 1], upper = [35, 9] }'),
              ["group 'a' (groups.0) goal: rect [25, 1]-[35, 9] reaches outside scene.bounds [0, 0]-[30, 10]"])
+
+
+def test_an_unknown_shape_is_named_with_the_shapes_that_field_takes():
+    with pytest.raises(ScenarioError) as err:
+        parse_scenario(GOOD.replace('spawn = { shape = "rect"', 'spawn = { shape = "ellipse"'))
+    assert "groups.0.spawn (group 'g'): shape 'ellipse' is not one of 'point', 'points', 'rect', 'disc', 'ring'" \
+        in str(err.value)  # not the goal-only shapes (moving, antipodal)
+    with pytest.raises(ScenarioError, match="shape 'oval' is not one of .*'moving'"):
+        parse_scenario(GOOD.replace('goal = { shape = "point"', 'goal = { shape = "oval"'))

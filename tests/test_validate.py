@@ -343,3 +343,8 @@ def test_a_field_of_another_formation_kind_is_named_as_such_not_suggested_back(t
     err = refused(capsys, ["validate", str(path)], "formation.wedge.cols",
                   "is not a field here ('cols' belongs to another table or kind, not this one)")
     assert "did you mean 'cols'" not in err
+
+
+def test_a_folder_given_as_the_scenario_is_named_a_folder(tmp_path, capsys):
+    (tmp_path / "mine.toml").write_text("")
+    refused(capsys, ["run", str(tmp_path)], "is a folder, not a scenario file (it holds mine.toml)")

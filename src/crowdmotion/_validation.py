@@ -89,7 +89,17 @@ def _message(e: dict) -> str:
         msg = f"must be {words} {shown(int(bound) if isinstance(bound, float) and bound.is_integer() else bound)}"
     elif kind == "finite_number":
         msg = "must be a finite number"
+    elif kind == "union_tag_invalid" and e.get("ctx"):  # "Input tag 'ellipse' found using 'shape' does not match ..."
+        ctx = e["ctx"]
+        tags = [t.strip(" '") for t in str(ctx.get("expected_tags", "")).split(",") if t.strip(" '")]
+        if e.get("loc") and e["loc"][-1] == "spawn":  # goal shapes only: a spawn cannot move or be the antipodes
+            tags = [t for t in tags if t not in GOAL_ONLY_SHAPES]
+        msg = f"{ctx.get('discriminator', 'shape').strip(chr(39))} {ctx.get('tag')!r} is not one of " + \
+            ", ".join(repr(t) for t in tags)
     return msg
+
+
+GOAL_ONLY_SHAPES = ("moving", "antipodal")  # region shapes a goal may take and a spawn may not
 
 
 _BOUNDS = {"greater_than": ("more than", "gt"), "greater_than_equal": ("at least", "ge"),

@@ -28,6 +28,10 @@ def scenario_path(name: str) -> Path:
     builtins = {p.stem: p for p in builtin_scenarios()}
     if name in builtins:
         return builtins[name]
+    if path.is_dir():
+        tomls = sorted(p.name for p in path.glob("*.toml"))
+        raise FileNotFoundError(f"{name} is a folder, not a scenario file" +
+                                (f" (it holds {', '.join(tomls[:3])}{', ...' if len(tomls) > 3 else ''})" if tomls else ""))
     if path.suffix == "" or not path.exists():
         close = difflib.get_close_matches(path.stem, list(builtins), n=1)
         hint = f"; did you mean the built-in {close[0]!r}?" if close else "; `crowdmotion scenarios` lists the built-ins"

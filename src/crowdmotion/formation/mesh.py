@@ -76,7 +76,7 @@ class FormationMesh:
             m = len(self.edges)
             self.element_edges = np.stack([np.arange(m - 1), np.arange(1, m), np.arange(1, m)], axis=1) \
                 if m >= 2 else np.zeros((0, 3), np.int64)
-            if warn:
+            if warn and n >= 2:  # one agent needs no mesh: nothing to say
                 warnings.warn(f"{what}: the {n} positions are {'too few' if n < 3 else 'collinear'} for "
                               "triangles; the mesh falls back to a chain along the line", MeshFallbackWarning,
                               stacklevel=2)

@@ -938,7 +938,7 @@ class Simulator(LiveObstacles):
             hit = np.flatnonzero(d < allrad[pairs[:, 0]] + allrad[pairs[:, 1]])
             if len(hit):
                 a, b = pairs[hit[0]]
-                named = [f"{ids[k]}{' (new)' if new and ids[k] >= self.n_agents else ''}" for k in (a, b)]
+                named = [f"{ids[k]}{' (being added)' if new and ids[k] >= self.n_agents else ''}" for k in (a, b)]
                 raise ValueError(f"agents {named[0]} and {named[1]} {'start' if new else 'would be'} overlapped: "
                                  f"centres {d[hit[0]]:.3f} m apart, radii sum {allrad[a] + allrad[b]:.3f} m")
 
