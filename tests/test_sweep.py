@@ -126,3 +126,13 @@ def test_sweep_set_reads_arrays_and_bare_words_as_values():
     assert _setting("rvo.safety=1,3,7.5") == ("rvo.safety", [1, 3, 7.5])
     assert _setting("groups.0.personality=O+, O-") == ("groups.0.personality", ["O+", "O-"])
     assert _setting('groups.0.name="a,b",c') == ("groups.0.name", ["a,b", "c"])
+
+
+def test_a_sweep_table_keeps_counts_whole_and_the_settings_in_the_order_given(tmp_path):
+    path = tmp_path / "s.toml"
+    path.write_text(GOOD)
+    table = sweep(path, seeds=[0], settings={"groups.0.count": [4, 2]}, out=tmp_path / "out", workers=1,
+                  processes=False, progress=False)
+    assert table["groups.0.count"].to_pylist() == [4, 2]  # as given, not as text ("4" after "2")
+    for column in ("groups.0.count", "agents", "frames", "agent_agent_overlaps"):
+        assert str(table.schema.field(column).type) == "int64", column

@@ -27,6 +27,7 @@ SUMMARY_KEYS = ("agents", "frames", "duration_s", "mean_path_length_m", "mean_sp
                 "agent_agent_overlaps", "agent_obstacle_penetrations", "worst_agent_agent_penetration_m",
                 "worst_agent_obstacle_penetration_m", "arrival_rate", "mean_time_to_goal_s", "steps",
                 "all_recovered")
+COUNT_KEYS = ("agents", "frames", "agent_agent_overlaps", "agent_obstacle_penetrations", "steps")  # whole numbers
 
 
 def _with_setting(data: dict, dotted: str, value: Any) -> dict:
@@ -101,7 +102,8 @@ def run_one(data: dict, seed: int, setting: dict, path: str) -> dict:
     row = {"scenario": sc.spec.name, "seed": seed, "file": path, **{k: _cell(v) for k, v in setting.items()}}
     for k in SUMMARY_KEYS:  # every row has every column (null where a method has no such metric)
         v = s.get(k)
-        row[k] = float(v) if isinstance(v, (int, float)) and not isinstance(v, bool) else v
+        number = isinstance(v, (int, float)) and not isinstance(v, bool)
+        row[k] = (int(v) if k in COUNT_KEYS else float(v)) if number else v
     # the per-group measures as the run's summary took them (RVO: on its steps as simulated,
     # not the relaxed frames the file holds), for crowdmotion report
     row["groups"] = json_text(s["groups"]) if isinstance(s.get("groups"), dict) else None
@@ -125,12 +127,10 @@ def clear_earlier(out: Path, overwrite: bool) -> None:
 
 
 def _cell(value: Any) -> Any:
-    """A setting as a table cell: numbers as floats (so 1 and 2.5 share a column type),
-    booleans and strings as they are, anything else as JSON."""
-    if isinstance(value, bool) or isinstance(value, str):
+    """A setting as a table cell: numbers, booleans and strings as they are (a column of
+    whole numbers stays whole; 1 beside 2.5 becomes 1.0), anything else as JSON."""
+    if isinstance(value, (bool, str, int, float)):
         return value
-    if isinstance(value, (int, float)):
-        return float(value)
     return json.dumps(value)
 
 
@@ -179,7 +179,8 @@ def sweep(scenario: Scenario | str | Path, seeds: Iterable[int] = range(8),
         client.close()
         if cluster is not None:
             cluster.close()
-    rows.sort(key=lambda r: (r["file"]))
+    order = {str(out / "runs" / f"{_run_name(seed, setting)}.parquet"): k for k, (_, seed, setting) in enumerate(runs)}
+    rows.sort(key=lambda r: order[r["file"]])  # as planned: the values in the order given, then the seeds
     table = pa.Table.from_pylist(rows)
     with atomic_path(out / "sweep.parquet") as tmp:
         pq.write_table(table, tmp)

@@ -31,6 +31,8 @@ def test_verdict_follows_the_paired_interval(diffs, verdict):
     assert rows[0]["verdict"] == verdict and rows[0]["seeds"] == 4
     assert rows[0]["difference_ci"][0] == pytest.approx(np.mean(diffs))
     assert rows[-1]["claim"].startswith("dense areas") and rows[-1]["verdict"] == "holds"
+    # one slope a run (its groups' mean): the groups of one run are not independent samples
+    assert rows[-1]["seeds"] == 4 and rows[-1]["a_mean_ci"][0] == pytest.approx(-0.45)
     assert "| X+ more than X- | m |" in format_claims(rows)
 
 

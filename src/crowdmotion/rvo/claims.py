@@ -87,13 +87,15 @@ def check_claims(reports: list[dict], claims=CLAIMS, level: float = 0.95) -> lis
         rows.append({"claim": c.text, "measure": c.measure, "a": c.a, "b": c.b, "a_mean_ci": mean_ci(a, level),
                      "b_mean_ci": mean_ci(b, level), "difference_ci": diff,
                      "verdict": _verdict(diff[0], diff[1], c.op), "seeds": len(runs)})
-    slopes = [v.get("speed_density_slope") for r in reports for v in r.values()]
-    slopes = [s for s in slopes if s is not None]
+    # one slope per run (its groups' mean): the runs are the independent samples, the
+    # groups of one run are not
+    per_run = [[v.get("speed_density_slope") for v in r.values()] for r in reports]
+    slopes = [float(np.mean([s for s in run if s is not None])) for run in per_run if any(s is not None for s in run)]
     if slopes:
         m = mean_ci(slopes, level)
         rows.append({"claim": DENSITY_CLAIM, "measure": "speed_density_slope", "a": "all", "b": "0",
                      "a_mean_ci": m, "b_mean_ci": (0.0, 0.0, m[2]), "difference_ci": m,
-                     "verdict": _verdict(m[0], m[1], "<"), "seeds": len(reports),
+                     "verdict": _verdict(m[0], m[1], "<"), "seeds": len(slopes),
                      "negative_share": float(np.mean(np.asarray(slopes) < 0))})
     return rows
 
