@@ -132,7 +132,7 @@ def test_bad_agent_parameters_are_named(kwargs, words):
 def test_overlapping_or_buried_starts_are_refused():
     scene = cm.Scene(bounds=([0, 0], [10, 10]), obstacles=[cm.Circle([5, 5], 1.0)])
     sim = rvo.Simulator(scene)
-    with pytest.raises(ValueError, match=r"agents 0 \(new\) and 1 \(new\) start overlapped"):
+    with pytest.raises(ValueError, match=r"agents 0 \(being added\) and 1 \(being added\) start overlapped"):
         sim.add_agents([[1, 1], [1.3, 1]], [[9, 9], [8, 8]], radius=0.25)
     with pytest.raises(ValueError, match="agent 0 at .* starts inside an obstacle"):
         sim.add_agents([[5.5, 5]], [[9, 9]])

@@ -681,7 +681,7 @@ def test_agents_in_touch_elsewhere_do_not_stop_a_new_one_coming_in():
         sim.step()  # the player presses it into the dead end
     assert np.linalg.norm(sim.positions[0] - sim.positions[1]) < 0.5
     sim.add_agents([[17, 8]], [[8, 8]])  # far from both
-    with pytest.raises(ValueError, match=r"agents [01] and 3 \(new\) start overlapped"):
+    with pytest.raises(ValueError, match=r"agents [01] and 3 \(being added\) start overlapped"):
         sim.add_agents([sim.positions[1] + [0.3, 0.0]], [[8, 8]])  # on the player
 
 
