@@ -58,6 +58,17 @@ def test_box_corner_clearance_is_exact():
     assert rep.worst_agent_obstacle == pytest.approx(0.8 - np.sqrt(0.5), abs=1e-9)
 
 
+def test_a_body_reaching_past_the_scene_s_edge_enters_its_wall():
+    # the bounds are walls: a body of radius 0.5 whose centre comes within 0.2 m of x = 10
+    # reaches 0.3 m past it (obstacle -1); one clamped against the edge touches it only
+    tr = two_frames([5, 0], [9.8, 0])
+    rep = collision_audit(tr, Scene(([-10, -10], [10, 10])))
+    assert rep.agent_obstacle == 1 and rep.worst_agent_obstacle == pytest.approx(0.3)
+    assert rep.events[0].b == -1 and rep.events[0].position == pytest.approx((9.8, 0.0))
+    assert collision_audit(two_frames([5, 0], [9.5, -9.5]), Scene(([-10, -10], [10, 10]))).agent_obstacle == 0
+    assert collision_audit(tr).agent_obstacle == 0  # no scene: no walls
+
+
 def test_moving_obstacle_hits_a_standing_agent():
     ob = Sphere([0, 0, 0], 1.0, path=([0, 1], [[-5, 0, 0], [5, 0, 0]]))
     tr = two_frames([0, 0.5, 0], [0, 0.5, 0], radius=0.25)

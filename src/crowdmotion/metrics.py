@@ -22,7 +22,7 @@ class CollisionEvent:
     """One overlap found between two frames.
 
     ``kind`` is ``"agent-agent"`` or ``"agent-obstacle"``; ``a`` is an agent index,
-    ``b`` the other agent or the obstacle index; ``time`` the moment of deepest overlap
+    ``b`` the other agent or the obstacle index (-1: the scene's bounds); ``time`` the moment of deepest overlap
     (seconds); ``penetration`` how far the bodies overlap there (metres).
     """
 
@@ -131,6 +131,9 @@ def _segment_clearance(ob: Obstacle, a: np.ndarray, b: np.ndarray) -> tuple[np.n
     raise TypeError(f"unknown obstacle {ob!r}")  # pragma: no cover
 
 
+EDGE_TOUCH_M = 1e-9  # a body clamped against the scene's edge touches it, to the last bit, without crossing
+
+
 def obstacle_penetrations(
     traj: Trajectories, scene: Scene, tolerance: float = 0.0, max_events: int = MAX_EVENTS,
     intervals: np.ndarray | None = None,
@@ -139,7 +142,8 @@ def obstacle_penetrations(
 
     Each interval is checked in the obstacle's own frame, where the agent's relative
     motion is a straight segment; the least clearance along it is exact for circles,
-    spheres and boxes, and exact in 2D for polygons (shapely).
+    spheres and boxes, and exact in 2D for polygons (shapely). A body reaching past the
+    scene's bounds counts as entering obstacle -1.
     """
     inside = _interval_mask(traj)
     if intervals is not None:
@@ -174,6 +178,19 @@ def obstacle_penetrations(
             where = traj.positions[f, i] + t[h] * (traj.positions[f + 1, i] - traj.positions[f, i])
             events.append(CollisionEvent("agent-obstacle", f, (f + t[h]) * traj.dt, i, k,
                                          float(pen[h]), tuple(map(float, where))))
+    # the scene's bounds are walls too (obstacle -1): a body's clearance from a side is
+    # linear along a straight move, so its least is at one of the move's ends
+    ends = np.stack([traj.positions[f_idx, a_idx], traj.positions[f_idx + 1, a_idx]])  # (2, n, dim)
+    clear = np.minimum(ends - scene.lower, scene.upper - ends).min(axis=2)  # (2, n)
+    pen = radius - clear.min(axis=0)
+    hit = np.flatnonzero(pen > max(tolerance, EDGE_TOUCH_M))
+    if len(hit):
+        count += len(hit)
+        worst = max(worst, float(pen[hit].max()))
+        for h in hit[np.argsort(-pen[hit])][: max(0, max_events - len(events))]:
+            f, i, end = int(f_idx[h]), int(a_idx[h]), int(np.argmin(clear[:, h]))
+            events.append(CollisionEvent("agent-obstacle", f, (f + end) * traj.dt, i, -1, float(pen[h]),
+                                         tuple(map(float, ends[end, h]))))
     return count, worst, events
 
 

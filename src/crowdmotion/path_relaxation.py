@@ -369,8 +369,10 @@ def push_out_of_obstacles(X, active, radius, margin, kind, lower, upper, offsets
 
 
 def obstacle_arrays(scene: Scene | None, times: np.ndarray):
-    """The scene's obstacles as :func:`push_out_of_obstacles` reads them, placed at ``times``."""
-    obs = [] if scene is None else list(scene.obstacles)
+    """The scene's obstacles as :func:`push_out_of_obstacles` reads them, placed at ``times``,
+    and its bounds as walls: a box beyond each side (a relaxed path rounding a corner by the
+    scene's edge cut it, its body 1.4 cm outside the scene)."""
+    obs = [] if scene is None else list(scene.obstacles) + _beyond_bounds(scene)
     dim = 2 if scene is None else scene.dim
     k = len(obs)
     vmax = max([len(o.vertices) for o in obs if isinstance(o, Polygon)] + [1])
@@ -392,6 +394,18 @@ def obstacle_arrays(scene: Scene | None, times: np.ndarray):
         else:  # pragma: no cover - the scene knows no other shape
             raise TypeError(f"no distance for {ob!r}")
     return kind, lower, upper, offsets, px, py, pn
+
+
+def _beyond_bounds(scene: Scene) -> list[Box]:
+    """A box beyond each side of the scene's bounds, reaching well past the others."""
+    lo, hi = np.asarray(scene.lower, float), np.asarray(scene.upper, float)
+    far = float(np.max(hi - lo)) + 10.0
+    walls = []
+    for k in range(scene.dim):
+        below_hi, above_lo = hi + far, lo - far
+        below_hi[k], above_lo[k] = lo[k], hi[k]
+        walls += [Box(lo - far, below_hi), Box(above_lo, hi + far)]
+    return walls
 
 
 def relax(positions: np.ndarray, active: np.ndarray, radius: np.ndarray, dt: float, scene: Scene | None,
