@@ -96,17 +96,25 @@ LEAVE_INSET_M = 0.25
 AIM_REACHED_M = 0.1
 
 
-def _inset_nearest(region, points: np.ndarray) -> np.ndarray:
-    """The nearest points of ``region`` (a Rect or Disc) shrunk by ``LEAVE_INSET_M`` (or to
-    its middle, where it is thinner than twice that)."""
-    p = np.asarray(points, dtype=float)
+def _inset_box(region) -> tuple[np.ndarray, np.ndarray]:
+    """(lower, upper) of ``region`` (a Rect or Disc) shrunk by ``LEAVE_INSET_M`` (to its
+    middle, where it is thinner than twice that): the Rect itself, or the Disc's box."""
     if isinstance(region, Rect):
         m = np.minimum(LEAVE_INSET_M, (region.upper - region.lower) / 2)
-        return np.clip(p, region.lower + m, region.upper - m)
+        return region.lower + m, region.upper - m
+    inner = max(region.radius - LEAVE_INSET_M, 0.0)
+    return region.center - inner, region.center + inner
+
+
+def _inset_nearest(region, points: np.ndarray) -> np.ndarray:
+    """The nearest points of ``region`` (a Rect or Disc) shrunk by ``LEAVE_INSET_M``."""
+    p = np.asarray(points, dtype=float)
+    lo, hi = _inset_box(region)
+    if isinstance(region, Rect):
+        return np.clip(p, lo, hi)
     off = p - region.center
     d = np.linalg.norm(off, axis=-1, keepdims=True)
-    inner = max(region.radius - LEAVE_INSET_M, 0.0)
-    return region.center + off * np.minimum(1.0, inner / np.maximum(d, 1e-300))
+    return region.center + off * np.minimum(1.0, 0.5 * float(hi[0] - lo[0]) / np.maximum(d, 1e-300))
 
 
 class Simulator(LiveObstacles):
@@ -669,12 +677,7 @@ class Simulator(LiveObstacles):
         statics = self._now.static_obstacles
         key = (repr(region), tuple(map(id, statics)))
         if key not in self._inset_clear:
-            if isinstance(region, Rect):
-                m = np.minimum(LEAVE_INSET_M, (region.upper - region.lower) / 2)
-                lo, hi = region.lower + m, region.upper - m
-            else:
-                inner = max(region.radius - LEAVE_INSET_M, 0.0)
-                lo, hi = region.center - inner, region.center + inner
+            lo, hi = _inset_box(region)
             clear = float(min(np.min(lo - self._now.lower), np.min(self._now.upper - hi)))
             for ob in statics:
                 olo, ohi = ob.bounds()
