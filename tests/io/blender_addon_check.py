@@ -33,7 +33,7 @@ def pose_of(ob) -> dict:
     idle = all(abs(b.rotation_euler.x) < 1e-6 for b in pb if b.name.startswith(("thigh", "shin", "foot")))
     return {"root": list(m.translation), "up": list(rot @ mathutils.Vector((0, 0, 1))),
             "forward": list(rot @ mathutils.Vector((0, -1, 0))), "idle": idle,
-            "visible": not ob.hide_render}
+            "visible": not ob.hide_render, "body_visible": [not c.hide_render and c.visible_get() for c in ob.children]}
 
 
 def render(out: str, rigs, focus=None, size=(320, 180)) -> dict:

@@ -182,6 +182,34 @@ def test_the_addon_walks_each_character_at_its_own_pace_where_the_trajectories_s
     assert got["render"]["pointclouds"] == []  # no guide spheres
 
 
+def test_a_character_shows_only_while_its_agent_is_in_the_scene(tmp_path):
+    # an agent that has left (or not yet come) hides its body too, not its armature alone:
+    # a child mesh does not inherit its parent's hiding, and every body stood on at its goal
+    from crowdmotion.blender import write_addon
+
+    fps = 24.0
+    pos = np.zeros((97, 2, 2))
+    pos[:, 0] = np.stack([1 + np.arange(97) / fps, np.full(97, 2.0)], axis=1)
+    pos[:, 1] = [5.0, 5.0]
+    active = np.ones((97, 2), bool)
+    active[48:, 0] = False  # leaves at 2 s
+    active[:24, 1] = False  # comes at 1 s
+    path = Trajectories(pos, 1 / fps, radius=[0.25] * 2, active=active).save(tmp_path / "run.usdc")
+    addon = write_addon(tmp_path)
+    (tmp_path / "user").mkdir()
+    done = subprocess.run([BLENDER_PYTHON, str(pathlib.Path(__file__).with_name("blender_addon_check.py")),
+                           str(addon), str(path), str(tmp_path), "--times", "0.5,1.5,3.0"],
+                          capture_output=True, text=True, timeout=600,
+                          env={**os.environ, "BLENDER_USER_RESOURCES": str(tmp_path / "user")})
+    line = next((x for x in done.stdout.splitlines() if x.startswith("CROWDMOTION_JSON ")), None)
+    assert line, done.stderr[-3000:]
+    shown = [[r["visible"] and all(r["body_visible"]) for r in f["rigs"]] for f in json.loads(line.split(" ", 1)[1])["frames"]]
+    hidden = [[not r["visible"] and not any(r["body_visible"]) for r in f["rigs"]]
+              for f in json.loads(line.split(" ", 1)[1])["frames"]]
+    assert [s[0] for s in shown] == [True, True, False] and hidden[2][0]  # gone after 2 s, body and all
+    assert [s[1] for s in shown] == [False, True, True] and hidden[0][1]  # there from 1 s
+
+
 @pytest.mark.slow
 @pytest.mark.parametrize("name", ["rvo_street_O", "formation_army"])
 def test_walkers_of_a_builtin_scene_do_not_slide_their_feet(name, tmp_path):

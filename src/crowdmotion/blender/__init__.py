@@ -3,7 +3,7 @@
 The add-on itself is the folder ``crowdmotion_blender`` beside this file: it runs inside
 Blender (bpy and numpy only; it never imports crowdmotion), so it is not imported here.
 :func:`write_addon` packs it into an archive that Blender takes both ways: as a legacy
-add-on (Preferences > Add-ons > Install from Disk; ``bl_info``) and as a 4.2+ extension
+add-on (Preferences > Add-ons > Install from Disk; ``bl_info``) and as an extension
 (``blender_manifest.toml``).
 """
 

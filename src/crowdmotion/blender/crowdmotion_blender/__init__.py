@@ -6,15 +6,15 @@ from the file, keeps its obstacles, and binds a character to every agent, either
 walker this add-on builds (an armature with legs, hips, spine and arms, whose legs are
 posed on every frame with each foot planted through its contact, whichever way the body
 moves) or your own armature with a walk action, whose cycle runs at the agent's own gait
-phase and fades to its idle pose while the agent stands. Needs nothing but Blender (4.2
-or later).
+phase and fades to its idle pose while the agent stands. Needs nothing but Blender (4.4
+or later: its animation uses the slotted, layered actions Blender 4.4 brought).
 """
 
 bl_info = {
     "name": "crowdmotion",
     "author": "crowdmotion",
     "version": (0, 1, 0),
-    "blender": (4, 2, 0),
+    "blender": (4, 4, 0),
     "location": "File > Import > crowdmotion run",
     "description": "Import a crowdmotion run as walking characters",
     "category": "Import-Export",

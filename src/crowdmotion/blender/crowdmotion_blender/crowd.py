@@ -315,6 +315,15 @@ def bind(run: Run, scene=None, character=None, collection_name: str = "crowdmoti
         at = _changes(hidden)
         for path in ("hide_viewport", "hide_render"):
             walker_rig.write_fcurve(bag.fcurves.new(path), frames[at], hidden[at], "CONSTANT")
+        for body in ob.children:  # a child does not inherit its parent's hiding: the mesh gets its own keys
+            shown = bpy.data.actions.new(f"{body.name}_shown")
+            body_slot = shown.slots.new(id_type="OBJECT", name=body.name)
+            keys = shown.layers.new("shown").strips.new(type="KEYFRAME").channelbag(body_slot, ensure=True)
+            for path in ("hide_viewport", "hide_render"):
+                walker_rig.write_fcurve(keys.fcurves.new(path), frames[at], hidden[at], "CONSTANT")
+            body_ad = body.animation_data_create()
+            body_ad.action = shown
+            body_ad.action_slot = body_slot
         if legs is not None:
             for (path, index), values in legs.items():
                 walker_rig.write_fcurve(bag.fcurves.new(path, index=index), frames, values[:, i], "LINEAR")
