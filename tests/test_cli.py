@@ -1,6 +1,7 @@
 """The crowdmotion command, as a user runs it."""
 
 import json
+import re
 from pathlib import Path
 
 import numpy as np
@@ -34,8 +35,11 @@ def test_render_keeps_the_run_s_own_paths_picture_and_draws_one_where_it_has_non
     assert main(["run", str(path), "-o", str(drawn), "-q"]) == 0
     assert main(["run", str(path), "-o", str(bare), "-q", "--plots", "none"]) == 0
     own = (drawn / "paths.png").read_bytes()  # with the run's goals and its scenario's name
+    capsys.readouterr()
     for folder in (drawn, bare):
         assert main(["render", str(folder), "--to", "gif", "--max-frames", "2", "-q"]) == 0
+    said = capsys.readouterr().out  # two frames for the whole run: it plays faster, and says so
+    assert re.search(r"animation\.gif \(\d+ s shown in 0 s: [\d.]+x real time; --max-frames \d+ plays it at its own", said)
     assert (drawn / "paths.png").read_bytes() == own
     assert (bare / "paths.png").stat().st_size > 5_000 and (bare / "density.png").is_file()
     assert "paths.png" in json.loads((bare / "manifest.json").read_text())["files"]

@@ -548,7 +548,6 @@ def _shown(value) -> str:
 
 
 USD_FORMATS = ("usd", "usda", "usdc")
-USD_FPS = 24.0
 EXPORT_FORMATS = {"parquet": ".parquet", "csv": ".csv", "sqlite": ".sqlite", "jupedsim": ".sqlite",
                   "usd": ".usdc", "usda": ".usda", "usdc": ".usdc"}
 # what -o may end in for each --to (the file's format follows its name)
@@ -586,10 +585,14 @@ def cmd_export(args) -> int:
     if dest.resolve() == src.resolve():
         raise ValueError(f"{dest} is the file being exported: name the export with -o")
     fps = args.fps
-    if fps is None and args.to in USD_FORMATS and traj.fps < USD_FPS:  # a DCC plays 24 frames a second
-        fps = USD_FPS
+    if fps is None and args.to in USD_FORMATS:  # a DCC plays 24 frames a second
+        from crowdmotion.io.usd import DCC_FPS, too_few_frames
+
+        fps = DCC_FPS if too_few_frames(traj) else None
     if fps is not None and abs(fps * traj.dt - 1.0) > 1e-9:  # the run's own rate keeps its frames
         traj = _at_fps(traj, fps, args.interpolation)
+    if args.to in USD_FORMATS:  # the rate is settled above (an --fps below 24 is the user's to ask for)
+        options["dcc_rate"] = False
     with adding_to_run(dest.parent) as add:  # into a run's folder: listed with its files
         traj.save(dest, **options)
         add(dest)
@@ -603,22 +606,18 @@ def _at_fps(traj, fps: float, interpolation: str = "b-spline"):
     """The run resampled to ``fps`` (along the B-spline of its frames, by default),
     re-audited against the run's scene: steps where the spline would bring bodies
     together or past their max speed keep straight moves (a warning says how many)."""
-    import numpy as np
-
-    from crowdmotion.render.animation import scene_of
-    from crowdmotion.smoothing import resample_checked
+    from crowdmotion.smoothing import at_rate
 
     if not (fps > 0 and math.isfinite(fps)):
         raise ValueError(f"--fps must be a positive number of frames per second, got {fps!r}")
-    return resample_checked(traj, float(fps), interpolation, scene_of(traj),
-                            max_speed=np.zeros(traj.n_agents))  # never faster than its own fastest step
+    return at_rate(traj, float(fps), interpolation)  # never faster than its own fastest step
 
 
 def cmd_blender_addon(args) -> int:
     from crowdmotion.blender import write_addon
 
     dest = write_addon(Path(args.dest))
-    print(f"wrote {dest}: in Blender (4.2 or later), Edit > Preferences > Add-ons > Install from Disk, pick it, "
+    print(f"wrote {dest}: in Blender (4.4 or later), Edit > Preferences > Add-ons > Install from Disk, pick it, "
           f"then File > Import > crowdmotion run (.usd)")
     return 0
 
@@ -626,7 +625,7 @@ def cmd_blender_addon(args) -> int:
 def cmd_render(args) -> int:
     from crowdmotion.outputs import adding_to_run
     from crowdmotion.render import plot_paths
-    from crowdmotion.render.animation import animate, plot_density, scene_of
+    from crowdmotion.render.animation import VIDEO_FPS, animate, plot_density, scene_of
 
     src, traj = _load_run(args.output)
     folder = src.parent
@@ -640,8 +639,15 @@ def cmd_render(args) -> int:
         if scene is not None and not (folder / "paths.png").exists():  # the run's own has its goals and name
             written.append(plot_paths(traj, scene, folder / "paths.png", title=traj.metadata.get("scenario", "")))
             add(written[-1])
+    duration = (traj.n_frames - 1) * traj.dt
+    fps = args.fps or VIDEO_FPS
+    rate = min(fps, (args.max_frames - 1) / duration) if duration > 0 else fps
     for f in written:
-        print(f"wrote {f}")
+        note = ""
+        if f == written[0] and rate < fps - 1e-9:  # a long run is shown faster than it ran: say so
+            note = (f" ({duration:.0f} s shown in {duration * rate / fps:.0f} s: {fps / rate:.2f}x real "
+                    f"time; --max-frames {math.ceil(duration * fps) + 1} plays it at its own pace)")
+        print(f"wrote {f}{note}")
     return 0
 
 
@@ -964,7 +970,8 @@ def build_parser() -> argparse.ArgumentParser:
                    help="video frames per second (default 24; the run is resampled to it)")
     p.add_argument("--trail", type=_nonnegative_number, default=2.0, help="seconds of trail behind each agent")
     p.add_argument("--max-frames", type=_positive_int, default=600,
-                   help="at most this many frames (a longer run is sampled evenly; default 600)")
+                   help="at most this many frames (a longer run is sampled evenly and plays faster than real "
+                        "time, which the command says; default 600)")
     p.add_argument("--cell", type=_positive_number, default=0.5, help="density map cell, metres")
     p.add_argument("-q", "--quiet", action="store_true", help="no progress bar")
     p.set_defaults(func=cmd_render)

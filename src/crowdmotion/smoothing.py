@@ -48,6 +48,17 @@ def resample_checked(traj: Trajectories, fps: float, kind: str, scene: Scene | N
     return keep_clean(resample(traj, fps, kind), linear, traj, scene, max_speed, kind)
 
 
+def at_rate(traj: Trajectories, fps: float, kind: str = "b-spline") -> Trajectories:
+    """``traj`` at ``fps`` (along the B-spline of its frames, by default), audited against
+    the scene its metadata holds: steps where the spline would bring bodies together or
+    past the agent's own fastest step keep straight moves (:func:`resample_checked`; a
+    warning says how many). What ``crowdmotion export --fps`` and a USD file give."""
+    from crowdmotion.scene import Scene
+
+    scene = Scene.from_dict(traj.metadata["scene"]) if traj.metadata.get("scene") else None
+    return resample_checked(traj, float(fps), kind, scene, max_speed=np.zeros(traj.n_agents))
+
+
 def speed_limits(traj: Trajectories, max_speed: np.ndarray) -> np.ndarray:
     """(N,) each agent's speed limit for a smoothing of ``traj``: its ``max_speed``, or its
     own fastest step where that is faster (m/s)."""

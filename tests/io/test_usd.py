@@ -17,7 +17,7 @@ def test_roundtrip_float32_and_timing(tmp_path, suffix, dim):
     tr = sample(dim)
     if dim == 2:
         tr.metadata["scene"] = Scene(((-5, -5), (5, 5)), [Circle((3, 3), 0.5), Box((-4, -4), (-3, -2))]).to_dict()
-    back = Trajectories.load(tr.save(tmp_path / f"t.{suffix}"))
+    back = Trajectories.load(tr.save(tmp_path / f"t.{suffix}", dcc_rate=False))  # the run's own frames
     np.testing.assert_allclose(back.positions, tr.positions.astype(np.float32), rtol=1e-6, atol=1e-6)
     assert back.dt == pytest.approx(0.25)
     np.testing.assert_array_equal(back.active_mask, tr.active_mask)
@@ -75,7 +75,7 @@ def test_an_obstacle_that_stands_for_a_while_is_visible_only_then(tmp_path):
     from tests.io.readers import door_session
 
     traj, door = door_session()  # a door dropped in at 1 s and taken away at 2 s
-    stage = Usd.Stage.Open(str(traj.save(tmp_path / "live.usda")))
+    stage = Usd.Stage.Open(str(traj.save(tmp_path / "live.usda", dcc_rate=False)))
     prim = UsdGeom.Imageable(stage.GetPrimAtPath(f"/World/Obstacles/obstacle_{door}"))
     seen = {t: prim.ComputeVisibility(Usd.TimeCode(t * stage.GetTimeCodesPerSecond())) for t in (0.0, 0.5, 1.5, 2.5)}
     assert seen == {0.0: "invisible", 0.5: "invisible", 1.5: "inherited", 2.5: "invisible"}
@@ -190,7 +190,7 @@ def test_prototypes_stand_on_the_stage_up_and_face_their_agents_way_in_any_axes(
     rng = np.random.default_rng(2)
     pos = np.cumsum(rng.normal(0, 0.3, (12, 5, 2)), axis=0)
     tr = Trajectories(pos, 0.5)
-    path = tr.save(tmp_path / "a.usda", prototype_up=up, prototype_forward=forward)
+    path = tr.save(tmp_path / "a.usda", prototype_up=up, prototype_forward=forward, dcc_rate=False)
     stage = Usd.Stage.Open(str(path))
     data = stage.GetMetadata("customLayerData")
     assert (data["crowdmotion_prototype_up"], data["crowdmotion_prototype_forward"]) == (up, forward)
@@ -293,3 +293,17 @@ def test_the_points_carry_what_houdinis_crowd_tools_read(tmp_path):
         rot = Gf.Rotation(Gf.Quatd(q.GetReal(), Gf.Vec3d(q.GetImaginary())))
         np.testing.assert_allclose(rot.TransformDir(Gf.Vec3d(0, 0, 1)), want, atol=2e-3)
         np.testing.assert_allclose(rot.TransformDir(Gf.Vec3d(0, 1, 0)), (0, 1, 0), atol=2e-3)  # upright
+
+
+def test_a_run_of_few_frames_a_second_is_written_at_24_for_a_character(tmp_path):
+    # saved from Python as `crowdmotion export` writes it: a 4 fps run at 24 fps along its
+    # B-spline (a character bound to the steps would jolt at every one), NTSC rates kept
+    from pxr import Usd
+
+    tr = sample(2)  # 4 frames a second
+    back = Trajectories.load(tr.save(tmp_path / "t.usdc"))
+    assert back.fps == pytest.approx(24.0) and back.n_frames == (tr.n_frames - 1) * 6 + 1
+    np.testing.assert_allclose(back.positions[::6][back.active_mask[::6]][:1], tr.positions[tr.active_mask][:1], atol=0.05)
+    own = Trajectories(np.zeros((49, 1, 2)), 1 / 23.976).save(tmp_path / "ntsc.usda")
+    stage = Usd.Stage.Open(str(own))
+    assert stage.GetTimeCodesPerSecond() == pytest.approx(23.976) and stage.GetEndTimeCode() == pytest.approx(48)

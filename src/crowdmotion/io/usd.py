@@ -2,7 +2,7 @@
 
 The stage is Y-up (USD's and Maya's, Houdini's and Unity's default; Blender converts on
 import), ``metersPerUnit`` = 1 and ``timeCodesPerSecond`` = ``framesPerSecond`` = 24 (or
-the run's own rate when that is 25, 30, 48, 50 or 60): each frame of the run is sampled at
+the run's own rate when that is 25, 30, 48, 50, 60 or an NTSC rate: 23.976, 29.97, 59.94): each frame of the run is sampled at
 time code t × rate, so an MDP run stepping every 0.85 s plays at its true speed in a 24 fps
 scene (USD interpolates between samples). World (x, y[, z]) with z up maps to USD
 (x, z, −y): a 2D run lies on the ground plane at height 0.
@@ -160,15 +160,25 @@ def facing_from_orientations(quat: np.ndarray, dim: int, forward: str = "X") -> 
     return out
 
 
-STANDARD_RATES = (24.0, 25.0, 30.0, 48.0, 50.0, 60.0)
+# video rates, the NTSC ones (24000/1001, 30000/1001, 60000/1001: written 23.976, 29.97,
+# 59.94) among them
+STANDARD_RATES = (24.0, 25.0, 30.0, 48.0, 50.0, 60.0, 24000 / 1001, 30000 / 1001, 60000 / 1001)
+RATE_MATCH = 1e-3  # frames per second: a rate this near a standard one is that one, as written
+DCC_FPS = 24.0  # a run with fewer frames a second is written at this rate, along its B-spline
+
+
+def too_few_frames(traj: Trajectories) -> bool:
+    """Whether a character bound to ``traj`` would jolt at every frame: fewer than
+    ``DCC_FPS`` a second, and not a video rate of its own (23.976)."""
+    return traj.fps < DCC_FPS - RATE_MATCH and stage_rate(traj) != traj.fps
 
 
 def stage_rate(traj: Trajectories) -> float:
     """Time codes per second of the stage: the run's own rate when it is a standard video
-    rate (24, 25, 30, ...), else 24, the rate Blender, Maya and Houdini scenes start at.
-    Samples sit at t × rate, so the motion plays at its true speed at that rate (USD
-    interpolates between samples)."""
-    return traj.fps if traj.fps in STANDARD_RATES else 24.0
+    rate (24, 25, 30, 23.976, ...), else 24, the rate Blender, Maya and Houdini scenes
+    start at. Samples sit at t × rate, so the motion plays at its true speed at that rate
+    (USD interpolates between samples); at the run's own rate each frame is a whole time code."""
+    return traj.fps if any(abs(traj.fps - r) < RATE_MATCH for r in STANDARD_RATES) else 24.0
 
 
 def orientations(heading: np.ndarray, pitch: np.ndarray) -> np.ndarray:
@@ -303,8 +313,13 @@ def _locomotion_primvars(loco: Locomotion) -> dict:
 
 
 def write(traj: Trajectories, path: Path, locomotion: LocomotionParams | None = None,
-          prototype_up: str = PROTOTYPE_UP, prototype_forward: str = PROTOTYPE_FORWARD) -> None:
+          prototype_up: str = PROTOTYPE_UP, prototype_forward: str = PROTOTYPE_FORWARD, dcc_rate: bool = True) -> None:
     """Write ``traj`` to the USD file ``path``, atomically (see the module docstring).
+
+    With ``dcc_rate`` (the default), a run with fewer than ``DCC_FPS`` frames a second is
+    written at that rate, along the B-spline of its frames and audited as ``crowdmotion
+    export`` does (:func:`crowdmotion.smoothing.at_rate`): a character bound to its steps
+    would jolt at every one. ``False`` writes the frames as they are.
 
     Parameters
     ----------
@@ -321,6 +336,10 @@ def write(traj: Trajectories, path: Path, locomotion: LocomotionParams | None = 
     """
     axes = prototype_axes(prototype_up, prototype_forward)
     up, forward = axis_name(prototype_up, "prototype_up"), axis_name(prototype_forward, "prototype_forward")
+    if dcc_rate and too_few_frames(traj):  # a character would jolt at every step: frames between them
+        from crowdmotion.smoothing import at_rate
+
+        traj = at_rate(traj, DCC_FPS)
     Gf, Sdf, Usd, UsdGeom, Vt = _pxr()
     rate = stage_rate(traj)
     # the time code of each frame, rounded off the float noise of dt × rate (7, not 6.999999999999999)
