@@ -427,3 +427,10 @@ def test_two_trajectory_files_exported_side_by_side_keep_their_own_exports(tmp_p
     capsys.readouterr()
     assert main(["export", str(tmp_path / "session1.csv"), "--to", "csv"]) == 2
     assert "session1.csv is the file being exported" in capsys.readouterr().err
+
+
+def test_export_formats_are_named_in_any_case(tmp_path):
+    path = tmp_path / "s.toml"
+    path.write_text(GOOD)
+    assert main(["run", str(path), "-o", str(tmp_path / "r"), "-q", "--plots", "none"]) == 0
+    assert main(["export", str(tmp_path / "r"), "--to", "CSV"]) == 0 and (tmp_path / "r" / "trajectories.csv").is_file()

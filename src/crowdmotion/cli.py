@@ -939,7 +939,7 @@ def build_parser() -> argparse.ArgumentParser:
 
     p = sub.add_parser("export", help="write a run's trajectories as Parquet, CSV, JuPedSim SQLite or USD")
     p.add_argument("output", help="a run's output folder (or a trajectories file)")
-    p.add_argument("--to", required=True, choices=sorted(EXPORT_FORMATS),
+    p.add_argument("--to", required=True, type=str.lower, choices=sorted(EXPORT_FORMATS),
                    help="sqlite/jupedsim: JuPedSim v2 (PedPy reads it); usd/usdc: binary USD; usda: text USD")
     p.add_argument("-o", "--dest", help="file to write (default: beside the input, named as it is: a run's "
                                         "trajectories.<ext>, session.<ext> for session.parquet)")
@@ -965,7 +965,7 @@ def build_parser() -> argparse.ArgumentParser:
 
     p = sub.add_parser("render", help="animation (MP4/GIF) and density map of a run (and its paths if the run drew none)")
     p.add_argument("output", help="a run's output folder (or a trajectories file)")
-    p.add_argument("--to", choices=["mp4", "gif"], default="mp4", help="animation format (default mp4, H.264)")
+    p.add_argument("--to", type=str.lower, choices=["mp4", "gif"], default="mp4", help="animation format (default mp4, H.264)")
     p.add_argument("--fps", type=_fps,
                    help="video frames per second (default 24; the run is resampled to it)")
     p.add_argument("--trail", type=_nonnegative_number, default=2.0, help="seconds of trail behind each agent")
