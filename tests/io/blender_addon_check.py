@@ -83,9 +83,9 @@ def render(out: str, rigs, focus=None, size=(320, 180)) -> dict:
     scene.render.filepath = f"{out}/crowd.png"
     bpy.ops.render.render(write_still=True)
     seconds = time.perf_counter() - t0
-    for ob in rigs:
-        for child in ob.children:
-            child.hide_render = True
+    for coll in bpy.data.collections:  # the bodies' own hiding is keyed: their collection's switch hides them
+        if coll.name.endswith(" bodies"):
+            coll.hide_render = True
     scene.render.filepath = f"{out}/empty.png"
     bpy.ops.render.render(write_still=True)
     return {"boxes": boxes, "render_s": seconds, "pointclouds": [o.name for o in scene.objects

@@ -42,10 +42,6 @@ def _stage_rate(world) -> float | None:
     """The stage's frames per second, as the file says it (a custom property of /World)."""
     if world is not None and "crowdmotion:fps" in world.keys():
         return float(world["crowdmotion:fps"])
-    try:  # Blender's own USD Python bindings, where they are bundled
-        from pxr import Usd  # noqa: F401
-    except ImportError:
-        return None
     return None
 
 
@@ -67,9 +63,11 @@ def read_run(filepath: str, scene=None, obstacles: bool = True) -> Run:
     """Import ``filepath`` (a USD file crowdmotion wrote) into ``scene``: set the scene's
     frame rate and range from it, keep its obstacles, and return its agents' channels."""
     scene = scene or bpy.context.scene
-    before = set(bpy.data.objects)
+    before, colls_before = set(bpy.data.objects), set(bpy.data.collections)
     bpy.ops.wm.usd_import(filepath=bpy.path.abspath(filepath), import_guide=True, set_frame_range=True)
     new = [o for o in bpy.data.objects if o not in before]
+    new_colls = [c for c in bpy.data.collections if c not in colls_before]
+    imported_obstacles = [o for o in new if o.name.startswith("obstacle_")]  # not the user's own of that name
     world = next((o for o in new if "crowdmotion:fps" in o.keys()), None)
     agents = next((o for o in new if o.type == "POINTCLOUD" and o.name.startswith("Agents")), None)
     if agents is None:
@@ -127,13 +125,13 @@ def read_run(filepath: str, scene=None, obstacles: bool = True) -> Run:
         if ob.type == "POINTCLOUD" or ob.name.startswith("Crowd") or ob.parent is not None and \
                 ob.parent.name.startswith("Crowd") or any(c.name.startswith("proto") for c in ob.users_collection):
             bpy.data.objects.remove(ob)
-    for coll in [c for c in bpy.data.collections if c.name.startswith("proto") and not c.objects]:
+    for coll in [c for c in new_colls if c.name.startswith("proto") and not c.objects]:
         bpy.data.collections.remove(coll)
     if not obstacles:
-        for ob in [o for o in bpy.data.objects if o.name.startswith("obstacle_")]:
+        for ob in imported_obstacles:
             bpy.data.objects.remove(ob)
     else:
-        show_while_present([o for o in bpy.data.objects if o.name.startswith("obstacle_")], scene.frame_start)
+        show_while_present(imported_obstacles, scene.frame_start)
     scene.frame_set(scene.frame_start)
     return run
 
@@ -249,6 +247,11 @@ def bind(run: Run, scene=None, character=None, collection_name: str = "crowdmoti
     t0 = time.perf_counter()
     coll = bpy.data.collections.new(collection_name)
     scene.collection.children.link(coll)
+    # the bodies in a collection of their own: each body's hiding is keyed (it is shown only
+    # while its agent is in the scene), so hiding them all for a quick playback is the
+    # collection's switch, not the objects'
+    body_coll = bpy.data.collections.new(f"{collection_name} bodies")
+    coll.children.link(body_coll)
     groups = sorted(run.colour)
     if character is None:
         arm = walker_rig.build_armature()
@@ -284,7 +287,7 @@ def bind(run: Run, scene=None, character=None, collection_name: str = "crowdmoti
         for mesh, owner in meshes:
             body = bpy.data.objects.new(f"agent_{i:05d}_body", mesh)
             body.parent = ob
-            coll.objects.link(body)
+            body_coll.objects.link(body)
             body.modifiers.new("walk", "ARMATURE").object = ob
     # the rigs' poses exist once evaluated: an armature object without one crashes Blender
     # (5.0.1) when its action slot is assigned
