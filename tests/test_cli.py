@@ -429,8 +429,9 @@ def test_two_trajectory_files_exported_side_by_side_keep_their_own_exports(tmp_p
     assert "session1.csv is the file being exported" in capsys.readouterr().err
 
 
-def test_export_formats_are_named_in_any_case(tmp_path):
+def test_export_formats_are_named_in_any_case_and_a_missing_folder_is_refused_before_any_work(tmp_path):
     path = tmp_path / "s.toml"
     path.write_text(GOOD)
     assert main(["run", str(path), "-o", str(tmp_path / "r"), "-q", "--plots", "none"]) == 0
     assert main(["export", str(tmp_path / "r"), "--to", "CSV"]) == 0 and (tmp_path / "r" / "trajectories.csv").is_file()
+    assert main(["export", str(tmp_path / "r"), "--to", "usd", "-o", str(tmp_path / "none" / "x.usdc")]) == 2

@@ -584,6 +584,8 @@ def cmd_export(args) -> int:
     dest = Path(args.dest) if args.dest else folder / f"{src.stem}{EXPORT_FORMATS[args.to]}"
     if dest.resolve() == src.resolve():
         raise ValueError(f"{dest} is the file being exported: name the export with -o")
+    if not dest.parent.is_dir():  # said now, not after minutes of resampling
+        raise ValueError(f"-o {dest}: the folder {dest.parent} does not exist")
     fps = args.fps
     if fps is None and args.to in USD_FORMATS:  # a DCC plays 24 frames a second
         from crowdmotion.io.usd import DCC_FPS, too_few_frames
