@@ -75,3 +75,21 @@ def test_relaxing_a_run_whose_steps_mostly_stay_as_they_were_says_so(monkeypatch
     pos, dt = _stop_and_go()
     with pytest.warns(UserWarning, match=r"straight moves on 40 of 40 path steps"):
         relaxed_steps(Trajectories(pos, dt, radius=np.array([0.25])), 1.0, None, np.array([2.0]))
+
+
+def test_moves_between_frames_far_apart_are_pushed_off_a_wall_corner():
+    # frames a second apart, each clear of the wall, whose straight moves cut its corner
+    # (a door's jamb at a large run's steps): the relaxation at the steps pushes the moves off
+    # it, so that the continuous audit finds nothing to put back
+    from crowdmotion.metrics import collision_audit
+    from crowdmotion.path_relaxation import relax
+    from crowdmotion.scene import Box, Scene
+    from crowdmotion.trajectories import Trajectories
+
+    scene = Scene(((0, 0), (20, 20)), [Box((5, 5), (15, 15))])
+    corner = np.array([[2.0, 5.6], [4.6, 5.6], [5.6, 4.6], [5.6, 2.0]])[:, None, :]  # the middle move cuts (5, 5)
+    walk = np.concatenate([corner[:1].repeat(3, 0), corner, corner[-1:].repeat(3, 0)])
+    act = np.ones(walk.shape[:2], bool)
+    assert collision_audit(Trajectories(walk, 1.0, radius=0.25), scene).agent_obstacle > 0
+    out = relax(walk, act, np.array([0.25]), 1.0, scene, window_s=1.0, iterations=0, swept=True, settle=5)
+    assert collision_audit(Trajectories(out, 1.0, radius=0.25), scene).clean

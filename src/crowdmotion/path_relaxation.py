@@ -244,6 +244,85 @@ def separate_swept(X, active, radius, margin, h, sweeps):
     return pushes.sum()
 
 
+@njit(cache=True)
+def _box_gap(px, py, lx, ly, ux, uy):
+    """Signed distance of the point (px, py) from the box [lx, ux] x [ly, uy] and the unit
+    direction away from it there."""
+    cx, cy = min(max(px, lx), ux), min(max(py, ly), uy)
+    dx, dy = px - cx, py - cy
+    out = np.sqrt(dx * dx + dy * dy)
+    if out > 0.0:
+        return out, dx / out, dy / out
+    best, nx, ny = lx - px, -1.0, 0.0  # inside: the nearest side
+    if px - ux > best:
+        best, nx, ny = px - ux, 1.0, 0.0
+    if ly - py > best:
+        best, nx, ny = ly - py, 0.0, -1.0
+    if py - uy > best:
+        best, nx, ny = py - uy, 0.0, 1.0
+    return best, nx, ny
+
+
+@njit(cache=True, parallel=True)
+def push_moves_out_of_obstacles(X, active, radius, margin, kind, lower, upper, offsets):
+    """Push each body whose straight move from frame f to f + 1 comes nearer than its
+    radius + ``margin`` to a round or box obstacle (2D, in the obstacle's own frame)
+    straight out of it: at the share u of the move where it comes nearest, frame f by
+    (1 - u) and frame f + 1 by u of the shortfall, scaled so that the move clears it (the
+    obstacles' twin of :func:`separate_swept`; :func:`push_out_of_obstacles` sees the
+    frames alone, and moves between frames far apart cut a door's corners). Returns the
+    number of pushes."""
+    T, N, D = X.shape
+    count = np.zeros(N, np.int64)
+    if D != 2:
+        return 0
+    for i in prange(N):
+        need = radius[i] + margin
+        for f in range(T - 1):
+            if not (active[f, i] and active[f + 1, i]):
+                continue
+            for o in range(kind.shape[0]):
+                if kind[o] > 1:
+                    continue
+                ax, ay = X[f, i, 0] - offsets[o, f, 0], X[f, i, 1] - offsets[o, f, 1]
+                bx, by = X[f + 1, i, 0] - offsets[o, f + 1, 0], X[f + 1, i, 1] - offsets[o, f + 1, 1]
+                ex, ey = bx - ax, by - ay
+                if kind[o] == 1 and (min(ax, bx) - need > upper[o, 0] or max(ax, bx) + need < lower[o, 0] or
+                                     min(ay, by) - need > upper[o, 1] or max(ay, by) + need < lower[o, 1]):
+                    continue  # the move's box, grown by the body, misses the obstacle's
+                if kind[o] == 0:
+                    cx, cy = lower[o, 0], lower[o, 1]
+                    ee = ex * ex + ey * ey
+                    u = 0.0 if ee <= 0.0 else min(max(((cx - ax) * ex + (cy - ay) * ey) / ee, 0.0), 1.0)
+                    qx, qy = ax + u * ex - cx, ay + u * ey - cy
+                    r = np.sqrt(qx * qx + qy * qy)
+                    gap = r - upper[o, 0]
+                    nx, ny = (qx / r, qy / r) if r > 0.0 else (1.0, 0.0)
+                else:
+                    lo, hi = 0.0, 1.0  # the gap is convex along the move: the least by golden section
+                    for _ in range(40):
+                        m1, m2 = lo + (hi - lo) * 0.382, lo + (hi - lo) * 0.618
+                        g1 = _box_gap(ax + m1 * ex, ay + m1 * ey, lower[o, 0], lower[o, 1], upper[o, 0], upper[o, 1])[0]
+                        g2 = _box_gap(ax + m2 * ex, ay + m2 * ey, lower[o, 0], lower[o, 1], upper[o, 0], upper[o, 1])[0]
+                        if g1 <= g2:
+                            hi = m2
+                        else:
+                            lo = m1
+                    u = 0.5 * (lo + hi)
+                    gap, nx, ny = _box_gap(ax + u * ex, ay + u * ey, lower[o, 0], lower[o, 1], upper[o, 0], upper[o, 1])
+                if gap >= need:
+                    continue
+                if (u <= 0.0 and f > 0) or (u >= 1.0 and f + 2 < T):
+                    continue  # nearest at a frame: the frame pushes (push_out_of_obstacles) see it
+                scale = (need - gap) / ((1.0 - u) ** 2 + u * u)
+                X[f, i, 0] += (1.0 - u) * scale * nx
+                X[f, i, 1] += (1.0 - u) * scale * ny
+                X[f + 1, i, 0] += u * scale * nx
+                X[f + 1, i, 1] += u * scale * ny
+                count[i] += 1
+    return count.sum()
+
+
 @njit(cache=True, parallel=True)
 def limit_steps(X, first, last, max_step, sweeps):
     """Shorten every step of agent i (frames first[i] .. last[i]) longer than
@@ -448,12 +527,14 @@ def relax(positions: np.ndarray, active: np.ndarray, radius: np.ndarray, dt: flo
         separate(X, act, radius, margin, h, sweeps)
         if swept:
             separate_swept(X, act, radius, margin, h, sweeps)
+            push_moves_out_of_obstacles(X, act, radius, margin, *obstacles[:4])
     for _ in range(settle):
         slowed = 0 if max_step is None else limit_steps(X, first, last, max_step, sweeps)
         pushed = push_out_of_obstacles(X, act, radius, margin, *obstacles) if len(obstacles[0]) else 0
         apart = separate(X, act, radius, margin, h, sweeps)
         if swept:
             apart += separate_swept(X, act, radius, margin, h, sweeps)
+            pushed += push_moves_out_of_obstacles(X, act, radius, margin, *obstacles[:4])
         if apart == 0 and pushed == 0 and slowed == 0:
             break
     else:
