@@ -435,3 +435,16 @@ def test_export_formats_are_named_in_any_case_and_a_missing_folder_is_refused_be
     assert main(["run", str(path), "-o", str(tmp_path / "r"), "-q", "--plots", "none"]) == 0
     assert main(["export", str(tmp_path / "r"), "--to", "CSV"]) == 0 and (tmp_path / "r" / "trajectories.csv").is_file()
     assert main(["export", str(tmp_path / "r"), "--to", "usd", "-o", str(tmp_path / "none" / "x.usdc")]) == 2
+
+
+def test_players_and_pictures_of_an_exported_file_are_named_after_it(tmp_path):
+    # two exports viewed in one folder: each its own player, not one view.html written over
+    path = tmp_path / "s.toml"
+    path.write_text(GOOD)
+    run = tmp_path / "r"
+    assert main(["run", str(path), "-o", str(run), "-q", "--plots", "none"]) == 0
+    assert main(["export", str(run), "--to", "csv", "-o", str(run / "a.csv")]) == 0
+    assert main(["view", str(run / "a.csv")]) == 0 and (run / "a.view.html").is_file()
+    assert main(["view", str(run)]) == 0 and (run / "view.html").is_file()
+    assert main(["render", str(run / "a.csv"), "--to", "gif", "--max-frames", "2", "-q"]) == 0
+    assert (run / "a.animation.gif").is_file() and (run / "a.density.png").is_file()

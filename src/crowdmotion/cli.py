@@ -341,6 +341,13 @@ def _load_run(output: str):
     return path, _load_trajectories(path)
 
 
+def _beside(src: Path, name: str) -> Path:
+    """Where a picture or player of the trajectories in ``src`` goes: ``name`` in its folder
+    for a run's own file (trajectories.*), ``<stem>.<name>`` for another (an export beside
+    it: two exports' players must not overwrite each other)."""
+    return src.parent / (name if src.stem == "trajectories" else f"{src.stem}.{name}")
+
+
 def _read_json(path: Path, what: str) -> dict:
     """A JSON table written by a run (summary.json, ...); a ValueError naming the file when
     it is not one."""
@@ -632,14 +639,15 @@ def cmd_render(args) -> int:
     src, traj = _load_run(args.output)
     folder = src.parent
     with adding_to_run(folder) as add:  # a run's folder: listed with its files
-        written = [animate(traj, folder / f"animation.{args.to}", fps=args.fps, trail_s=args.trail,
+        written = [animate(traj, _beside(src, f"animation.{args.to}"), fps=args.fps, trail_s=args.trail,
                            max_frames=args.max_frames, progress=not args.quiet)]
         add(written[-1])
-        written.append(plot_density(traj, folder / "density.png", cell=args.cell))
+        written.append(plot_density(traj, _beside(src, "density.png"), cell=args.cell))
         add(written[-1])
         scene = scene_of(traj)
-        if scene is not None and not (folder / "paths.png").exists():  # the run's own has its goals and name
-            written.append(plot_paths(traj, scene, folder / "paths.png", title=traj.metadata.get("scenario", "")))
+        paths = _beside(src, "paths.png")
+        if scene is not None and not paths.exists():  # the run's own has its goals and name
+            written.append(plot_paths(traj, scene, paths, title=traj.metadata.get("scenario", "")))
             add(written[-1])
     duration = (traj.n_frames - 1) * traj.dt
     fps = args.fps or VIDEO_FPS
@@ -658,7 +666,7 @@ def cmd_view(args) -> int:
     from crowdmotion.render.player import write_player
 
     src, traj = _load_run(args.output)
-    dest = Path(args.dest) if args.dest else src.parent / "view.html"
+    dest = Path(args.dest) if args.dest else _beside(src, "view.html")
     with adding_to_run(dest.parent) as add:  # into a run's folder: listed with its files
         add(write_player(traj, dest, max_frames=args.max_frames))
     print(f"wrote {dest}: open it in a browser (one self-contained file, works offline)")
@@ -966,7 +974,8 @@ def build_parser() -> argparse.ArgumentParser:
     p.set_defaults(func=cmd_blender_addon)
 
     p = sub.add_parser("render", help="animation (MP4/GIF) and density map of a run (and its paths if the run drew none)")
-    p.add_argument("output", help="a run's output folder (or a trajectories file)")
+    p.add_argument("output", help="a run's output folder (or a trajectories file: another than the run's own "
+                   "gets pictures named after it, a.csv: a.animation.mp4, a.density.png)")
     p.add_argument("--to", type=str.lower, choices=["mp4", "gif"], default="mp4", help="animation format (default mp4, H.264)")
     p.add_argument("--fps", type=_fps,
                    help="video frames per second (default 24; the run is resampled to it)")
@@ -980,7 +989,8 @@ def build_parser() -> argparse.ArgumentParser:
 
     p = sub.add_parser("view", help="write a self-contained HTML player of a run (works offline)")
     p.add_argument("output", help="a run's output folder (or a trajectories file)")
-    p.add_argument("-o", "--dest", help="HTML file to write (default: view.html beside the input)")
+    p.add_argument("-o", "--dest", help="HTML file to write (default: view.html beside the input; <name>.view.html "
+                   "beside a trajectories file other than the run's own)")
     p.add_argument("--max-frames", type=_positive_int, default=3000,
                    help="at most this many frames in the page (a longer run is sampled evenly; default 3000)")
     p.set_defaults(func=cmd_view)
