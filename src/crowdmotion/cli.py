@@ -634,7 +634,8 @@ def cmd_blender_addon(args) -> int:
 def cmd_render(args) -> int:
     from crowdmotion.outputs import adding_to_run
     from crowdmotion.render import plot_paths
-    from crowdmotion.render.animation import VIDEO_FPS, animate, plot_density, scene_of
+    from crowdmotion.render.animation import VIDEO_FPS, animate, plot_density, video_rate
+    from crowdmotion.scene import scene_of
 
     src, traj = _load_run(args.output)
     folder = src.parent
@@ -651,7 +652,7 @@ def cmd_render(args) -> int:
             add(written[-1])
     duration = (traj.n_frames - 1) * traj.dt
     fps = args.fps or VIDEO_FPS
-    rate = min(fps, (args.max_frames - 1) / duration) if duration > 0 else fps
+    rate = video_rate(traj, args.fps, args.max_frames)
     for f in written:
         note = ""
         if f == written[0] and rate < fps - 1e-9:  # a long run is shown faster than it ran: say so

@@ -392,3 +392,9 @@ class Scene:
 
     def __repr__(self) -> str:
         return f"Scene(bounds=({self.lower.tolist()}, {self.upper.tolist()}), obstacles={self.obstacles!r})"
+
+
+def scene_of(traj) -> Scene | None:
+    """The scene stored with trajectories (their ``metadata["scene"]``), if any."""
+    data = traj.metadata.get("scene")
+    return Scene.from_dict(data) if data else None

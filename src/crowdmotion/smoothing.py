@@ -8,7 +8,7 @@ import warnings
 import numpy as np
 
 from crowdmotion.metrics import collision_audit
-from crowdmotion.scene import Scene
+from crowdmotion.scene import Scene, scene_of
 from crowdmotion.trajectories import Trajectories, resample
 
 MAX_ROUNDS = 50
@@ -53,10 +53,7 @@ def at_rate(traj: Trajectories, fps: float, kind: str = "b-spline") -> Trajector
     the scene its metadata holds: steps where the spline would bring bodies together or
     past the agent's own fastest step keep straight moves (:func:`resample_checked`; a
     warning says how many). What ``crowdmotion export --fps`` and a USD file give."""
-    from crowdmotion.scene import Scene
-
-    scene = Scene.from_dict(traj.metadata["scene"]) if traj.metadata.get("scene") else None
-    return resample_checked(traj, float(fps), kind, scene, max_speed=np.zeros(traj.n_agents))
+    return resample_checked(traj, float(fps), kind, scene_of(traj), max_speed=np.zeros(traj.n_agents))
 
 
 def speed_limits(traj: Trajectories, max_speed: np.ndarray) -> np.ndarray:

@@ -40,7 +40,7 @@ def test_runs_without_routes_write_no_stage_column(tmp_path):
 
 @pytest.mark.parametrize("kind", ["b-spline", "linear"])
 def test_a_routes_stage_survives_resampling_for_a_dcc(routed, kind):
-    from crowdmotion.render.animation import scene_of
+    from crowdmotion.scene import scene_of
     from crowdmotion.smoothing import resample_checked
 
     at24 = resample_checked(routed, 24.0, kind, scene_of(routed), max_speed=np.zeros(routed.n_agents))

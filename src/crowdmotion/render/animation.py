@@ -19,16 +19,19 @@ from crowdmotion.io.atomic import atomic_path  # noqa: E402
 from crowdmotion.progress import tracked  # noqa: E402
 from crowdmotion.render.plots import (_draw_obstacles_2d, _group_colours, _save, blit_frame, gif_image,  # noqa: E402
                                       gif_palette, write_gif)
-from crowdmotion.scene import Scene  # noqa: E402
+from crowdmotion.scene import Scene, scene_of  # noqa: E402
 from crowdmotion.trajectories import Trajectories, resample  # noqa: E402
 
 VIDEO_FPS = 24.0  # the rate animators' scenes start at
 
 
-def scene_of(traj: Trajectories) -> Scene | None:
-    """The scene stored with the trajectories, if any."""
-    data = traj.metadata.get("scene")
-    return Scene.from_dict(data) if data else None
+def video_rate(traj: Trajectories, fps: float | None = None, max_frames: int = 600) -> float:
+    """Frames of the run per second of it that a video at ``fps`` (default ``VIDEO_FPS``)
+    shows: ``fps``, or fewer for a run longer than ``max_frames`` frames at that rate
+    (shown faster than real time)."""
+    fps = float(fps) if fps else VIDEO_FPS
+    duration = (traj.n_frames - 1) * traj.dt
+    return min(fps, (max_frames - 1) / duration) if duration > 0 else fps
 
 
 def _extent(traj: Trajectories, scene: Scene | None):
@@ -51,10 +54,9 @@ def animate(traj: Trajectories, path, fps: float | None = None, trail_s: float =
     kind = path.suffix.lower()
     if kind not in (".mp4", ".gif"):
         raise ValueError(f"animations are .mp4 or .gif, got {path.name!r}")
+    if traj.n_frames > 1:  # one video frame per 1/fps s of the run, or fewer for a long run
+        traj = resample(traj, video_rate(traj, fps, max_frames), "linear")
     fps = float(fps) if fps else VIDEO_FPS
-    duration = (traj.n_frames - 1) * traj.dt
-    if duration > 0:  # one video frame per 1/fps s of the run, or fewer for a long run
-        traj = resample(traj, min(fps, (max_frames - 1) / duration), "linear")
     frames = np.arange(min(traj.n_frames, max_frames))
     images = frame_images(traj, frames, trail_s, width_px)
     first = next(images)
