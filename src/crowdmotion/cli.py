@@ -30,8 +30,8 @@ def scenario_path(name: str) -> Path:
         return builtins[name]
     if path.is_dir():
         tomls = sorted(p.name for p in path.glob("*.toml"))
-        raise FileNotFoundError(f"{name} is a folder, not a scenario file" +
-                                (f" (it holds {', '.join(tomls[:3])}{', ...' if len(tomls) > 3 else ''})" if tomls else ""))
+        held = f" (it holds {', '.join(tomls[:3])}{', ...' if len(tomls) > 3 else ''})" if tomls else ""
+        raise FileNotFoundError(f"{name} is a folder, not a scenario file{held}")
     if path.suffix == "" or not path.exists():
         close = difflib.get_close_matches(path.stem, list(builtins), n=1)
         hint = f"; did you mean the built-in {close[0]!r}?" if close else "; `crowdmotion scenarios` lists the built-ins"
@@ -377,13 +377,14 @@ def _print_report_table(rows: dict, cell) -> None:
         print(f"{name:12s}" + "".join(f"{cell(row, k, fmt):>15s}" for k, _, fmt in REPORT_COLUMNS))
 
 
-def _run_report(path: Path, traj, groups: dict | None = None) -> dict:
-    """metrics.group_report of one run, with the arrival times its summary measured and,
+def _run_report(path: Path, traj, groups: dict | None = None) -> tuple[dict, str]:
+    """(metrics.group_report of one run, with the arrival times its summary measured and,
     for a group on a route, its ``journeys``: the time its agents spent in each stage,
-    their waits in each queue and their use of each exit (from summary.json). The group
-    measures are the run's own where it gave them (``groups``, or summary.json's
-    ``groups``): an RVO run takes them on its steps as simulated, the model's motion,
-    not on the frames relaxed for characters that its file holds."""
+    their waits in each queue and their use of each exit (from summary.json); a line
+    saying what the measures were taken on). The group measures are the run's own where
+    it gave them (``groups``, or summary.json's ``groups``): an RVO run takes them on its
+    steps as simulated, the model's motion, not on the frames relaxed for characters that
+    its file holds."""
     from crowdmotion.metrics import group_report, with_arrival_times
 
     summary_file = path.parent / "summary.json"
@@ -402,7 +403,15 @@ def _run_report(path: Path, traj, groups: dict | None = None) -> dict:
             if journeys is not None and name in journeys["stages"]:
                 row["journeys"] = {"stages": journeys["stages"][name],
                                    **journeys.get("groups", {}).get(name, {"queues": {}, "exits": {}})}
-    return report
+    if not summary_file.is_file():  # a file on its own: its frames as written (an RVO run's relaxed for characters)
+        source = (f"measured on the frames of {path.name} (no summary.json of the run beside it): an RVO run's "
+                  f"relaxed frames, and an agent still in the last frame counts as not arrived; the run's own "
+                  f"folder gives the run's own measures")
+    elif own is not None:
+        source = f"measured by the run itself ({summary_file.name}; an RVO run on its steps as simulated)"
+    else:
+        source = f"measured on the frames of {path.name}, with the arrival times of {summary_file.name}"
+    return report, source
 
 
 def _own_groups(groups) -> dict | None:
@@ -446,18 +455,10 @@ def cmd_report(args) -> int:
     if (folder / "sweep.parquet").is_file():
         return _sweep_report(folder)
     path, traj = _load_run(args.output)
-    report = _run_report(path, traj)
+    report, source = _run_report(path, traj)
     _print_report_table(report, lambda row, k, fmt: "-" if row[k] is None else fmt.format(row[k]))
     _print_journeys(report)
-    summary_file = path.parent / "summary.json"
-    if not summary_file.is_file():  # a file on its own: its frames as written (an RVO run's relaxed for characters)
-        print(f"measured on the frames of {path.name} (no summary.json of the run beside it): an RVO run's "
-              f"relaxed frames, and an agent still in the last frame counts as not arrived; the run's own "
-              f"folder gives the run's own measures")
-    elif _own_groups(_read_json(summary_file, "run summary").get("groups")) is not None:
-        print(f"measured by the run itself ({summary_file.name}; an RVO run on its steps as simulated)")
-    else:
-        print(f"measured on the frames of {path.name}, with the arrival times of {summary_file.name}")
+    print(source)
     dest = path.parent / "report.json"
     with adding_to_run(dest.parent) as add:  # listed with the run's files: run --overwrite removes it too
         with atomic_path(dest) as tmp:
@@ -504,7 +505,7 @@ def _sweep_report(folder: Path) -> int:
         if not path.is_file():  # the sweep folder was moved: its runs/ sits beside sweep.parquet
             path = folder / "runs" / path.name
         own = row.get("groups")  # the run's own group measures (older sweep tables have none)
-        runs.append(_run_report(path, _load_trajectories(path), None if own is None else _sweep_groups(own, folder)))
+        runs.append(_run_report(path, _load_trajectories(path), None if own is None else _sweep_groups(own, folder))[0])
     # the swept settings (columns beside seed, file and the measures): each combination is
     # reported on its own, as pooling them would mix what the sweep set out to compare
     names = [k for k in table[0] if k not in {"scenario", "seed", "file", "groups", *SUMMARY_KEYS}]
@@ -594,14 +595,14 @@ def cmd_export(args) -> int:
     if not dest.parent.is_dir():  # said now, not after minutes of resampling
         raise ValueError(f"-o {dest}: the folder {dest.parent} does not exist")
     fps = args.fps
-    if fps is None and args.to in USD_FORMATS:  # a DCC plays 24 frames a second
+    if args.to in USD_FORMATS:  # a DCC plays 24 frames a second; an --fps below it is the user's to ask for
         from crowdmotion.io.usd import DCC_FPS, too_few_frames
 
-        fps = DCC_FPS if too_few_frames(traj) else None
+        if fps is None and too_few_frames(traj):
+            fps = DCC_FPS
+        options["dcc_rate"] = False  # the rate is settled here, not again by the writer
     if fps is not None and abs(fps * traj.dt - 1.0) > 1e-9:  # the run's own rate keeps its frames
         traj = _at_fps(traj, fps, args.interpolation)
-    if args.to in USD_FORMATS:  # the rate is settled above (an --fps below 24 is the user's to ask for)
-        options["dcc_rate"] = False
     with adding_to_run(dest.parent) as add:  # into a run's folder: listed with its files
         traj.save(dest, **options)
         add(dest)
@@ -974,10 +975,12 @@ def build_parser() -> argparse.ArgumentParser:
                    help="an existing folder to write crowdmotion_blender.zip into (default: the current folder)")
     p.set_defaults(func=cmd_blender_addon)
 
-    p = sub.add_parser("render", help="animation (MP4/GIF) and density map of a run (and its paths if the run drew none)")
+    p = sub.add_parser("render",
+                       help="animation (MP4/GIF) and density map of a run (and its paths if the run drew none)")
     p.add_argument("output", help="a run's output folder (or a trajectories file: another than the run's own "
                    "gets pictures named after it, a.csv: a.animation.mp4, a.density.png)")
-    p.add_argument("--to", type=str.lower, choices=["mp4", "gif"], default="mp4", help="animation format (default mp4, H.264)")
+    p.add_argument("--to", type=str.lower, choices=["mp4", "gif"], default="mp4",
+                   help="animation format (default mp4, H.264)")
     p.add_argument("--fps", type=_fps,
                    help="video frames per second (default 24; the run is resampled to it)")
     p.add_argument("--trail", type=_nonnegative_number, default=2.0, help="seconds of trail behind each agent")

@@ -9,8 +9,8 @@ Parquet table with every run's metrics.
 from __future__ import annotations
 
 import itertools
-import warnings
 import json
+import warnings
 from pathlib import Path
 from typing import Any, Iterable, Sequence
 
@@ -158,6 +158,7 @@ def sweep(scenario: Scenario | str | Path, seeds: Iterable[int] = range(8),
     out = Path(out)
     clear_earlier(out, overwrite)
     (out / "runs").mkdir(parents=True, exist_ok=True)
+    files = [str(out / "runs" / f"{_run_name(seed, setting)}.parquet") for _, seed, setting in runs]
     cluster = None
     if scheduler:
         client = Client(scheduler)
@@ -169,8 +170,8 @@ def sweep(scenario: Scenario | str | Path, seeds: Iterable[int] = range(8),
         client = Client(cluster)
     rows = []
     try:
-        futures = [client.submit(run_one, data, seed, setting, str(out / "runs" / f"{_run_name(seed, setting)}.parquet"),
-                                 pure=False) for data, seed, setting in runs]
+        futures = [client.submit(run_one, data, seed, setting, file, pure=False)
+                   for (data, seed, setting), file in zip(runs, files)]
         with counter(len(futures), "sweep runs", "run", progress, leave=True) as bar:
             for fut in as_completed(futures):
                 rows.append(fut.result())
@@ -179,7 +180,7 @@ def sweep(scenario: Scenario | str | Path, seeds: Iterable[int] = range(8),
         client.close()
         if cluster is not None:
             cluster.close()
-    order = {str(out / "runs" / f"{_run_name(seed, setting)}.parquet"): k for k, (_, seed, setting) in enumerate(runs)}
+    order = {file: k for k, file in enumerate(files)}
     rows.sort(key=lambda r: order[r["file"]])  # as planned: the values in the order given, then the seeds
     table = pa.Table.from_pylist(rows)
     with atomic_path(out / "sweep.parquet") as tmp:

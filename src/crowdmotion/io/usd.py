@@ -2,9 +2,9 @@
 
 The stage is Y-up (USD's and Maya's, Houdini's and Unity's default; Blender converts on
 import), ``metersPerUnit`` = 1 and ``timeCodesPerSecond`` = ``framesPerSecond`` = 24 (or
-the run's own rate when that is 25, 30, 48, 50, 60 or an NTSC rate: 23.976, 29.97, 59.94): each frame of the run is sampled at
-time code t × rate, so an MDP run stepping every 0.85 s plays at its true speed in a 24 fps
-scene (USD interpolates between samples). World (x, y[, z]) with z up maps to USD
+the run's own rate when that is 25, 30, 48, 50, 60 or an NTSC rate: 23.976, 29.97,
+59.94): each frame of the run is sampled at time code t × rate, so an MDP run stepping
+every 0.85 s plays at its true speed in a 24 fps scene (USD interpolates between samples). World (x, y[, z]) with z up maps to USD
 (x, z, −y): a 2D run lies on the ground plane at height 0.
 
 Prototype axes: the instancer's orientations turn a prototype whose up and forward axes

@@ -397,8 +397,9 @@ def relaxed(traj: Trajectories, params: MDPParams, scene: Scene, max_speed: np.n
             stretch: bool = False) -> Trajectories:
     """The run's paths at ``params.fps``, relaxed (``crowdmotion.path_relaxation``: smoothed
     over ``smoothing_window`` seconds, bodies kept apart and out of the obstacles, settled
-    with up to ``RELAX_SETTLE`` rounds of pushes, each agent within its speed), then audited in continuous time: a step where they still touch, or outrun
-    ``max_speed``, keeps the plan's straight move (``crowdmotion.smoothing.keep_clean``); a
+    with up to ``RELAX_SETTLE`` rounds of pushes, each agent within its speed), then
+    audited in continuous time: a step where they still touch, or outrun ``max_speed``,
+    keeps the plan's straight move (``crowdmotion.smoothing.keep_clean``); a
     run with more than ``RELAX_AT_FPS_MAX`` agent-frames at ``fps`` is relaxed at its own
     steps (:func:`crowdmotion.path_relaxation.relaxed_trajectories`).
 
