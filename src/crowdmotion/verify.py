@@ -441,6 +441,21 @@ CASES: list[Case] = [
 ]
 
 
+def _own_measure(measured: str, name: str, setups) -> str:
+    """The part of a case's ``measured`` about setup ``name`` where it lists one per setup
+    ("name: ...; name/seed: ...", a setup named with its seed as "name/0" or without), else
+    all of it: a picture's title holding all nine BOT runs' was 10,810 px wide."""
+    bases = {n for key in setups for n in (key, key.rsplit("/", 1)[0])}
+    parts = re.split(rf"; (?=(?:{'|'.join(map(re.escape, bases))})[:/])", measured)
+    for n in (name, name.rsplit("/", 1)[0]):
+        for part in parts:
+            if part.startswith(f"{n}:"):
+                return part[len(n) + 1:].lstrip()
+            if part.startswith(f"{n}/"):
+                return part
+    return measured
+
+
 def run_case(case: Case, method: str, out: Path | None = None, seed: int = 0) -> Verdict:
     """Run one case for one method; with ``out``, draw the first setup's paths there."""
     t0 = time.perf_counter()
@@ -452,14 +467,8 @@ def run_case(case: Case, method: str, out: Path | None = None, seed: int = 0) ->
         from crowdmotion.render import plot_paths
 
         name, first = next(iter(outcomes.items()))
-        # the drawn setup's own measures, where the case lists one per setup ("name: ...;
-        # name/seed: ..."): a title holding all nine BOT runs' was a picture 10,810 px wide
-        names = {n for key in outcomes for n in (key, key.rsplit("/", 1)[0])}  # "UO b_in 1 b_out 1.8/0": seed 0
-        parts = re.split(rf"; (?=(?:{'|'.join(map(re.escape, names))})[:/])", measured)
-        own = [part for part in parts for n in {name, name.rsplit("/", 1)[0]} if part.startswith((f"{n}:", f"{n}/"))]
-        own = [part.removeprefix(f"{name.rsplit('/', 1)[0]}:").removeprefix(f"{name}:").lstrip() for part in own]
         picture = plot_paths(first.traj, first.setup.scene, Path(out) / f"{case.name}_{method}.png",
-                             title=f"{case.source}, {method} ({name}): {own[0] if own else measured}")
+                             title=f"{case.source}, {method} ({name}): {_own_measure(measured, name, outcomes)}")
     return Verdict(case.name, method, criterion, measured, passed and overlaps == 0 and penetrations == 0,
                    overlaps, penetrations, time.perf_counter() - t0, picture)
 

@@ -13,6 +13,7 @@ import numpy as np  # noqa: E402
 from matplotlib import patches  # noqa: E402
 from matplotlib.collections import EllipseCollection, LineCollection  # noqa: E402
 from matplotlib.colors import to_rgb, to_rgba  # noqa: E402
+from matplotlib.lines import Line2D  # noqa: E402
 
 from crowdmotion.io.atomic import atomic_path  # noqa: E402
 from crowdmotion.render.colours import group_colours  # noqa: E402
@@ -102,8 +103,6 @@ def legend_outside(ax, handles, title: str | None = None) -> None:
 def marker_handles(to_scale: bool = True) -> list:
     """Legend entries that explain the start and end markers (``to_scale``: the ends are
     the bodies, as in 2D; in 3D they are dots)."""
-    from matplotlib.lines import Line2D
-
     return [Line2D([], [], marker="o", ls="", mfc="none", mec="0.3", ms=5, label="start"),
             Line2D([], [], marker="o", ls="", color="0.3", ms=6, label="end (body to scale)" if to_scale else "end")]
 
@@ -123,8 +122,6 @@ def polyline_xy(segments: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
 def _mesh_lines(colour, lw: float, alpha: float, intact=None, torn=None, animated: bool = False) -> tuple:
     """A formation mesh's intact edges (in ``colour``) and torn edges (``TORN_EDGE``) as
     two lines, each one NaN-broken polyline of the (m, 2, 2) segments."""
-    from matplotlib.lines import Line2D
-
     empty = np.empty((0, 2, 2))
     lines = (Line2D([], [], linewidth=lw, zorder=3, color=colour, alpha=alpha, animated=animated),
              Line2D([], [], linewidth=lw, zorder=3, animated=animated, **TORN_EDGE))
@@ -295,21 +292,15 @@ def plot_paths(traj: Trajectories, scene: Scene, path, title: str = "", goals=No
     handles = [patches.Patch(color=c, label=n) for n, c in colours.items()]
     handles += marker_handles(to_scale=traj.dim == 2)
     if goals is not None:
-        from matplotlib.lines import Line2D
-
         if len(np.atleast_2d(goals)) > FEW_TARGETS:
             handles.append(Line2D([], [], marker="s", ls="", color="gold", alpha=0.5, label="goal cells"))
         else:
             handles.append(Line2D([], [], marker="*", ls="", color="gold", mec="k", mew=0.7, ms=11, label="targets"))
     if goal_paths:
-        from matplotlib.lines import Line2D
-
         handles.append(Line2D([], [], ls="--", color="darkgoldenrod", lw=1.6, label="target's path, as followed"))
     if traj.dim == 2 and any(not (ob.is_moving or ob.is_timed) for ob in scene.obstacles):
         handles.append(patches.Patch(**_obstacle_look(False), label="obstacle"))  # small rocks look like end dots
     if traj.dim == 2 and any(ob.is_moving for ob in scene.obstacles):  # paths cross where it stood at the start
-        from matplotlib.lines import Line2D
-
         handles.append(patches.Patch(**_obstacle_look(True), label="moving obstacle, at the start"))
         handles.append(Line2D([], [], ls="--", color="k", lw=1, label="its path"))
     legend_outside(ax, handles)
@@ -481,8 +472,6 @@ def _snapshot_colours(snapshots: list[dict]) -> dict:
 
 def _mesh_handles(colours: dict) -> list:
     """Legend entries for formation pictures: groups, dislocated agents, torn edges."""
-    from matplotlib.lines import Line2D
-
     return ([patches.Patch(color=c, label=str(n)) for n, c in colours.items()]
             + [Line2D([], [], marker="o", ls="", color="k", label="dislocated agent"),
                Line2D([], [], color="red", ls="--", label="torn edge")])

@@ -1242,13 +1242,18 @@ class Simulator(LiveObstacles):
         person = self.params["radius"] <= PERSON_MAX_RADIUS_M
         return np.where(person, self.comfort_accel * self.dt * np.where(self.deadlock.breaking(), BRISK, 1.0), 0.0)
 
+    @property
+    def _exiting(self) -> np.ndarray:
+        """(N,) agents that leave on entering their goal region (an exit, a safe area)."""
+        return self.anywhere & self.leaves
+
     def _leave_reach(self) -> np.ndarray:
         """(N,) how near its goal point a move must bring an agent for it to leave within
         the step (the choice then ignores what it would meet after): ``arrival_radius`` for
         those that leave at their goal, 0 for those that stay, and for those that leave on
         entering their goal region (aiming ``LEAVE_INSET_M`` inside it) 0 too: they leave
         where the region begins, which the choice does not know."""
-        return np.where(self.leaves & ~self.anywhere, self.arrival_radius, 0.0)
+        return np.where(self.leaves & ~self._exiting, self.arrival_radius, 0.0)
 
     def _turned_in(self, vpref: np.ndarray) -> np.ndarray:
         """``vpref`` with each walker near its goal but not heading for it slowed so that it
@@ -1261,8 +1266,7 @@ class Simulator(LiveObstacles):
         # one that leaves on entering its goal region leaves wherever it enters it: slowing
         # to turn in at its aim point held up everyone behind it in an exit door (a room
         # of 100 by a 1 m door emptied 9 % later, 13 % fewer a second through the door)
-        free = self.anywhere & self.leaves
-        out[free] = vpref[free]
+        out[self._exiting] = vpref[self._exiting]
         return out
 
     def _threatened(self, prims, driven: np.ndarray) -> np.ndarray:
@@ -1288,7 +1292,7 @@ class Simulator(LiveObstacles):
     def _arrivals(self) -> None:
         d = row_norms(self.goals - self.positions)
         now = self.active & ~self.driven & (d <= self.arrival_radius) & np.isnan(self.arrival_time)
-        exits = self.active & ~self.driven & self.anywhere & self.leaves & np.isnan(self.arrival_time)
+        exits = self.active & ~self.driven & self._exiting & np.isnan(self.arrival_time)
         for k in np.unique(self.field_of[exits]):  # those leaving at a region: once their centre is in it
             ids = np.flatnonzero(exits & (self.field_of == k))
             now[ids] = self._goal_regions[k].contains(self.positions[ids]) | (d[ids] <= AIM_REACHED_M)

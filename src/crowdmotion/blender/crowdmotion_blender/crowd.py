@@ -319,14 +319,12 @@ def bind(run: Run, scene=None, character=None, collection_name: str = "crowdmoti
         for path in ("hide_viewport", "hide_render"):
             walker_rig.write_fcurve(bag.fcurves.new(path), frames[at], hidden[at], "CONSTANT")
         for body in ob.children:  # a child does not inherit its parent's hiding: the mesh gets its own keys
-            shown = bpy.data.actions.new(f"{body.name}_shown")
-            body_slot = shown.slots.new(id_type="OBJECT", name=body.name)
-            keys = shown.layers.new("shown").strips.new(type="KEYFRAME").channelbag(body_slot, ensure=True)
-            for path in ("hide_viewport", "hide_render"):
-                walker_rig.write_fcurve(keys.fcurves.new(path), frames[at], hidden[at], "CONSTANT")
+            shown = walker_rig.new_action(f"{body.name}_shown", {(path, 0): (frames[at], hidden[at])
+                                                                  for path in ("hide_viewport", "hide_render")},
+                                          body.name, "CONSTANT", "shown")
             body_ad = body.animation_data_create()
             body_ad.action = shown
-            body_ad.action_slot = body_slot
+            body_ad.action_slot = shown.slots[0]
         if legs is not None:
             for (path, index), values in legs.items():
                 walker_rig.write_fcurve(bag.fcurves.new(path, index=index), frames, values[:, i], "LINEAR")

@@ -71,14 +71,15 @@ def bone_axes(arm_data) -> dict:
     return out
 
 
-def new_action(name: str, keys: dict, slot_name: str = "walker") -> bpy.types.Action:
-    """An action of one object slot with a linear F-curve per (path, index): frames and
-    values, written in bulk."""
+def new_action(name: str, keys: dict, slot_name: str = "walker", interpolation: str = "LINEAR",
+               layer: str = "cycles") -> bpy.types.Action:
+    """An action of one object slot with an F-curve per (path, index): frames and values,
+    written in bulk, keyed ``interpolation`` ("LINEAR" or "CONSTANT")."""
     action = bpy.data.actions.new(name)
     slot = action.slots.new(id_type="OBJECT", name=slot_name)
-    bag = action.layers.new("cycles").strips.new(type="KEYFRAME").channelbag(slot, ensure=True)
+    bag = action.layers.new(layer).strips.new(type="KEYFRAME").channelbag(slot, ensure=True)
     for (path, index), (frames, values) in keys.items():
-        write_fcurve(bag.fcurves.new(path, index=index), frames, values, "LINEAR")
+        write_fcurve(bag.fcurves.new(path, index=index), frames, values, interpolation)
     return action
 
 
