@@ -181,7 +181,7 @@ def obstacle_penetrations(
     # the scene's bounds are walls too (obstacle -1): a body's clearance from a side is
     # linear along a straight move, so its least is at one of the move's ends
     ends = np.stack([traj.positions[f_idx, a_idx], traj.positions[f_idx + 1, a_idx]])  # (2, n, dim)
-    clear = np.minimum(ends - scene.lower, scene.upper - ends).min(axis=2)  # (2, n)
+    clear = scene.wall_clearance(ends)  # (2, n)
     pen = radius - clear.min(axis=0)
     hit = np.flatnonzero(pen > max(tolerance, EDGE_TOUCH_M))
     if len(hit):

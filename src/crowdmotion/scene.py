@@ -347,8 +347,12 @@ class Scene:
         """Distance from each point to the nearest static obstacle or the scene's walls
         (its bounds): the room a body standing there has."""
         p = as_points(points, self.dim)
-        walls = np.minimum(p - self.lower, self.upper - p).min(axis=-1)
-        return np.minimum(walls, self.static_obstacle_distance(p))
+        return np.minimum(self.wall_clearance(p), self.static_obstacle_distance(p))
+
+    def wall_clearance(self, points: np.ndarray) -> np.ndarray:
+        """Distance from each point (..., dim) to the nearest side of the scene's bounds
+        (negative outside them)."""
+        return np.minimum(points - self.lower, self.upper - points).min(axis=-1)
 
     def to_dict(self) -> dict:
         """Plain description for metadata and plots (JSON-serialisable)."""

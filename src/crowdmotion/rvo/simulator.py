@@ -678,7 +678,7 @@ class Simulator(LiveObstacles):
         key = (repr(region), tuple(map(id, statics)))
         if key not in self._inset_clear:
             lo, hi = _inset_box(region)
-            clear = float(min(np.min(lo - self._now.lower), np.min(self._now.upper - hi)))
+            clear = float(min(self._now.wall_clearance(lo), self._now.wall_clearance(hi)))  # its corners
             for ob in statics:
                 olo, ohi = ob.bounds()
                 clear = min(clear, float(np.linalg.norm(np.maximum(0.0, np.maximum(olo - hi, lo - ohi)))))
