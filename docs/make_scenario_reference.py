@@ -26,7 +26,7 @@ SECTIONS = [
     ("Top level", [S.ScenarioSpec]),
     ("[scene]", [S.SceneSpec, S.CircleSpec, S.SphereSpec, S.BoxSpec, S.PolygonSpec, S.PathSpec]),
     ("[[groups]]", [S.GroupSpec, S.PointRegion, S.PointsRegion, S.RectRegion, S.DiscRegion, S.MovingRegion,
-                    S.RingRegion, S.AntipodalRegion, S.EnterSpec]),
+                    S.RingRegion, S.LatticeRegion, S.AntipodalRegion, S.EnterSpec]),
     ("Route stages (a group's `[[groups.route]]` tables, in order; see docs/journeys.md)",
      [S.GotoStageSpec, S.WaitStageSpec, S.WaitTimeSpec, S.QueueStageSpec, S.ChooseStageSpec, S.LeaveStageSpec]),
     ("Group attributes (a group's `attributes` table: rvo and formation; mdp and pso take none)",
@@ -145,6 +145,7 @@ SPAWNS = {
     "rect": '{ shape = "rect", lower = [2, 5], upper = [8, 15] }',
     "disc": '{ shape = "disc", center = [5, 10], radius = 3 }',
     "ring": '{ shape = "ring", center = [5, 10], radius = 2 }',
+    "lattice": '{ shape = "lattice", lower = [2, 5], upper = [8, 15] }',
 }
 GOALS = {
     "point": '{ shape = "point", position = [35, 10] }',

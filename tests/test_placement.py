@@ -2,6 +2,7 @@
 (placement.standing_points, placement.standing_centre)."""
 
 import numpy as np
+import pytest
 
 import crowdmotion as cm
 from crowdmotion.placement import GOAL_CLEARANCE_M, standing_centre, standing_points
@@ -69,3 +70,72 @@ def test_a_block_whose_front_column_stands_inside_a_box_backs_out_the_short_way(
     out = standing_centre(scene, np.array([22.5, 5.0]), _block(3, 3), 0.3)
     np.testing.assert_allclose(out, [23 - 0.3 - 1.0, 5.0], atol=0.002)
     assert np.all(scene.static_obstacle_distance(out + _block(3, 3)) >= 0.3 - 1e-9)
+
+
+# a lattice spawn: a dense block start (placement.lattice_positions, groups.Lattice)
+
+def test_lattice_sites_are_a_triangular_lattice_centred_in_the_rectangle():
+    # 10 x 3 m at 1 m: rows 0.866 m apart (4 fit), 11 sites in the even rows, 10 in the shifted ones
+    sites = cm.Lattice([0, 0], [10, 3]).sites(1.0)
+    assert len(sites) == 11 + 10 + 11 + 10
+    ys = np.unique(np.round(sites[:, 1], 9))
+    np.testing.assert_allclose(np.diff(ys), np.sqrt(3) / 2)
+    np.testing.assert_allclose(ys[0], 3 - ys[-1])  # as much room at the bottom as at the top
+    from scipy.spatial import cKDTree
+    d, _ = cKDTree(sites).query(sites, k=2)
+    np.testing.assert_allclose(d[:, 1], 1.0)  # every site's nearest neighbour exactly a spacing off
+
+
+def test_a_lattice_block_reaches_densities_random_draws_do_not():
+    from crowdmotion.placement import spawn_positions
+    from scipy.spatial.distance import pdist
+
+    scene = cm.Scene(bounds=([0, 0], [30, 4]), obstacles=[cm.Box([0, 3], [30, 4])])
+    block = cm.Group(name="block", count=108, spawn=cm.Lattice([1, 0], [11, 3]), goal=cm.Rect([28, 1], [29, 2]))
+    pos = spawn_positions(scene, block, np.empty((0, 2)), np.empty(0), 0.05, np.random.default_rng(0))
+    assert len(pos) == 108 and len(pos) / 30 == 3.6  # persons/m² over the rectangle
+    assert pdist(pos).min() >= 0.5 + 0.05 - 1e-9  # bodies the gap apart
+    assert scene.clearance(pos).min() >= 0.3 - 1e-9  # clear of the bounds and the wall box
+    # a rect's random draws get nowhere near: the placement gives up
+    with pytest.raises(ValueError, match="could not place 108 agents"):
+        spawn_positions(scene, cm.Group(name="r", count=108, spawn=cm.Rect([1, 0.3], [11, 2.7]), goal=[28, 1.5]),
+                        np.empty((0, 2)), np.empty(0), 0.05, np.random.default_rng(0))
+
+
+def test_a_sparse_lattice_spreads_its_agents_evenly_over_the_rectangle():
+    from crowdmotion.placement import spawn_positions
+    from scipy.spatial import cKDTree
+
+    scene = cm.Scene(bounds=([0, 0], [20, 20]))
+    g = cm.Group(name="b", count=40, spawn=cm.Lattice([2, 2], [12, 12]), goal=[18, 18])
+    pos = spawn_positions(scene, g, np.empty((0, 2)), np.empty(0), 0.05, np.random.default_rng(3))
+    d, _ = cKDTree(pos).query(pos, k=2)
+    # the widest spacing that holds 40 in 10 x 10 m, sites on the edges too: (10/s + 1)(10/(s·√3/2) + 1)
+    # = 40 at s = 2.02 m; the rows and columns come in whole numbers: a little less
+    assert 1.7 < np.median(d[:, 1]) < 2.02
+    assert np.allclose(d[:, 1], np.median(d[:, 1]))  # all on one lattice
+    assert np.ptp(pos[:, 0]) > 8 and np.ptp(pos[:, 1]) > 8
+
+
+def test_a_lattice_keeps_clear_of_bodies_already_placed_and_says_how_many_fit():
+    from crowdmotion.placement import spawn_positions
+
+    scene = cm.Scene(bounds=([0, 0], [10, 10]))
+    placed = np.array([[3.0, 3.0]])
+    g = cm.Group(name="b", count=30, spawn=cm.Lattice([1, 1], [5, 5]), goal=[9, 9])
+    pos = spawn_positions(scene, g, placed, np.array([0.25]), 0.05, np.random.default_rng(0))
+    assert np.linalg.norm(pos - placed, axis=1).min() >= 0.55 - 1e-9
+    with pytest.raises(ValueError, match=r"lattice \[1, 1\]-\[5, 5\] holds at most \d+ agents .* count = 500"):
+        spawn_positions(scene, cm.Group(name="b", count=500, spawn=cm.Lattice([1, 1], [5, 5]), goal=[9, 9]),
+                        np.empty((0, 2)), np.empty(0), 0.05, np.random.default_rng(0))
+
+
+def test_lattice_positions_stay_inside_the_rectangle():
+    from crowdmotion.placement import spawn_positions
+
+    scene = cm.Scene(bounds=([0, 0], [30, 4]))
+    for count in (10, 33, 60, 71):
+        g = cm.Group(name="b", count=count, spawn=cm.Lattice([1, 0.5], [8, 3.5]), goal=[28, 2])
+        pos = spawn_positions(scene, g, np.empty((0, 2)), np.empty(0), 0.05, np.random.default_rng(count))
+        assert len(pos) == count
+        assert np.all(pos >= [1, 0.5]) and np.all(pos <= [8, 3.5])

@@ -1,5 +1,6 @@
 """Scenario files: errors name the field and the value; nothing executes."""
 
+import crowdmotion as cm
 import numpy as np
 import pytest
 
@@ -329,3 +330,42 @@ def test_an_unknown_shape_is_named_with_the_shapes_that_field_takes():
         in str(err.value)  # not the goal-only shapes (moving, antipodal)
     with pytest.raises(ScenarioError, match="shape 'oval' is not one of .*'moving'"):
         parse_scenario(GOOD.replace('goal = { shape = "point"', 'goal = { shape = "oval"'))
+
+
+LATTICE = """
+name = "block"
+method = "{method}"
+[scene]
+bounds = [[0, 0], [30, 4]]
+[[groups]]
+name = "block"
+count = 60
+spawn = {{ shape = "lattice", lower = [1, 0.5], upper = [8, 3.5] }}
+goal = {goal}
+{extra}
+"""
+
+
+def test_a_lattice_spawn_starts_an_rvo_crowd_as_a_dense_block():
+    sc = parse_scenario(LATTICE.format(method="rvo", goal='{ shape = "rect", lower = [27, 1], upper = [29, 3] }',
+                                       extra="[rvo]\nmax_steps = 40\nsmoothing = \"none\""))
+    assert isinstance(sc.groups[0].spawn, cm.Lattice)
+    r = run_scenario(sc, progress=False)
+    start = r.trajectories.positions[0]
+    assert start[:, 0].min() >= 1 and start[:, 0].max() <= 8 and start[:, 1].min() >= 0.5
+    assert r.summary["agent_agent_overlaps"] == 0
+
+
+@pytest.mark.parametrize("method, extra, message", [
+    ("mdp", "", "a lattice places bodies in continuous space, but the MDP method starts each agent on a free grid"),
+    ("formation", "", "a lattice spreads a crowd's agents over a rectangle, but a formation keeps its template"),
+])
+def test_methods_that_place_agents_otherwise_refuse_a_lattice_by_name(method, extra, message):
+    with pytest.raises(ScenarioError, match=message):
+        parse_scenario(LATTICE.format(method=method, goal='{ shape = "point", position = [28, 2] }', extra=extra))
+
+
+def test_a_lattice_is_no_goal():
+    text = LATTICE.format(method="rvo", goal='{ shape = "lattice", lower = [27, 1], upper = [29, 3] }', extra="")
+    with pytest.raises(ScenarioError, match=r"groups.0.goal \(group 'block'\): a lattice is a spawn shape, not a goal"):
+        parse_scenario(text)

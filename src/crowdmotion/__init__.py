@@ -4,7 +4,7 @@ Public API: Scene and obstacle shapes, Group and regions, Trajectories, the metr
 ``load_scenario`` and ``run``.
 """
 
-from crowdmotion.groups import Disc, Group, MovingTarget, Points, Rect
+from crowdmotion.groups import Disc, Group, Lattice, MovingTarget, Points, Rect
 from crowdmotion.scene import Box, Circle, Polygon, Scene, Sphere
 from crowdmotion.trajectories import Trajectories
 
@@ -26,6 +26,6 @@ def run(scenario, seed=None, progress=True):
 
 
 __all__ = [
-    "Box", "Circle", "Disc", "Group", "MovingTarget", "Points", "Polygon", "Rect", "Scene", "Sphere",
+    "Box", "Circle", "Disc", "Group", "Lattice", "MovingTarget", "Points", "Polygon", "Rect", "Scene", "Sphere",
     "Trajectories", "load_scenario", "run", "__version__",
 ]

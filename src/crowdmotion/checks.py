@@ -9,7 +9,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from crowdmotion.groups import Disc, Group, MovingTarget, Points, Rect, describe_region  # noqa: F401 (re-exported)
+from crowdmotion.groups import Disc, Group, Lattice, MovingTarget, Points, Rect, describe_region  # noqa: F401 (re-exported)
+from crowdmotion.placement import lattice_sites
 from crowdmotion.scene import Box, Polygon, Scene
 
 # random sequential placement of discs jams at 54.7 % of the area (Feder 1980); ask for
@@ -72,6 +73,9 @@ def spawn_room(scene: Scene, group: Group, gap: float, clearance=None) -> tuple[
     """(about how many bodies of the group fit ``gap`` apart in its spawn region, the
     area (volume in 3D) free of obstacles there). ``clearance(points)``: distances to
     further obstacles, beyond the scene's own."""
+    if isinstance(group.spawn, Lattice):  # exactly: the sites clear at the closest spacing
+        free = float(np.prod(group.spawn.upper - group.spawn.lower))
+        return len(lattice_sites(scene, group, gap, 2.0 * group.radius + gap, clearance=clearance)), free
     pts, cell_area = region_samples(scene, group.spawn, with_area=True)
     clear = scene.clearance(pts)
     if clearance is not None and len(pts):
@@ -163,7 +167,7 @@ def check_spawn_capacity(scene: Scene, k: int, group: Group, gap: float) -> None
         if len(spawn.points) != group.count:
             raise ValueError(f"{where(k, group)} spawn: {len(spawn.points)} points given for count = {group.count}")
         return
-    if group.count <= _room_at_least(scene, group, gap):
+    if not isinstance(spawn, Lattice) and group.count <= _room_at_least(scene, group, gap):
         return  # room enough by a lower bound: no sampling needed
     room, free = spawn_room(scene, group, gap)
     if group.count > room:

@@ -13,7 +13,7 @@ from crowdmotion.facing import MAX_TURN_RATE, limit_turn, wrap
 from crowdmotion.formation.params import FormationParams, make_params
 from crowdmotion.formation.simulator import Simulator
 from crowdmotion.formation.templates import Template, from_spec
-from crowdmotion.groups import Group, Points
+from crowdmotion.groups import Group, Lattice, Points
 from crowdmotion.interrupts import step_loop
 from crowdmotion.metrics import edge_length_error, kabsch_rms
 from crowdmotion.scene import Scene
@@ -28,6 +28,10 @@ def group_template(group: Group) -> Template:
     """The template a Group asks for in ``attributes["formation"]`` (a template spec, a
     dict with a ``kind``, or a Template); a Points spawn without one is used as is."""
     spec = group.attributes.get("formation")
+    if isinstance(group.spawn, Lattice):
+        raise ValueError(f"group {group.name!r} spawn: a lattice spreads a crowd's agents over a rectangle, but a "
+                         f"formation keeps its template's shape, placed at the spawn's centre: give the spawn as a "
+                         f"point or rect, or list the agents' points")
     how = ("give the group a template, e.g. formation = { kind = \"block\", rows = 4, cols = 4 } in its "
            "[[groups]] table (Python: attributes[\"formation\"]), placed at the spawn's centre")
     if spec is None:

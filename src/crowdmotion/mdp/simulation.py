@@ -8,7 +8,7 @@ from typing import Any, Callable, Sequence
 import numpy as np
 
 from crowdmotion.checks import describe_region, region_box
-from crowdmotion.groups import Group, MovingTarget, Points
+from crowdmotion.groups import Group, Lattice, MovingTarget, Points
 from crowdmotion.interrupts import step_loop
 from crowdmotion.mdp.goal_fill import fill_depth, nearest_cells
 from crowdmotion.mdp.params import MDPParams
@@ -112,6 +112,9 @@ def check_goal_room(groups: Sequence[Group], goal_cells: list[np.ndarray], cell:
 
 def spawn_cells(grid: GridMap, group: Group, taken: set, rng: np.random.Generator) -> np.ndarray:
     what = f"group {group.name!r} spawn"
+    if isinstance(group.spawn, Lattice):
+        raise ValueError(f"{what}: a lattice places bodies in continuous space, but the MDP method starts each agent "
+                         f"on a free grid cell: give a rect (its free cells are drawn at random) or list the points")
     if isinstance(group.spawn, Points):
         if len(group.spawn.points) != group.count:
             raise ValueError(f"{what}: {len(group.spawn.points)} points given for {group.count} agents")
