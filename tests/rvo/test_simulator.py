@@ -855,3 +855,68 @@ def test_a_setting_that_is_no_number_is_refused_naming_it(kwargs, name):
     # numpy's isfinite refused a string with a TypeError that named no argument
     with pytest.raises(ValueError, match=rf"^{name} must be .*, got {re.escape(repr(next(iter(kwargs.values()))))}$"):
         rvo.Simulator(cm.Scene(bounds=([0, 0], [10, 10])), **kwargs)
+
+
+def test_agents_due_at_one_entrance_come_in_one_at_a_time_while_another_entrance_is_blocked():
+    # three due at once, the first still blocked at its own entrance: the two sharing the other
+    # entrance must not both come in (they would walk on, one on top of the other)
+    sim = rvo.Simulator(cm.Scene(bounds=([0, 0], [20, 10])), time_step=1 / 30)
+    b1 = sim.add_agents([[2, 2]], [[18, 2]])
+    sim.drive(b1, [0.0, 0.0])  # stands on entrance 1
+    b2 = sim.add_agents([[2, 7]], [[18, 7]])
+    sim.drive(b2, [0.0, 0.0])  # stands on entrance 2
+    sim.add_agents([[2, 2]], [[18, 2]], enter_at=0.0)
+    a = sim.add_agents([[2, 7]], [[18, 7]], enter_at=0.0)
+    b = sim.add_agents([[2, 7]], [[18, 7]], enter_at=0.0)
+    sim.step()
+    sim.remove_agents(b2)
+    sim.step()
+    assert sim.active[a[0]] != sim.active[b[0]]  # one of them, the other still waiting
+    for _ in range(60):
+        sim.step()
+        on = np.flatnonzero(sim.active)
+        gaps = np.linalg.norm(sim.positions[on, None] - sim.positions[None, on], axis=2) + 9 * np.eye(len(on))
+        assert gaps.min() >= 0.5 - 1e-9
+
+
+@pytest.mark.parametrize("region, hint", [
+    (cm.Box([36, 1], [39, 9]), "a goal rectangle is crowdmotion.Rect"),
+    (cm.Circle([37, 5], 2.0), "a goal disc is crowdmotion.Disc"),
+    ([[36, 1], [39, 9]], ""),
+])
+def test_an_obstacle_shape_or_a_list_given_as_goal_region_is_refused_and_the_crowd_walks_on(region, hint):
+    sim = rvo.Simulator(cm.Scene(bounds=([0, 0], [40, 10]), obstacles=[cm.Box([20, 0], [21, 6])]))
+    sim.add_agents([[2, 8]], [[38, 8]])
+    for call in (lambda: sim.add_agents([[2, 6]], [[38, 8]], goal_region=region),
+                 lambda: sim.set_goals([0], [[37, 5]], goal_region=region)):
+        with pytest.raises(ValueError, match=r"goal_region: a Rect, Disc or Points region is needed, got .*"
+                                             + re.escape(hint)):
+            call()
+    assert sim.n_agents == 1 and np.array_equal(sim.goals[0], [38, 8])
+    sim.step()  # and it steps on
+
+
+def test_a_newcomer_waits_while_one_leaving_on_its_spot_is_still_drawn_there():
+    # an exit that is also an entrance: the frame that shows one arriving (and leaving) at
+    # the spot must not show a newcomer let in on top of it
+    sim = rvo.Simulator(cm.Scene(bounds=([0, 0], [20, 10])))
+    leaving = sim.add_agents([[5.0, 5.0]], [[5.2, 5.0]])  # within arrival_radius: leaves in the first step
+    newcomer = sim.add_agents([[5.1, 5.0]], [[15, 5]], enter_at=0.0)
+    sim.step()
+    assert sim.present[leaving[0]] and not sim.active[leaving[0]]  # drawn in this frame, then gone
+    assert not sim.active[newcomer[0]]
+    sim.step()
+    assert sim.active[newcomer[0]]
+
+
+@pytest.mark.parametrize("dt", [1 / 60, 1 / 30, 0.25])
+def test_a_walker_that_stays_at_its_goal_brakes_and_stops_on_it(dt):
+    sim = rvo.Simulator(cm.Scene(bounds=([0, 0], [30, 20])), time_step=dt, remove_on_arrival=False)
+    sim.add_agents([[5, 15]], [[8, 15]])  # 3 m east, nobody else
+    xs = []
+    for _ in range(int(round(20 / dt))):
+        sim.step()
+        xs.append(sim.positions[0, 0])
+    xs = np.array(xs)
+    assert xs.max() - 8.0 < 0.2  # not a metre past it
+    assert np.abs(np.diff(xs[int(round(10 / dt)):])).sum() < 1e-3  # and no pacing to and fro after

@@ -13,7 +13,7 @@ from crowdmotion._rng import step_key
 from crowdmotion._threads import ThreadedKernel
 from crowdmotion._validation import id_range
 from crowdmotion.geometry import finite_array, finite_number, require_finite_agents, row_norms
-from crowdmotion.groups import Disc, MovingTarget, Points, Rect
+from crowdmotion.groups import Disc, Lattice, MovingTarget, Points, Rect
 from crowdmotion.placement import GOAL_CLEARANCE_M, standing_points
 from crowdmotion.rvo import _kernels as K
 from crowdmotion.rvo import congestion as _congestion
@@ -506,7 +506,7 @@ class Simulator(LiveObstacles):
         :meth:`set_goals` or :meth:`walking_distance` to one of them re-solves nothing
         (a route's stages, say)."""
         for region in regions:
-            if not isinstance(region, (Rect, Disc, Points)):
+            if isinstance(region, Lattice) or not isinstance(region, (Rect, Disc, Points)):
                 raise ValueError(f"add_goal_regions: a Rect, Disc or Points region is needed, got {region!r}")
             added = self._regions_added
             place = self._region_index(region.nearest(self.positions[:1]) if len(self.positions) else None, region,
@@ -588,9 +588,18 @@ class Simulator(LiveObstacles):
         return _xy_each(goals, n, "goals"), None
 
     def _check_goal_region(self, region) -> None:
-        """Refuse a goal region with no part inside the scene bounds: its guidance field
-        has no cell to start from, and before the first step it would have been taken in
-        only to make every step after it fail."""
+        """Refuse a goal region that is no Rect, Disc or Points region (or a group's
+        MovingTarget: an obstacle shape given for one, say: the first step would fail on it, and every step after) and one
+        with no part inside the scene bounds: its guidance field has no cell to start from,
+        and before the first step it would have been taken in only to make every step
+        after it fail."""
+        if isinstance(region, MovingTarget):
+            return  # (a group's moving goal: its agents chase it, with no field of their own)
+        if isinstance(region, Lattice) or not isinstance(region, (Rect, Disc, Points)):
+            hint = {"Circle": " (the obstacle shape: a goal disc is crowdmotion.Disc)",
+                    "Box": " (the obstacle shape: a goal rectangle is crowdmotion.Rect)",
+                    "Lattice": " (a spawn region: a goal rectangle is crowdmotion.Rect)"}.get(type(region).__name__, "")
+            raise ValueError(f"goal_region: a Rect, Disc or Points region is needed, got {region!r}{hint}")
         lo, hi = self.scene.lower, self.scene.upper
         if isinstance(region, Rect):
             inside = bool(np.all(region.lower[:2] <= hi) and np.all(region.upper[:2] >= lo))
@@ -704,8 +713,9 @@ class Simulator(LiveObstacles):
 
     def _admit(self) -> None:
         """Let in the waiting agents that are due and whose place is free: nobody (still
-        in, or let in before them this step, earliest due first) within their bodies plus
-        ENTRY_GAP_M, and no obstacle standing there now."""
+        in, leaving there in this very step and so drawn in its frame, or let in before
+        them this step, earliest due first) within their bodies plus ENTRY_GAP_M, and no
+        obstacle standing there now."""
         due = np.flatnonzero(self.waiting & (self.enter_at <= self.time + 1e-9))
         if not len(due):
             return
@@ -713,8 +723,8 @@ class Simulator(LiveObstacles):
         rad = self.params["radius"]
         pos = self.positions[due]
         ok = self._now.obstacle_distance(pos, self.time) >= rad[due]
-        live = np.flatnonzero(self.active)
-        if len(live):  # the gap to the ENTRY_NEIGHBOURS nearest bodies still in
+        live = np.flatnonzero(self.present)
+        if len(live):  # the gap to the ENTRY_NEIGHBOURS nearest bodies still in (or leaving in this frame)
             d, j = cKDTree(self.positions[live]).query(pos, k=min(ENTRY_NEIGHBOURS, len(live)))
             d, j = d.reshape(len(due), -1), j.reshape(len(due), -1)
             ok &= (d - rad[live][j] - rad[due][:, None]).min(axis=1) >= ENTRY_GAP_M
@@ -723,7 +733,7 @@ class Simulator(LiveObstacles):
             pairs = cKDTree(pos[cand]).query_pairs(2 * rad[due].max() + ENTRY_GAP_M, output_type="ndarray")
             for a, b in pairs[np.argsort(pairs.max(axis=1))]:
                 ia, ib = cand[a], cand[b]
-                if ok[ia] and ok[ib] and np.linalg.norm(pos[a] - pos[b]) < rad[due[a]] + rad[due[b]] + ENTRY_GAP_M:
+                if ok[ia] and ok[ib] and np.linalg.norm(pos[ia] - pos[ib]) < rad[due[ia]] + rad[due[ib]] + ENTRY_GAP_M:
                     ok[max(ia, ib)] = False
         now = due[ok]
         self.active[now] = True
@@ -1258,11 +1268,20 @@ class Simulator(LiveObstacles):
     def _turned_in(self, vpref: np.ndarray) -> np.ndarray:
         """``vpref`` with each walker near its goal but not heading for it slowed so that it
         can turn in at the comfortable acceleration instead of circling it (the kernel
-        ``turned_in`` gives the bound); wider bodies, and those leaving on entering their
-        goal region, keep theirs."""
+        ``turned_in`` gives the bound), and each walker that stays at its goal slowed so
+        that it stops there at the comfortable deceleration; wider bodies, and those
+        leaving on entering their goal region, keep theirs."""
         out = np.empty_like(vpref)
         K.turned_in(vpref, self.goals, self.positions, self.velocities, self.params["radius"], PERSON_MAX_RADIUS_M,
                     self.comfort_accel, out)
+        # one that stays at its goal brakes for it at the comfortable deceleration: no faster
+        # than √(2 a d) at d metres off (eq. (3) prices a harder stop above walking on: at a
+        # game's 30 steps a second a walker ran a metre past its goal, then paced to and fro)
+        stay = ~self.leaves & (self.params["radius"] <= PERSON_MAX_RADIUS_M)
+        if stay.any():
+            cap = np.sqrt(2.0 * self.comfort_accel * row_norms(self.goals - self.positions))
+            speed = row_norms(out)
+            out *= np.where(stay & (speed > cap), cap / np.maximum(speed, 1e-12), 1.0)[:, None]
         # one that leaves on entering its goal region leaves wherever it enters it: slowing
         # to turn in at its aim point held up everyone behind it in an exit door (a room
         # of 100 by a 1 m door emptied 9 % later, 13 % fewer a second through the door)
