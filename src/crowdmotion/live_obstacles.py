@@ -93,21 +93,26 @@ class LiveObstacles:
     def remove_obstacle(self, index: int) -> None:
         """Take obstacle ``index`` of ``scene.obstacles`` out of the scene now (the live API:
         a door that opens). ``scene`` keeps it, with the time it stood, for the audit."""
-        obs = self.scene.obstacles
         self._obstacle_index(index, "remove_obstacle")
-        now = self._clock()
-        if not obs[index].present_at(now):
+        if not self.scene.obstacles[index].present_at(self._clock()):
             raise ValueError(f"remove_obstacle: obstacle {index} is not in the scene now")
-        scene = self._own_scene()
-        scene.obstacles[index] = obs[index].during(obs[index].present[0], now)
+        self._take_out(index)
         self._obstacles_changed()
+
+    def _take_out(self, index: int) -> None:
+        """Obstacle ``index`` (standing now) ends now, in ``scene``; what the obstacles
+        shape is not rebuilt yet."""
+        scene = self._own_scene()
+        old = scene.obstacles[index]
+        scene.obstacles[index] = old.during(old.present[0], self._clock())
 
     def move_obstacle(self, index: int, to) -> int:
         """Move obstacle ``index`` of ``scene.obstacles`` now (the live API: a barrier
         pushed aside): ``to`` is the obstacle in its new place (a Circle, Box or Polygon)
         or an offset (dx, dy) of the old one. Done as :meth:`remove_obstacle` then
-        :meth:`add_obstacle`, with their checks: a ValueError, changing nothing (the run
-        goes on exactly as without the call), if the obstacle is not in the scene now or
+        :meth:`add_obstacle`, with their checks (what the obstacles shape is rebuilt
+        once): a ValueError, changing nothing (the run goes on exactly as without the
+        call), if the obstacle is not in the scene now or
         moves along a path, or if in its new place it is no 2D shape at rest, lies wholly
         outside the bounds or an agent still walking would stand inside it. One that would
         cover an agent's goal is put back where it stood, with a ValueError too; the
@@ -127,7 +132,7 @@ class LiveObstacles:
             self._check_new_obstacle(new)
         except ValueError as exc:
             raise ValueError(str(exc).replace("add_obstacle:", moved, 1)) from None
-        self.remove_obstacle(index)
+        self._take_out(index)  # (rebuilt once, as the moved one goes in)
         try:
             return self._put_in(new)
         except ValueError as exc:  # a goal it would cover: put back as it stood, the fields rebuilt

@@ -109,9 +109,16 @@ class FloorShare:
         xs = lo[0] + (np.arange(shape[0]) + 0.5) * self.cell
         ys = lo[1] + (np.arange(shape[1]) + 0.5) * self.cell
         free = np.ones(tuple(shape), dtype=float)
-        if scene.static_obstacles:
-            centres = np.stack(np.meshgrid(xs, ys, indexing="ij"), axis=-1).reshape(-1, 2)
-            free = (scene.static_obstacle_distance(centres) > 0).astype(float).reshape(tuple(shape))
+        for ob in scene.static_obstacles:  # each over the cells of its bounding box (and one more) only
+            olo, ohi = (np.asarray(b, dtype=float)[:2] for b in ob.bounds())
+            i0 = np.maximum(np.floor((olo - lo) / self.cell - 0.5).astype(np.int64), 0)
+            i1 = np.minimum(np.ceil((ohi - lo) / self.cell - 0.5).astype(np.int64), shape - 1)
+            if np.any(i1 < i0):
+                continue
+            cx, cy = xs[i0[0]:i1[0] + 1], ys[i0[1]:i1[1] + 1]
+            centres = np.stack(np.meshgrid(cx, cy, indexing="ij"), axis=-1).reshape(-1, 2)
+            inside = (ob.signed_distance(centres) <= 0).reshape(len(cx), len(cy))
+            free[i0[0]:i1[0] + 1, i0[1]:i1[1] + 1][inside] = 0.0
         self.share = gaussian_filter(free, SIGMA_M / self.cell, mode="constant", cval=0.0, truncate=3.0)
 
     def at(self, points: np.ndarray) -> np.ndarray:
