@@ -70,7 +70,8 @@ def _per_agent(value, n: int, name: str, integer: bool = False, minimum: float =
         bad |= arr != np.round(arr)
     if bad.any():
         i = int(np.flatnonzero(bad)[0])
-        need = f"{'>' if strict else '>='} {minimum:g}" + (" whole" if integer else "") \
+        need = ("finite and " if not np.isfinite(arr[i]) else "") + f"{'>' if strict else '>='} {minimum:g}" \
+            + (" whole" if integer else "") \
             + (f" and at most {maximum:g}" if maximum < np.inf else "")
         raise ValueError(f"{name} must be {need}, got {float(arr[i])!r} for the {_ordinal(i)} of the {n} agents given")
     return arr.astype(np.int64) if integer else arr
