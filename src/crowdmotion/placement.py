@@ -75,20 +75,18 @@ def spawn_positions(scene: Scene, group: Group, placed: np.ndarray, placed_r: np
 #: bodies fit: centred, and shifted by these fractions of a spacing across and of a row pair
 #: up (walls and obstacles cut rows: the placement keeping most sites is taken)
 LATTICE_PHASES = (None,) + tuple((fx, fy) for fx in (0.0, 0.5) for fy in (0.0, 0.25, 0.5, 0.75))
-LATTICE_PROBE_M = 0.02  # the grid on which the part of the rectangle where bodies fit is found
+LATTICE_PROBE_M = 0.02  # the grid on which the part of the rectangle where bodies fit is found ...
+LATTICE_PROBE_MAX = 400  # ... with at most this many points a side
 
 
-def lattice_sites(scene: Scene, group: Group, gap: float, spacing: float, placed: np.ndarray | None = None,
-                  placed_r: np.ndarray | None = None, clearance=None) -> np.ndarray:
-    """(m, 2) the most sites of the group's :class:`~crowdmotion.groups.Lattice` at
-    ``spacing`` metres, over the placements ``LATTICE_PHASES``, where a body of its radius
-    stands ``gap`` clear of obstacles (at t = 0), of the scene's bounds, of the ``placed``
-    bodies (radii ``placed_r``) and, with ``clearance(points)``, of further obstacles."""
-    need = group.radius + gap
+def _clear_of(scene: Scene, need: float, placed: np.ndarray | None, placed_r: np.ndarray | None, clearance):
+    """``clear(points)``: whether a body at each point stands ``need`` metres (its radius and
+    the gap) clear of obstacles (at t = 0), of the scene's bounds, of the ``placed`` bodies
+    (radii ``placed_r``) and, with ``clearance(points)``, of further obstacles."""
     tree = cKDTree(placed) if placed is not None and len(placed) else None
+    room = need - 1e-9  # (a site exactly a body and the gap from a wall fits)
 
     def clear(pts: np.ndarray) -> np.ndarray:
-        room = need - 1e-9  # (a site exactly a body and the gap from a wall fits)
         ok = (scene.obstacle_distance(pts, 0.0) >= room) & (scene.wall_clearance(pts) >= room)
         if clearance is not None and ok.any():
             ok &= clearance(pts) >= room
@@ -97,19 +95,37 @@ def lattice_sites(scene: Scene, group: Group, gap: float, spacing: float, placed
             ok &= d >= room + placed_r[j]
         return ok
 
-    lattice = group.spawn
-    steps = np.maximum(np.ceil((lattice.upper - lattice.lower) / LATTICE_PROBE_M).astype(int), 1) + 1
-    probe = np.stack(np.meshgrid(*(np.linspace(lo, hi, k) for lo, hi, k in
-                                   zip(lattice.lower, lattice.upper, np.minimum(steps, 1001))), indexing="ij"),
-                     axis=-1).reshape(-1, 2)
+    return clear
+
+
+def _lattice_boxes(lattice: Lattice, clear) -> list:
+    """Where to lay a lattice out: the rectangle (None), and the part of it where a body
+    fits (found on a probe grid of LATTICE_PROBE_M, at most LATTICE_PROBE_MAX points a
+    side, and grown by a probe step within the rectangle: sites where none fits are
+    dropped anyway)."""
+    size = lattice.upper - lattice.lower
+    steps = np.minimum(np.maximum(np.ceil(size / LATTICE_PROBE_M).astype(int), 1) + 1, LATTICE_PROBE_MAX)
+    probe = np.stack(np.meshgrid(*(np.linspace(lo, hi, k) for lo, hi, k in zip(lattice.lower, lattice.upper, steps)),
+                                 indexing="ij"), axis=-1).reshape(-1, 2)
     fit = probe[clear(probe)]
-    # (grown by a probe step within the rectangle: the sites where no body fits are dropped anyway)
-    boxes = [None] + ([(np.maximum(fit.min(axis=0) - LATTICE_PROBE_M, lattice.lower),
-                        np.minimum(fit.max(axis=0) + LATTICE_PROBE_M, lattice.upper))] if len(fit) else [])
+    if not len(fit):
+        return [None]
+    step = size / np.maximum(steps - 1, 1)
+    return [None, (np.maximum(fit.min(axis=0) - step, lattice.lower), np.minimum(fit.max(axis=0) + step, lattice.upper))]
+
+
+def lattice_sites(scene: Scene, group: Group, gap: float, spacing: float, placed: np.ndarray | None = None,
+                  placed_r: np.ndarray | None = None, clearance=None, boxes: list | None = None) -> np.ndarray:
+    """(m, 2) the most sites of the group's :class:`~crowdmotion.groups.Lattice` at
+    ``spacing`` metres, over the placements ``LATTICE_PHASES`` (in each of ``boxes``, by
+    default :func:`_lattice_boxes`), where a body of its radius stands ``gap`` clear of
+    obstacles (at t = 0), of the scene's bounds, of the ``placed`` bodies (radii
+    ``placed_r``) and, with ``clearance(points)``, of further obstacles."""
+    clear = _clear_of(scene, group.radius + gap, placed, placed_r, clearance)
     best = np.empty((0, 2))
-    for within in boxes:
+    for within in _lattice_boxes(group.spawn, clear) if boxes is None else boxes:
         for phase in LATTICE_PHASES:
-            pts = lattice.sites(spacing, phase, within)
+            pts = group.spawn.sites(spacing, phase, within)
             if len(pts) <= len(best):
                 continue
             ok = clear(pts)
@@ -126,9 +142,10 @@ def lattice_positions(scene: Scene, group: Group, placed: np.ndarray, placed_r: 
     agents, the spare ones (a part of a row) are left empty at random. A ValueError naming
     the most that fit when even the closest spacing, bodies ``gap`` apart, holds too few."""
     lattice, n = group.spawn, group.count
+    boxes = _lattice_boxes(lattice, _clear_of(scene, group.radius + gap, placed, placed_r, None))
 
     def sites(spacing: float) -> np.ndarray:
-        return lattice_sites(scene, group, gap, spacing, placed, placed_r)
+        return lattice_sites(scene, group, gap, spacing, placed, placed_r, boxes=boxes)
 
     closest = 2.0 * group.radius + gap
     most = len(sites(closest))
