@@ -270,3 +270,29 @@ def test_a_run_killed_while_writing_is_cleared_by_the_next_overwrite(tmp_path, c
     assert "holds an earlier run that did not finish writing" in capsys.readouterr().err
     assert main(["run", str(path), "-o", str(out), "-q", "--plots", "none", "--overwrite"]) == 0
     assert _files(out) == ["manifest.json", "summary.json", "trajectories.parquet"]
+
+
+@pytest.mark.parametrize("where", ["here", "picture process"])
+def test_a_picture_that_fails_to_draw_keeps_the_run_s_files(tmp_path, monkeypatch, capsys, where):
+    # a bug in one picture must not throw away a simulation: its trajectories, summary and
+    # the pictures that did draw are written whole and listed; the command says so and exits 1
+    import json
+
+    import crowdmotion._precompile
+    import crowdmotion.render.player
+
+    if where == "here":  # one core: the pictures drawn in this process
+        monkeypatch.setattr(crowdmotion._precompile, "cores", lambda: 1)
+    path = _scenario(tmp_path)
+    out = tmp_path / "out"
+
+    def broken_player(*args, **kwargs):
+        raise KeyError("soldiers")
+
+    monkeypatch.setattr(crowdmotion.render.player, "write_player", broken_player)
+    assert main(["run", str(path), "-o", str(out), "-q", "--plots", "paths,player"]) == 1
+    err = capsys.readouterr().err
+    assert "internal error drawing the pictures: KeyError: 'soldiers'" in err and "are kept" in err, err
+    assert _files(out) == ["manifest.json", "paths.png", "summary.json", "trajectories.parquet"]
+    manifest = json.loads((out / "manifest.json").read_text())
+    assert manifest["complete"] and sorted(manifest["files"]) == ["paths.png", "summary.json", "trajectories.parquet"]

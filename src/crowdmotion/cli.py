@@ -161,7 +161,7 @@ def cmd_run(args) -> int:
     from crowdmotion import _precompile
     from crowdmotion.interrupts import Interrupts, is_interrupt
     from crowdmotion.metrics import headline
-    from crowdmotion.outputs import MANIFEST, claim_output_folder, write_run
+    from crowdmotion.outputs import MANIFEST, PictureError, claim_output_folder, write_run
     from crowdmotion.render.background import PictureProcess
     from crowdmotion.scenario import load_scenario, run_scenario
 
@@ -180,6 +180,16 @@ def cmd_run(args) -> int:
                       f"({stop.again()})", file=sys.stderr, flush=True)
             with stop.writing():
                 files = write_run(result, out, plots=plots, pictures=pictures)
+        except PictureError as exc:
+            if args.debug:
+                raise exc.cause from None
+            print(f"{sc.spec.name}: {headline(result.summary)}")
+            for f in exc.written:
+                print(f"  wrote {f}")
+            print(f"crowdmotion: internal error drawing the pictures: {exc} (the run's files above are kept; "
+                  f"`crowdmotion render {out}` draws again; run again with --debug for the traceback, and please "
+                  f"report it)", file=sys.stderr)
+            return 1
         except (KeyboardInterrupt, SystemError) as exc:
             if not is_interrupt(exc):
                 raise
@@ -860,7 +870,8 @@ EXIT_STATUS = """\
 exit status:
   0    done
   1    demo: a scene failed; verify: a case failed its criterion; an internal error
-       (a bug of ours: --debug shows its traceback)
+       (a bug of ours: --debug shows its traceback; run: one drawing the pictures keeps
+       the run's trajectories and summary.json)
   2    refused or failed, with a message naming what: a bad argument, scenario or
        trajectory file; an output folder in use by another run, holding an earlier run
        (without --overwrite) or files no run listed; a file that could not be read or

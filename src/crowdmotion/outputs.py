@@ -38,6 +38,15 @@ class OutputFolderError(ValueError):
     earlier run, or holding files no run listed."""
 
 
+class PictureError(RuntimeError):
+    """Drawing a run's pictures failed (a bug of ours): the run's trajectories and
+    summary.json are kept, whole (``written``), and the pictures that did draw."""
+
+    def __init__(self, cause: BaseException, written: list[Path]):
+        super().__init__(f"{type(cause).__name__}: {cause}")
+        self.cause, self.written = cause, written
+
+
 def folder_inside(root, name: str) -> Path:
     """``root / name``, the folder a name gives (a scenario's out/<name>, a demo scene's
     subfolder), refused unless, resolved, it lies strictly inside ``root``: a name such
@@ -363,7 +372,9 @@ def write_run(result, out, plots=None, pictures=None) -> list[Path]:
 
     The folder's manifest.json lists the files before the first is written and says when
     all are: a run is left whole, or (an error, a full disk, a second Ctrl-C) with none
-    of its files; a process killed outright leaves a manifest that says it did not
+    of its files; a picture that fails to draw (a bug of ours) raises
+    :class:`PictureError` after the run's data files (and the pictures that did draw)
+    are written whole and listed; a process killed outright leaves a manifest that says it did not
     finish, which ``--overwrite`` clears. A run stopped early is whole too, its frames so
     far marked ``partial`` in summary.json, the trajectories and the manifest."""
     out = Path(out)
@@ -387,10 +398,25 @@ def write_run(result, out, plots=None, pictures=None) -> list[Path]:
         with atomic_path(out / "summary.json") as tmp:
             tmp.write_text(json_text(summary, indent=2))
         written.append(out / "summary.json")
-        drawn = pictures.result() if pictures is not None else draw_pictures(*run, plots, spec.name)
+        failed = None
+        try:
+            drawn = pictures.result() if pictures is not None else draw_pictures(*run, plots, spec.name)
+        except Exception as exc:  # noqa: BLE001 - a picture's bug must not lose the run (a full disk still does)
+            if isinstance(exc, OSError):
+                raise
+            failed = exc
+            if pictures is not None:
+                pictures.close()  # the other parts stopped too, their writes in progress removed
+                remove_stale_temps(out)
+            drawn = [out / n for n in planned if os.path.lexists(out / n)
+                     and n not in {p.name for p in written} and not n.endswith(".meta.json")]
         names = [p.name for p in written + drawn] + [n for n in planned if n.endswith(".meta.json")]
         _write_manifest(out, [n for n in dict.fromkeys(names) if os.path.lexists(out / n)], complete=True,
                         partial=partial)
+        if failed is not None:
+            raise PictureError(failed, written + drawn) from failed
+    except PictureError:
+        raise
     except BaseException as exc:
         if pictures is not None:
             pictures.close()  # stopped (its write in progress removed) before the files go

@@ -168,3 +168,13 @@ def test_a_long_corridor_is_drawn_high_enough_to_see_and_says_its_y_is_stretched
     assert height >= 250 and width <= 1400, (width, height)
     tall = plots.plot_paths(tr, cm.Scene(bounds=([0, 0], [120, 1200])), tmp_path / "t.png")
     assert Image.open(tall).size[1] <= 1400
+
+
+def test_formation_pictures_draw_a_group_that_enters_after_the_first_snapshot(tmp_path):
+    scene = cm.Scene([[0.0, 0.0], [10.0, 10.0]])
+    mesh = {"name": "soldiers", "vertices": np.array([[2.0, 2.0], [6.0, 2.0], [4.0, 4.0]]),
+            "edges": np.array([[0, 1], [1, 2], [2, 0]]), "torn": np.zeros(3, bool),
+            "agents": np.array([[2.0, 2.0], [6.0, 2.0], [4.0, 4.0]]), "radius": 0.3, "dislocated": np.zeros(3, bool)}
+    snapshots = [{"time": 0.0, "groups": []}, {"time": 5.0, "groups": [mesh]}]  # not in yet at t = 0
+    assert plots.animate_formation_snapshots(scene, snapshots, tmp_path / "f.gif").exists()
+    assert list(plots._snapshot_colours(snapshots)) == ["soldiers"]

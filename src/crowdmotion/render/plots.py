@@ -466,8 +466,14 @@ def plot_formation_snapshots(scene: Scene, snapshots: list[dict], path, title: s
 
 
 def _snapshot_colours(snapshots: list[dict]) -> dict:
-    """Group colours for formation snapshots, by group name where given (else index)."""
-    return group_colours([g.get("name", gi) for gi, g in enumerate(snapshots[0]["groups"])])
+    """Group colours for formation snapshots, by group name where given (else index),
+    in the order the groups first appear (a group entering later is in none of the
+    first snapshots)."""
+    keys: dict = {}
+    for snap in snapshots:
+        for gi, g in enumerate(snap["groups"]):
+            keys.setdefault(g.get("name", gi), None)
+    return group_colours(list(keys))
 
 
 def _mesh_handles(colours: dict) -> list:
