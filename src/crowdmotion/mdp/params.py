@@ -32,7 +32,9 @@ class MDPParams(BaseModel):
                                name ``despawn`` is still read)
     stop_when_done : bool      end the run early once every agent has arrived (or is stuck)
     replan_every : int         with moving obstacles, re-solve the values every this many steps
-    lookahead : int            ... marking the cells the obstacles cover this many steps ahead
+                               (the cells they cover until then blocked)
+    lookahead : int            ... and avoid the cells they cover this many steps after that
+                               (nobody steps in; one standing there walks out)
     speed_limited_steps : bool  a step lasts long enough that the longest move made (√2
                                cells in 2D, √3 in 3D; planned for, with moving obstacles)
                                stays within every group's max_speed; false: the paper's

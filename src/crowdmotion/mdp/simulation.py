@@ -134,6 +134,57 @@ def spawn_cells(grid: GridMap, group: Group, taken: set, rng: np.random.Generato
     return cells
 
 
+#: value of a cell a moving obstacle will cover soon, less the steps out of it: below any
+#: field's value (a path of at most this many cells), so nobody steps in, but one standing in
+#: it walks out the shortest way
+ESCAPE_VALUE = -1e9
+
+
+def obstacle_cells(static: GridMap, moving, step: int, chunk: int, lookahead: int,
+                   dt: float) -> tuple[np.ndarray, np.ndarray]:
+    """(hard, occupied) 0/1 grids: ``hard``, the static obstacles and the cells the moving
+    ones cover from ``step`` until the values are next solved, ``chunk`` steps on (nobody
+    may stand there); ``occupied``, those and the cells they cover over the ``lookahead``
+    steps after that (nobody should step in, but one already there walks out, see
+    :func:`escape_values`)."""
+    hard = static.occupancy.copy()
+    for ob in moving:
+        for k in range(chunk + 1):
+            mark_obstacle(GridMap(hard, static.cell_size, static.origin), ob, (step + k) * dt)
+    occ = hard.copy()
+    for ob in moving:
+        for k in range(chunk + 1, chunk + lookahead + 1):
+            mark_obstacle(GridMap(occ, static.cell_size, static.origin), ob, (step + k) * dt)
+    return hard, occ
+
+
+def escape_values(values: np.ndarray, occupied: np.ndarray, hard: np.ndarray) -> np.ndarray:
+    """``values`` (F, *shape), solved with ``occupied`` blocked, with each cell of
+    ``occupied`` that is not ``hard`` valued ESCAPE_VALUE less its steps (through such
+    cells, diagonals included) to the nearest free cell: an agent that stepped in before
+    the obstacle came into the look-ahead walks out before it arrives (the walker moves
+    to a better-valued cell, and steps into none of these from a free one)."""
+    from scipy.ndimage import binary_dilation, generate_binary_structure
+
+    soft = (occupied != 0) & (hard == 0)
+    if not soft.any():
+        return values
+    out = values.copy()
+    reach = occupied == 0
+    steps = np.full(occupied.shape, np.inf)
+    around = generate_binary_structure(occupied.ndim, occupied.ndim)
+    k = 0
+    while True:
+        k += 1
+        ring = binary_dilation(reach, structure=around) & soft & ~reach
+        if not ring.any():
+            break
+        steps[ring] = k
+        reach |= ring
+    out[:, soft] = np.where(np.isfinite(steps[soft]), ESCAPE_VALUE - steps[soft], -np.inf)
+    return out
+
+
 def solve_field(occupancy, goals, params: MDPParams, previous=None) -> np.ndarray:
     if params.solver == "vi" and previous is not None:  # warm start the paper's Algorithm 1
         return value_iteration(occupancy, [tuple(g) for g in goals], params.theta, params.corner_cutting,
@@ -229,22 +280,18 @@ def run(scene: Scene, groups: Sequence[Group], params: MDPParams, rng: np.random
             if arrivals is not None:  # agents enter between chunks: end one at the next frame one may
                 chunk = min(chunk, arrivals.steps_to_next(done))
             if values is None or moving:
-                occ = static.occupancy.copy()
-                for ob in moving:  # current cells and those covered over the look-ahead
-                    for k in range(params.lookahead + 1):
-                        tmp = GridMap(occ, cell, static.origin)
-                        mark_obstacle(tmp, ob, (done + k) * dt)
+                hard, occ = obstacle_cells(static, moving, done, chunk, params.lookahead, dt)
                 prev = values
                 values = np.stack([
                     solve_field(occ, [c for c in gc if not occ[tuple(c)]] or gc, params,
                                 None if prev is None else prev[k])
                     for k, gc in enumerate(goal_cells)
                 ])
-                walker.set_blocked(occ)
+                walker.set_blocked(hard)
                 # Algorithm 3 follows v + the goal areas' fill depth (goal_fill: goals that fill)
                 depth = np.stack([fill_depth(occ, gc, params.corner_cutting, toward[k])
                                   for k, gc in enumerate(goal_cells)])
-                walker.set_values(values + depth)
+                walker.set_values(escape_values(values, occ, hard) + depth)
             if fill:
                 taken = walker.cells[walker.active == 1]
                 key = taken.tobytes()
@@ -264,6 +311,9 @@ def run(scene: Scene, groups: Sequence[Group], params: MDPParams, rng: np.random
                     and (arrivals is None or not arrivals.pending)
                     and (np.array_equal(before, walker.cells) or not walker.can_fill_deeper().any())):
                 break
+            if params.stop_when_done and moving and not (walker.active == 1).any() and (
+                    arrivals is None or not arrivals.pending):
+                break  # everyone has left: nobody for a moving obstacle to meet
     partial = loop.stopped
     n = min(len(cells_out), len(active_out))
     cells_out, active_out = cells_out[:n], active_out[:n]
