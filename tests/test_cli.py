@@ -448,3 +448,31 @@ def test_players_and_pictures_of_an_exported_file_are_named_after_it(tmp_path):
     assert main(["view", str(run)]) == 0 and (run / "view.html").is_file()
     assert main(["render", str(run / "a.csv"), "--to", "gif", "--max-frames", "2", "-q"]) == 0
     assert (run / "a.animation.gif").is_file() and (run / "a.density.png").is_file()
+
+
+def test_report_gives_a_formation_s_time_to_goal_from_entering_and_says_how_each_method_measured(tmp_path, capsys):
+    text = """
+name = "march"
+method = "formation"
+[scene]
+bounds = [[0.0, -6.0], [30.0, 6.0]]
+[[groups]]
+name = "soldiers"
+count = 4
+spawn = { shape = "point", position = [3.0, 0.0] }
+goal = { shape = "point", position = [15.0, 0.0] }
+formation = { kind = "block", rows = 2, cols = 2, spacing = 1.2 }
+enter = { start = 2.0 }
+"""
+    path = tmp_path / "march.toml"
+    path.write_text(text)
+    out = tmp_path / "out"
+    assert main(["run", str(path), "-o", str(out), "-q", "--plots", "none"]) == 0
+    capsys.readouterr()
+    assert main(["report", str(out)]) == 0
+    printed = capsys.readouterr().out
+    summary = json.loads((out / "summary.json").read_text())
+    report = json.loads((out / "report.json").read_text())
+    arrived = summary["formation"]["soldiers"]["arrived_s"]
+    assert report["soldiers"]["time_to_goal_s"] == pytest.approx(arrived - 2.0)  # from entering at 2 s
+    assert "to goal: each formation as one unit, from entering" in printed and "an RVO run" not in printed

@@ -418,7 +418,12 @@ def _run_report(path: Path, traj, groups: dict | None = None) -> tuple[dict, str
                   f"relaxed frames, and an agent still in the last frame counts as not arrived; the run's own "
                   f"folder gives the run's own measures")
     elif own is not None:
-        source = f"measured by the run itself ({summary_file.name}; an RVO run on its steps as simulated)"
+        how = {"rvo": "on its steps as simulated", "formation": "to goal: each formation as one unit, from entering",
+               "pso": "to goal: the mean over the particles that arrived"}.get(summary.get("method"))
+        source = f"measured by the run itself ({summary_file.name}{'; ' + how if how else ''})"
+        arrived = summary.get("arrival_rate")
+        if isinstance(arrived, (int, float)) and arrived < 1.0:
+            source += f"; {1.0 - arrived:.0%} of the agents never arrived"
     else:
         source = f"measured on the frames of {path.name}, with the arrival times of {summary_file.name}"
     return report, source

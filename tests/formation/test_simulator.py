@@ -244,7 +244,7 @@ def test_a_block_sent_back_after_it_arrived_walks_to_its_new_goal_and_recovers_t
 @pytest.mark.parametrize("group,goal,message", [
     (3, (10, 0), r"formation.set_goal: no group 3 \(ids run from 0 to 0\)"),
     (0, (25, 0.5), "inside an obstacle"),
-    (0, (70, 0), "outside the scene bounds"),
+    (0, (70, 0), r"formation group 'group0': the goal at \[70.0, 0.0\] is outside the scene bounds"),
     (0, (np.nan, 0), "goal"),
 ])
 def test_set_goal_refuses_a_bad_goal_and_the_group_keeps_its_own(group, goal, message):

@@ -64,6 +64,11 @@ def run_scenario(scene, groups, params: FormationParams, rng, progress: bool = T
     traj = result.trajectories
     summary = metrics.summary(traj, scene)
     sim = result.simulator
+    # each formation's time to its goal, from entering, as one unit (its agents stay there)
+    by_group = {}
+    for g in sim.groups:
+        arrived = (result.report.get(g.name) or {}).get("arrived_s")
+        by_group[g.name] = None if arrived is None or g.entered_at is None else float(arrived - g.entered_at)
     summary.update({
         "method": "formation",
         "steps": sim.steps,
@@ -71,7 +76,8 @@ def run_scenario(scene, groups, params: FormationParams, rng, progress: bool = T
         "formation": result.report,
         **({} if result.journeys is None else {"journeys": result.journeys.report([g.name for g in groups])}),
         "rules": dict(sim.stats),
-        "groups": metrics.group_report(traj),
+        "time_to_goal_by_group_s": by_group,
+        "groups": metrics.with_arrival_times(metrics.group_report(traj), by_group),
     })
     if any("enter" in g.attributes for g in groups):  # each formation's delay, as one unit
         due = np.array([g.enter_at for g in sim.groups])[sim.group_of]

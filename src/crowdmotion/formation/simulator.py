@@ -318,7 +318,7 @@ class Simulator(LiveObstacles):
         its centre, where the group recovers its shape, is outside the bounds or inside
         an obstacle standing now."""
         region, gc = _region_goal(goal)
-        self._check_inside(gc[None], g.radius, f"{what}: goal")
+        self._check_inside(gc[None], g.radius, what, point="the goal")
         gclear = float(self._now.obstacle_distance(gc[None], self.time)[0])
         if gclear < g.radius:
             raise ValueError(f"{what}: the goal {gc.tolist()} is inside an obstacle (clearance {gclear:.3g} m)")
@@ -430,13 +430,17 @@ class Simulator(LiveObstacles):
                 self._goal_checked(g.goal, g, f"formation group {g.name!r}")
         self._build_route()
 
-    def _check_inside(self, pos: np.ndarray, radius: float, what: str) -> None:
+    def _check_inside(self, pos: np.ndarray, radius: float, what: str, point: str = "agent") -> None:
+        """A ValueError naming ``what`` if a body of ``radius`` at one of ``pos`` reaches
+        past the scene's bounds; ``point``: what the points are ("agent": agent i; else
+        that word)."""
         lo, hi = self.scene.lower, self.scene.upper
         out = ~np.all(np.isfinite(pos), axis=1) | np.any((pos - radius < lo) | (pos + radius > hi), axis=1)
         if out.any():
             i = int(np.flatnonzero(out)[0])
-            raise ValueError(f"{what}: agent {i} at {pos[i].round(3).tolist()} is outside the scene bounds "
-                             f"{lo.tolist()}-{hi.tolist()}")
+            which = f"agent {i}" if point == "agent" else point
+            raise ValueError(f"{what}: {which} at {pos[i].round(3).tolist()} is outside the scene bounds "
+                             f"{lo.tolist()}-{hi.tolist()} (a body of radius {radius:g} m)")
 
     def _check_start(self, pos: np.ndarray, radius: float, goal: np.ndarray, what: str, bodies: bool = True) -> None:
         self._check_inside(pos, radius, what)
