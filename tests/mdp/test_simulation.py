@@ -63,3 +63,17 @@ def test_robots_crossing_a_forklift_s_lane_are_never_run_over(seed):
     assert s["agent_obstacle_penetrations"] == 0 and s["agent_agent_overlaps"] == 0
     assert s["arrival_rate"] == 1.0
     assert s["duration_s"] < 80  # and the run stops once everyone has left (it ran on to max_steps, 467 s)
+
+
+def test_a_point_in_the_strip_the_grid_s_whole_cells_leave_at_the_scene_s_edge_takes_the_last_cell():
+    import crowdmotion as cm
+    from crowdmotion.mdp.grid import rasterise
+    from crowdmotion.mdp.simulation import region_cells
+
+    grid = rasterise(cm.Scene(bounds=([0, 0], [10, 10])), 0.849)  # 11 cells a side: 9.34 m of the 10
+    assert grid.shape == (11, 11)
+    cells = region_cells(grid, cm.Points([[9.7, 9.0], [9.0, 9.99]]), "goal")
+    assert cells.tolist() == [[10, 10], [10, 10]]
+    with pytest.raises(ValueError, match=r"goal: point \[10.5, 9.0\] lies outside the scene \(its grid of 0.849 m "
+                                         r"cells spans \[0.0, 0.0\]-\[9.34, 9.34\]\)"):
+        region_cells(grid, cm.Points([[10.5, 9.0]]), "goal")
