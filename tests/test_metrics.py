@@ -302,3 +302,19 @@ def test_a_run_at_its_step_limit_behind_people_whose_route_never_leaves_names_th
     assert "32 finished a route that does not leave" in line and "end the route with a leave stage" in line
     summary["journeys"]["finished"] = 0  # everyone done left: only the setting is to blame
     assert "raise it to let them arrive" in headline(summary)
+
+
+def test_agents_short_of_their_goal_that_came_no_nearer_in_the_last_quarter_count_as_stalled():
+    from crowdmotion.metrics import headline, note_step_limit, stalled_short
+
+    t = np.arange(20.0)
+    stuck = np.stack([np.full(20, 5.0), np.zeros(20)], axis=1)  # against a wall 5 m short, for good
+    walking = np.stack([t * 0.5, np.ones(20)], axis=1)  # still on its way, 0.5 m a frame
+    there = np.stack([np.full(20, 10.0), np.full(20, 2.0)], axis=1)  # arrived
+    traj = Trajectories(np.stack([stuck, walking, there], axis=1), 1.0)
+    goals = np.array([[10.0, 0.0], [30.0, 1.0], [10.0, 2.0]])
+    assert stalled_short(traj, goals, np.array([False, False, True])) == 1
+    summary = {"agents": 3, "frames": 20, "agent_agent_overlaps": 0, "agent_obstacle_penetrations": 0,
+               "arrival_rate": 1 / 3}
+    note_step_limit(summary, "pso.iterations", 19, True, 19.0, stalled=1)
+    assert "with 1 short of their goal that came no nearer it in the run's last quarter" in headline(summary)

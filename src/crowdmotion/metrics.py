@@ -552,16 +552,38 @@ def diversity(runs: list[Trajectories]) -> dict:
 
 
 def note_step_limit(summary: dict, setting: str, value: int, at_limit: bool, seconds: float,
-                    short: bool | None = None) -> None:
+                    short: bool | None = None, stalled: int = 0) -> None:
     """Record in ``summary["ended_at_limit"]`` that the run stopped at its step limit (the
     scenario's ``setting`` = ``value``, ``seconds`` of simulated time: ``at_limit``) with
     agents still short of their goals (``short``; default: not everyone arrived): they did
     not fail to arrive, the run ended. Nothing when everyone arrived or the run stopped
-    sooner (interrupted, or done)."""
+    sooner (interrupted, or done). ``stalled``: how many of those short had stopped
+    getting anywhere (:func:`stalled_short`), for whom more steps would not help."""
     if short is None:
         short = summary.get("arrival_rate", 1.0) < 1.0
     if at_limit and short:
-        summary["ended_at_limit"] = {"setting": setting, "value": int(value), "simulated_s": float(seconds)}
+        summary["ended_at_limit"] = {"setting": setting, "value": int(value), "simulated_s": float(seconds),
+                                     "stalled": int(stalled)}
+
+
+STALLED_SHARE = 0.25  # the last quarter of a run ...
+STALLED_M = 0.5  # ... in which an agent short of its goal got no nearer than this
+
+
+def stalled_short(traj: Trajectories, goals: np.ndarray, arrived: np.ndarray) -> int:
+    """How many agents that did not arrive (``arrived`` False; ``goals`` (N, dim) their
+    goal points) came no nearer their goal than STALLED_M over the last STALLED_SHARE of
+    the run's frames while in the scene: stuck (behind a wall, say), not slow."""
+    short = np.flatnonzero(~np.asarray(arrived, dtype=bool))
+    if not len(short) or traj.n_frames < 4:
+        return 0
+    start = int(traj.n_frames * (1.0 - STALLED_SHARE))
+    p, act = traj.positions[start:, short], traj.active_mask[start:, short]
+    d = np.linalg.norm(p - np.asarray(goals, dtype=float)[short][None], axis=-1)
+    there = act.any(axis=0)
+    first = d[np.argmax(act, axis=0), np.arange(len(short))]
+    best = np.where(act, d, np.inf).min(axis=0)
+    return int(np.sum(there & (first - best < STALLED_M)))
 
 
 def headline(summary: dict) -> str:
@@ -577,6 +599,10 @@ def headline(summary: dict) -> str:
                 parts[-1] += (f" ({_stopped_at(summary)} before the rest got there; {stayed} finished a route that "
                               f"does not leave and stand at its last place, perhaps in the others' way: end the "
                               f"route with a leave stage, or raise the setting)")
+            elif summary["ended_at_limit"].get("stalled"):
+                n = summary["ended_at_limit"]["stalled"]
+                parts[-1] += (f" ({_stopped_at(summary)} with {n} short of their goal that came no nearer it in the "
+                              f"run's last quarter: stuck, an obstacle in the way perhaps: more steps will not bring them)")
             else:
                 parts[-1] += f" ({_stopped_at(summary)} before the rest got there: raise it to let them arrive)"
     if "formation" in summary:

@@ -40,7 +40,7 @@ RECHOOSE_MARGIN_S = 2.0  # seconds of cost another option must save before an ag
 
 def _area(area, what: str):
     if not isinstance(area, (Rect, Disc, Points)) or area.dim != 2:
-        raise ValueError(f"{what} must be a 2D Rect, Disc or Points region, got {area!r}")
+        raise ValueError(f"{what} must be a 2D Rect, Disc or Points region (routes are 2D), got {area!r}")
     return area
 
 

@@ -209,7 +209,8 @@ def run_scenario(scene, groups, params: PSOParams, rng, progress: bool = True):
     capped = summary["iterations"] >= params.max_iterations
     metrics.note_step_limit(summary, "pso.max_iterations" if capped else "pso.iterations",
                             params.max_iterations if capped else params.iterations,
-                            not traj.metadata.get("partial", False), summary["iterations"] * params.iteration_time)
+                            not traj.metadata.get("partial", False), summary["iterations"] * params.iteration_time,
+                            stalled=metrics.stalled_short(traj, sr.targets[-1][sr.swarm], arrived))
     return traj, result, summary
 
 
