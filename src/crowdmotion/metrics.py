@@ -563,7 +563,7 @@ def note_step_limit(summary: dict, setting: str, value: int, at_limit: bool, sec
         short = summary.get("arrival_rate", 1.0) < 1.0
     if at_limit and short:
         summary["ended_at_limit"] = {"setting": setting, "value": int(value), "simulated_s": float(seconds),
-                                     "stalled": int(stalled)}
+                                     **({"stalled": int(stalled)} if stalled else {})}
 
 
 STALLED_SHARE = 0.25  # the last quarter of a run ...
