@@ -51,6 +51,10 @@ def cell_size_for(groups: Sequence[Group], params: MDPParams) -> float:
     return float(params.cell_size)
 
 
+#: said beside a cell count: a small group's regions are counted in the largest body's cells
+ONE_GRID = " (one grid for every group: by default its cells fit the largest body)"
+
+
 def step_time(groups: Sequence[Group], params: MDPParams, cell: float, longest: float) -> float:
     """Seconds per step of Algorithm 3: a cell at the slowest group's preferred speed (the
     paper's time base, one cell per step), and with ``speed_limited_steps`` at least long
@@ -112,8 +116,8 @@ def check_goal_room(groups: Sequence[Group], goal_cells: list[np.ndarray], cell:
             g = groups[ks[0]]
             who = f"{need} agents" if len(ks) == 1 else f"{need} agents of groups {', '.join(repr(groups[k].name) for k in ks)}"
             raise ValueError(f"group {g.name!r} goal: {describe_region(g.goal)} holds {len(key)} free grid cells of "
-                             f"{cell:.3g} m and agents stay on arrival, one to a cell: {who} cannot all arrive; "
-                             f"enlarge the goal, lower the count or set [mdp] remove_on_arrival = true")
+                             f"{cell:.3g} m{ONE_GRID} and agents stay on arrival, one to a cell: {who} cannot all "
+                             f"arrive; enlarge the goal, lower the count or set [mdp] remove_on_arrival = true")
 
 
 def spawn_cells(grid: GridMap, group: Group, taken: set, rng: np.random.Generator) -> np.ndarray:
@@ -130,8 +134,8 @@ def spawn_cells(grid: GridMap, group: Group, taken: set, rng: np.random.Generato
         cand = np.array([c for c in cand if tuple(c) not in taken])
         if len(cand) < group.count:
             raise ValueError(f"{what}: {describe_region(group.spawn)} has {len(cand)} free grid cells of "
-                             f"{grid.cell_size:.3g} m but count = {group.count} agents need one each: enlarge "
-                             f"the spawn region or lower the count")
+                             f"{grid.cell_size:.3g} m{ONE_GRID} but count = {group.count} agents need one each: "
+                             f"enlarge the spawn region or lower the count")
         cells = cand[rng.choice(len(cand), size=group.count, replace=False)]
     for c in cells:
         if tuple(c) in taken:
