@@ -60,7 +60,7 @@ def test_one_hot_cell_does_not_flatten_the_density_scale(captured, tmp_path):
     ax = captured[0].axes[0]
     image = ax.get_images()[0]
     assert image.norm.vmax < 0.5, "the standing agent's cell (1 /m²) is off the scale"
-    assert "clipped" in ax.get_title()
+    assert "clipped" in ax.get_title(loc="left")
 
 
 def test_the_player_uses_the_same_group_colours_as_the_pictures():

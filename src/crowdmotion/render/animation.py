@@ -191,13 +191,15 @@ def plot_density(traj: Trajectories, path, cell: float = 0.5, title: str = "") -
     label = "mean density (agents / m²; white: nobody there)" if (density == 0).any() else "mean density (agents / m²)"
     fig.colorbar(im, ax=ax, label=label, shrink=0.8, extend="max" if clipped else "neither",
                  orientation="horizontal" if wide else "vertical", pad=0.3 if wide else 0.05)
+    if not title:
+        title = f"mean density, {cell} m cells" + (", seen from above (heights left out)" if traj.dim == 3 else "")
     if clipped:
-        title = (title or f"mean density, {cell} m cells") + \
-            f"\n(colour scale clipped at the 99th percentile; the densest cell holds {density.max():.2g} /m²)"
+        title += f"\n(colour scale clipped at the 99th percentile; the densest cell holds {density.max():.2g} /m²)"
     ax.set_xlim(lo[0], hi[0])
     ax.set_ylim(lo[1], hi[1])
     ax.set_aspect("equal")
     ax.set_xlabel("x (m)")
     ax.set_ylabel("y (m)")
-    ax.set_title(title or f"mean density, {cell} m cells")
+    # a clipped scale's arrow tops the colour bar beside the map: the title clears it
+    ax.set_title(title, loc="left", pad=24 if clipped and not wide else 6)
     return _save(fig, path)
