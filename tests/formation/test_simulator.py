@@ -169,15 +169,24 @@ def test_blocks_that_pushed_past_each_other_recover_square_to_the_way_they_set_o
         assert cKDTree(start).query(end)[0].max() < 0.05, f"{name} ends turned"
 
 
-def test_a_column_that_arrives_far_turned_from_its_start_heading_keeps_the_way_it_stands():
-    # the block's best fit is more than 45 degrees off its start heading: it recovers as it stands
-    scene = Scene(bounds=([-20, -20], [20, 20]))
+@pytest.mark.parametrize("walls, kept", [([], False), ([Box([-20, -20], [20, -1.5]), Box([-20, 1.5], [10, 20])], True)])
+def test_a_column_that_arrives_far_turned_turns_back_where_it_has_room_and_keeps_the_way_it_stands_where_not(
+        walls, kept):
+    # a 2 x 6 column (6 m north-south at its start heading, in a hall north-east of the goal)
+    # arrives at its goal turned 90 degrees, lying east-west, though it came heading east as
+    # it started: in the open it turns back square; at the end of a 3 m wide east-west
+    # corridor it has no room to, and recovers as it stands
+    scene = Scene(bounds=([-20, -20], [20, 20]), obstacles=walls)
     sim = formation.Simulator(scene, time_step=0.1)
-    sim.add_group(formation.block(2, 6, spacing=1.0), goal=(0.0, 0.0), start=(0.0, 0.0), heading=0.0, radius=0.3)
+    sim.add_group(formation.block(2, 6, spacing=1.0), goal=(0.0, 0.0), start=(15.0, 10.0), heading=0.0, radius=0.3)
     g = sim.groups[0]
-    g.vertices[:] = (g.vertices - g.vertices.mean(axis=0)) @ np.array([[0.0, -1.0], [1.0, 0.0]]).T  # 90 degrees
-    sim.step()
-    assert abs(np.cos(g.heading)) < 0.05, "it keeps standing north-south, not spun back east-west"
+    V = (g.mesh.rest - g.mesh.rest.mean(axis=0)) @ np.array([[0.0, -1.0], [1.0, 0.0]]).T  # 90 degrees, at the goal
+    g.heading = 0.0  # the way it travelled
+    sim._arrive(g, V, np.zeros(2))
+    if kept:
+        assert abs(np.cos(g.heading)) < 0.05, "it keeps lying east-west: no room to turn back"
+    else:
+        assert abs(np.sin(g.heading)) < 0.05, "it turns back square to its start heading"
 
 
 def test_quarter_turn_symmetry_of_templates():
@@ -202,7 +211,7 @@ def test_arriving_turned_71_degrees_a_square_block_recovers_a_quarter_turn_round
         centre = np.array([40.0, 0.0])
         V = (g.mesh.rest - g.mesh.rest.mean(axis=0)) @ rot.T + centre
         g.heading = turn  # the way it travelled
-        Simulator._arrive(g, V, centre)
+        sim._arrive(g, V, centre)
         assert abs(wrap(g.heading - want)) < 1e-9
         assert abs(wrap(g.heading + g.facing_offset - turn)) <= np.pi / 4, "soldiers face about the way it came"
 
@@ -442,3 +451,35 @@ max_steps = 1500
     r = run_scenario(parse_scenario(text), progress=False)
     f = r.summary["formation"]["soldiers"]
     assert r.summary["all_recovered"] and f["edge_length_error_mean"] < 0.01 and f["kabsch_rms_m"] < 0.08
+
+
+def test_a_wedge_swung_round_by_obstacles_on_its_way_ends_facing_the_way_it_marched():
+    # a rock turned it -43 degrees and a triangle +58: it arrived turned 52 degrees in an open
+    # square and recovered so, every soldier facing 52 degrees off its march east
+    from crowdmotion.scenario import parse_scenario, run_scenario
+
+    text = """
+name = "wedge"
+method = "formation"
+seed = 4
+[scene]
+bounds = [[0.0, -15.0], [70.0, 15.0]]
+obstacles = [
+  { shape = "circle", center = [25.0, 1.0], radius = 1.5 },
+  { shape = "circle", center = [32.0, -4.0], radius = 1.0 },
+  { shape = "polygon", vertices = [[40.0, 5.0], [44.0, 4.0], [43.0, 9.0]] },
+]
+[[groups]]
+name = "wedge"
+count = 16
+radius = 0.3
+spawn = { shape = "point", position = [6.0, 2.0] }
+goal = { shape = "disc", center = [60.0, 2.0], radius = 3.0 }
+formation = { kind = "wedge", rows = 4, spacing = 1.4 }
+"""
+    from crowdmotion.facing import wrap
+
+    r = run_scenario(parse_scenario(text), progress=False)
+    assert r.summary["all_recovered"]
+    facing = r.trajectories.facing[-1]
+    assert np.abs(wrap(facing)).max() < np.radians(10)

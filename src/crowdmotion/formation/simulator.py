@@ -730,15 +730,18 @@ class Simulator(LiveObstacles):
         return standing_centre(self._now, g.goal_center, g.rest_shape(), g.radius + VERTEX_CLEARANCE,
                                obstacles=obstacles)
 
-    @staticmethod
-    def _arrive(g: FormationGroup, V: np.ndarray, centroid: np.ndarray) -> None:
+    def _arrive(self, g: FormationGroup, V: np.ndarray, centroid: np.ndarray) -> None:
         """The heading a group recovers with in its target area. The mesh stands turned
         ``fit`` from its rest shape (best fit); its slots at its start heading, or at a
         turn of it under which the slots map onto themselves (a square block: every
         quarter turn), lie nearest that. Within ARRIVAL_TURN_MAX of them it recovers
-        square to them; further (a column that came round corners into a narrow area) as
-        it stands, so it need not spin round. Soldiers then face whichever of the
-        equivalent headings lies nearest the way the group travelled."""
+        square to them, and further where the way it travelled lies nearer them than
+        the way it stands (obstacles turned it on its way) and its slots at that heading
+        stand clear of walls and obstacles (room to turn back); otherwise (a column that
+        came round corners into a narrow area) as it stands, so it need not spin round. Soldiers
+        then face whichever of the equivalent headings lies nearest the way the group
+        travelled. (A wedge swung 100° by two small obstacles on its way recovered
+        turned 52° in an open square, every soldier facing 52° off its march.)"""
         a = g.mesh.rest - g.mesh.rest.mean(axis=0)
         b = V - centroid
         fit = g.heading0 + float(np.arctan2(np.sum(a[:, 0] * b[:, 1] - a[:, 1] * b[:, 0]),
@@ -746,7 +749,12 @@ class Simulator(LiveObstacles):
         off = lambda x, y: abs(float(wrap(x - y)))  # noqa: E731
         square = min((g.heading0 + s for s in g.symmetry), key=lambda h: off(h, fit))
         travelled = g.heading
-        g.heading = square if off(square, fit) <= ARRIVAL_TURN_MAX else fit
+        g.heading = square
+        if off(square, fit) > ARRIVAL_TURN_MAX:  # turned on its way, with room to turn back?
+            slots = g.rest_shape() + self._standing_centre(g)
+            room = bool((self._now.clearance(slots) >= g.radius + VERTEX_CLEARANCE).all())
+            if not (room and off(square, travelled) < off(fit, travelled)):
+                g.heading = fit
         g.facing_offset = min(g.symmetry, key=lambda s: off(g.heading + s, travelled))
 
     def _turn(self, g: FormationGroup, drift: np.ndarray, V: np.ndarray, centroid: np.ndarray) -> float:
