@@ -241,6 +241,24 @@ class Trajectories:
 RESAMPLE_KINDS = ("linear", "catmull-rom", "b-spline")
 
 
+def held_absent(frames: np.ndarray, present: np.ndarray) -> np.ndarray:
+    """``frames`` (T, N, dim) with every agent's rows where ``present`` (T, N) says it is
+    not in the scene held where it stands when next in it (before it came in) or where it
+    last stood (after it left, or between two stays): where a simulator kept a waiting
+    agent (its entry point, drawn again while it waited) is no place it was, and a spline
+    through those rows turned it and slid it about before it appeared. In place; returned."""
+    seen = present.any(axis=0)
+    if not seen.any() or present[:, seen].all():
+        return frames
+    t = np.arange(len(present))[:, None]
+    last = np.maximum.accumulate(np.where(present, t, -1), axis=0)  # the last frame it was in, at or before
+    nxt = np.minimum.accumulate(np.where(present, t, len(present))[::-1], axis=0)[::-1]  # the next, at or after
+    src = np.where(last >= 0, last, nxt)
+    cols = np.flatnonzero(seen)
+    frames[:, cols] = frames[src[:, cols], cols]
+    return frames
+
+
 def held_stages(stage: np.ndarray, times: np.ndarray, step_dt: float, active: np.ndarray) -> np.ndarray:
     """(T', N) int16 stages at new frame ``times`` (s) of a run stepped every ``step_dt``
     s: each new frame holds the stage of the step it ends in, -1 where ``active`` says

@@ -283,3 +283,30 @@ goal = { shape = "rect", lower = [16, 1], upper = [19, 5] }
         warnings.simplefilter("error")
         parse_scenario(text + "[rvo]\ntime_step = 0.2\n")  # not one of the four: no word
         parse_scenario(text.replace('personality = "O+"\n', "") + "[rvo]\nsafety = 2.0\n")  # taken
+
+
+def test_agents_waiting_to_enter_do_not_move_about_unseen():
+    # a stream coming in faster than its entrance lets it: the waiting agents' entry points
+    # were drawn again while they waited, and their hidden rows jumped about; a spline
+    # through them turned and slid them before they appeared
+    from crowdmotion.scenario import parse_scenario, run_scenario
+
+    text = """
+name = "stream"
+method = "rvo"
+seed = 3
+[scene]
+bounds = [[0.0, 0.0], [30.0, 10.0]]
+[[groups]]
+name = "in"
+count = 30
+spawn = { shape = "rect", lower = [0.5, 3.0], upper = [2.0, 7.0] }
+goal = { shape = "rect", lower = [27.0, 2.0], upper = [29.5, 8.0] }
+enter = { rate = 6.0 }
+[rvo]
+smoothing = "none"
+"""
+    tr = run_scenario(parse_scenario(text), progress=False).trajectories
+    hidden = ~tr.active_mask[1:] & ~tr.active_mask[:-1]
+    moves = np.linalg.norm(np.diff(tr.positions, axis=0), axis=-1)
+    assert hidden.any() and moves[hidden].max() == 0.0

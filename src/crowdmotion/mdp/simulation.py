@@ -19,7 +19,7 @@ from crowdmotion.mdp.trajectory import Walker
 from crowdmotion.scene import Scene
 from crowdmotion.path_relaxation import RELAX_AT_FPS_MAX, STEP_RATE_ITERATIONS, relaxed_trajectories  # noqa: F401
 from crowdmotion.smoothing import resample_checked
-from crowdmotion.trajectories import Trajectories, held_stages
+from crowdmotion.trajectories import Trajectories, held_absent, held_stages
 
 
 @dataclass
@@ -329,7 +329,7 @@ def run(scene: Scene, groups: Sequence[Group], params: MDPParams, rng: np.random
     cells_out, active_out = cells_out[:n], active_out[:n]
     cells = np.concatenate(cells_out)
     active = np.concatenate(active_out)
-    positions = grid.centers(cells)
+    positions = held_absent(grid.centers(cells), active)
     # (agents entering over time keep the time base fixed ahead: their seconds map to steps)
     stretch = not moving and arrivals is None and params.smoothing == "relaxed" and params.speed_limited_steps
     if stretch:  # the relaxed paths' own top speed sets the time base (relaxed, below)
@@ -430,7 +430,8 @@ def _run_routes(scene: Scene, groups: Sequence[Group], params: MDPParams, rng: n
     unreachable = np.flatnonzero(~np.isfinite(values[(field_of, *starts.T)]))
     names = np.concatenate([np.full(g.count, g.name, dtype=object) for g in groups])
     traj = Trajectories(
-        grid.centers(cells), dt, group=names, radius=radius, active=None if active.all() else active, stage=stage,
+        held_absent(grid.centers(cells), active), dt, group=names, radius=radius, active=None if active.all() else active,
+        stage=stage,
         metadata={"method": "mdp", "params": params.model_dump(), "cell_size": su.cell, "grid_shape": list(grid.shape),
                   "steps": int(len(cells) - 1), "unreachable_agents": unreachable.tolist(), "partial": partial,
                   "scene": scene.to_dict(), "stages": journeys.stage_table([g.name for g in groups]),

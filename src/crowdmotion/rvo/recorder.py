@@ -21,7 +21,7 @@ from typing import Literal
 
 import numpy as np
 
-from crowdmotion.trajectories import Trajectories
+from crowdmotion.trajectories import Trajectories, held_absent
 
 #: seconds of the moving average the relaxed steps are drawn towards (``RVOParams.smoothing_window``)
 SMOOTHING_WINDOW_S = 1.0
@@ -81,10 +81,7 @@ class Recorder:
             frames[f, :len(pos)] = pos
             present[f, :len(here)] = here
         # before an agent was added (or while it waited off-scene) it is drawn where it first stood
-        seen = present.any(axis=0)
-        first = np.where(seen, np.argmax(present, axis=0), 0)
-        for i in np.flatnonzero(seen & (first > 0)):
-            frames[:first[i], i] = frames[first[i], i]
+        held_absent(frames, present)
         metadata = {"method": "rvo", "live": True, "scene": sim.scene.to_dict(), "steps": int(self._steps[-1]),
                     "jumps": [[f * sim.dt, i] for f, i in self._jumps],
                     "first_step": int(self._steps[0]), "stats": dict(sim.stats),

@@ -19,7 +19,7 @@ from crowdmotion.rvo.params import RVOParams
 from crowdmotion.rvo.personality import PARAM_KEYS, sample_personalities
 from crowdmotion.rvo.simulator import Simulator
 from crowdmotion.scene import Scene
-from crowdmotion.trajectories import Trajectories
+from crowdmotion.trajectories import Trajectories, held_absent
 
 
 def goal_points(group: Group, starts: np.ndarray, assignment: str, rng: np.random.Generator):
@@ -192,7 +192,7 @@ def run(scene: Scene, groups: Sequence[Group], params: RVOParams, rng: np.random
     if journeys is not None:
         metadata["stages"] = journeys.stage_table(names)
     traj = Trajectories(
-        np.array(frames[:n]), params.time_step, group=names[sim.group], radius=sim.params["radius"],
+        held_absent(np.array(frames[:n]), active), params.time_step, group=names[sim.group], radius=sim.params["radius"],
         active=None if active.all() else active, metadata=metadata,
         stage=None if journeys is None else np.array(stages[:n]),
     )
