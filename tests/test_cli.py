@@ -476,3 +476,20 @@ enter = { start = 2.0 }
     arrived = summary["formation"]["soldiers"]["arrived_s"]
     assert report["soldiers"]["time_to_goal_s"] == pytest.approx(arrived - 2.0)  # from entering at 2 s
     assert "to goal: each formation as one unit, from entering" in printed and "an RVO run" not in printed
+
+
+def test_an_export_never_replaces_another_run_s_file_nor_shrinks_a_run_to_one_frame(tmp_path, capsys):
+    from tests.test_scenario import RVO
+
+    path = tmp_path / "street.toml"
+    path.write_text(RVO)
+    one, two = tmp_path / "one", tmp_path / "two"
+    assert main(["run", str(path), "-o", str(one), "-q", "--plots", "none"]) == 0
+    assert main(["run", str(path), "-o", str(two), "-q", "--plots", "none", "--seed", "4"]) == 0
+    before = (two / "trajectories.parquet").read_bytes()
+    capsys.readouterr()
+    assert main(["export", str(one), "--to", "parquet", "-o", str(two / "trajectories.parquet")]) == 2
+    assert "holds another run, and trajectories.parquet is one of its files" in capsys.readouterr().err
+    assert (two / "trajectories.parquet").read_bytes() == before
+    assert main(["export", str(one), "--to", "csv", "-o", str(tmp_path / "few.csv"), "--fps", "0.001"]) == 2
+    assert "leaves one frame of the run's" in capsys.readouterr().err and not (tmp_path / "few.csv").exists()

@@ -609,7 +609,16 @@ def cmd_export(args) -> int:
         raise ValueError(f"{dest} is the file being exported: name the export with -o")
     if not dest.parent.is_dir():  # said now, not after minutes of resampling
         raise ValueError(f"-o {dest}: the folder {dest.parent} does not exist")
+    from crowdmotion.outputs import read_manifest
+
+    other = read_manifest(dest.parent) if dest.parent.resolve() != folder.resolve() else None
+    if other is not None and dest.name in other["files"]:  # another run's own file: its summary would lie
+        raise ValueError(f"-o {dest}: {dest.parent} holds another run, and {dest.name} is one of its files; the "
+                         f"export would replace it: name another file, or export into a folder of its own")
     fps = args.fps
+    if fps is not None and math.isfinite(fps) and fps > 0 and traj.times[-1] * fps < 1.0 - 1e-9:
+        raise ValueError(f"--fps {fps:g} leaves one frame of the run's {traj.times[-1]:g} s: give at least "
+                         f"{1.0 / traj.times[-1]:.3g} frames a second for two")
     if args.to in USD_FORMATS:  # a DCC plays 24 frames a second; an --fps below it is the user's to ask for
         from crowdmotion.io.usd import DCC_FPS, too_few_frames
 
