@@ -182,6 +182,8 @@ def run(scene: Scene, groups: Sequence[Group], params: RVOParams, rng: np.random
             present.append(sim.present.copy())
             if progress is not None and sim.steps % 10 == 0:
                 progress(sim.steps)
+    if progress is not None and sim.steps % 10:  # the last steps too: the bar's count is the run's
+        progress(sim.steps)
     partial = loop.stopped
     n = min(len(frames), len(present), len(stages) if journeys is not None else len(frames))
     names = np.array([g.name for g in groups], dtype=object)
