@@ -937,3 +937,14 @@ def test_prepare_solves_the_guidance_fields_before_the_first_step_and_changes_no
         plain.step()
         prepared.step()
     np.testing.assert_array_equal(plain.positions, prepared.positions)
+
+
+def test_goal_points_given_away_from_their_goal_region_are_told_of():
+    sim = rvo.Simulator(cm.Scene(bounds=([0, 0], [40, 10])))
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        sim.add_agents([[1, 1]], [[38, 5]], goal_region=cm.Rect([36, 1], [39, 9]))  # inside: nothing to say
+    with pytest.warns(UserWarning, match=r"add_agents: 1 of the 1 goal points lie outside their goal_region"):
+        sim.add_agents([[1, 3]], [[20, 5]], goal_region=cm.Rect([36, 1], [39, 9]))
+    with pytest.warns(UserWarning, match=r"set_goals: 2 of the 2 goal points lie outside"):
+        sim.set_goals([0, 1], [[5, 5], [6, 5]], goal_region=cm.Rect([36, 1], [39, 9]))

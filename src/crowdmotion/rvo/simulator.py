@@ -77,6 +77,23 @@ def _per_agent(value, n: int, name: str, integer: bool = False, minimum: float =
     return arr.astype(np.int64) if integer else arr
 
 
+#: a goal point farther than this from its goal_region is told of
+GOAL_OUTSIDE_REGION_M = 0.5
+
+
+def _warn_goals_outside(goal: np.ndarray, region, what: str) -> None:
+    """Warn when goal points lie away from the goal_region given with them: the guidance
+    field leads to the region, and from there the agents walk straight for their points."""
+    if isinstance(region, MovingTarget):
+        return
+    off = row_norms(goal - region.nearest(goal)[:, :2]) > GOAL_OUTSIDE_REGION_M
+    if off.any():
+        k = int(np.flatnonzero(off)[0])
+        warnings.warn(f"{what}: {int(off.sum())} of the {len(goal)} goal points lie outside their goal_region "
+                      f"{region!r} (the first, {np.round(goal[k], 3).tolist()}): the guidance field leads to the "
+                      f"region, and from there the agents walk straight for their points", UserWarning, stacklevel=3)
+
+
 def _xy_each(value, n: int, name: str) -> np.ndarray:
     """``value`` as (n, 2): one (2,) pair for all, or one pair each; ValueError naming
     ``name`` for NaN, inf or another shape."""
@@ -382,6 +399,8 @@ class Simulator(LiveObstacles):
         goal, target = self._goal_points(goals, n)
         if goal_region is not None:
             self._check_goal_region(goal_region)
+            if target is None and not arrive_anywhere:
+                _warn_goals_outside(goal, goal_region, "add_agents")
         anywhere = bool(arrive_anywhere)
         if anywhere and not isinstance(goal_region, (Rect, Disc)):
             raise ValueError(f"arrive_anywhere needs a Rect or Disc goal_region, got {goal_region!r}")
@@ -482,6 +501,8 @@ class Simulator(LiveObstacles):
         goal, target = self._goal_points(goals, len(ids))
         if goal_region is not None:
             self._check_goal_region(goal_region)
+            if target is None and not arrive_anywhere:
+                _warn_goals_outside(goal, goal_region, "set_goals")
         self._ensure_fields()
         if arrive_anywhere and not isinstance(goal_region, (Rect, Disc)):
             raise ValueError(f"arrive_anywhere needs a Rect or Disc goal_region, got {goal_region!r}")
