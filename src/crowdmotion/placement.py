@@ -111,7 +111,8 @@ def _lattice_boxes(lattice: Lattice, clear) -> list:
     if not len(fit):
         return [None]
     step = size / np.maximum(steps - 1, 1)
-    return [None, (np.maximum(fit.min(axis=0) - step, lattice.lower), np.minimum(fit.max(axis=0) + step, lattice.upper))]
+    return [None, (np.maximum(fit.min(axis=0) - step, lattice.lower),
+                   np.minimum(fit.max(axis=0) + step, lattice.upper))]
 
 
 def lattice_sites(scene: Scene, group: Group, gap: float, spacing: float, placed: np.ndarray | None = None,

@@ -430,8 +430,8 @@ def _run_routes(scene: Scene, groups: Sequence[Group], params: MDPParams, rng: n
     unreachable = np.flatnonzero(~np.isfinite(values[(field_of, *starts.T)]))
     names = np.concatenate([np.full(g.count, g.name, dtype=object) for g in groups])
     traj = Trajectories(
-        held_absent(grid.centers(cells), active), dt, group=names, radius=radius, active=None if active.all() else active,
-        stage=stage,
+        held_absent(grid.centers(cells), active), dt, group=names, radius=radius,
+        active=None if active.all() else active, stage=stage,
         metadata={"method": "mdp", "params": params.model_dump(), "cell_size": su.cell, "grid_shape": list(grid.shape),
                   "steps": int(len(cells) - 1), "unreachable_agents": unreachable.tolist(), "partial": partial,
                   "scene": scene.to_dict(), "stages": journeys.stage_table([g.name for g in groups]),

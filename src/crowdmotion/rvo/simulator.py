@@ -610,11 +610,11 @@ class Simulator(LiveObstacles):
         return _xy_each(goals, n, "goals"), None
 
     def _check_goal_region(self, region) -> None:
-        """Refuse a goal region that is no Rect, Disc or Points region (or a group's
-        MovingTarget: an obstacle shape given for one, say: the first step would fail on it, and every step after) and one
-        with no part inside the scene bounds: its guidance field has no cell to start from,
-        and before the first step it would have been taken in only to make every step
-        after it fail."""
+        """Refuse a goal region that is no Rect, Disc or Points region, or a group's
+        MovingTarget (an obstacle shape given for one, say: the first step would fail on
+        it, and every step after), and one with no part inside the scene bounds: its
+        guidance field has no cell to start from, and before the first step it would
+        have been taken in only to make every step after it fail."""
         if isinstance(region, MovingTarget):
             return  # (a group's moving goal: its agents chase it, with no field of their own)
         if isinstance(region, Lattice) or not isinstance(region, (Rect, Disc, Points)):
