@@ -584,7 +584,7 @@ def cmd_export(args) -> int:
                          f"{Path(args.dest).with_suffix(EXPORT_FORMATS[args.to]).name}, or give the --to its "
                          f"name asks for")
     from crowdmotion.io.csv import sidecar
-    from crowdmotion.outputs import adding_to_run
+    from crowdmotion.outputs import adding_to_run, read_manifest
 
     options = {}
     if args.prototype_up is not None or args.prototype_forward is not None:
@@ -609,8 +609,6 @@ def cmd_export(args) -> int:
         raise ValueError(f"{dest} is the file being exported: name the export with -o")
     if not dest.parent.is_dir():  # said now, not after minutes of resampling
         raise ValueError(f"-o {dest}: the folder {dest.parent} does not exist")
-    from crowdmotion.outputs import read_manifest
-
     other = read_manifest(dest.parent) if dest.parent.resolve() != folder.resolve() else None
     if other is not None and dest.name in other["files"]:  # another run's own file: its summary would lie
         raise ValueError(f"-o {dest}: {dest.parent} holds another run, and {dest.name} is one of its files; the "

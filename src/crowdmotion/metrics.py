@@ -602,7 +602,8 @@ def headline(summary: dict) -> str:
             elif summary["ended_at_limit"].get("stalled"):
                 n = summary["ended_at_limit"]["stalled"]
                 parts[-1] += (f" ({_stopped_at(summary)} with {n} short of their goal that came no nearer it in the "
-                              f"run's last quarter: stuck, an obstacle in the way perhaps: more steps will not bring them)")
+                              f"run's last quarter: stuck, an obstacle in the way perhaps: more steps will not "
+                              f"bring them)")
             else:
                 parts[-1] += f" ({_stopped_at(summary)} before the rest got there: raise it to let them arrive)"
     if "formation" in summary:

@@ -408,8 +408,9 @@ def write_run(result, out, plots=None, pictures=None) -> list[Path]:
             if pictures is not None:
                 pictures.close()  # the other parts stopped too, their writes in progress removed
                 remove_stale_temps(out)
+            data = {p.name for p in written}
             drawn = [out / n for n in planned if os.path.lexists(out / n)
-                     and n not in {p.name for p in written} and not n.endswith(".meta.json")]
+                     and n not in data and not n.endswith(".meta.json")]
         names = [p.name for p in written + drawn] + [n for n in planned if n.endswith(".meta.json")]
         _write_manifest(out, [n for n in dict.fromkeys(names) if os.path.lexists(out / n)], complete=True,
                         partial=partial)

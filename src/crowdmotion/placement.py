@@ -115,24 +115,29 @@ def _lattice_boxes(lattice: Lattice, clear) -> list:
                    np.minimum(fit.max(axis=0) + step, lattice.upper))]
 
 
-def lattice_sites(scene: Scene, group: Group, gap: float, spacing: float, placed: np.ndarray | None = None,
-                  placed_r: np.ndarray | None = None, clearance=None, boxes: list | None = None) -> np.ndarray:
-    """(m, 2) the most sites of the group's :class:`~crowdmotion.groups.Lattice` at
-    ``spacing`` metres, over the placements ``LATTICE_PHASES`` (in each of ``boxes``, by
-    default :func:`_lattice_boxes`), where a body of its radius stands ``gap`` clear of
-    obstacles (at t = 0), of the scene's bounds, of the ``placed`` bodies (radii
-    ``placed_r``) and, with ``clearance(points)``, of further obstacles."""
-    clear = _clear_of(scene, group.radius + gap, placed, placed_r, clearance)
+def _most_sites(lattice: Lattice, spacing: float, clear, boxes: list) -> np.ndarray:
+    """(m, 2) the most sites of ``lattice`` at ``spacing`` metres that ``clear`` keeps, over
+    the placements ``LATTICE_PHASES`` in each of ``boxes`` (:func:`_lattice_boxes`)."""
     best = np.empty((0, 2))
-    for within in _lattice_boxes(group.spawn, clear) if boxes is None else boxes:
+    for within in boxes:
         for phase in LATTICE_PHASES:
-            pts = group.spawn.sites(spacing, phase, within)
+            pts = lattice.sites(spacing, phase, within)
             if len(pts) <= len(best):
                 continue
             ok = clear(pts)
             if ok.sum() > len(best):
                 best = pts[ok]
     return best
+
+
+def lattice_sites(scene: Scene, group: Group, gap: float, spacing: float, placed: np.ndarray | None = None,
+                  placed_r: np.ndarray | None = None, clearance=None) -> np.ndarray:
+    """(m, 2) the most sites of the group's :class:`~crowdmotion.groups.Lattice` at
+    ``spacing`` metres, over the placements ``LATTICE_PHASES``, where a body of its radius
+    stands ``gap`` clear of obstacles (at t = 0), of the scene's bounds, of the ``placed``
+    bodies (radii ``placed_r``) and, with ``clearance(points)``, of further obstacles."""
+    clear = _clear_of(scene, group.radius + gap, placed, placed_r, clearance)
+    return _most_sites(group.spawn, spacing, clear, _lattice_boxes(group.spawn, clear))
 
 
 def lattice_positions(scene: Scene, group: Group, placed: np.ndarray, placed_r: np.ndarray, gap: float,
@@ -143,10 +148,11 @@ def lattice_positions(scene: Scene, group: Group, placed: np.ndarray, placed_r: 
     agents, the spare ones (a part of a row) are left empty at random. A ValueError naming
     the most that fit when even the closest spacing, bodies ``gap`` apart, holds too few."""
     lattice, n = group.spawn, group.count
-    boxes = _lattice_boxes(lattice, _clear_of(scene, group.radius + gap, placed, placed_r, None))
+    clear = _clear_of(scene, group.radius + gap, placed, placed_r, None)  # (its tree built once, not per spacing)
+    boxes = _lattice_boxes(lattice, clear)
 
     def sites(spacing: float) -> np.ndarray:
-        return lattice_sites(scene, group, gap, spacing, placed, placed_r, boxes=boxes)
+        return _most_sites(lattice, spacing, clear, boxes)
 
     closest = 2.0 * group.radius + gap
     most = len(sites(closest))
@@ -155,8 +161,9 @@ def lattice_positions(scene: Scene, group: Group, placed: np.ndarray, placed_r: 
                          f"radius {group.radius:g} m, {gap:g} m apart (clear of walls and other groups), but count "
                          f"= {n}: enlarge the lattice or lower the count")
     lo, hi = closest, closest + float(np.hypot(*(lattice.upper - lattice.lower))) + 1.0
-    if len(sites(hi)) >= n:  # one agent: a spacing wider than the rectangle leaves its centre
-        return sites(hi)[:n]
+    widest = sites(hi)
+    if len(widest) >= n:  # one agent: a spacing wider than the rectangle leaves its centre
+        return widest[:n]
     while hi - lo > 1e-3 * lo:
         mid = 0.5 * (lo + hi)
         lo, hi = (mid, hi) if len(sites(mid)) >= n else (lo, mid)

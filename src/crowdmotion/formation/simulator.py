@@ -46,7 +46,7 @@ from crowdmotion.formation.params import FormationParams, make_params
 from crowdmotion.formation.routes import FormationWalkers, check_formation_route
 from crowdmotion.formation.templates import Template, from_spec
 from crowdmotion.facing import MAX_TURN_RATE, wrap
-from crowdmotion.geometry import positive_number, require_finite_agents
+from crowdmotion.geometry import positive_number, require_finite_agents, row_norms
 from crowdmotion.groups import Disc, MovingTarget, Points, Rect, as_region
 from crowdmotion.formation._kernels import edge_length_error as edge_errors
 from crowdmotion.formation._kernels import repulsion
@@ -738,9 +738,9 @@ class Simulator(LiveObstacles):
         square to them, and further where the way it travelled lies nearer them than
         the way it stands (obstacles turned it on its way) and its slots at that heading
         stand clear of walls and obstacles (room to turn back); otherwise (a column that
-        came round corners into a narrow area) as it stands, so it need not spin round. Soldiers
-        then face whichever of the equivalent headings lies nearest the way the group
-        travelled. (A wedge swung 100° by two small obstacles on its way recovered
+        came round corners into a narrow area) as it stands, so it need not spin round.
+        Soldiers then face whichever of the equivalent headings lies nearest the way the
+        group travelled. (A wedge swung 100° by two small obstacles on its way recovered
         turned 52° in an open square, every soldier facing 52° off its march.)"""
         a = g.mesh.rest - g.mesh.rest.mean(axis=0)
         b = V - centroid
@@ -1048,7 +1048,7 @@ class Simulator(LiveObstacles):
         slot = g.rest_shape() + g.goal_center
         on = self.positions[g.span] - g.vertices[g.guide.assignment]
         waited = self.time - g.recovered_at
-        still = np.sqrt((self.velocities[g.span] ** 2).sum(axis=1)).max() < SETTLE_STILL_MPS
+        still = row_norms(self.velocities[g.span]).max() < SETTLE_STILL_MPS
         if waited >= SETTLE_MAX_S or (waited >= SETTLE_WAIT_S and still) or \
                 max(np.abs(g.vertices - slot).max(), np.abs(on).max()) < SETTLED_M:
             g.settled_at = self.time

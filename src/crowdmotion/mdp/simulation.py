@@ -157,15 +157,15 @@ def obstacle_cells(static: GridMap, moving, step: int, chunk: int, lookahead: in
     may stand there); ``occupied``, those and the cells they cover over the ``lookahead``
     steps after that (nobody should step in, but one already there walks out, see
     :func:`escape_values`)."""
-    hard = static.occupancy.copy()
+    hard = GridMap(static.occupancy.copy(), static.cell_size, static.origin)
     for ob in moving:
         for k in range(chunk + 1):
-            mark_obstacle(GridMap(hard, static.cell_size, static.origin), ob, (step + k) * dt)
-    occ = hard.copy()
+            mark_obstacle(hard, ob, (step + k) * dt)
+    occ = GridMap(hard.occupancy.copy(), static.cell_size, static.origin)
     for ob in moving:
         for k in range(chunk + 1, chunk + lookahead + 1):
-            mark_obstacle(GridMap(occ, static.cell_size, static.origin), ob, (step + k) * dt)
-    return hard, occ
+            mark_obstacle(occ, ob, (step + k) * dt)
+    return hard.occupancy, occ.occupancy
 
 
 def escape_values(values: np.ndarray, occupied: np.ndarray, hard: np.ndarray) -> np.ndarray:

@@ -194,8 +194,8 @@ def run(scene: Scene, groups: Sequence[Group], params: RVOParams, rng: np.random
     if journeys is not None:
         metadata["stages"] = journeys.stage_table(names)
     traj = Trajectories(
-        held_absent(np.array(frames[:n]), active), params.time_step, group=names[sim.group], radius=sim.params["radius"],
-        active=None if active.all() else active, metadata=metadata,
+        held_absent(np.array(frames[:n]), active), params.time_step, group=names[sim.group],
+        radius=sim.params["radius"], active=None if active.all() else active, metadata=metadata,
         stage=None if journeys is None else np.array(stages[:n]),
     )
     steps = traj

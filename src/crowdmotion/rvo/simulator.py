@@ -77,6 +77,12 @@ def _per_agent(value, n: int, name: str, integer: bool = False, minimum: float =
     return arr.astype(np.int64) if integer else arr
 
 
+def _is_goal_region(region) -> bool:
+    """Whether ``region`` is one a guidance field leads to: a Rect (not a spawn's
+    Lattice), Disc or Points."""
+    return isinstance(region, (Rect, Disc, Points)) and not isinstance(region, Lattice)
+
+
 #: a goal point farther than this from its goal_region is told of
 GOAL_OUTSIDE_REGION_M = 0.5
 
@@ -528,7 +534,7 @@ class Simulator(LiveObstacles):
         :meth:`set_goals` or :meth:`walking_distance` to one of them re-solves nothing
         (a route's stages, say)."""
         for region in regions:
-            if isinstance(region, Lattice) or not isinstance(region, (Rect, Disc, Points)):
+            if not _is_goal_region(region):
                 raise ValueError(f"add_goal_regions: a Rect, Disc or Points region is needed, got {region!r}")
             added = self._regions_added
             place = self._region_index(region.nearest(self.positions[:1]) if len(self.positions) else None, region,
@@ -617,7 +623,7 @@ class Simulator(LiveObstacles):
         have been taken in only to make every step after it fail."""
         if isinstance(region, MovingTarget):
             return  # (a group's moving goal: its agents chase it, with no field of their own)
-        if isinstance(region, Lattice) or not isinstance(region, (Rect, Disc, Points)):
+        if not _is_goal_region(region):
             hint = {"Circle": " (the obstacle shape: a goal disc is crowdmotion.Disc)",
                     "Box": " (the obstacle shape: a goal rectangle is crowdmotion.Rect)",
                     "Lattice": " (a spawn region: a goal rectangle is crowdmotion.Rect)"}.get(type(region).__name__, "")
