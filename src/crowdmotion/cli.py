@@ -637,7 +637,8 @@ def cmd_export(args) -> int:
 def _at_fps(traj, fps: float, interpolation: str = "b-spline"):
     """The run resampled to ``fps`` (along the B-spline of its frames, by default),
     re-audited against the run's scene: steps where the spline would bring bodies
-    together or past their max speed keep straight moves (a warning says how many)."""
+    together or past their max speed follow the spline through the frames, or keep
+    straight moves (a warning says how many)."""
     from crowdmotion.smoothing import at_rate
 
     if not (fps > 0 and math.isfinite(fps)):

@@ -1,5 +1,6 @@
-"""Smoothed output that keeps the collision guarantee: Catmull-Rom where it stays clear,
-straight moves where it would not (SPEC §2: smoothed paths are re-checked)."""
+"""Smoothed output that keeps the collision guarantee: the smoothing where it stays clear,
+the spline through the frames or straight moves where it would not (SPEC §2: smoothed
+paths are re-checked)."""
 
 from __future__ import annotations
 
@@ -25,12 +26,14 @@ def resample_checked(traj: Trajectories, fps: float, kind: str, scene: Scene | N
     if that makes bodies overlap. A spline
     rounds corners and can bring two bodies together, or overshoot past ``max_speed`` (a
     per-agent (N,) array). Every step of an agent's path (a segment between two input
-    frames) where that happens falls back to the straight move, and the path eases from
-    the spline into it and back over a step either side, or ``EASE_MIN_S`` where the steps
-    are shorter (a cubic blend with level ends, so the path keeps its tangent even where
-    the spline does not pass through the frames); the audit
-    runs again until it is as clean as the straight moves. The metadata say how many segments fell back
-    (``resampled.straight_segments`` of ``resampled.segments``); a warning says so too.
+    frames) where that happens falls back, a B-spline's first to the Catmull-Rom spline
+    through the frames, and where that too overlaps or outruns, to the straight move; the
+    path eases from one into the other and back over a step either side, or ``EASE_MIN_S``
+    where the steps are shorter (a cubic blend with level ends, so the path keeps its
+    tangent even where the spline does not pass through the frames); the audit runs again
+    until it is as clean as the straight moves. The metadata say how many segments fell
+    back (``resampled.through_segments`` and ``resampled.straight_segments`` of
+    ``resampled.segments``); a warning says so when any keep straight moves.
     """
     linear = resample(traj, fps, "linear")
     if traj.n_frames < 2:
@@ -45,7 +48,8 @@ def resample_checked(traj: Trajectories, fps: float, kind: str, scene: Scene | N
                               f"times; a rate that is a whole multiple of {1 / traj.dt:.4g} fps keeps every step",
                               stacklevel=2)
         return linear
-    return keep_clean(resample(traj, fps, kind), linear, traj, scene, max_speed, kind)
+    through = resample(traj, fps, "catmull-rom") if kind == "b-spline" else None
+    return keep_clean(resample(traj, fps, kind), linear, traj, scene, max_speed, kind, through=through)
 
 
 def at_rate(traj: Trajectories, fps: float, kind: str = "b-spline") -> Trajectories:
@@ -63,14 +67,24 @@ def speed_limits(traj: Trajectories, max_speed: np.ndarray) -> np.ndarray:
 
 
 def keep_clean(smooth: Trajectories, linear: Trajectories, traj: Trajectories, scene: Scene | None,
-               max_speed: np.ndarray | None, kind: str, warn: bool = True) -> Trajectories:
+               max_speed: np.ndarray | None, kind: str, warn: bool = True,
+               through: Trajectories | None = None) -> Trajectories:
     """``smooth`` (any smoothing of ``traj`` at ``linear``'s frame rate, ``linear`` its
     straight moves), with every step of an agent's path where ``smooth`` brings bodies
     together or outruns ``max_speed`` falling back to the straight move, eased in and out
     (see :func:`resample_checked`, which calls this). ``kind`` names the smoothing in the
-    metadata and the warning (``warn``) that says how many steps fell back."""
+    metadata and the warning (``warn``) that says how many steps fell back.
+
+    ``through`` (optional): a spline through ``traj``'s frames at the same rate
+    (Catmull-Rom), tried on a flagged step before its straight move. Two straight moves
+    in a row turn at the frame between them within one output frame (a 60 fps file's
+    acceleration spikes to tens of m/s² there); a spline through that frame turns over
+    the two steps and most such steps stay clear on it."""
     seg = np.minimum(np.floor(smooth.times / traj.dt + 1e-9).astype(int), traj.n_frames - 2)  # segment of a frame
-    straight = np.zeros((traj.n_frames - 1, traj.n_agents), dtype=bool)
+    # each step's fallback level: 0 the smoothing, 1 ``through``, 2 the straight move
+    level = np.zeros((traj.n_frames - 1, traj.n_agents), dtype=np.int8)
+    top = np.int8(2 if through is None else 1)  # the level a flagged step goes up to first
+    flag = np.zeros_like(level, dtype=bool)  # the steps flagged in this round
     limit = None
     if max_speed is not None:  # never faster than the agent's max_speed, or its own fastest step
         limit = speed_limits(traj, max_speed)
@@ -81,29 +95,44 @@ def keep_clean(smooth: Trajectories, linear: Trajectories, traj: Trajectories, s
             return False
         step = np.linalg.norm(np.diff(tr.positions, axis=0), axis=-1) / tr.dt
         f, i = np.nonzero(step > limit[None, :] + 1e-9)
-        straight[seg[f], i] = straight[seg[f + 1], i] = True
+        flag[seg[f], i] = flag[seg[f + 1], i] = True
         return len(f) > 0
 
+    def escalate() -> None:
+        """Each step flagged this round falls back one level (straight at most)."""
+        nonlocal level
+        level = np.where(flag, np.maximum(level + 1, top), level).clip(0, 2).astype(np.int8)
+        flag[:] = False
+
     outrun(smooth)
+    escalate()
     base = collision_audit(linear, scene)
 
     u = np.clip(smooth.times / traj.dt - seg, 0.0, 1.0)[:, None]  # where each frame lies in its step
     ramp = max(EASE_MIN_S / traj.dt, 1.0)  # steps the blend takes to ease back to the spline
     steps = np.arange(traj.n_frames - 1)[:, None]
 
-    def mixed() -> tuple[Trajectories, np.ndarray]:
-        # straight on a flagged step, easing back to the spline over ``ramp`` steps either
-        # side (a cubic with level ends: the blend keeps the path's tangent); at the run's
-        # own steps (a frame per step) a step's worth of ease is a jump from one path to the
-        # other within a frame, which at 60 steps a second outran the speed limit by the
-        # paths' gap times 60, flagged the next step, and so on until every step was straight
-        left = np.maximum.accumulate(np.where(straight, steps, -np.inf), axis=0)[seg]  # nearest flagged at or before
-        right = np.minimum.accumulate(np.where(straight, steps, np.inf)[::-1], axis=0)[::-1][seg]  # at or after
+    def blend(marked: np.ndarray) -> np.ndarray:
+        # 1 on a marked step, easing to 0 over ``ramp`` steps either side (a cubic with
+        # level ends: the blend keeps the path's tangent); at the run's own steps (a frame
+        # per step) a step's worth of ease is a jump from one path to the other within a
+        # frame, which at 60 steps a second outran the speed limit by the paths' gap times
+        # 60, flagged the next step, and so on until every step was straight
+        left = np.maximum.accumulate(np.where(marked, steps, -np.inf), axis=0)[seg]  # nearest marked at or before
+        right = np.minimum.accumulate(np.where(marked, steps, np.inf)[::-1], axis=0)[::-1][seg]  # at or after
         here = seg[:, None]
         gap = np.where(left == here, 0.0, np.minimum(here - left - 1 + u, right - here - u))  # in steps
         x = np.clip(gap / ramp, 0.0, 1.0)
-        w = 1.0 - x * x * (3.0 - 2.0 * x)
-        pos = smooth.positions + w[:, :, None] * (linear.positions - smooth.positions)
+        return 1.0 - x * x * (3.0 - 2.0 * x)
+
+    def mixed() -> tuple[Trajectories, np.ndarray]:
+        w = w_straight = blend(level >= 2)
+        pos = smooth.positions
+        if through is not None:
+            w_through = blend(level >= 1)
+            pos = pos + w_through[:, :, None] * (through.positions - pos)
+            w = w_straight + 2.0 * w_through  # both blends, for telling which frames moved
+        pos = pos + w_straight[:, :, None] * (linear.positions - pos)
         own = smooth.has_own_facing  # a method's own facing is kept, not derived again
         return Trajectories(pos, smooth.dt, ids=smooth.ids, group=smooth.group, radius=smooth.radius,
                             active=smooth.active, metadata=dict(smooth.metadata),
@@ -136,15 +165,21 @@ def keep_clean(smooth: Trajectories, linear: Trajectories, traj: Trajectories, s
         for e in rep.events:  # the interval frame -> frame + 1 of each overlap, both agents
             who = (e.a, e.b) if e.kind == "agent-agent" else (e.a,)
             for a in who:
-                straight[seg[e.frame], a] = straight[seg[min(e.frame + 1, len(seg) - 1)], a] = True
+                flag[seg[e.frame], a] = flag[seg[min(e.frame + 1, len(seg) - 1)], a] = True
+        escalate()
     else:
-        straight[:] = True
+        level[:] = 2
         out = mixed()[0]
-    n = int(straight.sum())
+    n, n_through = int((level == 2).sum()), int((level == 1).sum())
     if n and warn:
         warnings.warn(f"{kind} smoothing would have brought bodies together or past their max speed on "
-                      f"{n} of {straight.size} path segments: those keep straight moves", stacklevel=2)
-    out.metadata["resampled"] = {**out.metadata.get("resampled", {}), "kind": kind, "straight_segments": n, "segments": straight.size}
+                      f"{n + n_through} of {level.size} path segments: "
+                      + (f"{n_through} follow the spline through the run's frames, {n} " if through is not None
+                         else "those ") + "keep straight moves", stacklevel=2)
+    out.metadata["resampled"] = {**out.metadata.get("resampled", {}), "kind": kind, "straight_segments": n,
+                                 "segments": level.size}
+    if through is not None:
+        out.metadata["resampled"]["through_segments"] = n_through
     return out
 
 
