@@ -139,3 +139,26 @@ def test_lattice_positions_stay_inside_the_rectangle():
         pos = spawn_positions(scene, g, np.empty((0, 2)), np.empty(0), 0.05, np.random.default_rng(count))
         assert len(pos) == count
         assert np.all(pos >= [1, 0.5]) and np.all(pos <= [8, 3.5])
+
+
+@pytest.mark.parametrize("seed", range(5))
+def test_a_spawn_area_reaching_the_scene_edge_places_every_body_inside_the_bounds(seed):
+    # a user's spawn [0, 0]-[3, 10] in a [0, 0]-[20, 10] scene: the run refused it, at
+    # random, for an agent drawn within its radius of the edge
+    from crowdmotion.placement import spawn_positions
+
+    scene = cm.Scene(bounds=([0, 0], [20, 10]))
+    group = cm.Group("edge", 60, spawn=cm.Rect([0, 0], [3, 10]), goal=cm.Rect([18, 0], [20, 10]), radius=0.25)
+    pos = spawn_positions(scene, group, np.zeros((0, 2)), np.zeros(0), 0.05, np.random.default_rng(seed))
+    assert len(pos) == 60
+    assert (pos >= 0.25).all() and (pos[:, 0] <= 19.75).all() and (pos[:, 1] <= 9.75).all()
+
+
+def test_the_whole_run_takes_a_spawn_and_an_entrance_along_the_edge():
+    from crowdmotion import rvo
+
+    scene = cm.Scene(bounds=([0, 0], [20, 10]))
+    group = cm.Group("edge", 40, spawn=cm.Rect([0, 0], [3, 10]), goal=cm.Rect([18, 0], [20, 10]), radius=0.25,
+                     attributes={"enter": {"rate": 20.0, "entrances": [cm.Rect([0, 9.6], [3, 10])]}})
+    traj = rvo.simulate(scene, [group], rvo.RVOParams(max_steps=8), np.random.default_rng(3))
+    assert traj.n_agents == 40

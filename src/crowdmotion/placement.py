@@ -61,6 +61,8 @@ def spawn_positions(scene: Scene, group: Group, placed: np.ndarray, placed_r: np
         if need == 0:
             return out
         cand = group.spawn.sample(4 * need + 8, rng)
+        inside = np.minimum(cand - scene.lower, scene.upper - cand).min(axis=1) >= r  # the body within the bounds
+        cand = cand[inside]
         cand = cand[scene.obstacle_distance(cand, 0.0) >= r + gap]
         if not overlap and len(cand):
             others = np.concatenate([placed, out])
@@ -68,7 +70,8 @@ def spawn_positions(scene: Scene, group: Group, placed: np.ndarray, placed_r: np
             cand = cand[_greedy_clear(cand, r, gap, others, others_r)]
         out = np.concatenate([out, cand[:need]])
     raise ValueError(f"{what}: could not place {group.count} agents of radius {r} m without overlap in "
-                     f"{group.spawn!r} (placed {len(out)}); enlarge the region or reduce the count")
+                     f"{group.spawn!r} (placed {len(out)}; a body keeps its radius inside the scene's bounds and "
+                     f"clear of obstacles); enlarge the region or reduce the count")
 
 
 #: the lattice's placements tried at each spacing, in the rectangle and in the part of it where
