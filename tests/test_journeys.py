@@ -836,3 +836,18 @@ def test_walkers_leaving_by_a_strip_too_thin_for_their_centre_still_leave():
         if not sim.active.any():
             break
     assert not sim.active.any() and np.all(sim.positions[:, 0] >= 8.5), sim.positions
+
+
+def test_a_run_cut_short_whose_routes_all_leave_does_not_blame_routes_that_do_not_leave():
+    # a user's plaza: everyone's route ends with a leave stage; at the step limit the
+    # headline told them 9 "finished a route that does not leave" (those who had left)
+    from crowdmotion.metrics import headline
+
+    text = STREAM.replace('goal = { shape = "rect", lower = [37.0, 1.0], upper = [39.5, 11.0] }\n',
+                          'route = [{ kind = "leave", name = "east", area = { shape = "rect", lower = [37.0, 1.0], '
+                          'upper = [39.5, 11.0] } }]\n').replace("max_steps = 1200", "max_steps = 150")
+    result = run_scenario(parse_scenario(text), progress=False)
+    journeys = result.summary["journeys"]
+    assert result.summary["ended_at_limit"] and journeys["finished"] > 0
+    assert journeys["standing_at_end"] == 0
+    assert "does not leave" not in headline(result.summary)

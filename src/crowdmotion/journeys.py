@@ -322,6 +322,7 @@ class Journeys:
         self.exits: dict[str, list[float]] = {}     # exit name -> when each agent left by it
         self.exit_agents: dict[str, list[int]] = {}  # exit name -> who, in the same order
         self.removed = np.zeros(n, dtype=bool)    # taken out of the scene while on their route
+        self.left = np.zeros(n, dtype=bool)       # finished their route by a leave stage
         self.chooser = np.full(n, -1, dtype=np.int64)  # the choose stage (id) whose option each re-weighs (-1: none)
         self.recheck_at = np.full(n, np.inf)       # when it next re-weighs that choice (Choose.rechoose)
         self._rechoosing = False                   # whether any agent ever entered a choose with rechoose
@@ -365,7 +366,7 @@ class Journeys:
         self._drop(ids[self.on_route[ids] & self.begun[ids] & ~self.done[ids]], w)
         self.group_of[ids] = g
         self.on_route[ids] = True
-        self.done[ids] = self.removed[ids] = False
+        self.done[ids] = self.removed[ids] = self.left[ids] = False
         self.stage[ids] = -1
         self.finished_at[ids] = np.nan
         for a in (self.since, self.reached, self.until):
@@ -396,7 +397,7 @@ class Journeys:
         self.group_of = np.append(self.group_of, np.full(k, off))
         for name, fill, dtype in (("stage", -1, np.int64), ("holder", -1, np.int64),
                                   ("chooser", -1, np.int64), ("on_route", False, bool), ("begun", False, bool),
-                                  ("done", False, bool), ("expect", False, bool), ("removed", False, bool),
+                                  ("done", False, bool), ("expect", False, bool), ("removed", False, bool), ("left", False, bool),
                                   ("wait_until", np.inf, float), ("recheck_at", np.inf, float),
                                   ("finished_at", np.nan, float)):
             setattr(self, name, np.append(getattr(self, name), np.full(k, fill, dtype=dtype)))
@@ -575,7 +576,7 @@ class Journeys:
             self.bound[id(st)] -= len(sub)
             if isinstance(st, Leave):
                 self.until[sub, sid] = t
-                self.done[sub] = True
+                self.done[sub] = self.left[sub] = True
                 self.finished_at[sub] = t
                 self.exits.setdefault(st.name, []).extend([t] * len(sub))
                 self.exit_agents.setdefault(st.name, []).extend(int(a) for a in sub)
@@ -798,6 +799,8 @@ class Journeys:
         return {"stages": stages, "queues": {q.stage.name: q.report() for q in self.queues}, "exits": exits,
                 "groups": self._group_report(names),
                 "finished": int((self.on_route & self.done & ~self.removed).sum()), "on_route": int(self.on_route.sum()),
+                # done and still in the scene: their route ends without a leave stage
+                "standing_at_end": int((self.on_route & self.done & ~self.removed & ~self.left).sum()),
                 "removed": int((self.on_route & self.removed).sum())}
 
     def _group_report(self, names) -> dict:

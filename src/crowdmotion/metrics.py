@@ -594,7 +594,7 @@ def headline(summary: dict) -> str:
     if "arrival_rate" in summary:
         parts.append(f"arrived {summary['arrival_rate']:.0%}")
         if summary.get("ended_at_limit"):
-            stayed = summary.get("journeys", {}).get("finished", 0)
+            stayed = summary.get("journeys", {}).get("standing_at_end", 0)
             if stayed:  # a route with no leave: those done stand at its last place, perhaps in the way
                 parts[-1] += (f" ({_stopped_at(summary)} before the rest got there; {stayed} finished a route that "
                               f"does not leave and stand at its last place, perhaps in the others' way: end the "
