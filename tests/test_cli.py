@@ -493,3 +493,32 @@ def test_an_export_never_replaces_another_run_s_file_nor_shrinks_a_run_to_one_fr
     assert (two / "trajectories.parquet").read_bytes() == before
     assert main(["export", str(one), "--to", "csv", "-o", str(tmp_path / "few.csv"), "--fps", "0.001"]) == 2
     assert "leaves one frame of the run's" in capsys.readouterr().err and not (tmp_path / "few.csv").exists()
+
+
+def test_an_export_never_replaces_a_file_of_the_user_s_and_is_not_listed_as_another_run_s(tmp_path, capsys):
+    from crowdmotion.outputs import read_manifest
+    from tests.test_scenario import RVO
+
+    path = tmp_path / "street.toml"
+    path.write_text(RVO)
+    one, two = tmp_path / "one", tmp_path / "two"
+    assert main(["run", str(path), "-o", str(one), "-q", "--plots", "none"]) == 0
+    assert main(["run", str(path), "-o", str(two), "-q", "--plots", "none", "--seed", "4"]) == 0
+    mine = tmp_path / "layout.usda"
+    mine.write_text("#usda 1.0\n(my set)\n")
+    capsys.readouterr()
+    for dest in (mine, path.with_suffix(".csv")):
+        if dest.suffix == ".csv":
+            dest.write_text("shot,notes\n1,keep me\n")
+        before = dest.read_bytes()
+        assert main(["export", str(one), "--to", dest.suffix[1:], "-o", str(dest)]) == 2
+        assert "exists and crowdmotion did not write it" in capsys.readouterr().err
+        assert dest.read_bytes() == before
+    assert main(["export", str(one), "--to", "usda", "-o", str(mine), "--overwrite"]) == 0
+    assert main(["export", str(one), "--to", "usda", "-o", str(mine)]) == 0  # an earlier export: replaced
+    # into another run's folder: written, not listed among that run's files
+    assert main(["export", str(one), "--to", "csv", "-o", str(two / "one.csv")]) == 0
+    assert "one.csv" not in read_manifest(two)["files"] and (two / "one.csv").is_file()
+    # into its own folder: listed, so its run --overwrite removes it
+    assert main(["export", str(one), "--to", "csv"]) == 0
+    assert "trajectories.csv" in read_manifest(one)["files"]

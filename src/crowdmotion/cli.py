@@ -609,11 +609,17 @@ def cmd_export(args) -> int:
         raise ValueError(f"{dest} is the file being exported: name the export with -o")
     if not dest.parent.is_dir():  # said now, not after minutes of resampling
         raise ValueError(f"-o {dest}: the folder {dest.parent} does not exist")
-    other = read_manifest(dest.parent) if dest.parent.resolve() != folder.resolve() else None
+    own_folder = dest.parent.resolve() == folder.resolve()
+    other = None if own_folder else read_manifest(dest.parent)
     if other is not None and dest.name in other["files"]:  # another run's own file: its summary would lie
         raise ValueError(f"-o {dest}: {dest.parent} holds another run, and {dest.name} is one of its files; the "
                          f"export would replace it: name another file, or export into a folder of its own")
+    if not args.overwrite:
+        _refuse_foreign(dest, read_manifest(dest.parent) if own_folder else None)
     fps = args.fps
+    if traj.n_frames < 2:
+        raise ValueError(f"{src} holds one frame: there is no motion to export (a run's fps too low for its "
+                         f"length keeps only its first frame)")
     if fps is not None and math.isfinite(fps) and fps > 0 and traj.times[-1] * fps < 1.0 - 1e-9:
         raise ValueError(f"--fps {fps:g} leaves one frame of the run's {traj.times[-1]:g} s: give at least "
                          f"{1.0 / traj.times[-1]:.3g} frames a second for two")
@@ -625,13 +631,33 @@ def cmd_export(args) -> int:
         options["dcc_rate"] = False  # the rate is settled here, not again by the writer
     if fps is not None and abs(fps * traj.dt - 1.0) > 1e-9:  # the run's own rate keeps its frames
         traj = _at_fps(traj, fps, args.interpolation)
-    with adding_to_run(dest.parent) as add:  # into a run's folder: listed with its files
+    # into the run's own folder: listed with its files (run --overwrite removes it with them);
+    # into another run's folder: not that run's file, so its run --overwrite leaves it be
+    with adding_to_run(dest.parent if own_folder else None) as add:
         traj.save(dest, **options)
         add(dest)
         if dest.suffix.lower() == ".csv":
             add(sidecar(dest))
     print(f"wrote {dest} ({traj.n_agents} agents, {traj.n_frames} frames at {traj.fps:g} fps)")
     return 0
+
+
+def _refuse_foreign(dest: Path, manifest: dict | None) -> None:
+    """A ValueError when writing ``dest`` would replace a file crowdmotion did not write
+    (the user's own scene, a CSV of theirs): one the run folder's ``manifest`` does not
+    list and that does not read as crowdmotion trajectories (a CSV's sidecar goes with it)."""
+    from crowdmotion.io import read_trajectories
+
+    if not dest.exists() or (manifest and dest.name in manifest["files"]):
+        return
+    if dest.is_file():
+        try:
+            read_trajectories(dest)
+            return  # an earlier export: replaced as asked
+        except Exception:  # noqa: BLE001 - a file that does not read as ours is the user's
+            pass
+    raise ValueError(f"-o {dest}: the file exists and crowdmotion did not write it; the export would replace it: "
+                     f"name another file, or give --overwrite to replace it")
 
 
 def _at_fps(traj, fps: float, interpolation: str = "b-spline"):
@@ -985,6 +1011,9 @@ def build_parser() -> argparse.ArgumentParser:
                    help="how frames between the run's steps are made: b-spline (default: smooth root motion, "
                         "continuous acceleration), catmull-rom (through every step's position) or linear "
                         "(straight moves); splines are re-checked for collisions")
+    p.add_argument("--overwrite", action="store_true",
+                   help="replace a file at -o that crowdmotion did not write (an earlier export is replaced "
+                        "without it)")
     p.add_argument("--prototype-up", metavar="AXIS",
                    help="usd: the up axis your characters are modelled with, one of X Y Z -X -Y -Z (default Z, "
                         "Blender's; Y for Maya, Houdini, Unity); the stage stays Y-up")

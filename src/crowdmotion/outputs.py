@@ -315,9 +315,10 @@ def adding_to_run(folder) -> Iterator[Callable[[Path], None]]:
     """For a command that writes into a run's folder afterwards (report.json, an export, a
     video): while ``folder`` holds a run (its manifest), hold its lock (refused while a run
     writes there) and list each file given to the yielded ``add(path)`` in the manifest,
-    so that ``run --overwrite`` removes it with the rest. Elsewhere ``add`` does nothing."""
-    folder = Path(folder)
-    manifest = read_manifest(folder) if folder.is_dir() else None
+    so that ``run --overwrite`` removes it with the rest. Elsewhere (or ``folder`` None)
+    ``add`` does nothing."""
+    folder = Path(folder) if folder is not None else None
+    manifest = read_manifest(folder) if folder is not None and folder.is_dir() else None
     if manifest is None:
         yield lambda path: None
         return

@@ -7,6 +7,8 @@ in the file is ever executed. Each method adds its block here without changing t
 
 from __future__ import annotations
 
+import warnings
+
 import difflib
 import re
 import tomllib
@@ -1198,4 +1200,8 @@ def run_scenario(scenario, seed: int | None = None, progress: bool = True, preco
     traj, extras, summary = method.run(scenario.scene, scenario.groups, scenario.params, rng, progress=progress)
     traj.metadata.update({"seed": seed, "scenario": scenario.spec.name})
     summary["partial"] = bool(traj.metadata.get("partial", False))  # Ctrl-C stopped it: the frames so far
+    fps = getattr(scenario.params, "fps", None)
+    if traj.n_frames < 2 and not summary["partial"] and fps:
+        warnings.warn(f"{scenario.method}.fps = {fps:g} keeps one frame of the run: its files show nobody "
+                      f"moving (give at least the frames a second its length needs for two)", stacklevel=2)
     return RunResult(scenario, traj, extras, summary, seed)

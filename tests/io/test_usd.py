@@ -196,7 +196,7 @@ def test_prototypes_stand_on_the_stage_up_and_face_their_agents_way_in_any_axes(
     assert (data["crowdmotion_prototype_up"], data["crowdmotion_prototype_forward"]) == (up, forward)
     inst = UsdGeom.PointInstancer(stage.GetPrimAtPath("/World/Crowd"))
     code = inst.GetOrientationsAttr().GetTimeSamples()[7]
-    frame = int(round(code / 24 / 0.5))
+    frame = int(round(code / stage.GetTimeCodesPerSecond() / 0.5))
     q = np.array([[*o.GetImaginary(), o.GetReal()] for o in inst.GetOrientationsAttr().Get(code)])
     np.testing.assert_allclose(rotate(q, AXES[up]), np.tile([0.0, 1.0, 0.0], (5, 1)), atol=2e-3)
     yaw = tr.facing[frame]
@@ -307,3 +307,22 @@ def test_a_run_of_few_frames_a_second_is_written_at_24_for_a_character(tmp_path)
     own = Trajectories(np.zeros((49, 1, 2)), 1 / 23.976).save(tmp_path / "ntsc.usda")
     stage = Usd.Stage.Open(str(own))
     assert stage.GetTimeCodesPerSecond() == pytest.approx(23.976) and stage.GetEndTimeCode() == pytest.approx(48)
+
+
+def test_a_file_at_a_whole_rate_of_its_own_runs_at_that_rate_with_a_sample_on_every_time_code(tmp_path):
+    # export --fps 12 wrote samples on the even codes of a 24 time-code stage: a DCC
+    # reading every code interpolated the gait phase across its wrap, half a stride back
+    from pxr import Usd
+
+    from crowdmotion.smoothing import at_rate
+    from tests.io.readers import door_session
+
+    traj, _ = door_session()
+
+    at12 = at_rate(traj, 12.0)
+    stage = Usd.Stage.Open(str(at12.save(tmp_path / "t12.usda", dcc_rate=False)))
+    assert stage.GetTimeCodesPerSecond() == 12.0 and stage.GetFramesPerSecond() == 12.0
+    codes = stage.GetPrimAtPath("/World/Crowd").GetAttribute("positions").GetTimeSamples()
+    assert codes == list(range(at12.n_frames))
+    odd = Trajectories(np.zeros((20, 1, 2)), 1 / 7.5).save(tmp_path / "odd.usda", dcc_rate=False)
+    assert Usd.Stage.Open(str(odd)).GetTimeCodesPerSecond() == 24.0  # no whole rate: the DCCs' default

@@ -170,15 +170,20 @@ DCC_FPS = 24.0  # a run with fewer frames a second is written at this rate, alon
 def too_few_frames(traj: Trajectories) -> bool:
     """Whether a character bound to ``traj`` would jolt at every frame: fewer than
     ``DCC_FPS`` a second, and not a video rate of its own (23.976)."""
-    return traj.fps < DCC_FPS - RATE_MATCH and stage_rate(traj) != traj.fps
+    return traj.fps < DCC_FPS - RATE_MATCH and not any(abs(traj.fps - r) < RATE_MATCH for r in STANDARD_RATES)
 
 
 def stage_rate(traj: Trajectories) -> float:
     """Time codes per second of the stage: the run's own rate when it is a standard video
-    rate (24, 25, 30, 23.976, ...), else 24, the rate Blender, Maya and Houdini scenes
-    start at. Samples sit at t × rate, so the motion plays at its true speed at that rate
-    (USD interpolates between samples); at the run's own rate each frame is a whole time code."""
-    return traj.fps if any(abs(traj.fps - r) < RATE_MATCH for r in STANDARD_RATES) else 24.0
+    rate (24, 25, 30, 23.976, ...) or any whole number of frames a second (12, 40: what
+    ``export --fps N`` asked for), else 24, the rate Blender, Maya and Houdini scenes
+    start at. Samples sit at t × rate, so the motion plays at its true speed at that rate;
+    at the run's own rate each frame is a whole time code, and nothing is interpolated
+    between samples (a DCC interpolating the gait phase between two samples either side
+    of its wrap from 1 to 0 showed half a stride back)."""
+    fps = traj.fps
+    whole = fps >= 1.0 - RATE_MATCH and abs(fps - round(fps)) < RATE_MATCH
+    return fps if whole or any(abs(fps - r) < RATE_MATCH for r in STANDARD_RATES) else 24.0
 
 
 def orientations(heading: np.ndarray, pitch: np.ndarray) -> np.ndarray:
