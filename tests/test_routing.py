@@ -1,6 +1,7 @@
 """Routes round walls shared by the methods: descending the exact field, straight lines."""
 
 import numpy as np
+import pytest
 
 import crowdmotion as cm
 from crowdmotion.groups import Rect
@@ -72,3 +73,44 @@ def test_line_of_sight_agrees_with_dense_sampling_of_the_clearance():
     sampled = (scene.static_obstacle_distance(pts.reshape(-1, 2)).reshape(300, -1) >= 0.3).all(axis=1)
     start_inside = scene.static_obstacle_distance(a) < 0  # a segment wholly inside one box never crosses an edge
     assert (got == sampled)[~start_inside].mean() > 0.99
+
+
+def _door(width: float) -> cm.Scene:
+    """A 16 x 8 m floor cut at x 10-12 by a wall with a door ``width`` wide round y 4."""
+    return cm.Scene(bounds=([0, 0], [16, 8]), obstacles=[cm.Box([10, 0], [12, 4 - width / 2]),
+                                                          cm.Box([10, 4 + width / 2], [12, 8])])
+
+
+@pytest.mark.parametrize("width", [0.45, 0.5, 0.55])
+def test_a_door_a_body_fits_through_is_open_though_no_cell_centre_in_it_is_clear(width):
+    # a researcher's narrow-door study: radius 0.2 m bodies, 0.2 m cells; the centres in a
+    # 0.5 m door lie 0.15 m from its jambs, and the goal beyond it was "unreachable"
+    fields = distance_fields(_door(width), [cm.Rect([14.5, 0.5], [15.8, 7.5])], 0.2)
+    assert np.isfinite(fields.nearby(0, np.array([[5.0, 4.0], [1.0, 1.0]]))).all()
+
+
+def test_a_door_narrower_than_a_body_stays_shut_and_other_walls_keep_their_cells():
+    goal = [cm.Rect([14.5, 0.5], [15.8, 7.5])]
+    shut = distance_fields(_door(0.38), goal, 0.2)
+    assert np.isinf(shut.nearby(0, np.array([[5.0, 4.0]]))).all()
+    # the open door's own cells are the only ones opened: elsewhere the blocked cells are
+    # those whose centre lies within a radius of a wall, as without a narrow door
+    scene = _door(0.5)
+    fields = distance_fields(scene, goal, 0.2)
+    centres = scene.lower + (np.indices(fields.blocked.shape).reshape(2, -1).T + 0.5) * fields.cell
+    near_wall = (scene.static_obstacle_distance(centres) < 0.2).reshape(fields.blocked.shape)
+    opened = near_wall & ~fields.blocked
+    x, y = np.nonzero(opened)
+    assert len(x) and (centres.reshape(*fields.blocked.shape, 2)[x, y, 1] > 3.7).all() and \
+        (centres.reshape(*fields.blocked.shape, 2)[x, y, 1] < 4.3).all()
+
+
+def test_a_crowd_whose_only_way_out_is_a_door_just_wider_than_a_body_goes_through_it():
+    from crowdmotion import metrics, rvo
+
+    scene = _door(0.45)
+    group = cm.Group("crowd", 10, spawn=cm.Rect([5, 2], [9, 6]), goal=cm.Rect([14.5, 0.5], [15.8, 7.5]), radius=0.2)
+    traj = rvo.simulate(scene, [group], rvo.RVOParams(goal_assignment="nearest"), np.random.default_rng(0))
+    assert (traj.positions[-1, :, 0] > 12).all(), "everyone through the door"
+    audit = metrics.collision_audit(traj, scene)
+    assert audit.agent_agent == 0 and audit.agent_obstacle == 0

@@ -19,6 +19,7 @@ from crowdmotion.mdp.solvers import exact_values_each
 from crowdmotion.scene import Scene
 
 MAX_FIELD_CELLS = 16_000_000
+PASSAGE_SAMPLES = 8  # a side: the points of a cell where a body is tried in a narrow passage
 
 
 @dataclass
@@ -113,12 +114,57 @@ def default_cell(scene: Scene, radius: float) -> float:
     return float(max(radius, np.sqrt(np.prod(extent) / 4e6)))
 
 
+def narrow_passages(scene: Scene, centres: np.ndarray, clearance: np.ndarray, blocked: np.ndarray,
+                    radius: float, cell: float) -> np.ndarray:
+    """(shape) the blocked cells of a passage that a body fits through but whose cell
+    centres all lie within ``radius`` of its walls: a door between 2 radii and 2 radii plus
+    a cell wide (a 0.5 m door, bodies of radius 0.2 m on 0.2 m cells) showed closed, and a
+    crowd whose only way out it was could not be sent there.
+
+    A blocked cell is open to a body where one of ``PASSAGE_SAMPLES``² points spread over
+    it is ``radius`` clear of the obstacles (clearance is 1-Lipschitz, so only cells whose
+    centre is within half a diagonal of that need trying). Of those cells, the ones opened
+    are the groups (joined across faces) that join two parts of the floor the free cells
+    leave apart; the others, a strip along a wall that leads nowhere new, stay blocked, so
+    fields that need no such passage are unchanged."""
+    from scipy import ndimage
+
+    maybe = blocked.ravel() & (clearance >= radius - cell * np.sqrt(2) / 2)
+    opened = np.zeros(blocked.shape, dtype=bool)
+    if not maybe.any():
+        return opened
+    k = PASSAGE_SAMPLES
+    off = ((np.arange(k) + 0.5) / k - 0.5) * cell
+    grid = np.stack(np.meshgrid(off, off, indexing="ij"), axis=-1).reshape(-1, 2)
+    rows = np.flatnonzero(maybe)
+    pts = (centres[rows][:, None, :] + grid[None]).reshape(-1, 2)
+    fits = np.zeros(blocked.size, dtype=bool)
+    fits[rows] = (scene.static_obstacle_distance(pts) >= radius).reshape(len(rows), -1).any(axis=1)
+    fits = fits.reshape(blocked.shape)
+    floor, parts = ndimage.label(~blocked)
+    if parts < 2 or not fits.any():
+        return opened
+    strips, n = ndimage.label(fits)
+    touching: list[set] = [set() for _ in range(n + 1)]
+    pad_s = np.pad(strips, 1)
+    pad_f = np.pad(floor, 1)
+    inner = (slice(1, -1), slice(1, -1))
+    for dx, dy in ((1, 0), (-1, 0), (0, 1), (0, -1)):
+        nb = pad_f[1 + dx:pad_f.shape[0] - 1 + dx, 1 + dy:pad_f.shape[1] - 1 + dy]
+        both = (pad_s[inner] > 0) & (nb > 0)
+        for strip, part in set(zip(pad_s[inner][both].tolist(), nb[both].tolist())):
+            touching[strip].add(part)
+    joining = [s for s in range(1, n + 1) if len(touching[s]) >= 2]
+    return np.isin(strips, joining) if joining else opened
+
+
 def distance_fields(scene: Scene, goals: list, radius: float, cell: float | None = None,
                     names: list[str] | None = None) -> DistanceFields:
     """Exact 8-connected distances (corner cutting off) to each goal region, in metres.
 
     A cell is blocked when its centre lies within ``radius`` of a static obstacle, so the
-    field routes agents' centres where their bodies fit. Goals are regions (their free
+    field routes agents' centres where their bodies fit, unless it is part of a narrow
+    passage a body fits through (:func:`narrow_passages`). Goals are regions (their free
     cells) or Points (the cells of the points). ``names``: what an error calls each goal
     (default ``groups.K``, a scenario's group).
     """
@@ -131,7 +177,9 @@ def distance_fields(scene: Scene, goals: list, radius: float, cell: float | None
         raise ValueError(f"rvo.field_cell {cell} m gives a {shape} grid; use a larger cell")
     idx = np.indices(shape).reshape(2, -1).T
     centres = scene.lower + (idx + 0.5) * cell
-    blocked = (scene.static_obstacle_distance(centres) < radius).reshape(shape)
+    clearance = scene.static_obstacle_distance(centres)
+    blocked = (clearance < radius).reshape(shape)
+    blocked &= ~narrow_passages(scene, centres, clearance, blocked, radius, cell)
     goal_cells = []
     for k, goal in enumerate(goals):
         label = names[k] if names else f"groups.{k}"

@@ -10,6 +10,7 @@ from crowdmotion.progress import step_bar
 
 from crowdmotion import metrics
 from crowdmotion.journeys import entry_report
+from crowdmotion.routing import PASSAGE_SAMPLES
 from crowdmotion.rvo.params import RVOParams
 from crowdmotion.rvo.personality import PARAM_KEYS
 from crowdmotion.rvo.simulation import RVORun, build_journeys, build_simulator, run
@@ -58,7 +59,8 @@ def check_scenario(scene, groups, params: RVOParams) -> None:
                 region = journeys.region_of(st) if st.kind in ("goto", "queue", "leave") else None
                 if region is not None and not np.isfinite(sim.walking_distance(starts, region)).any():
                     raise ValueError(f"{where(k, g)} {stage_label(path, st)}: cannot be reached from the spawn "
-                                     f"{describe_region(g.spawn)}: obstacles close the way for a body of radius {g.radius:g} m")
+                                     f"{describe_region(g.spawn)}: obstacles close the way for a body of radius "
+                                     f"{g.radius:g} m{_grid_note(sim)}")
     stranded = sim.unreachable()
     if stranded.any():
         i = int(np.flatnonzero(stranded)[0])
@@ -66,7 +68,17 @@ def check_scenario(scene, groups, params: RVOParams) -> None:
         raise ValueError(f"{where(k, groups[k])} goal: {describe_region(groups[k].goal)} cannot be reached from "
                          f"the spawn {describe_region(groups[k].spawn)} (e.g. an agent placed at "
                          f"{np.round(sim.positions[i], 2).tolist()}): obstacles close the way for a body of radius "
-                         f"{groups[k].radius:g} m")
+                         f"{groups[k].radius:g} m{_grid_note(sim)}")
+
+
+def _grid_note(sim) -> str:
+    """What the guidance grid can tell apart, for a message saying the way is closed."""
+    fields = getattr(sim, "_fields", None)
+    if fields is None:
+        return ""
+    cell = fields.cell
+    return (f" (the guidance grid, rvo.field_cell {cell:.3g} m, opens a passage at least 2 radii plus "
+            f"{cell / PASSAGE_SAMPLES:.3g} m wide: a smaller rvo.field_cell opens narrower ones)")
 
 
 def expected_steps(groups, params: RVOParams) -> int:
