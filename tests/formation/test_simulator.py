@@ -483,3 +483,23 @@ formation = { kind = "wedge", rows = 4, spacing = 1.4 }
     assert r.summary["all_recovered"]
     facing = r.trajectories.facing[-1]
     assert np.abs(wrap(facing)).max() < np.radians(10)
+
+
+def test_a_soldier_walking_back_to_his_place_turns_round_and_faces_again_once_there():
+    # a user's block of 48 split round a fountain: the half that went ahead walked 7 m back
+    # onto the goal at 1.3 m/s facing forward (moonwalking, in the exported characters)
+    sim, gid = _sim()
+    rank = sim.facing().copy()  # facing the goal, +x
+    np.testing.assert_allclose(rank, 0.0, atol=1e-9)
+    pref = sim.groups[gid].pref_speed
+    back = np.zeros_like(sim.velocities)
+    back[:5] = [-0.9 * pref, 0.1]  # five walk back fast; one sidesteps; the rest stand
+    back[5] = [0.0, 0.9 * pref]
+    sim.velocities = back
+    facing = sim.facing()
+    assert np.all(np.abs(np.abs(facing[:5]) - np.pi) < 0.2), "the five face the way they walk"
+    assert facing[5] == pytest.approx(0.0) and np.allclose(facing[6:], 0.0)  # a sidestep keeps the rank's way
+    sim.velocities = back * 0.4  # slower, still more than a quarter of pref: still turned
+    assert np.all(np.abs(np.abs(sim.facing()[:5]) - np.pi) < 0.2)
+    sim.velocities = back * 0.1  # at his place, slowing: the rank's way again
+    np.testing.assert_allclose(sim.facing()[:5], 0.0, atol=1e-9)

@@ -62,6 +62,10 @@ SLOW_DOWN = 2.0  # metres from the goal over which the attraction fades
 FACE_TRAVEL_SPEED = 0.5  # a group under way faster than this share of pref_speed ...
 FACE_TRAVEL_MAX = np.pi / 4  # ... whose travel lies within this of its heading: soldiers face the travel ...
 FACE_TRAVEL_TAU_S = 1.0  # ... followed with this time constant (no faster than MAX_TURN_RATE)
+BACK_SPEED_SHARE = 0.5  # a soldier walking back to his place faster than this share of pref_speed ...
+BACK_TURN_DEG = 100.0  # ... more than this off the way his rank faces turns round to face his way ...
+STILL_SPEED_SHARE = 0.25  # ... until he slows below this share ...
+FRONT_DEG = 60.0  # ... or walks within this of his rank's way (facing())
 ARRIVAL_TURN_MAX = np.pi / 4  # a mesh that arrives turned less than this from its start heading recovers square to it
 ROUTE_LOOKAHEAD_M = 1.5  # vertices aim at least this far down the route to the goal ...
 ROUTE_PULL_M = 8.0  # ... and at the farthest point of it they see within this far
@@ -198,6 +202,7 @@ class Simulator(LiveObstacles):
         self.groups: list[FormationGroup] = []
         self.positions = np.zeros((0, 2))
         self.velocities = np.zeros((0, 2))
+        self.turned_round = np.zeros(0, bool)  # soldiers walking back to their places facing their way (facing())
         self.radius = np.zeros(0)
         self.max_speed = np.zeros(0)
         self.group_of = np.zeros(0, np.int64)
@@ -277,6 +282,7 @@ class Simulator(LiveObstacles):
         self.groups.append(grp)
         self.positions = np.concatenate([self.positions, start_pos])
         self.velocities = np.concatenate([self.velocities, np.zeros((n, 2))])
+        self.turned_round = np.concatenate([self.turned_round, np.zeros(n, bool)])
         self.radius = np.concatenate([self.radius, np.full(n, radius)])
         self.max_speed = np.concatenate([self.max_speed, np.full(n, max_speed)])
         self.group_of = np.concatenate([self.group_of, np.full(n, len(self.groups) - 1)])
@@ -1086,13 +1092,26 @@ class Simulator(LiveObstacles):
         angle of its pair less 90°: the first agent of a pair is on the car's right); a
         soldier in rank his formation's heading (the rest shape's, which turns to the
         direction of travel) or, under way, the group's travel (:meth:`_face_travel`), a
-        dislocated agent on the move his own way of travel."""
+        dislocated agent on the move his own way of travel. A soldier walking back to his
+        place (faster than ``BACK_SPEED_SHARE`` of his preferred speed, more than
+        ``BACK_TURN_DEG`` off the way his rank faces: the half of a block that went
+        ahead round a fountain walking 7 m back onto the goal) turns round and faces his
+        way until he slows below ``STILL_SPEED_SHARE`` or walks within ``FRONT_DEG`` of
+        his rank's way (a hysteresis, so that he does not spin at the threshold)."""
         out = np.empty(len(self.positions))
         speed = np.linalg.norm(self.velocities, axis=1)
         for g in self.groups:
             out[g.span] = g.heading + g.facing_offset if g.travel is None else g.travel
             v = self.velocities[g.span]
-            away = g.guide.dislocated & (speed[g.span] > 0.25 * g.pref_speed)
+            rank = out[g.span]
+            ahead = np.cos(np.arctan2(v[:, 1], v[:, 0]) - rank)  # cos of his way off his rank's
+            fast, slow = speed[g.span] > BACK_SPEED_SHARE * g.pref_speed, speed[g.span] < STILL_SPEED_SHARE * g.pref_speed
+            turned = self.turned_round[g.span]
+            turned = np.where(turned, ~slow & (ahead < np.cos(np.radians(FRONT_DEG))),
+                              fast & (ahead < np.cos(np.radians(BACK_TURN_DEG))))
+            turned &= not g.cars  # a car faces along its body (below)
+            self.turned_round[g.span] = turned
+            away = (g.guide.dislocated & (speed[g.span] > 0.25 * g.pref_speed)) | turned
             out[g.span][away] = np.arctan2(v[away, 1], v[away, 0])
         if len(self.pairs):
             axis = self.positions[self.pairs[:, 1]] - self.positions[self.pairs[:, 0]]
