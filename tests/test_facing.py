@@ -128,3 +128,19 @@ def test_3d_files_keep_the_facing_pitch(tmp_path, suffix):
     np.testing.assert_allclose(wrap(back.facing - traj.facing), 0, atol=tol)
     assert np.degrees(back.facing_pitch[10, 0]) == pytest.approx(np.degrees(np.arctan2(0.5, np.hypot(1, 0.3))),
                                                                   abs=0.2)
+
+
+def test_a_walker_that_stood_turns_to_its_new_way_before_it_sets_off_not_while():
+    # a plaza's walker stood facing west, then walked east: its facing was still 124° off
+    # at 0.53 m/s (walking off backwards while turning at 4 rad/s)
+    dt = 1 / 24
+    west = np.c_[np.linspace(10.0, 5.0, 97), np.zeros(97)]  # 4 s walking west at 1.25 m/s
+    stand = np.repeat(west[-1:], 72, axis=0)  # 3 s standing
+    speed = np.minimum(np.arange(1, 97) * dt / 1.0, 1.0) * 1.3  # sets off east, 1 s to 1.3 m/s
+    east = west[-1] + np.c_[np.cumsum(speed * dt), np.zeros(96)]
+    pos = np.vstack([west, stand, east])[:, None, :]
+    yaw, _ = facing_from_motion(pos, dt)
+    v = np.gradient(pos[:, 0, 0], dt)
+    walking_east = np.flatnonzero(v > 0.3)
+    assert np.all(np.abs(wrap(yaw[walking_east, 0])) < np.radians(45)), "faces east once walking east"
+    assert np.abs(wrap(yaw[100, 0] - np.pi)) < 1e-6, "stood facing west, the way it came, until near setting off"

@@ -10,7 +10,9 @@ A character rig needs none of that. :func:`facing_from_motion` gives every agent
 2. it is updated only while the agent walks at more than ``standing_fraction`` of its
    own cruising speed (the 90th percentile of its speeds); standing, waiting at a goal
    or being pushed about at a crawl holds the last facing; before the first move the
-   agent already faces the way it will go;
+   agent already faces the way it will go, and standing, it turns to the way it will
+   walk over the half turn's time (pi / ``max_turn_rate``) before it sets off, so that it
+   does not walk off backwards while it turns;
 3. the turn from frame to frame is at most ``max_turn_rate`` radians per second.
 
 Methods that know better pass their own yaw to :class:`~crowdmotion.trajectories.Trajectories`
@@ -44,15 +46,20 @@ def travel_velocity(positions: np.ndarray, dt: float, window_s: float = WINDOW_S
     return (positions[hi] - positions[lo]) / ((hi - lo) * dt)[:, None, None]
 
 
-def hold_defined(values: np.ndarray, defined: np.ndarray, fallback: float = 0.0) -> np.ndarray:
+def hold_defined(values: np.ndarray, defined: np.ndarray, fallback: float = 0.0, lead: int = 0) -> np.ndarray:
     """(T, N): each value where ``defined``, else the last defined one before it, else the
     first defined one after it (an agent faces the way it will go before it moves), else
-    ``fallback``."""
+    ``fallback``. Within ``lead`` frames before the next defined one, that next one: an
+    agent standing turns to the way it will walk before it sets off, not while."""
     t = values.shape[0]
-    frame = np.where(defined, np.arange(t)[:, None], -1)
+    frames = np.arange(t)[:, None]
+    frame = np.where(defined, frames, -1)
     last = np.maximum.accumulate(frame, axis=0)
     first = np.argmax(defined, axis=0)
     src = np.where(last >= 0, last, first[None, :])
+    if lead > 0:
+        nxt = np.minimum.accumulate(np.where(defined, frames, t)[::-1], axis=0)[::-1]
+        src = np.where(~defined & (nxt < t) & (nxt - frames <= lead), nxt, src)
     out = np.take_along_axis(values, src, axis=0)
     return np.where(defined.any(axis=0)[None, :], out, fallback)
 
@@ -88,7 +95,8 @@ def facing_from_motion(positions: np.ndarray, dt: float, active: np.ndarray | No
         cruise = np.where(count > 0, np.take_along_axis(ranked, at[None, :], axis=0)[0], 0.0)
         return live & (speed > np.maximum(standing_fraction * cruise, 1e-9))
 
-    yaw = limit_turn(hold_defined(np.arctan2(v[..., 1], v[..., 0]), walking(flat)), step)
+    lead = int(np.ceil(np.pi / max_turn_rate / dt)) if max_turn_rate > 0 else 0  # a half turn's frames
+    yaw = limit_turn(hold_defined(np.arctan2(v[..., 1], v[..., 0]), walking(flat), lead=lead), step)
     if d == 2:
         return yaw, np.zeros((t, n))
     # pitch: the climb angle while flying, level while hovering (a drone does not hold a tilt)
