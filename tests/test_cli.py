@@ -522,3 +522,25 @@ def test_an_export_never_replaces_a_file_of_the_user_s_and_is_not_listed_as_anot
     # into its own folder: listed, so its run --overwrite removes it
     assert main(["export", str(one), "--to", "csv"]) == 0
     assert "trajectories.csv" in read_manifest(one)["files"]
+
+
+def test_a_run_whose_reader_leaves_early_still_writes_its_files(tmp_path, monkeypatch):
+    # `crowdmotion run x.toml | head -1`: printing into the closed pipe raised
+    # BrokenPipeError and the run, simulated, was never written
+    import io
+
+    from tests.test_scenario import RVO
+
+    class Closed(io.StringIO):
+        def write(self, text):
+            raise BrokenPipeError(32, "Broken pipe")
+
+        def flush(self):
+            raise BrokenPipeError(32, "Broken pipe")
+
+    path = tmp_path / "street.toml"
+    path.write_text(RVO)
+    monkeypatch.setattr("sys.stdout", Closed())
+    monkeypatch.setattr("sys.stderr", Closed())
+    assert main(["run", str(path), "-o", str(tmp_path / "out"), "--plots", "none"]) == 0
+    assert (tmp_path / "out" / "trajectories.parquet").is_file() and (tmp_path / "out" / "summary.json").is_file()

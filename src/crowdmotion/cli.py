@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import argparse
 import math
+import os
 import re
 import sys
 import warnings
@@ -639,7 +640,22 @@ def cmd_export(args) -> int:
         if dest.suffix.lower() == ".csv":
             add(sidecar(dest))
     print(f"wrote {dest} ({traj.n_agents} agents, {traj.n_frames} frames at {traj.fps:g} fps)")
+    print(_file_root_motion(traj))
     return 0
+
+
+def _file_root_motion(traj) -> str:
+    """One line on how smooth the written frames play: summary.json's root_motion is
+    taken on the B-spline before an export's collision check, which may keep a step on
+    the spline through the frames or straight, turning more sharply there."""
+    from crowdmotion.metrics import root_motion
+
+    rm = root_motion(traj, fps=traj.fps)
+    acc, turn = rm.get("acceleration_mps2") or {}, rm.get("turn_rate_rad_s") or {}
+    if acc.get("p95") is None or turn.get("p95") is None:
+        return "  root motion: nobody moves faster than 0.3 m/s over three frames here"
+    return (f"  root motion of these frames (moving agents): acceleration p95 {acc['p95']:.2f} m/s², max "
+            f"{acc['max']:.1f}; turn rate p95 {turn['p95']:.2f} rad/s, max {turn['max']:.1f}")
 
 
 def _refuse_foreign(dest: Path, manifest: dict | None) -> None:
@@ -864,10 +880,55 @@ def _user_message(exc: BaseException) -> str:
 def main(argv=None) -> int:
     """The command; returns its exit status (EXIT_STATUS): 0 done, 2 refused (the message
     says why), 3 a run that ends with collisions, 130/143 interrupted, 1 an internal error."""
-    from crowdmotion.interrupts import Interrupts, is_interrupt
-
     args = build_parser().parse_args(_joined_negative_seeds(sys.argv[1:] if argv is None else list(argv)))
     warnings.showwarning = _one_line_warning
+    streams = sys.stdout, sys.stderr
+    sys.stdout, sys.stderr = _ReaderMayLeave(sys.stdout), _ReaderMayLeave(sys.stderr)
+    try:
+        return _command(args)
+    finally:
+        sys.stdout, sys.stderr = streams
+
+
+class _ReaderMayLeave:
+    """A stream that goes quiet when its reader has gone (``crowdmotion run x | head -1``):
+    the pipe's end closed, printing raised BrokenPipeError and the run stopped unwritten
+    after simulating. Once gone, what is written goes nowhere and the command finishes
+    its work (its files)."""
+
+    def __init__(self, stream):
+        self._stream, self._gone = stream, False
+
+    def _leave(self) -> None:
+        self._gone = True
+        try:  # the interpreter flushes the stream again at exit: let that go nowhere too
+            os.dup2(os.open(os.devnull, os.O_WRONLY), self._stream.fileno())
+        except (OSError, ValueError, AttributeError):  # not a file (a test's capture)
+            pass
+
+    def write(self, text: str) -> int:
+        if not self._gone:
+            try:
+                return self._stream.write(text)
+            except BrokenPipeError:
+                self._leave()
+        return len(text)
+
+    def flush(self) -> None:
+        if not self._gone:
+            try:
+                self._stream.flush()
+            except BrokenPipeError:
+                self._leave()
+
+    def __getattr__(self, name):
+        return getattr(self._stream, name)
+
+
+def _command(args) -> int:
+    """Run the parsed command (see :func:`main`)."""
+    from crowdmotion.interrupts import Interrupts, is_interrupt
+
     with Interrupts() as stop:  # SIGTERM as Ctrl-C, for this command only
         args.interrupts = stop
         if args.debug:  # every error with its traceback
