@@ -313,6 +313,10 @@ def _find_trajectories(out: Path) -> Path:
     if (out.parent / "sweep.parquet").is_file():  # a sweep's runs/: its runs are the files in it
         raise FileNotFoundError(f"no trajectories.parquet or trajectories.csv in {out}: it holds a sweep's runs; "
                                 f"give the sweep's folder ({out.parent}) to take them all, or one of its files")
+    if (out / "runs").is_dir() and any((out / "runs").glob("*.parquet")):  # a sweep stopped before its table
+        raise FileNotFoundError(f"no trajectories.parquet or trajectories.csv in {out}, and no sweep.parquet: its "
+                                f"runs/ holds a sweep's runs, but the sweep stopped before it listed them; "
+                                f"crowdmotion sweep ... -o {out} --resume runs them again and writes the table")
     raise FileNotFoundError(f"no trajectories.parquet or trajectories.csv in {out}")
 
 
@@ -505,12 +509,18 @@ def _sweep_report(folder: Path) -> int:
     from crowdmotion.io.longform import json_text
     from crowdmotion.progress import tracked
     from crowdmotion.rvo.claims import check_claims, format_claims, mean_ci
-    from crowdmotion.sweep import SUMMARY_KEYS
+    from crowdmotion.sweep import SUMMARY_KEYS, sweep_record
 
     try:
-        table = pq.read_table(folder / "sweep.parquet").to_pylist()
+        arrow = pq.read_table(folder / "sweep.parquet")
     except Exception as exc:  # pyarrow raises several types for damaged files
         raise ValueError(f"{folder / 'sweep.parquet'}: a damaged sweep table: {exc}") from None
+    table, record = arrow.to_pylist(), sweep_record(arrow) or {}
+    partial = bool(record.get("partial"))
+    if partial:  # a sweep stopped part way: its finished runs, said so
+        why = "failed" if record.get("stopped_by") == "error" else "was interrupted"
+        print(f"the sweep {why}: {len(table)} of {record.get('planned', '?')} planned runs finished, reported "
+              f"here (crowdmotion sweep ... -o {folder} --resume runs the rest)\n")
     if not table:
         raise ValueError(f"{folder / 'sweep.parquet'} lists no runs")
     if not all(isinstance(row.get("file"), str) for row in table):
@@ -553,7 +563,8 @@ def _sweep_report(folder: Path) -> int:
             print("\nthe personality paper's §6 observations (paired over runs):\n")
             print(format_claims(claims))
         parts.append({"setting": setting, "runs": len(chosen), "groups": stats, "claims": claims})
-    report = {"runs": len(runs), "per_run": runs,
+    report = {"runs": len(runs), **({"partial": True, "planned": record.get("planned")} if partial else {}),
+              "per_run": runs,
               "run_keys": [{"seed": row.get("seed"), "setting": {n: row.get(n) for n in names}} for row in table]}
     if names:
         report.update({"settings": names, "by_setting": parts})
@@ -806,7 +817,7 @@ def _top_level_items(text: str) -> list[str]:
 
 def cmd_sweep(args) -> int:
     from crowdmotion.outputs import folder_inside
-    from crowdmotion.sweep import sweep
+    from crowdmotion.sweep import sweep, sweep_record
 
     settings: dict[str, list] = {}
     for key, values in args.set or []:
@@ -814,10 +825,25 @@ def cmd_sweep(args) -> int:
             raise ValueError(f"--set {key} is given twice: give all its values once, comma-separated "
                              f"(--set {key}=v1,v2)")
         settings[key] = values
+    if args.resume and args.overwrite:
+        raise ValueError("--resume keeps the earlier sweep's finished runs and --overwrite removes them: give one")
     source = scenario_path(args.scenario)
     out = Path(args.output) if args.output else folder_inside("sweeps", source.stem)
     table = sweep(source, args.seeds, settings, out, scheduler=args.scheduler, workers=args.workers,
-                  progress=not args.quiet, overwrite=args.overwrite)
+                  progress=not args.quiet, overwrite=args.overwrite, resume=args.resume)
+    record = sweep_record(table) or {}
+    if record.get("stopped_by") == "interrupt":  # Ctrl-C or SIGTERM: the runs finished are kept
+        stop = getattr(args, "interrupts", None)
+        name = (stop.name if stop is not None else "") or "interrupted"
+        if not record.get("partial"):
+            kept = f"every run had finished; {table.num_rows} runs in {out / 'sweep.parquet'}"
+        elif table.num_rows:
+            kept = (f"{table.num_rows} of {record['planned']} runs finished; {out / 'sweep.parquet'} lists them "
+                    f"(partial); the same command with --resume runs the rest")
+        else:
+            kept = f"no run of {record['planned']} had finished"
+        print(f"crowdmotion: {name}: stopped; {kept}", file=sys.stderr)
+        return (stop.exit_code if stop is not None else None) or 130
     print(f"{table.num_rows} runs; table {out / 'sweep.parquet'}, trajectories in {out / 'runs'}/")
     return 0
 
@@ -980,7 +1006,8 @@ exit status:
        written; --allow-collisions exits 0)
   130  stopped by Ctrl-C; run: the frames simulated so far are written, marked
        partial = true (while the files are written, a first Ctrl-C lets the writing
-       finish, a second stops it and keeps none of the run's files)
+       finish, a second stops it and keeps none of the run's files); sweep: the runs
+       finished are kept, listed in sweep.parquet marked partial (--resume runs the rest)
   143  stopped by SIGTERM (timeout, kill, a batch scheduler), as by Ctrl-C
 """
 
@@ -1123,6 +1150,9 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("-o", "--output", help="output folder (default ./sweeps/<scenario>)")
     p.add_argument("--overwrite", action="store_true",
                    help="replace an earlier sweep in the output folder (its runs/, sweep.parquet and report.json)")
+    p.add_argument("--resume", action="store_true",
+                   help="finish an earlier sweep in the output folder (one stopped by Ctrl-C): its finished runs "
+                        "are kept, the others run; refused if it ran another scenario, seeds or settings")
     p.add_argument("-q", "--quiet", action="store_true", help="no progress bar")
     p.set_defaults(func=cmd_sweep)
 
