@@ -1,5 +1,7 @@
 """Scenario files: errors name the field and the value; nothing executes."""
 
+import warnings
+
 import crowdmotion as cm
 import numpy as np
 import pytest
@@ -369,3 +371,25 @@ def test_a_lattice_is_no_goal():
     text = LATTICE.format(method="rvo", goal='{ shape = "lattice", lower = [27, 1], upper = [29, 3] }', extra="")
     with pytest.raises(ScenarioError, match=r"groups.0.goal \(group 'block'\): a lattice is a spawn shape, not a goal"):
         parse_scenario(text)
+
+
+def test_speeds_in_another_unit_and_a_wall_outside_the_scene_are_warned_of():
+    # a researcher's speeds in cm/s (130 for 1.3 m/s) ran at 33 m/s without a word, and a
+    # mistyped wall outside the bounds turned a bottleneck into an open room
+    text = RVO.replace("bounds = [[0, 0], [30, 10]]", 'bounds = [[0, 0], [30, 10]]\nobstacles = [{ shape = "box", '
+                       'lower = [300.0, 300.0], upper = [302.0, 304.0] }]', 1)
+    text = text.replace("count = ", "pref_speed = 130\nmax_speed = 150\ncount = ", 1)
+    with pytest.warns(UserWarning) as seen:
+        parse_scenario(text, "street.toml")
+    said = " ".join(str(w.message) for w in seen)
+    assert "groups.0.pref_speed = 130 m/s: speeds are metres per second" in said
+    assert "scene.obstacles.0" in said and "lies wholly outside the scene bounds" in said
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        parse_scenario(RVO, "street.toml")  # nothing to say of a plain scene
+
+
+def test_a_method_parameter_written_at_the_top_level_is_pointed_to_its_table():
+    with pytest.raises(ScenarioError) as err:
+        parse_scenario(RVO.replace('method = "rvo"', 'method = "rvo"\ntimestep = 0.1'), "street.toml")
+    assert "timestep: is not a top-level field; did you mean 'time_step' in the [rvo]" in str(err.value)

@@ -90,6 +90,8 @@ def test_verify_command_prints_the_table_and_writes_pictures(tmp_path, capsys):
 def test_unknown_cases_are_named(capsys):
     assert main(["verify", "--case", "rimea_99"]) == 2
     assert "unknown verify case(s) ['rimea_99']" in capsys.readouterr().err
+    assert main(["verify", "--case", "narrow_door"]) == 2  # a comparison with measured crowds
+    assert "narrow_door: a comparison with measured crowds: add --empirical" in capsys.readouterr().err
 
 
 def test_a_group_can_walk_at_speeds_drawn_from_a_range():

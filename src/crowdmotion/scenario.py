@@ -785,6 +785,14 @@ def _unknown_key(loc: tuple, key: str) -> str | None:
             return (f"is not a [{block}] parameter: it belongs to " + " and ".join(f"[{m}]" for m in owners)
                     + _close(key, PARAMS[block].model_fields))
         return f"is not a [{block}] parameter{_close(key, field_names(PARAMS[block]))}"
+    if not loc and key not in ScenarioSpec.model_fields:  # a method's parameter written at the top
+        blocks = {m: model.model_fields for m, model in PARAMS.items() if model is not None}
+        names = set(ScenarioSpec.model_fields) | {k for fields in blocks.values() for k in fields}
+        close = difflib.get_close_matches(key, sorted(names), n=1, cutoff=0.6)
+        if close and close[0] not in ScenarioSpec.model_fields:
+            owners = [m for m, fields in blocks.items() if close[0] in fields]
+            return (f"is not a top-level field; did you mean {close[0]!r} in the "
+                    + " or ".join(f"[{m}]" for m in owners) + " table?")
     return None
 
 
@@ -1096,6 +1104,33 @@ def _check_size(scenario: Scenario, source: str, max_memory: int | None) -> None
                             f"{STEPS_FIELD[scenario.method]}")
 
 
+MAX_PLAUSIBLE_SPEED = 50.0  # m/s: a group given more wrote its speeds in another unit (130 for 1.3 m/s)
+
+
+def _warn_outside(scene: S.Scene, source: str) -> None:
+    """Warn of a still obstacle lying wholly outside the scene's bounds: it changes nothing
+    (a coordinate mistyped, a wall the user thinks is there)."""
+    for i, ob in enumerate(scene.obstacles):
+        if ob.is_moving:
+            continue
+        lo, hi = ob.bounds()
+        if np.any(hi <= scene.lower) or np.any(lo >= scene.upper):
+            warnings.warn(f"{source}: scene.obstacles.{i} ({np.round(lo, 3).tolist()}-{np.round(hi, 3).tolist()}) "
+                          f"lies wholly outside the scene bounds {scene.lower.tolist()}-{scene.upper.tolist()}: "
+                          f"it changes nothing (a coordinate mistyped?)", stacklevel=3)
+
+
+def _warn_speeds(spec: ScenarioSpec, source: str) -> None:
+    """Warn of a group's speed beyond ``MAX_PLAUSIBLE_SPEED``: speeds are metres per second."""
+    for i, g in enumerate(spec.groups):
+        for key in ("pref_speed", "max_speed"):
+            value = getattr(g, key)
+            if value is not None and value > MAX_PLAUSIBLE_SPEED:
+                warnings.warn(f"{source}: groups.{i}.{key} = {value:g} m/s: speeds are metres per second (a "
+                              f"walker about 1.3, a car in town about 14); {value:g} would be "
+                              f"{value * 3.6:g} km/h", stacklevel=3)
+
+
 def build(spec: ScenarioSpec, source: str = "scenario", max_memory: int | None = None) -> Scenario:
     """Turn a validated spec into Scene and Groups; shape errors name the field. A run
     that would not fit in ``max_memory`` bytes (default: the memory available now) is
@@ -1110,6 +1145,7 @@ def build(spec: ScenarioSpec, source: str = "scenario", max_memory: int | None =
         scene = S.Scene(bounds=spec.scene.bounds, obstacles=obstacles)
     except (ValueError, TypeError) as exc:
         raise ScenarioError(f"{source}: scene: {exc}") from None
+    _warn_outside(scene, source)
     groups = []
     for i, g in enumerate(spec.groups):
         try:
@@ -1124,6 +1160,7 @@ def build(spec: ScenarioSpec, source: str = "scenario", max_memory: int | None =
                                   attributes=attributes))
         except ValueError as exc:
             raise ScenarioError(f"{source}: groups.{i}: {exc}") from None
+    _warn_speeds(spec, source)
     scenario = Scenario(spec, scene, groups)
     try:
         params = scenario.params  # validates the method block once more, in the method's terms

@@ -496,7 +496,11 @@ def select(quick: bool = False, names=None, methods=None, empirical: bool = Fals
     known = {c.name for c in cases}
     unknown = sorted(set(names or []) - known)
     if unknown:
-        raise ValueError(f"unknown verify case(s) {unknown}; cases: {sorted(known)}")
+        other = {c.name for c in all_cases(not empirical)} & set(unknown)  # a case of the other suite
+        hint = (f" ({', '.join(sorted(other))}: " + ("a public test case: without --empirical)" if empirical
+                                                     else "a comparison with measured crowds: add --empirical)")
+                if other else "")
+        raise ValueError(f"unknown verify case(s) {unknown}{hint}; cases: {sorted(known)}")
     pairs = []
     for c in cases:
         if (quick and not c.quick) or (names and c.name not in names):
