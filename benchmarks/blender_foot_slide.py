@@ -56,9 +56,10 @@ def contacts(feet: np.ndarray, loco, traj) -> tuple[np.ndarray, np.ndarray]:
     off = np.abs(np.angle(np.exp(1j * (np.arctan2(vel[..., 1], vel[..., 0]) - facing))))
     off[speed < 0.1] = 0.0  # no direction to be off when hardly moving
     stepping = (loco.gait_state == WALK) | (loco.gait_state == RUN)
+    shown = traj.active_mask[: len(feet)]  # a hidden character's pose is no contact (its matrix is stale)
     slide, cause = [], []
     for side, contact in enumerate((loco.contact_left, loco.contact_right)):
-        contact = np.asarray(contact)[: len(feet)]
+        contact = np.asarray(contact)[: len(feet)].astype(bool) & shown
         for i in range(contact.shape[1]):
             edges = np.flatnonzero(np.diff(np.r_[0, contact[:, i].astype(np.int8), 0]))
             for a, b in zip(edges[::2], edges[1::2]):

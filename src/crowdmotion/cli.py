@@ -386,10 +386,16 @@ REPORT_COLUMNS = [("agents", "agents", "{:d}"), ("lateral_spread_m", "spread m",
                   ("path_length_ratio", "path ratio", "{:.3f}")]
 
 
+REPORT_LEGEND = ("speed/density: the slope of speed (m/s) on local density (persons/m²: the others within 2 m "
+                 "of each agent over the 2 m disc's area, walls not allowed for), m/s per person/m²; "
+                 "docs/rvo.md names every measure")
+
+
 def _print_report_table(rows: dict, cell) -> None:
     print(f"{'group':12s}" + "".join(f"{h:>15s}" for _, h, _ in REPORT_COLUMNS))
     for name, row in rows.items():
         print(f"{name:12s}" + "".join(f"{cell(row, k, fmt):>15s}" for k, _, fmt in REPORT_COLUMNS))
+    print(REPORT_LEGEND)
 
 
 def _run_report(path: Path, traj, groups: dict | None = None) -> tuple[dict, str]:
@@ -429,6 +435,8 @@ def _run_report(path: Path, traj, groups: dict | None = None) -> tuple[dict, str
         arrived = summary.get("arrival_rate")
         if isinstance(arrived, (int, float)) and arrived < 1.0:
             source += f"; {1.0 - arrived:.0%} of the agents never arrived"
+            if summary.get("partial"):
+                source += " before the run was interrupted"
     else:
         source = f"measured on the frames of {path.name}, with the arrival times of {summary_file.name}"
     return report, source
