@@ -66,6 +66,12 @@ BACK_SPEED_SHARE = 0.5  # a soldier walking back to his place faster than this s
 BACK_TURN_DEG = 100.0  # ... more than this off the way his rank faces turns round to face his way ...
 STILL_SPEED_SHARE = 0.25  # ... until he slows below this share ...
 FRONT_DEG = 60.0  # ... or walks within this of his rank's way (facing())
+SQUARE_TAU_S = 2.0  # a mesh turned off its rest shape in the open squares up with this time constant ...
+SQUARE_RATE = 0.15  # ... at most this many radians a second (a 6 x 6 block's corners 0.8 m/s faster) ...
+SQUARE_START = np.radians(10.0)  # ... from this far off ...
+SQUARE_DONE = np.radians(1.0)  # ... down to this ...
+SQUARE_FIT_M = 0.3  # ... when its shape is the rest shape's, turned, to this (rms; _square_up)
+NEAR_VERTEX_M = 1.5  # a dislocated soldier this near his vertex, in sight of it, walks straight to it
 ARRIVAL_TURN_MAX = np.pi / 4  # a mesh that arrives turned less than this from its start heading recovers square to it
 ROUTE_LOOKAHEAD_M = 1.5  # vertices aim at least this far down the route to the goal ...
 ROUTE_PULL_M = 8.0  # ... and at the farthest point of it they see within this far
@@ -121,6 +127,8 @@ class FormationGroup:
     heading: float = 0.0   # where the rest shape faces now (turned to the direction of travel)
     symmetry: tuple = (0.0,)  # turns (radians) that map the rest shape's slots onto themselves
     facing_offset: float = 0.0  # soldiers face heading + this (set on arrival: see _arrive)
+    squaring: bool = False  # turning back square to its rest shape in the open (_square_up) ...
+    pressed: bool = False  # ... which only a mesh that obstacles or groups have pushed does
     travel: float | None = None  # under way, the way its soldiers face (see Simulator._face_travel)
     arrived_at: float | None = None
     recovered_at: float | None = None
@@ -520,6 +528,9 @@ class Simulator(LiveObstacles):
         g.handles = len(handles)
         drift = u.mean(axis=0) if u.ndim == 2 else u
         turn = self._turn(g, drift, V, centroid)  # the rest shape turns to the direction of travel
+        g.pressed |= len(handles) > 0
+        if not in_area and not g.cars and len(handles) == 0 and g.pressed:  # pushed round, now clear: square up
+            turn += self._square_up(g, V, centroid)
         moved = centroid + (V - centroid) @ _rotation(turn).T + dt * u
         if in_area:  # recovery: back to the rest shape, facing the way it arrived, on the goal
             slot = g.rest_shape() + g.goal_center
@@ -763,6 +774,27 @@ class Simulator(LiveObstacles):
                 g.heading = fit
         g.facing_offset = min(g.symmetry, key=lambda s: off(g.heading + s, travelled))
 
+    def _square_up(self, g: FormationGroup, V: np.ndarray, centroid: np.ndarray) -> float:
+        """The rigid turn (radians, this step) that brings a mesh turned off its rest shape
+        back square to the group's heading: the best-fit turn of the rest shape onto the
+        mesh, taken back over ``SQUARE_TAU_S`` and at most ``SQUARE_RATE`` radians a second,
+        from ``SQUARE_START`` off down to ``SQUARE_DONE``.
+        The mesh's own energy (as rigid as possible) does not mind a turn, so a block an
+        obstacle swung round marched on turned, as a diamond (a 6 x 6 block through a 5 m
+        gap: 35° off its march for the 20 s to its goal); called only in the open, and only
+        for a mesh whole and in its shape (no torn edge, the turned rest shape within
+        ``SQUARE_FIT_M`` of it, root mean square): a block still split round a planter has
+        a best fit that points nowhere."""
+        rest = g.rest_shape()
+        b = V - centroid
+        off = float(np.arctan2(np.sum(rest[:, 0] * b[:, 1] - rest[:, 1] * b[:, 0]),
+                               np.sum(rest[:, 0] * b[:, 0] + rest[:, 1] * b[:, 1])))
+        g.squaring = abs(off) > (SQUARE_DONE if g.squaring else SQUARE_START)
+        if not g.squaring or g.mesh.torn.any() or \
+                np.sqrt(np.mean(np.sum((rest @ _rotation(off).T - b) ** 2, axis=1))) > SQUARE_FIT_M:
+            return 0.0
+        return -float(np.clip(off * self.dt / SQUARE_TAU_S, -SQUARE_RATE * self.dt, SQUARE_RATE * self.dt))
+
     def _turn(self, g: FormationGroup, drift: np.ndarray, V: np.ndarray, centroid: np.ndarray) -> float:
         """Turn the group's rest heading toward its direction of travel, at most
         pref_speed / extent radians per second; returns the rigid turn the mesh makes
@@ -854,6 +886,12 @@ class Simulator(LiveObstacles):
                 v[lost] = g.max_speed * scale[:, None] * self._way_to(k, o[lost], d, l)
                 v[lost] += self._repulsion(g.agents[lost], g.max_speed)
                 fvec, fmag = self.field.sample(o[lost])  # small obstacles push too, and slide round
+                # ... but not one whose vertex is near and in sight: the vertex keeps clear of the
+                # walls itself, and a wall's push held a soldier 0.65 m short of his place by the
+                # scene's edge for good (the safety pass keeps him off the wall)
+                near = (l < NEAR_VERTEX_M) & self._in_reach(o[lost], target[lost], g.radius)
+                fmag = np.where(near, 0.0, fmag)
+                fvec = np.where(near[:, None], 0.0, fvec)
                 v[lost] = self._steer(o[lost], v[lost], fvec, fmag, o[lost] - o.mean(axis=0), g.max_speed,
                                       g.max_speed)
             want[g.span] = v
