@@ -2,7 +2,7 @@
 
 import numpy as np
 
-from crowdmotion.trajectories import held_absent
+from crowdmotion.trajectories import Trajectories, held_absent, resample
 
 
 def test_rows_out_of_the_scene_are_held_where_the_agent_next_stands_or_last_stood():
@@ -13,3 +13,16 @@ def test_rows_out_of_the_scene_are_held_where_the_agent_next_stands_or_last_stoo
     np.testing.assert_array_equal(out[:, 1, 0], [1, 3, 5, 5, 5, 11])  # after it left: where it last stood
     never = np.zeros((6, 2), dtype=bool)
     np.testing.assert_array_equal(held_absent(frames.copy(), never), frames)  # nobody in: as given
+
+
+def test_a_resampled_agent_stands_still_where_it_left_and_where_it_entered():
+    # an exported plaza's leavers moved on for a few frames after leaving (0.4 m/s at 24 fps)
+    t = np.arange(20) * 0.25
+    x = np.where(t < 3.0, 1.3 * t, 1.3 * 3.0)  # walks, leaves at 3 s (held there)
+    pos = np.stack([np.c_[x, np.zeros(20)], np.c_[x[::-1], np.ones(20)]], axis=1)
+    active = np.stack([t < 3.0, t >= 2.0], axis=1)  # the second enters at 2 s
+    out = resample(Trajectories(pos, 0.25, active=active), 24.0, "b-spline")
+    for i in range(2):
+        gone = ~out.active_mask[:, i]
+        rows = out.positions[gone, i]
+        assert len(rows) and np.ptp(rows, axis=0).max() < 1e-12, "still while out of the scene"
