@@ -478,7 +478,8 @@ enter = { start = 2.0 }
     assert "to goal: each formation as one unit, from entering" in printed and "an RVO run" not in printed
 
 
-def test_an_export_never_replaces_another_run_s_file_nor_shrinks_a_run_to_one_frame(tmp_path, capsys):
+def _two_runs(tmp_path):
+    """(the scenario file, two run folders of it: seeds 0 and 4)."""
     from tests.test_scenario import RVO
 
     path = tmp_path / "street.toml"
@@ -486,6 +487,11 @@ def test_an_export_never_replaces_another_run_s_file_nor_shrinks_a_run_to_one_fr
     one, two = tmp_path / "one", tmp_path / "two"
     assert main(["run", str(path), "-o", str(one), "-q", "--plots", "none"]) == 0
     assert main(["run", str(path), "-o", str(two), "-q", "--plots", "none", "--seed", "4"]) == 0
+    return path, one, two
+
+
+def test_an_export_never_replaces_another_run_s_file_nor_shrinks_a_run_to_one_frame(tmp_path, capsys):
+    _, one, two = _two_runs(tmp_path)
     before = (two / "trajectories.parquet").read_bytes()
     capsys.readouterr()
     assert main(["export", str(one), "--to", "parquet", "-o", str(two / "trajectories.parquet")]) == 2
@@ -497,13 +503,8 @@ def test_an_export_never_replaces_another_run_s_file_nor_shrinks_a_run_to_one_fr
 
 def test_an_export_never_replaces_a_file_of_the_user_s_and_is_not_listed_as_another_run_s(tmp_path, capsys):
     from crowdmotion.outputs import read_manifest
-    from tests.test_scenario import RVO
 
-    path = tmp_path / "street.toml"
-    path.write_text(RVO)
-    one, two = tmp_path / "one", tmp_path / "two"
-    assert main(["run", str(path), "-o", str(one), "-q", "--plots", "none"]) == 0
-    assert main(["run", str(path), "-o", str(two), "-q", "--plots", "none", "--seed", "4"]) == 0
+    path, one, two = _two_runs(tmp_path)
     mine = tmp_path / "layout.usda"
     mine.write_text("#usda 1.0\n(my set)\n")
     capsys.readouterr()
