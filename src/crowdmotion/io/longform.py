@@ -34,7 +34,7 @@ def to_table(traj: Trajectories, loco: Locomotion | None = None) -> pa.Table:
     pos = traj.positions.reshape(t * n, d)
     columns = {
         "frame": frame,
-        "time": frame * traj.dt,
+        "time": np.round(frame * traj.dt, 9),  # 0.3, not 0.30000000000000004 (the exact step: metadata dt)
         "agent": np.tile(traj.ids, t),
         "group": _tiled_strings(traj.group.astype(str), t),
         "x": pos[:, 0],
