@@ -162,3 +162,12 @@ def test_the_whole_run_takes_a_spawn_and_an_entrance_along_the_edge():
                      attributes={"enter": {"rate": 20.0, "entrances": [cm.Rect([0, 9.6], [3, 10])]}})
     traj = rvo.simulate(scene, [group], rvo.RVOParams(max_steps=8), np.random.default_rng(3))
     assert traj.n_agents == 40
+
+
+def test_a_spawn_inside_an_obstacle_is_named_as_such_from_python_too():
+    from crowdmotion import rvo
+
+    scene = cm.Scene(bounds=([0, 0], [20, 10]), obstacles=[cm.Box([2, 2], [8, 8])])
+    group = cm.Group("a", 5, spawn=cm.Rect([3, 3], [7, 7]), goal=cm.Rect([15, 1], [19, 9]))
+    with pytest.raises(ValueError, match=r"rect \[3, 3\]-\[7, 7\] lies in obstacles"):
+        rvo.simulate(scene, [group], rvo.RVOParams(max_steps=5), np.random.default_rng(0))

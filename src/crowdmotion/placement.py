@@ -56,6 +56,7 @@ def spawn_positions(scene: Scene, group: Group, placed: np.ndarray, placed_r: np
     if isinstance(group.spawn, Lattice):
         return lattice_positions(scene, group, placed, placed_r, gap, rng)
     out = np.empty((0, dim))
+    clear_ever = False  # whether any draw kept its body clear of the bounds and obstacles
     for _ in range(200):
         need = group.count - len(out)
         if need == 0:
@@ -64,11 +65,16 @@ def spawn_positions(scene: Scene, group: Group, placed: np.ndarray, placed_r: np
         inside = np.minimum(cand - scene.lower, scene.upper - cand).min(axis=1) >= r  # the body within the bounds
         cand = cand[inside]
         cand = cand[scene.obstacle_distance(cand, 0.0) >= r + gap]
+        clear_ever |= len(cand) > 0
         if not overlap and len(cand):
             others = np.concatenate([placed, out])
             others_r = np.concatenate([placed_r, np.full(len(out), r)])
             cand = cand[_greedy_clear(cand, r, gap, others, others_r)]
         out = np.concatenate([out, cand[:need]])
+    if not clear_ever:
+        raise ValueError(f"{what}: {describe_region(group.spawn)} lies in obstacles or along the scene's edge: no "
+                         f"point of it keeps a body of radius {r} m inside the bounds and {gap:g} m clear of the "
+                         f"obstacles")
     raise ValueError(f"{what}: could not place {group.count} agents of radius {r} m without overlap in "
                      f"{group.spawn!r} (placed {len(out)}; a body keeps its radius inside the scene's bounds and "
                      f"clear of obstacles); enlarge the region or reduce the count")
