@@ -348,3 +348,30 @@ def test_a_field_of_another_formation_kind_is_named_as_such_not_suggested_back(t
 def test_a_folder_given_as_the_scenario_is_named_a_folder(tmp_path, capsys):
     (tmp_path / "mine.toml").write_text("")
     refused(capsys, ["run", str(tmp_path)], "is a folder, not a scenario file (it holds mine.toml)")
+
+
+def test_every_group_s_first_problem_is_named_at_once(tmp_path, capsys):
+    # a file with two groups wrong said only the first; the user fixed one per run
+    from crowdmotion.cli import main
+
+    path = tmp_path / "two.toml"
+    path.write_text("""
+name = "two"
+method = "rvo"
+[scene]
+bounds = [[0.0, 0.0], [20.0, 10.0]]
+obstacles = [{ shape = "box", lower = [2.0, 2.0], upper = [8.0, 8.0] }]
+[[groups]]
+name = "a"
+count = 5
+spawn = { shape = "rect", lower = [1.0, 1.0], upper = [5.0, 9.0] }
+goal = { shape = "rect", lower = [3.0, 3.0], upper = [6.0, 6.0] }
+[[groups]]
+name = "b"
+count = 5
+spawn = { shape = "rect", lower = [10.0, 1.0], upper = [12.0, 3.0] }
+goal = { shape = "point", position = [30.0, 5.0] }
+""")
+    assert main(["validate", str(path)]) == 2
+    err = capsys.readouterr().err
+    assert "2 problems" in err and "group 'a' (groups.0) goal" in err and "group 'b' (groups.1) goal" in err

@@ -13,6 +13,22 @@ from crowdmotion.groups import Disc, Group, Lattice, MovingTarget, Points, Rect,
 from crowdmotion.placement import lattice_sites
 from crowdmotion.scene import Box, Polygon, Scene
 
+def group_problems(groups, check) -> None:
+    """Run ``check(k, group)`` on every group and refuse them all at once: a ValueError
+    listing each group's first problem (a file with two groups wrong said only the first,
+    and the user fixed one per run); one problem raises as it is."""
+    found = []
+    for k, g in enumerate(groups):
+        try:
+            check(k, g)
+        except ValueError as exc:
+            found.append(str(exc))
+    if len(found) == 1:
+        raise ValueError(found[0])
+    if found:
+        raise ValueError(f"{len(found)} problems:\n  " + "\n  ".join(found))
+
+
 # random sequential placement of discs jams at 54.7 % of the area (Feder 1980); ask for
 # no more than this share so that sampling with rejection finds room quickly
 PLACEABLE_SHARE = 0.5

@@ -19,10 +19,10 @@ def check_scenario(scene, groups, params: FormationParams) -> None:
     or where a body cannot stand, a 3D scene, a template that does not match the count,
     duplicate or blocked starts, a goal that walls cut off from the formation's start."""
     from crowdmotion.checks import check_goal_clear, check_inside, check_route_places, describe_region, \
-        warn_late_entries, where
+        group_problems, warn_late_entries, where
     from crowdmotion.formation.routes import check_formation_route
 
-    for k, g in enumerate(groups):
+    def check(k, g) -> None:
         warn_late_entries(k, g, params.max_steps * params.time_step, "[formation] max_steps x time_step")
         if g.dim == scene.dim:  # (a 3D group is refused, by name, as the simulator is built)
             if g.attributes.get("route") is not None:  # first: a route's first place may be its goal
@@ -30,6 +30,8 @@ def check_scenario(scene, groups, params: FormationParams) -> None:
                 check_route_places(scene, k, g)
             check_goal_clear(scene, k, g)
             check_inside(scene, k, g, "goal")
+
+    group_problems(groups, check)
     sim = build_simulator(scene, groups, params, np.random.default_rng(0))
     try:
         stranded = sim.cut_off()

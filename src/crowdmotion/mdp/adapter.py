@@ -36,13 +36,14 @@ def check_scenario(scene, groups, params: MDPParams) -> None:
     """Everything a run refuses, refused before it starts: the set-up itself (cell size,
     goal and spawn cells, slots, room for every agent, entry tables and entrances), then a
     goal no agent can reach."""
-    from crowdmotion.checks import check_entrances, check_route_places, describe_region, warn_late_entries, where
+    from crowdmotion.checks import check_entrances, check_route_places, describe_region, group_problems, \
+        warn_late_entries, where
     from crowdmotion.mdp.routes import check_mdp_route
     from crowdmotion.mdp.simulation import region_cells
     from crowdmotion.mdp.solvers import exact_values, exact_values_each
     from crowdmotion.stages import flat_stages, stage_label
 
-    for k, g in enumerate(groups):
+    def check(k, g) -> None:
         check_entrances(scene, k, g)
         if "enter" in g.attributes:
             warn_late_entries(k, g, params.max_steps * step_seconds(groups, params), "[mdp] max_steps x its step time")
@@ -52,6 +53,8 @@ def check_scenario(scene, groups, params: MDPParams) -> None:
             if scene.moving_obstacles:
                 raise ValueError(f"{where(k, g)} route: the MDP method follows routes in static scenes only "
                                  f"(moving obstacles re-solve every field as they move)")
+
+    group_problems(groups, check)
     su = setup(scene, groups, params, np.random.default_rng(0))
     for k, g in enumerate(groups):  # every place on a route can be walked to from the spawn
         starts = su.starts[su.field_of == k]

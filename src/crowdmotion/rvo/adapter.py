@@ -24,11 +24,12 @@ def check_scenario(scene, groups, params: RVOParams) -> None:
     cannot stand on, spawn regions too small, then the set-up itself (placement, personality,
     guidance fields) and goals the field says no agent can reach."""
     from crowdmotion.checks import check_dimension, check_entrances, check_goal_clear, check_inside, \
-        check_route_places, check_spawn_capacity, describe_region, warn_late_entries, where
+        check_route_places, check_spawn_capacity, describe_region, group_problems, warn_late_entries, where
     from crowdmotion.stages import flat_stages, stage_label
 
     check_dimension("rvo", scene, (2,), "use method = 'mdp' or 'pso' for 3D scenes")
-    for k, g in enumerate(groups):
+
+    def check(k, g) -> None:
         # a route's places first: without a goal of its own the group's goal is its route's first
         # place, which is then named by its stage (route.0 (queue 'kiosk')), not as 'goal'
         check_route_places(scene, k, g)
@@ -40,6 +41,8 @@ def check_scenario(scene, groups, params: RVOParams) -> None:
         # a group entering over time need not fit all at once (build_simulator checks its enter table)
         if "enter" not in g.attributes:
             check_spawn_capacity(scene, k, g, params.spawn_gap)
+
+    group_problems(groups, check)
     given = [key for key in PARAM_KEYS if key in params.model_fields_set]
     if given and groups and all(g.attributes.get("personality") is not None for g in groups):
         warnings.warn(f"rvo.{given[0]} = {getattr(params, given[0])} changes nothing here: every group has a "
