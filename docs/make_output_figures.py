@@ -37,7 +37,7 @@ def main() -> None:
             subprocess.run([chromium, *FLAGS, f"--user-data-dir={tmp}/profile", "--window-size=1000,520",
                             f"--screenshot={IMG / 'output_player.png'}", f"file://{page}"], check=True,
                            capture_output=True, timeout=120)
-    plot_density(traj, IMG / "output_density.png", cell=0.5, title="rvo_doorway: mean density")
+    plot_density(traj, IMG / "output_density.png", cell=0.5)  # as `crowdmotion render` draws it
     print("wrote", *sorted(p.name for p in IMG.glob("output_*.png")))
 
 

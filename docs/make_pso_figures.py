@@ -46,7 +46,7 @@ def fig2() -> None:
         for i in range(run.paths.shape[1]):
             ax.plot(run.paths[:, i, 0], run.paths[:, i, 1], "-", color="tab:blue", lw=0.4, alpha=0.4)
         ax.plot(centre[:, 0], centre[:, 1], "-", color="tab:red", lw=1.5, label="swarm centre")
-        ax.set_title(f"k = {k} iterations per update: RMS lag {err:.1f} m")
+        ax.set_title(f"k = {k} iterations per update: RMS lag {err:.2f} m")
         ax.set_aspect("equal")
         ax.set_xlim(-8, 38)
         ax.set_ylim(-8, 38)
@@ -79,7 +79,7 @@ def scenes() -> None:
               f"+ stops {s['rules']['separation_stops']}, redirects {s['rules']['obstacle_redirects']} obstacle / "
               f"{s['rules']['agent_redirects']} agent")
         targets = np.unique(res.extras.swarm_run.targets.reshape(-1, sc.scene.dim), axis=0)
-        plot_paths(res.trajectories, res.extras.scene, IMG / f"{path.stem}.png", title=sc.spec.description[:90],
+        plot_paths(res.trajectories, res.extras.scene, IMG / f"{path.stem}.png", title=sc.spec.description,
                    goals=targets)
         if path.stem == "pso_avoidance":
             avoidance_detail(res, sc.scene)

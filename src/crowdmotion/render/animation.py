@@ -177,7 +177,11 @@ def plot_density(traj: Trajectories, path, cell: float = 0.5, title: str = "") -
     counts, _, _ = np.histogram2d(p[:, 0], p[:, 1], bins=[nx, ny], range=[[lo[0], lo[0] + nx * cell],
                                                                           [lo[1], lo[1] + ny * cell]])
     density = counts / traj.n_frames / cell**2
-    fig, ax = plt.subplots(figsize=(8, 8 * (hi[1] - lo[1]) / (hi[0] - lo[0]) + 0.8))
+    wide = (hi[1] - lo[1]) / (hi[0] - lo[0]) < 0.6
+    # laid out as one: the colour bar the map's own width (below a wide scene) or height,
+    # the title over the map (a bar placed apart left a wide gap and a title hanging off it)
+    fig, ax = plt.subplots(figsize=(8, 8 * (hi[1] - lo[1]) / (hi[0] - lo[0]) + (1.6 if wide else 0.8)),
+                           layout="constrained")
     # one hot cell (a goal where arrivals stand) must not wash out the rest: clip the scale
     # at the 99th percentile of the occupied cells and say so on the bar
     occupied = density[density > 0]
@@ -187,19 +191,19 @@ def plot_density(traj: Trajectories, path, cell: float = 0.5, title: str = "") -
                    extent=(lo[0], lo[0] + nx * cell, lo[1], lo[1] + ny * cell))
     if scene is not None:
         _draw_obstacles_2d(ax, scene)
-    wide = (hi[1] - lo[1]) / (hi[0] - lo[0]) < 0.6
     label = "mean density (agents / m²; white: nobody there)" if (density == 0).any() else "mean density (agents / m²)"
-    fig.colorbar(im, ax=ax, label=label, shrink=0.8, extend="max" if clipped else "neither",
-                 orientation="horizontal" if wide else "vertical", pad=0.3 if wide else 0.05)
+    fig.colorbar(im, ax=ax, label=label, shrink=0.9 if wide else 0.8, extend="max" if clipped else "neither",
+                 location="bottom" if wide else "right", pad=0.02)
     if not title:
-        title = f"mean density, {cell} m cells" + (", seen from above (heights left out)" if traj.dim == 3 else "")
+        name = traj.metadata.get("scenario")
+        title = (f"{name}: " if name else "") + f"mean density, {cell} m cells" + \
+            (", seen from above (heights left out)" if traj.dim == 3 else "")
     if clipped:
-        title += f"\n(colour scale clipped at the 99th percentile; the densest cell holds {density.max():.2g} /m²)"
+        title += f"\n(colour scale clipped at the 99th percentile; densest cell {density.max():.2g} /m²)"
     ax.set_xlim(lo[0], hi[0])
     ax.set_ylim(lo[1], hi[1])
     ax.set_aspect("equal")
     ax.set_xlabel("x (m)")
     ax.set_ylabel("y (m)")
-    # a clipped scale's arrow tops the colour bar beside the map: the title clears it
-    ax.set_title(title, loc="left", pad=24 if clipped and not wide else 6)
+    ax.set_title(title, loc="left", fontsize=10)
     return _save(fig, path)
