@@ -94,7 +94,17 @@ def _descriptions(model) -> dict[str, str]:
 
 def _constraints(field) -> str:
     parts = []
-    for meta in field.metadata:
+    metas = list(field.metadata)
+    if not metas:  # an optional value (``Fps | None``): the bounds sit on the union's annotated member
+        import types
+        import typing
+        from typing import get_args, get_origin
+
+        union = get_origin(field.annotation) in (typing.Union, types.UnionType)
+        for arg in get_args(field.annotation) if union else ():
+            for meta in getattr(arg, "__metadata__", ()):
+                metas += list(getattr(meta, "metadata", [meta]))  # a Field(...) holds its bounds in metadata
+    for meta in metas:
         for attr, sym in (("gt", ">"), ("ge", "≥"), ("lt", "<"), ("le", "≤"), ("min_length", "min length"),
                           ("max_length", "max length")):
             v = getattr(meta, attr, None)
