@@ -10,7 +10,7 @@ import numpy as np
 import pytest
 
 from crowdmotion import Trajectories
-from crowdmotion.scene import Polygon, Scene
+from crowdmotion.scene import Scene
 
 #: frames of a run whose Voronoi density PedPy computes (its time grows with the frames:
 #: 22 s for a 5101-frame built-in on every frame)
@@ -48,10 +48,12 @@ def assert_sqlite_opens_in_pedpy_and_jupedsim(traj: Trajectories, folder: pathli
 
 def _scene_bound(ob, dim: int, t: float) -> tuple[np.ndarray, np.ndarray]:
     """World (lo, hi) of an obstacle at time t; 2D obstacles are written 2 m tall
-    (a polygon flat on the ground)."""
+    (a polygon as a prism)."""
+    from crowdmotion.io.usd import OBSTACLE_HEIGHT
+
     lo, hi = (np.asarray(b, float) + ob.offset(t) for b in ob.bounds())
     if dim == 2:
-        lo, hi = np.append(lo, 0.0), np.append(hi, 0.0 if isinstance(ob, Polygon) else 2.0)
+        lo, hi = np.append(lo, 0.0), np.append(hi, OBSTACLE_HEIGHT)
     return lo, hi
 
 

@@ -326,3 +326,26 @@ def test_a_file_at_a_whole_rate_of_its_own_runs_at_that_rate_with_a_sample_on_ev
     assert codes == list(range(at12.n_frames))
     odd = Trajectories(np.zeros((20, 1, 2)), 1 / 7.5).save(tmp_path / "odd.usda", dcc_rate=False)
     assert Usd.Stage.Open(str(odd)).GetTimeCodesPerSecond() == 24.0  # no whole rate: the DCCs' default
+
+
+@pytest.mark.parametrize("turn", [1, -1])
+def test_a_polygon_obstacle_stands_as_a_closed_prism_facing_out_whichever_way_it_was_wound(turn):
+    # counter-clockwise polygons (mdp_robots_2d's) came out as one flat face at height 0
+    # facing into the ground
+    from crowdmotion.io.usd import OBSTACLE_HEIGHT, _face_normal, polygon_prism
+
+    square = np.array([[0.0, 0.0], [2.0, 0.0], [2.0, 1.0], [0.0, 1.0]])[::turn]
+    points, counts, indices = polygon_prism(square, OBSTACLE_HEIGHT)
+    faces, at = [], 0
+    for c in counts:
+        faces.append(indices[at:at + c])
+        at += c
+    normals = np.array([_face_normal(points, f) for f in faces])
+    assert normals[0][1] > 0 and normals[1][1] < 0, "top up, bottom down"
+    centre = points.mean(axis=0)
+    for f, nrm in zip(faces, normals):
+        assert np.dot(nrm, points[f].mean(axis=0) - centre) > 0, "every face outwards"
+    # the divergence theorem: a closed, outward-wound mesh encloses a positive volume (2 x 1 x 2 m)
+    volume = sum(np.dot(points[f[0]], np.cross(points[f[i]], points[f[i + 1]])) for f in faces
+                 for i in range(1, len(f) - 1)) / 6
+    assert volume == pytest.approx(2.0 * 1.0 * OBSTACLE_HEIGHT)

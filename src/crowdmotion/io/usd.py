@@ -33,7 +33,7 @@ faces the agent's facing. The stage stays Y-up; only the prototypes' frame is ch
 - ``userProperties:crowdmotion:fps``, ``:prototype_up``, ``:prototype_forward`` on
   ``/World`` itself: the stage's rate and prototype axes again, where Blender's importer
   reads them (as custom properties of the World object; the add-on uses them);
-- ``Obstacles`` — cylinders, spheres, cubes and flat polygon meshes for the scene's static
+- ``Obstacles`` — cylinders, spheres, cubes and polygon prisms for the scene's static
   obstacles (moving ones at their start place, with their path as ``translate`` samples
   at t × rate; a box's translate comes before its scale in ``xformOpOrder``; one that
   stands only for a while, added or removed during a live run, with ``visibility``
@@ -242,6 +242,42 @@ def _set_extent(prim, UsdGeom, time=None) -> None:
         UsdGeom.Boundable(prim).CreateExtentAttr().Set(extent, tc)
 
 
+OBSTACLE_HEIGHT = 2.0  # metres: a 2D scene's obstacles stand this tall on the stage (cubes, cylinders, prisms)
+
+
+def _face_normal(points: np.ndarray, face: list[int]) -> np.ndarray:
+    """The (unnormalised) normal of a planar face by the right-hand rule (Newell's method)."""
+    p = points[face]
+    q = np.roll(p, -1, axis=0)
+    return np.array([np.sum((p[:, 1] - q[:, 1]) * (p[:, 2] + q[:, 2])),
+                     np.sum((p[:, 2] - q[:, 2]) * (p[:, 0] + q[:, 0])),
+                     np.sum((p[:, 0] - q[:, 0]) * (p[:, 1] + q[:, 1]))])
+
+
+def polygon_prism(vertices: np.ndarray, height: float) -> tuple[np.ndarray, list[int], list[int]]:
+    """A 2D polygon obstacle as a closed prism ``height`` tall on the stage (points in the
+    USD frame, face vertex counts and indices, every face wound to face outwards: the
+    top up, the bottom down, each side away from the polygon), whichever way round its
+    vertices were given (a flat face wound one way faced into the ground)."""
+    v = to_usd_frame(np.asarray(vertices, float))
+    n = len(v)
+    points = np.vstack([v, v + [0.0, height, 0.0]])
+    top = list(range(n, 2 * n))
+    if _face_normal(points, top)[1] < 0:
+        top = top[::-1]
+    ring = [i - n for i in top]  # the bottom's vertices in the top's order
+    bottom = ring[::-1]
+    centre = v.mean(axis=0)
+    faces = [top, bottom]
+    for a, b in zip(ring, ring[1:] + ring[:1]):
+        side = [a, b, b + n, a + n]
+        out = (v[a] + v[b]) / 2 - centre
+        if float(np.dot(_face_normal(points, side), out)) < 0:
+            side = side[::-1]
+        faces.append(side)
+    return points, [len(f) for f in faces], [i for f in faces for i in f]
+
+
 def _obstacles(stage, scene_dict: dict, UsdGeom, Gf, Sdf, rate: float) -> None:
     from crowdmotion.scene import Box, Circle, Polygon, Scene, Sphere
 
@@ -252,9 +288,9 @@ def _obstacles(stage, scene_dict: dict, UsdGeom, Gf, Sdf, rate: float) -> None:
         if isinstance(ob, Circle):
             prim = UsdGeom.Cylinder.Define(stage, name)
             prim.CreateRadiusAttr(float(ob.radius))
-            prim.CreateHeightAttr(2.0)
+            prim.CreateHeightAttr(OBSTACLE_HEIGHT)
             prim.CreateAxisAttr("Y")
-            centre = to_usd_frame(ob.center) + [0.0, 1.0, 0.0]
+            centre = to_usd_frame(ob.center) + [0.0, OBSTACLE_HEIGHT / 2, 0.0]
         elif isinstance(ob, Sphere):
             prim = UsdGeom.Sphere.Define(stage, name)
             prim.CreateRadiusAttr(float(ob.radius))
@@ -264,16 +300,16 @@ def _obstacles(stage, scene_dict: dict, UsdGeom, Gf, Sdf, rate: float) -> None:
             prim.CreateSizeAttr(1.0)
             lo, hi = ob.lower, ob.upper
             if scene.dim == 2:
-                lo, hi = np.append(lo, 0.0), np.append(hi, 2.0)
+                lo, hi = np.append(lo, 0.0), np.append(hi, OBSTACLE_HEIGHT)
             a, b = to_usd_frame(lo), to_usd_frame(hi)
             centre = (a + b) / 2
             size = np.abs(b - a)
         elif isinstance(ob, Polygon):
             prim = UsdGeom.Mesh.Define(stage, name)
-            v = to_usd_frame(ob.vertices)
-            prim.CreatePointsAttr([Gf.Vec3f(*p) for p in v.tolist()])
-            prim.CreateFaceVertexCountsAttr([len(v)])
-            prim.CreateFaceVertexIndicesAttr(list(range(len(v)))[::-1])  # face up (+Y)
+            points, counts, indices = polygon_prism(ob.vertices, OBSTACLE_HEIGHT)
+            prim.CreatePointsAttr([Gf.Vec3f(*p) for p in points.tolist()])
+            prim.CreateFaceVertexCountsAttr(counts)
+            prim.CreateFaceVertexIndicesAttr(indices)
             centre = np.zeros(3)
         else:  # pragma: no cover
             continue
