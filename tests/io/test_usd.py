@@ -349,3 +349,18 @@ def test_a_polygon_obstacle_stands_as_a_closed_prism_facing_out_whichever_way_it
     volume = sum(np.dot(points[f[0]], np.cross(points[f[i]], points[f[i + 1]])) for f in faces
                  for i in range(1, len(f) - 1)) / 6
     assert volume == pytest.approx(2.0 * 1.0 * OBSTACLE_HEIGHT)
+
+
+def test_the_velocity_motion_blur_reads_is_the_frame_s_own_and_never_differences_an_absent_frame(tmp_path):
+    from pxr import Usd, UsdGeom
+
+    t = np.arange(10) / 24
+    pos = np.stack([np.c_[1.2 * t ** 2 * 12, np.zeros(10)], np.c_[1.0 * t, np.ones(10)]], axis=1)
+    active = np.ones((10, 2), bool)
+    active[7:, 1] = False  # the second leaves after frame 6
+    tr = Trajectories(pos, 1 / 24, active=active)
+    stage = Usd.Stage.Open(str(tr.save(tmp_path / "v.usda", dcc_rate=False)))
+    vel = UsdGeom.PointInstancer(stage.GetPrimAtPath("/World/Crowd")).GetVelocitiesAttr()
+    v4 = np.array(vel.Get(4.0))
+    assert v4[0, 0] == pytest.approx((pos[5, 0, 0] - pos[3, 0, 0]) * 12, rel=1e-5)  # central: the frame's own
+    assert np.array(vel.Get(6.0))[1, 0] == pytest.approx(1.0, rel=1e-5)  # its last frame: walking, not 0

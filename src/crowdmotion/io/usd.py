@@ -16,7 +16,8 @@ faces the agent's facing. The stage stays Y-up; only the prototypes' frame is ch
 
 - ``Agents`` — a ``UsdGeomPoints`` of purpose ``guide`` (not rendered: importers leave
   it out unless asked for guides, e.g. Blender's *Guide* purpose option) with
-  time-sampled ``points``, ``velocities`` (m/s, for motion blur), ``widths`` (body
+  time-sampled ``points``, ``velocities`` (m/s, for motion blur: central differences,
+  one-sided at the ends of a stay; :func:`frame_velocity`), ``widths`` (body
   diameters; 0 while an agent is inactive), ``ids`` and a per-point ``displayColor`` by
   group, and primvars ``group`` (the index of the agent's group in ``/World/Crowd``'s
   prototypes), ``speed`` (m/s), ``orient`` (the instancer's orientation of each agent, a
@@ -245,6 +246,30 @@ def _set_extent(prim, UsdGeom, time=None) -> None:
 OBSTACLE_HEIGHT = 2.0  # metres: a 2D scene's obstacles stand this tall on the stage (cubes, cylinders, prisms)
 
 
+def frame_velocity(traj: Trajectories) -> np.ndarray:
+    """(T, N, D) each agent's velocity at each frame (m/s), as motion blur reads it: the
+    central difference of its neighbouring frames, one-sided at the ends of each stay in
+    the scene (never across a frame it is absent from), 0 where it stands alone or is
+    absent. (The forward difference of ``Trajectories.velocity`` read 0 at a leaver's last
+    visible frame and half its speed on entering.)"""
+    p = np.nan_to_num(traj.positions)
+    act = traj.active_mask
+    v = np.zeros_like(p)
+    if traj.n_frames < 2:
+        return v
+    fwd = np.zeros_like(p)
+    fwd[:-1] = (p[1:] - p[:-1]) / traj.dt  # the step from each frame on
+    back = np.zeros_like(p)
+    back[1:] = fwd[:-1]  # the step into each frame
+    has_next = np.zeros_like(act)
+    has_next[:-1] = act[:-1] & act[1:]
+    has_prev = np.zeros_like(act)
+    has_prev[1:] = act[1:] & act[:-1]
+    both = (has_next & has_prev)[..., None]
+    v = np.where(both, (fwd + back) / 2, np.where(has_next[..., None], fwd, np.where(has_prev[..., None], back, 0.0)))
+    return v
+
+
 def _face_normal(points: np.ndarray, face: list[int]) -> np.ndarray:
     """The (unnormalised) normal of a planar face by the right-hand rule (Newell's method)."""
     p = points[face]
@@ -455,7 +480,8 @@ def write(traj: Trajectories, path: Path, locomotion: LocomotionParams | None = 
             ip_attr, io_attr, iv_attr = inst.CreatePositionsAttr(), inst.CreateOrientationsAttr(), \
                 inst.CreateInvisibleIdsAttr()
             # velocities (m/s) for motion blur; a colour per agent by group (displayColor)
-            vel = to_usd_frame(np.nan_to_num(traj.velocity)).astype(np.float32)
+            frame_vel = frame_velocity(traj)
+            vel = to_usd_frame(frame_vel).astype(np.float32)
             pv_attr, iv_vel = points.CreateVelocitiesAttr(), inst.CreateVelocitiesAttr()
             from crowdmotion.render.colours import group_colours
 
@@ -465,7 +491,7 @@ def write(traj: Trajectories, path: Path, locomotion: LocomotionParams | None = 
             primvars = UsdGeom.PrimvarsAPI(points)
             primvars.CreatePrimvar("group", Sdf.ValueTypeNames.IntArray, UsdGeom.Tokens.vertex).Set(
                 Vt.IntArray.FromNumpy(proto_index))
-            speed = np.nan_to_num(traj.speed).astype(np.float32)
+            speed = np.linalg.norm(frame_vel, axis=-1).astype(np.float32)
             channels = {"speed": (speed, "FloatArray"), **channels}
             # per point and per instance: speed, the locomotion channels; orient on the points
             varying = []
