@@ -364,3 +364,10 @@ def test_the_velocity_motion_blur_reads_is_the_frame_s_own_and_never_differences
     v4 = np.array(vel.Get(4.0))
     assert v4[0, 0] == pytest.approx((pos[5, 0, 0] - pos[3, 0, 0]) * 12, rel=1e-5)  # central: the frame's own
     assert np.array(vel.Get(6.0))[1, 0] == pytest.approx(1.0, rel=1e-5)  # its last frame: walking, not 0
+
+
+def test_an_ntsc_rate_is_written_as_the_user_gave_it():
+    from crowdmotion.io.usd import stage_rate
+
+    assert stage_rate(Trajectories(np.zeros((3, 1, 2)), 1 / 29.97)) == 29.97  # not 29.969999999999995
+    assert stage_rate(Trajectories(np.zeros((3, 1, 2)), 1 / 24)) == 24.0

@@ -184,7 +184,8 @@ def stage_rate(traj: Trajectories) -> float:
     of its wrap from 1 to 0 showed half a stride back)."""
     fps = traj.fps
     whole = fps >= 1.0 - RATE_MATCH and abs(fps - round(fps)) < RATE_MATCH
-    return fps if whole or any(abs(fps - r) < RATE_MATCH for r in STANDARD_RATES) else 24.0
+    # as the user wrote it (29.97, not the 29.969999999999995 of 1 / dt): DCCs match rates exactly
+    return round(fps, 6) if whole or any(abs(fps - r) < RATE_MATCH for r in STANDARD_RATES) else 24.0
 
 
 def orientations(heading: np.ndarray, pitch: np.ndarray) -> np.ndarray:
