@@ -375,3 +375,15 @@ goal = { shape = "point", position = [30.0, 5.0] }
     assert main(["validate", str(path)]) == 2
     err = capsys.readouterr().err
     assert "2 problems" in err and "group 'a' (groups.0) goal" in err and "group 'b' (groups.1) goal" in err
+
+
+def test_a_method_s_parameters_built_in_python_name_the_field_and_the_value():
+    # rvo.RVOParams(timestep=0.1) raised pydantic's error with its web address
+    from crowdmotion import rvo
+    from crowdmotion.formation.params import FormationParams
+
+    typo = r"^rvo\.timestep: is not a known field \(got 0\.1\); did you mean 'time_step'\?$"
+    with pytest.raises(ValueError, match=typo):
+        rvo.RVOParams(timestep=0.1)
+    with pytest.raises(ValueError, match=r"^formation\.fps: must be more than 0 \(got 0\)$"):
+        FormationParams(fps=0)

@@ -5,7 +5,7 @@ from __future__ import annotations
 import difflib
 import math
 import re
-from typing import Annotated, Any, Callable, Iterable
+from typing import Annotated, Any, Callable, ClassVar, Iterable
 
 from pydantic import BaseModel, Field, ValidationError
 
@@ -162,3 +162,29 @@ def field_names(model: type[BaseModel]) -> set[str]:
 
     walk(model)
     return names
+
+
+class _SaysWhichField(type(BaseModel)):
+    """The metaclass of :class:`MethodParams`: a call building parameters in Python turns
+    pydantic's ValidationError into a ValueError in the user's terms. (Overriding
+    ``__init__`` would do it too, but pydantic then calls that ``__init__`` while it
+    validates a scenario file's method block, and the file's own hints, "belongs to
+    [rvo]", were lost.)"""
+
+    def __call__(cls, *args: Any, **data: Any):
+        try:
+            return super().__call__(*args, **data)
+        except ValidationError as exc:
+            raise ValueError("; ".join(error_lines(exc, cls.error_prefix, known=cls.model_fields))) from None
+
+
+class MethodParams(BaseModel, metaclass=_SaysWhichField):
+    """A method's parameters (RVOParams, MDPParams, PSOParams, FormationParams): built
+    in Python, a bad field raises ValueError naming ``prefix.field`` and the value, one
+    line each, with the nearest known field for a typo (``rvo.timestep: is not a known
+    field (got 0.1); did you mean 'time_step'?``), not pydantic's error and its web
+    address. ``model_validate`` keeps pydantic's ValidationError for callers that format
+    it themselves."""
+
+    error_prefix: ClassVar[str] = ""
+

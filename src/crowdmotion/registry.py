@@ -44,7 +44,7 @@ def method_params(name: str, block: dict):
     """The method's parameter object from its scenario block (errors name ``method.field``)."""
     cls = get_method(name).params_type
     try:
-        return cls(**block)
+        return cls.model_validate(block)
     except ValidationError as exc:
         raise ValueError("; ".join(error_lines(exc, name, known=cls.model_fields))) from None
     except (TypeError, ValueError) as exc:

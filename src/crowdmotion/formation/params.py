@@ -8,7 +8,7 @@ from typing import Annotated, Literal, Union
 
 from pydantic import BaseModel, ConfigDict, Field, model_validator
 
-from crowdmotion._validation import Coordinate, NonNegative, Positive
+from crowdmotion._validation import Coordinate, MethodParams, NonNegative, Positive
 
 PosFloat = Positive
 NonNeg = NonNegative
@@ -112,7 +112,7 @@ TemplateSpec = Annotated[Union[BlockTemplate, WedgeTemplate, CircleTemplate, Lin
                                PointsTemplate], Field(discriminator="kind")]
 
 
-class FormationParams(_Model):
+class FormationParams(MethodParams, _Model):
     """The formation method's parameters (Li & He 2017); the paper gives no numbers, so
     the defaults are ours, chosen for walking groups in metres and seconds.
 
@@ -170,6 +170,8 @@ class FormationParams(_Model):
                                not cars), so that agents on a compressed mesh are not
                                pressed together and stopped by the safety pass; 0: off
     """
+
+    error_prefix = "formation"
 
     time_step: Annotated[float, Field(gt=0, le=MAX_TIME_STEP_S, allow_inf_nan=False)] = 0.1
     max_steps: Annotated[int, Field(gt=0, le=1_000_000)] = 3000

@@ -7,13 +7,13 @@ from typing import Annotated, Literal
 
 from pydantic import AliasChoices, BaseModel, ConfigDict, Field, field_validator
 
-from crowdmotion._validation import Positive
+from crowdmotion._validation import MethodParams, Positive
 
 PosFloat = Positive
 STAGES = ("goto", "wait", "choose", "leave")  # the route stages an MDP group follows (validate reads it too)
 
 
-class MDPParams(BaseModel):
+class MDPParams(MethodParams):
     """Parameters of an MDP run (paper 000, Liu & Du 2019).
 
     cell_size : float | None   grid cell edge in metres; None = just over √2 × the largest
@@ -47,6 +47,8 @@ class MDPParams(BaseModel):
     smoothing_window : float   seconds the "relaxed" paths are averaged over
     fps : float                frame rate of the smoothed output
     """
+
+    error_prefix = "mdp"
 
     model_config = ConfigDict(extra="forbid", frozen=True)
 

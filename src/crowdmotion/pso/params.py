@@ -8,7 +8,7 @@ from typing import Annotated, Literal
 
 from pydantic import BaseModel, ConfigDict, Field, ValidationError, model_validator
 
-from crowdmotion._validation import Coordinate, NonNegative, Positive, error_lines
+from crowdmotion._validation import Coordinate, MethodParams, NonNegative, Positive, error_lines
 
 PosFloat = Positive
 NonNeg = NonNegative
@@ -52,7 +52,7 @@ class ObstacleField(_Model):
     clear: NonNeg | None = None
 
 
-class PSOParams(_Model):
+class PSOParams(MethodParams, _Model):
     """The particle-swarm method's parameters; defaults are the paper's (§3, Fig. 4).
 
     iterations : int          [k] iterations per target update (gathering: in all)
@@ -87,6 +87,8 @@ class PSOParams(_Model):
     spawn_gap : float         extra clearance between sampled start positions
     obstacle_field : ObstacleField | None  obstacles generated from the seed
     """
+
+    error_prefix = "pso"
 
     iterations: Annotated[int, Field(gt=0, le=1_000_000)] = 100
     w: NonNeg = 1.0

@@ -7,7 +7,7 @@ from typing import Annotated, Literal
 
 from pydantic import BaseModel, ConfigDict, Field, field_validator, model_validator
 
-from crowdmotion._validation import NonNegative, Positive
+from crowdmotion._validation import MethodParams, NonNegative, Positive
 from crowdmotion.stage_kinds import KINDS
 
 PosFloat = Positive
@@ -22,7 +22,7 @@ Samples = Annotated[int, Field(gt=0, le=MAX_SAMPLES)]
 Safety = NonNegative
 
 
-class RVOParams(BaseModel):
+class RVOParams(MethodParams):
     """Parameters of the RVO method (paper symbols in brackets).
 
     time_step : float        simulation step Δt, seconds
@@ -87,6 +87,8 @@ class RVOParams(BaseModel):
                              audit and keep their own move (80 walkers through a 0.9 m
                              door: 3 s played rougher than the default 1 s)
     """
+
+    error_prefix = "rvo"
 
     model_config = ConfigDict(extra="forbid", frozen=True)
 
