@@ -32,7 +32,7 @@ def check_scenario(scene, groups, params: PSOParams) -> None:
     a moving target or a generated obstacle field. Warns when v_max lets a particle move
     faster than its group's max_speed."""
     from crowdmotion.checks import check_goal_clear, check_inside, check_reachable, check_route_places, \
-        check_spawn_capacity, check_start_points, where
+        check_spawn_capacity, check_start_points, group_problems, where
     from crowdmotion.journeys import unit_entry_time
     from crowdmotion.pso.routes import check_pso_route, region_target
     from crowdmotion.stages import flat_stages, stage_label
@@ -61,7 +61,7 @@ def check_scenario(scene, groups, params: PSOParams) -> None:
                 raise ValueError(f"{where(i, g)} {stage_label(path, st)} "
                                  f"area: its centre {point[0].tolist()}, where the swarm gathers, is covered by an "
                                  f"obstacle (clearance {clear[0]:.3g} m < radius {g.radius} m)")
-    for i, g in enumerate(groups):
+    def check(i, g) -> None:
         if "enter" in g.attributes:  # one swarm, one time: enter = { start = s }
             unit_entry_time(g.attributes["enter"], f"{where(i, g)}: enter", "a PSO swarm")
             if any(isinstance(h.goal, MovingTarget) for h in groups):
@@ -76,10 +76,11 @@ def check_scenario(scene, groups, params: PSOParams) -> None:
                              f"(clearance {clear.min():.3g} m < radius {g.radius} m)")
         if isinstance(g.goal, MovingTarget):  # and where the swarm reads it, between the keyframes
             _check_target_path(scene, i, g, params)
-    check_start_points(scene, groups, apart=params.avoid_agents)
-    for i, g in enumerate(groups):
         check_inside(scene, i, g, "spawn")
         check_inside(scene, i, g, "goal")
+
+    group_problems(groups, check)
+    check_start_points(scene, groups, apart=params.avoid_agents)
     for i, g in enumerate(groups):  # the placement run does: listed starts, room when bodies keep apart
         if isinstance(g.spawn, Points) or params.avoid_agents:
             check_spawn_capacity(scene, i, g, params.spawn_gap)
