@@ -397,7 +397,8 @@ class Journeys:
         self.group_of = np.append(self.group_of, np.full(k, off))
         for name, fill, dtype in (("stage", -1, np.int64), ("holder", -1, np.int64),
                                   ("chooser", -1, np.int64), ("on_route", False, bool), ("begun", False, bool),
-                                  ("done", False, bool), ("expect", False, bool), ("removed", False, bool), ("left", False, bool),
+                                  ("done", False, bool), ("expect", False, bool), ("removed", False, bool),
+                                  ("left", False, bool),
                                   ("wait_until", np.inf, float), ("recheck_at", np.inf, float),
                                   ("finished_at", np.nan, float)):
             setattr(self, name, np.append(getattr(self, name), np.full(k, fill, dtype=dtype)))

@@ -1143,7 +1143,8 @@ class Simulator(LiveObstacles):
             v = self.velocities[g.span]
             rank = out[g.span]
             ahead = np.cos(np.arctan2(v[:, 1], v[:, 0]) - rank)  # cos of his way off his rank's
-            fast, slow = speed[g.span] > BACK_SPEED_SHARE * g.pref_speed, speed[g.span] < STILL_SPEED_SHARE * g.pref_speed
+            fast = speed[g.span] > BACK_SPEED_SHARE * g.pref_speed
+            slow = speed[g.span] < STILL_SPEED_SHARE * g.pref_speed
             turned = self.turned_round[g.span]
             turned = np.where(turned, ~slow & (ahead < np.cos(np.radians(FRONT_DEG))),
                               fast & (ahead < np.cos(np.radians(BACK_TURN_DEG))))
