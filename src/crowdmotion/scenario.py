@@ -171,7 +171,9 @@ class PointRegion(_Model):
 
 
 class PointsRegion(_Model):
-    """Listed points: one start per agent (spawn), or goal points (one, or one per agent).
+    """Listed points: one start per agent (spawn), or goal points (one, or one per agent:
+    rvo sends agent k to point k; mdp takes the points as the group's goal cells, any
+    agent to any free one; pso gathers on their centre; see each method's docs).
 
     shape : str        "points"
     points : list      [x, y(, z)] points, metres

@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import warnings
+
 from dataclasses import dataclass
 from typing import Any, Callable, Sequence
 
@@ -227,6 +229,11 @@ def setup(scene: Scene, groups: Sequence[Group], params: MDPParams, rng: np.rand
     for g in groups:
         if g.dim != scene.dim:
             raise ValueError(f"group {g.name!r} is {g.dim}D but the scene is {scene.dim}D")
+        if isinstance(g.goal, Points) and g.count > 1 and len(g.goal.points) == g.count:
+            warnings.warn(f"group {g.name!r} goal: {g.count} points, one per agent: the MDP method takes a "
+                          f"group's goal points as its goal cells, any agent to any free one (paper 000's group "
+                          f"goal), not agent k to point k; for a goal per agent give each its own group",
+                          stacklevel=2)
     cell = cell_size_for(groups, params)
     static = rasterise(scene, cell, moving=False)
     grid = rasterise(scene, cell, t=0.0)
