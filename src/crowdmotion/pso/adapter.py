@@ -12,7 +12,7 @@ from crowdmotion import metrics
 from crowdmotion.journeys import entry_report
 from crowdmotion.groups import MovingTarget, Points
 from crowdmotion.pso.obstacles import ObstacleArrays
-from crowdmotion.pso.params import PSOParams
+from crowdmotion.pso.params import PSOParams, warn_fast_clamp
 from crowdmotion.pso.simulation import PSORun, run
 from crowdmotion.smoothing import smoothing_report
 
@@ -88,14 +88,7 @@ def check_scenario(scene, groups, params: PSOParams) -> None:
         check_reachable(scene, i, g)
     if params.obstacle_field is not None:
         _check_field(scene, groups, params)
-    # the paper's clamp is per axis and per iteration: say so when it allows more than a group's max_speed
-    top = float(np.linalg.norm(params.axis_vmax(scene.dim))) / params.iteration_time
-    for i, g in enumerate(groups):
-        if top > g.max_speed * (1 + 1e-9):
-            warnings.warn(f"{where(i, g)}: pso.v_max {params.axis_vmax(scene.dim)} per "
-                          f"{params.iteration_time:g} s iteration lets a particle move at up to {top:.2f} m/s, above "
-                          f"the group's max_speed {g.max_speed:g} m/s (PSO clamps per axis, as the paper does); "
-                          f"lower pso.v_max or raise pso.iteration_time to keep to it", stacklevel=2)
+    warn_fast_clamp(scene, groups, params)
 
 
 def _check_target_path(scene, i: int, g, params: PSOParams) -> None:

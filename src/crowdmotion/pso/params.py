@@ -4,7 +4,10 @@
 from __future__ import annotations
 
 import math
+import warnings
 from typing import Annotated, Literal
+
+import numpy as np
 
 from pydantic import BaseModel, ConfigDict, Field, ValidationError, model_validator
 
@@ -146,3 +149,18 @@ def make_params(params: PSOParams | None = None, **overrides) -> PSOParams:
         return PSOParams(**{**base, **overrides})
     except ValidationError as exc:
         raise ValueError("; ".join(error_lines(exc, "pso"))) from None
+
+
+def warn_fast_clamp(scene, groups, params: PSOParams) -> None:
+    """The paper's clamp is per axis and per iteration: say so when it lets a particle
+    move faster than its group's max_speed (the default v_max, 0.5 m an axis every
+    0.25 s, allows 3.46 m/s in 3D)."""
+    from crowdmotion.checks import where  # checks places bodies; params come first
+
+    top = float(np.linalg.norm(params.axis_vmax(scene.dim))) / params.iteration_time
+    for i, g in enumerate(groups):
+        if top > g.max_speed * (1 + 1e-9):
+            warnings.warn(f"{where(i, g)}: pso.v_max {params.axis_vmax(scene.dim)} per "
+                          f"{params.iteration_time:g} s iteration lets a particle move at up to {top:.2f} m/s, above "
+                          f"the group's max_speed {g.max_speed:g} m/s (PSO clamps per axis, as the paper does); "
+                          f"lower pso.v_max or raise pso.iteration_time to keep to it", stacklevel=3)

@@ -12,7 +12,7 @@ from crowdmotion.groups import Disc, Group, MovingTarget, Points, Rect
 from crowdmotion.interrupts import step_loop
 from crowdmotion.placement import spawn_groups
 from crowdmotion.pso.obstacles import obstacle_field
-from crowdmotion.pso.params import PSOParams, make_params
+from crowdmotion.pso.params import PSOParams, make_params, warn_fast_clamp
 from crowdmotion.pso.swarm import Swarm, SwarmRun, drive, follow_schedule
 from crowdmotion.scene import Scene
 from crowdmotion.trajectories import Trajectories
@@ -196,5 +196,8 @@ def _run_stepped(swarm: Swarm, groups: Sequence[Group], params: PSOParams, rng: 
 
 def simulate(scene: Scene, groups: Sequence[Group], params: PSOParams | None = None,
              rng: np.random.Generator | None = None) -> Trajectories:
-    """The particle-swarm method end to end: ``pso.simulate(scene, groups, params, rng) -> Trajectories``."""
+    """The particle-swarm method end to end: ``pso.simulate(scene, groups, params, rng) -> Trajectories``;
+    warns, as a scenario's check does, when pso.v_max lets a particle outrun its group's
+    max_speed."""
+    warn_fast_clamp(scene, groups, make_params(params))
     return run(scene, groups, params, np.random.default_rng(0) if rng is None else rng).trajectories
