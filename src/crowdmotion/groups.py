@@ -219,7 +219,9 @@ def as_region(value, what: str) -> Region | MovingTarget:
         return value
     p = finite_array(value, what).ravel()
     if p.size not in (2, 3):
-        raise ValueError(f"{what} must be a point with 2 or 3 coordinates or a region, got {value!r}")
+        several = np.ndim(value) == 2 and np.shape(value)[1] in (2, 3)
+        raise ValueError(f"{what} must be a point with 2 or 3 coordinates or a region, got {value!r}"
+                         + ("; for several points, Points([...])" if several else ""))
     return Points(p[None, :])
 
 

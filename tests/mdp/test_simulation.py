@@ -91,3 +91,14 @@ def test_goal_points_one_per_agent_are_said_to_be_the_group_s_goal_cells_not_eac
                      radius=0.3)
     with pytest.warns(UserWarning, match="not agent k to point k; for a goal per agent give each its own group"):
         mdp.simulate(scene, [group], mdp.MDPParams(max_steps=5), np.random.default_rng(0))
+
+
+def test_a_robot_walled_off_from_its_goal_is_said_so_from_python():
+    # mdp.simulate ran on with the robot standing, saying nothing (metadata only)
+    import crowdmotion as cm
+    from crowdmotion import mdp
+
+    wall = cm.Scene(bounds=([0, 0], [20, 10]), obstacles=[cm.Box([9, 0], [10, 4.5]), cm.Box([9, 5.5], [10, 10])])
+    group = cm.Group("g", 1, spawn=(2, 5), goal=(18, 5), radius=0.8)
+    with pytest.warns(UserWarning, match=r"1 agent\(s\) \(e.g. 0\) cannot reach their goal on the grid"):
+        mdp.simulate(wall, [group], mdp.MDPParams(max_steps=5), np.random.default_rng(0))

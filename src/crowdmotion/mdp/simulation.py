@@ -141,7 +141,9 @@ def spawn_cells(grid: GridMap, group: Group, taken: set, rng: np.random.Generato
         cells = cand[rng.choice(len(cand), size=group.count, replace=False)]
     for c in cells:
         if tuple(c) in taken:
-            raise ValueError(f"{what}: two agents would share the cell {tuple(c)}")
+            centre = grid.origin + (np.asarray(c, float) + 0.5) * grid.cell_size
+            raise ValueError(f"{what}: two agents would share the grid cell at {np.round(centre, 3).tolist()} "
+                             f"({grid.cell_size:.3g} m cells){ONE_GRID}: place them at least a cell apart")
         taken.add(tuple(c))
     return cells
 
@@ -526,4 +528,10 @@ def simulate(scene: Scene, groups: Sequence[Group], params: MDPParams | None = N
     """The MDP method's entry point: ``simulate(scene, groups, params, rng) -> Trajectories``."""
     params = MDPParams() if params is None else params
     rng = np.random.default_rng() if rng is None else rng
-    return run(scene, groups, params, rng).trajectories
+    traj = run(scene, groups, params, rng).trajectories
+    stranded = traj.metadata.get("unreachable_agents") or []
+    if stranded:  # as a scenario's check refuses: said here, where nothing refuses it
+        warnings.warn(f"{len(stranded)} agent(s) (e.g. {stranded[0]}) cannot reach their goal on the grid: walls "
+                      f"close the way for their bodies; they stand where they started (metadata "
+                      f"'unreachable_agents')", stacklevel=2)
+    return traj
