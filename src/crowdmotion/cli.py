@@ -630,12 +630,12 @@ def cmd_export(args) -> int:
     if not dest.parent.is_dir():  # said now, not after minutes of resampling
         raise ValueError(f"-o {dest}: the folder {dest.parent} does not exist")
     own_folder = dest.parent.resolve() == folder.resolve()
-    other = None if own_folder else read_manifest(dest.parent)
-    if other is not None and dest.name in other["files"]:  # another run's own file: its summary would lie
+    manifest = read_manifest(dest.parent)
+    if not own_folder and manifest is not None and dest.name in manifest["files"]:  # its summary would lie
         raise ValueError(f"-o {dest}: {dest.parent} holds another run, and {dest.name} is one of its files; the "
                          f"export would replace it: name another file, or export into a folder of its own")
     if not args.overwrite:
-        _refuse_foreign(dest, read_manifest(dest.parent) if own_folder else None)
+        _refuse_foreign(dest, manifest if own_folder else None)
     fps = args.fps
     if traj.n_frames < 2:
         raise ValueError(f"{src} holds one frame: there is no motion to export (a run's fps too low for its "

@@ -168,10 +168,15 @@ RATE_MATCH = 1e-3  # frames per second: a rate this near a standard one is that 
 DCC_FPS = 24.0  # a run with fewer frames a second is written at this rate, along its B-spline
 
 
+def _video_rate(fps: float) -> bool:
+    """Whether ``fps`` is one of the STANDARD_RATES (24, 25, 30, 23.976, ...)."""
+    return any(abs(fps - r) < RATE_MATCH for r in STANDARD_RATES)
+
+
 def too_few_frames(traj: Trajectories) -> bool:
     """Whether a character bound to ``traj`` would jolt at every frame: fewer than
     ``DCC_FPS`` a second, and not a video rate of its own (23.976)."""
-    return traj.fps < DCC_FPS - RATE_MATCH and not any(abs(traj.fps - r) < RATE_MATCH for r in STANDARD_RATES)
+    return traj.fps < DCC_FPS - RATE_MATCH and not _video_rate(traj.fps)
 
 
 def stage_rate(traj: Trajectories) -> float:
@@ -185,7 +190,7 @@ def stage_rate(traj: Trajectories) -> float:
     fps = traj.fps
     whole = fps >= 1.0 - RATE_MATCH and abs(fps - round(fps)) < RATE_MATCH
     # as the user wrote it (29.97, not the 29.969999999999995 of 1 / dt): DCCs match rates exactly
-    return round(fps, 6) if whole or any(abs(fps - r) < RATE_MATCH for r in STANDARD_RATES) else 24.0
+    return round(fps, 6) if whole or _video_rate(fps) else 24.0
 
 
 def orientations(heading: np.ndarray, pitch: np.ndarray) -> np.ndarray:
@@ -255,9 +260,8 @@ def frame_velocity(traj: Trajectories) -> np.ndarray:
     visible frame and half its speed on entering.)"""
     p = np.nan_to_num(traj.positions)
     act = traj.active_mask
-    v = np.zeros_like(p)
     if traj.n_frames < 2:
-        return v
+        return np.zeros_like(p)
     fwd = np.zeros_like(p)
     fwd[:-1] = (p[1:] - p[:-1]) / traj.dt  # the step from each frame on
     back = np.zeros_like(p)
@@ -267,8 +271,7 @@ def frame_velocity(traj: Trajectories) -> np.ndarray:
     has_prev = np.zeros_like(act)
     has_prev[1:] = act[1:] & act[:-1]
     both = (has_next & has_prev)[..., None]
-    v = np.where(both, (fwd + back) / 2, np.where(has_next[..., None], fwd, np.where(has_prev[..., None], back, 0.0)))
-    return v
+    return np.where(both, (fwd + back) / 2, np.where(has_next[..., None], fwd, np.where(has_prev[..., None], back, 0.0)))
 
 
 def _face_normal(points: np.ndarray, face: list[int]) -> np.ndarray:
