@@ -7,11 +7,10 @@ in the file is ever executed. Each method adds its block here without changing t
 
 from __future__ import annotations
 
-import warnings
-
 import difflib
 import re
 import tomllib
+import warnings
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Annotated, Any, Literal, Union

@@ -8,10 +8,9 @@ import warnings
 from typing import Annotated, Literal
 
 import numpy as np
+from pydantic import BaseModel, ConfigDict, Field, model_validator
 
-from pydantic import BaseModel, ConfigDict, Field, ValidationError, model_validator
-
-from crowdmotion._validation import Coordinate, MethodParams, NonNegative, Positive, error_lines
+from crowdmotion._validation import Coordinate, MethodParams, NonNegative, Positive
 
 PosFloat = Positive
 NonNeg = NonNegative
@@ -143,19 +142,17 @@ class PSOParams(MethodParams, _Model):
 
 
 def make_params(params: PSOParams | None = None, **overrides) -> PSOParams:
-    """``params`` with ``overrides`` applied; errors name ``pso.field`` and the value."""
-    try:
-        base = {} if params is None else params.model_dump()
-        return PSOParams(**{**base, **overrides})
-    except ValidationError as exc:
-        raise ValueError("; ".join(error_lines(exc, "pso"))) from None
+    """``params`` with ``overrides`` applied; errors name ``pso.field`` and the value
+    (:class:`~crowdmotion._validation.MethodParams`)."""
+    base = {} if params is None else params.model_dump()
+    return PSOParams(**{**base, **overrides})
 
 
 def warn_fast_clamp(scene, groups, params: PSOParams) -> None:
     """The paper's clamp is per axis and per iteration: say so when it lets a particle
     move faster than its group's max_speed (the default v_max, 0.5 m an axis every
     0.25 s, allows 3.46 m/s in 3D)."""
-    from crowdmotion.checks import where  # checks places bodies; params come first
+    from crowdmotion.checks import where  # here: loading the parameters need not load checks' placement code
 
     top = float(np.linalg.norm(params.axis_vmax(scene.dim))) / params.iteration_time
     for i, g in enumerate(groups):
