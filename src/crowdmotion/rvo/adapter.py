@@ -76,10 +76,9 @@ def check_scenario(scene, groups, params: RVOParams) -> None:
 
 def _grid_note(sim) -> str:
     """What the guidance grid can tell apart, for a message saying the way is closed."""
-    fields = getattr(sim, "_fields", None)
-    if fields is None:
+    cell = sim.guidance_cell
+    if cell is None:
         return ""
-    cell = fields.cell
     return (f" (the guidance grid, rvo.field_cell {cell:.3g} m, opens a passage at least 2 radii plus "
             f"{cell / PASSAGE_SAMPLES:.3g} m wide: a smaller rvo.field_cell opens narrower ones)")
 

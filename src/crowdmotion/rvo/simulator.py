@@ -543,6 +543,12 @@ class Simulator(LiveObstacles):
             if self._regions_added > added:
                 self._fields_stale = True
 
+    @property
+    def guidance_cell(self) -> float | None:
+        """Metres of a guidance field cell as solved (``field_cell``, or its default from
+        the agents' radius); None before any field is solved, or without field guidance."""
+        return None if self._fields is None else float(self._fields.cell)
+
     def walking_distance(self, points, region) -> np.ndarray:
         """(K,) metres from each of ``points`` to ``region`` (Rect, Disc or Points): along
         the guidance field round the walls (the exact distances, not the congestion-weighted
