@@ -305,11 +305,16 @@ def sweep_record(table_or_schema: pa.Table | pa.Schema) -> dict | None:
     return record if isinstance(record, dict) else None
 
 
+def _refuse_run_folder(out: Path) -> None:
+    """A ValueError when ``out`` holds a run's files: a sweep needs a folder of its own."""
+    if (out / "manifest.json").is_file():
+        raise ValueError(f"{out} holds a run's files (manifest.json): give the sweep a folder of its own with -o")
+
+
 def clear_earlier(out: Path, overwrite: bool) -> None:
     """Refuse a folder holding an earlier sweep (unless ``overwrite``: then remove its
     ``runs/*.parquet``, ``sweep.parquet`` and ``report.json``, nothing else) or a run's files."""
-    if (out / "manifest.json").is_file():
-        raise ValueError(f"{out} holds a run's files (manifest.json): give the sweep a folder of its own with -o")
+    _refuse_run_folder(out)
     earlier = sorted((out / "runs").glob("*.parquet")) if (out / "runs").is_dir() else []
     table = out / "sweep.parquet"
     if not (earlier or table.is_file()):
@@ -328,8 +333,7 @@ def earlier_runs(out: Path, names: Sequence[str], keys: Sequence[str]) -> dict[s
     those whose file is still there and that were made from what this sweep plans for that
     name. An earlier sweep of another scenario, or of runs this sweep does not plan, is
     refused (ValueError naming a run); planned runs no table lists are run again."""
-    if (out / "manifest.json").is_file():
-        raise ValueError(f"{out} holds a run's files (manifest.json): give the sweep a folder of its own with -o")
+    _refuse_run_folder(out)
     planned = {f"{n}.parquet": k for n, k in zip(names, keys)}
     how = "give the scenario, --seeds and --set of the earlier sweep, another folder with -o, or --overwrite " \
           "to replace it"

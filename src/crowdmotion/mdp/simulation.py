@@ -76,10 +76,10 @@ def region_cells(grid: GridMap, region, what: str) -> np.ndarray:
         cells = grid.cell_of(region.points)
         # the grid holds whole cells from the scene's lower corner: a point in the strip its
         # last cells leave at the upper edges (under a cell wide) takes the last cell
-        span = grid.origin + np.array(grid.shape) * grid.cell_size
         cells = np.where(cells == np.array(grid.shape), cells - 1, cells)
         for p, c in zip(region.points, cells):
             if not grid.in_grid(c):
+                span = grid.origin + np.array(grid.shape) * grid.cell_size
                 raise ValueError(f"{what}: point {p.tolist()} lies outside the scene (its grid of "
                                  f"{grid.cell_size:.3g} m cells spans {np.round(grid.origin, 2).tolist()}-"
                                  f"{np.round(span, 2).tolist()})")
