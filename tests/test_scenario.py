@@ -393,3 +393,26 @@ def test_a_method_parameter_written_at_the_top_level_is_pointed_to_its_table():
     with pytest.raises(ScenarioError) as err:
         parse_scenario(RVO.replace('method = "rvo"', 'method = "rvo"\ntimestep = 0.1'), "street.toml")
     assert "timestep: is not a top-level field; did you mean 'time_step' in the [rvo]" in str(err.value)
+
+
+@pytest.mark.parametrize("old,new,field,right,wrong", [
+    # a JuPedSim user's "speed" in a group: the group's own speeds, not the scenario's seed
+    ("count = 4", "count = 4\nspeed = 1.2", "groups.0.speed", "did you mean 'max_speed'?", "'seed'"),
+    # a [scene] key: suggested from the scene's fields, never a group's count
+    ("bounds = [[0, 0], [10, 10]]", 'bounds = [[0, 0], [10, 10]]\nunits = "m"', "scene.units", None, "'count'"),
+    # a box has no centre: a circle's 'center' is no fix for it
+    ('{ shape = "circle", center = [5, 5], radius = 1 }', '{ shape = "box", lower = [4, 4], upper = [6, 6], centre = [5, 5] }',
+     "scene.obstacles.0.box.centre", None, "'center'"),
+    ("count = 4", "count = 4\nradus = 0.3", "groups.0.radus", "did you mean 'radius'?", None),
+    ('position = [9, 9]', 'positon = [9, 9]', "groups.0.goal.point.positon", "did you mean 'position'?", None),
+])
+def test_an_unknown_field_is_matched_against_its_own_tables_fields(old, new, field, right, wrong):
+    assert old in GOOD
+    with pytest.raises(ScenarioError) as e:
+        parse_scenario(GOOD.replace(old, new))
+    line = next(ln for ln in str(e.value).splitlines() if field in ln)
+    assert "is not a known field" in line
+    if right:
+        assert right in line
+    if wrong:
+        assert wrong not in line

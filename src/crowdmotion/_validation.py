@@ -106,11 +106,44 @@ _BOUNDS = {"greater_than": ("more than", "gt"), "greater_than_equal": ("at least
            "less_than": ("less than", "lt"), "less_than_equal": ("at most", "le")}
 
 
+def _models_in(tp) -> list[type[BaseModel]]:
+    """The pydantic models an annotation holds: itself, or those of its unions, lists, options."""
+    from typing import get_args
+
+    if isinstance(tp, type) and issubclass(tp, BaseModel):
+        return [tp]
+    return [m for arg in get_args(tp) for m in _models_in(arg)]
+
+
+def fields_at(model: type[BaseModel], loc: tuple) -> set[str]:
+    """The field names of the table at ``loc`` (a pydantic error's location less its last
+    key) under ``model``: ``("groups", 0)`` is a GroupSpec, ``("scene", "obstacles", 0,
+    "box")`` a BoxSpec (a tagged union's member is named by its tag). Empty where the
+    location cannot be followed."""
+    from typing import get_args
+
+    here = [model]
+    for key in loc:
+        if isinstance(key, int):
+            continue  # an item of a list: the list's own models
+        if any(key in m.model_fields for m in here):
+            here = [n for m in here if key in m.model_fields for n in _models_in(m.model_fields[key].annotation)]
+            continue
+        tagged = [m for m in here if any(key in get_args(f.annotation) for f in m.model_fields.values())]
+        if not tagged:
+            return set()
+        here = tagged
+    return {name for m in here for name in m.model_fields}
+
+
 def error_lines(err: ValidationError, prefix: str = "", known: Iterable[str] = (),
-                hint: Callable[[tuple, str], str | None] | None = None) -> list[str]:
+                hint: Callable[[tuple, str], str | None] | None = None,
+                model: type[BaseModel] | None = None) -> list[str]:
     """One line per problem: ``prefix.field: message (got value)``; an unknown field gets
-    the nearest of the ``known`` field names as a suggestion, or what ``hint(loc, key)``
-    says about it (``loc``: the table holding the key) when that is not None."""
+    the nearest of the field names of its own table as a suggestion (``model``: the model
+    the locations start from; without one, or where its table cannot be told, the nearest
+    of the ``known`` field names), or what ``hint(loc, key)`` says about it (``loc``: the
+    table holding the key) when that is not None."""
     known = sorted(set(known))
     lines = []
     for e in err.errors():
@@ -135,7 +168,9 @@ def error_lines(err: ValidationError, prefix: str = "", known: Iterable[str] = (
                 if key in known:  # another table's or kind's field (a block's cols in a wedge)
                     msg = f"is not a field here ({key!r} belongs to another table or kind, not this one)"
                 else:
-                    close = difflib.get_close_matches(key, known, n=1, cutoff=0.6)
+                    # the table's own fields: a group's "speed" is not the scenario's "seed"
+                    here = fields_at(model, tuple(e["loc"][:-1])) if model is not None else set()
+                    close = difflib.get_close_matches(key, sorted(here) or known, n=1, cutoff=0.6)
                     msg = "is not a known field"
                     extra = f"; did you mean {close[0]!r}?" if close else ""
         lines.append(f"{loc or '(top level)'}: {msg}{got}{extra}")

@@ -925,7 +925,7 @@ def validate_spec(data: Any, source: str = "scenario") -> ScenarioSpec:
     try:
         spec = ScenarioSpec.model_validate(data, strict=True)
     except ValidationError as exc:
-        lines = error_lines(exc, known=field_names(ScenarioSpec), hint=_unknown_key)
+        lines = error_lines(exc, known=field_names(ScenarioSpec), hint=_unknown_key, model=ScenarioSpec)
     except RecursionError:
         raise ScenarioError(f"{source}: tables or arrays nested too deeply to be a scenario") from None
     lines = _route_error_lines(lines) + _method_lines(data)
