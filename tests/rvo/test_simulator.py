@@ -456,6 +456,21 @@ def test_set_goals_keeps_each_goal_with_its_agent_whatever_the_order_of_ids():
     assert sim.goals[ids].tolist() == [[18, 1], [18, 5], [18, 9]]
 
 
+@pytest.mark.parametrize("goals", [[10, 10], np.zeros((0, 2))])
+def test_set_goals_with_no_agents_named_changes_nothing_as_drive_and_place_do(goals):
+    # a game sends "everyone within range" on: np.flatnonzero(mask) may match no one
+    sim = _sim()
+    before = sim.goals.copy()
+    none = np.flatnonzero(np.zeros(sim.n_agents, dtype=bool))
+    sim.set_goals(none, goals)
+    sim.drive(none, [1.0, 0.0])
+    sim.place(none, [5.0, 5.0])
+    assert np.array_equal(sim.goals, before)
+    sim.step()
+    with pytest.raises(ValueError, match="goals must be finite"):
+        sim.set_goals(none, [np.nan, 1.0])  # the goal is still checked
+
+
 def test_set_goals_names_an_id_given_twice_with_a_goal_each():
     sim = rvo.Simulator(cm.Scene(bounds=([0, 0], [20, 10])))
     ids = sim.add_agents([[2, 2], [2, 5]], [18, 5])

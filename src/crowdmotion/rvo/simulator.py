@@ -512,6 +512,11 @@ class Simulator(LiveObstacles):
         self._ensure_fields()
         if arrive_anywhere and not isinstance(goal_region, (Rect, Disc)):
             raise ValueError(f"arrive_anywhere needs a Rect or Disc goal_region, got {goal_region!r}")
+        if not len(ids):
+            # nobody named (a game's np.flatnonzero(mask) that matched no one): nothing to
+            # change, as drive, place and remove_agents take it; the goal points' own field
+            # below would refuse an empty set of points, naming neither the call nor the agents
+            return
         if target is None and not arrive_anywhere:
             goal = self._standing_goals(goal, self.params["radius"][ids], goal_region)
         field = self._field_indices(goal, goal_region)
