@@ -185,6 +185,27 @@ def test_group_report_sees_crowded_agents_walk_slower():
     assert speeds[0] == pytest.approx(1.5) and speeds[-1] == pytest.approx(0.3)
 
 
+def test_group_report_reads_a_crowd_in_a_corridor_as_dense_as_it_is():
+    from crowdmotion.metrics import group_report
+
+    # a lattice of 0.6 m (2.78 persons/m²) filling a corridor 4.2 m wide, walking along it
+    xs, ys = np.meshgrid(np.arange(0.3, 40.0, 0.6), np.arange(0.3, 4.2, 0.6), indexing="ij")
+    starts = np.c_[xs.ravel(), ys.ravel()]
+    inner = (starts[:, 0] > 5) & (starts[:, 0] < 35)  # away from the crowd's ends
+    group = np.where(inner, "inner", "ends")
+    walk = _walk(starts, np.tile([0.1, 0.0], (len(starts), 1)), group=group)
+    walls = Scene(bounds=([0, 0], [41, 4.2]))
+    rows = group_report(walk, walls)["inner"]["speed_by_density"]
+    # over the walkable part of each 2 m disc every agent, the ones along the walls too, reads over 2 /m²
+    assert [r["density_min"] for r in rows] == [2.0]
+    # the disc's whole area (no scene) puts those along the walls near half of it
+    rows = group_report(walk)["inner"]["speed_by_density"]
+    assert min(r["density_min"] for r in rows) <= 1.0
+    # the scene stored with the trajectories serves as well as one given
+    walk.metadata["scene"] = walls.to_dict()
+    assert group_report(walk)["inner"]["speed_by_density"] == group_report(walk, walls)["inner"]["speed_by_density"]
+
+
 def test_diversity_measures_runs_apart_at_the_same_frame():
     from crowdmotion.metrics import diversity
 

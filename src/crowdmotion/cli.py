@@ -387,8 +387,8 @@ REPORT_COLUMNS = [("agents", "agents", "{:d}"), ("lateral_spread_m", "spread m",
 
 
 REPORT_LEGEND = ("speed/density: the slope of speed (m/s) on local density (persons/m²: the others within 2 m "
-                 "of each agent over the 2 m disc's area, walls not allowed for), m/s per person/m²; "
-                 "docs/rvo.md names every measure")
+                 "of each agent over the walkable part of that disc, inside the bounds and outside obstacles), "
+                 "m/s per person/m²; docs/rvo.md names every measure")
 
 
 def _print_report_table(rows: dict, cell) -> None:

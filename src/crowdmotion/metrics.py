@@ -10,8 +10,9 @@ from scipy.sparse import coo_matrix
 from scipy.sparse.csgraph import connected_components
 from scipy.spatial import cKDTree
 
+from crowdmotion.floor import DiscFloor
 from crowdmotion.geometry import closest_approach, minimise_convex_on_segment
-from crowdmotion.scene import Box, Obstacle, Polygon, Scene, _Round
+from crowdmotion.scene import Box, Obstacle, Polygon, Scene, _Round, scene_of
 from crowdmotion.trajectories import Trajectories
 
 MAX_EVENTS = 100
@@ -326,7 +327,8 @@ def time_to_goal_by_group(traj: Trajectories, arrival_time: np.ndarray) -> dict:
 
 
 # ---- per-group behaviour (lateral spread, turning, density, mixing) -------------------------
-DENSITY_RADIUS = 2.0  # metres: local density counts neighbours within this distance
+DENSITY_RADIUS = 2.0  # metres: local density counts neighbours within this distance ...
+DENSITY_FLOOR_MIN = 0.1  # ... over the walkable part of the disc, taken as at least this share of it
 CLUSTER_LINK = 1.2  # metres: same-group agents this close (about half a metre apart) walk together
 MIX_RADIUS = 2.0  # metres: neighbours whose group is compared for mixing
 CONTACT_RADIUS = 5.0  # metres: an agent interacts with another group within this distance
@@ -341,7 +343,7 @@ def _first_last(traj: Trajectories) -> tuple[np.ndarray, np.ndarray]:
     return first, last
 
 
-def group_report(traj: Trajectories) -> dict:
+def group_report(traj: Trajectories, scene: Scene | None = None) -> dict:
     """Per-group behaviour measures from trajectories alone (any method).
 
     For each group: ``lateral_spread_m`` (frame-mean standard deviation of positions
@@ -349,7 +351,7 @@ def group_report(traj: Trajectories) -> dict:
     largest distance from its own start-to-end line), ``heading_change_rate_rad_s``
     (mean |Δheading| / dt while walking), ``mean_speed_mps``, ``speed_density_slope``
     (least-squares slope of speed against local density, m/s per agent/m²) with the
-    density-binned speeds, ``mixing_index`` (share of neighbours within 2 m from other
+    density-binned speeds (``speed_by_density``), ``mixing_index`` (share of neighbours within 2 m from other
     groups, over agent-frames with another group within 5 m), ``same_group_neighbors``
     (same-group agents within 2 m at those moments), ``cluster_size`` and ``clusters``
     (at the moments another group is within 5 m of any agent: the mean size of the
@@ -361,8 +363,19 @@ def group_report(traj: Trajectories) -> dict:
     frame; None when nobody left; a run's summary puts the method's own arrival times there,
     :func:`with_arrival_times`) and
     ``path_length_ratio`` (path length over start-to-end distance).
+
+    Local density: the other agents within ``DENSITY_RADIUS`` (2 m) of an agent over the
+    walkable area of that disc (inside the scene's bounds and outside its static obstacles,
+    :class:`crowdmotion.floor.DiscFloor`; at least ``DENSITY_FLOOR_MIN`` of the disc), so
+    a crowd against a wall, in a corridor or before a door reads as dense as it is.
+    ``scene``: the run's scene (default: the one stored with ``traj``); without a 2D scene
+    the whole disc's area (π · 4 m²) is taken.
     """
     act = traj.active_mask
+    if scene is None:
+        scene = scene_of(traj)
+    floor = DiscFloor(scene, DENSITY_RADIUS) if scene is not None and scene.dim == 2 else None
+    disc_area = np.pi * DENSITY_RADIUS**2
     pos = traj.positions[..., :2]
     first, last = _first_last(traj)
     n_idx = np.arange(traj.n_agents)
@@ -387,9 +400,9 @@ def group_report(traj: Trajectories) -> dict:
         p = pos[f, idx]
         gi = code[idx]
         tree = cKDTree(p)
-        # local density: other active agents within DENSITY_RADIUS over the disc area
-        rho = (np.asarray(tree.query_ball_point(p, DENSITY_RADIUS, return_length=True)) - 1) / (
-            np.pi * DENSITY_RADIUS**2)
+        # local density: other active agents within DENSITY_RADIUS over the disc's walkable area
+        walkable = disc_area if floor is None else np.maximum(floor.at(p), DENSITY_FLOOR_MIN * disc_area)
+        rho = (np.asarray(tree.query_ball_point(p, DENSITY_RADIUS, return_length=True)) - 1) / walkable
         sp = speed[f, idx]
         other_near = np.zeros(len(idx))
         same_near = np.zeros(len(idx))

@@ -79,7 +79,7 @@ def run_scenario(scene, groups, params: FormationParams, rng, progress: bool = T
         **({} if result.journeys is None else {"journeys": result.journeys.report([g.name for g in groups])}),
         "rules": dict(sim.stats),
         "time_to_goal_by_group_s": by_group,
-        "groups": metrics.with_arrival_times(metrics.group_report(traj), by_group),
+        "groups": metrics.with_arrival_times(metrics.group_report(traj, scene), by_group),
     })
     if any("enter" in g.attributes for g in groups):  # each formation's delay, as one unit
         due = np.array([g.enter_at for g in sim.groups])[sim.group_of]

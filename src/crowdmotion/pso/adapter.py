@@ -193,7 +193,7 @@ def run_scenario(scene, groups, params: PSOParams, rng, progress: bool = True):
         "rules": dict(sr.stats),
         "generated_obstacles": len(result.scene.obstacles) - len(scene.obstacles),
         "smoothing": smoothing_report(traj, params.smoothing, params.smoothing_window),
-        "groups": metrics.with_arrival_times(metrics.group_report(traj), by_group),
+        "groups": metrics.with_arrival_times(metrics.group_report(traj, result.scene), by_group),
         **({} if result.journeys is None else {"journeys": result.journeys.report(result.group_names)}),
     })
     if result.due is not None:  # each swarm's delay, as one unit

@@ -129,7 +129,7 @@ def run_scenario(scene, groups, params: RVOParams, rng, progress: bool = True):
         "safety_stop_rate": stats["safety_stops"] / steps,
         "forced_choice_rate": stats["forced_choices"] / steps,
         # the model's motion, as paper §6 compares it, with the arrival times measured
-        "groups": metrics.with_arrival_times(metrics.group_report(result.steps), summary["time_to_goal_by_group_s"]),
+        "groups": metrics.with_arrival_times(metrics.group_report(result.steps, scene), summary["time_to_goal_by_group_s"]),
         # a run stopped early (Ctrl-C) keeps its steps as simulated
         "smoothing": smoothing_report(traj, "none" if traj.metadata.get("partial") else params.smoothing,
                                       params.smoothing_window),

@@ -61,6 +61,7 @@ from __future__ import annotations
 import numpy as np
 from scipy.ndimage import gaussian_filter
 
+from crowdmotion.floor import WalkableFloor
 from crowdmotion.rvo import _kernels as K
 from crowdmotion.scene import Scene
 
@@ -74,8 +75,6 @@ RELAX_S = 0.5          # the sensed density follows the crowd over this many sec
 MIN_FACTOR = 0.05      # never quite a standstill: a jam clears as its front moves
 PERSON_MAX_RADIUS_M = 0.4  # wider agents (robots, vehicles) are no persons: eq. (3) alone
 FLOOR_SHARE_MIN = 0.25  # the floor share is taken as at least this (a point deep in a wall)
-FLOOR_CELL_M = 0.2     # raster of the walkable floor
-FLOOR_MAX_CELLS = 1_000_000
 ONCOMING_MPS = 0.5     # a neighbour coming towards us this fast or faster counts 0 in the slowing density
 COUNTERFLOW_SAFETY = 0.15  # share of w kept while walking into people bound the other way (fitted, BOT-360)
 AGAINST_FULL_DENSITY = 0.05  # persons/m² bound the other way from which w is eased in full ...
@@ -97,28 +96,14 @@ def weidmann_speed(density) -> np.ndarray:
 
 class FloorShare:
     """Share of a Gaussian kernel of width ``SIGMA_M`` round each point that falls on
-    walkable floor (inside the bounds, outside static obstacles): 1 in the open, about
-    0.5 against a long wall, less in a corner."""
+    walkable floor (inside the bounds, outside static obstacles: the cells whose centre
+    is, :class:`crowdmotion.floor.WalkableFloor`): 1 in the open, about 0.5 against a long
+    wall, less in a corner."""
 
     def __init__(self, scene: Scene):
-        lo, hi = scene.lower, scene.upper
-        area = float(np.prod(hi - lo))
-        self.cell = max(FLOOR_CELL_M, float(np.sqrt(area / FLOOR_MAX_CELLS)))
-        shape = np.maximum(np.ceil((hi - lo) / self.cell).astype(np.int64), 1)
-        self.origin = lo
-        xs = lo[0] + (np.arange(shape[0]) + 0.5) * self.cell
-        ys = lo[1] + (np.arange(shape[1]) + 0.5) * self.cell
-        free = np.ones(tuple(shape), dtype=float)
-        for ob in scene.static_obstacles:  # each over the cells of its bounding box (and one more) only
-            olo, ohi = (np.asarray(b, dtype=float)[:2] for b in ob.bounds())
-            i0 = np.maximum(np.floor((olo - lo) / self.cell - 0.5).astype(np.int64), 0)
-            i1 = np.minimum(np.ceil((ohi - lo) / self.cell - 0.5).astype(np.int64), shape - 1)
-            if np.any(i1 < i0):
-                continue
-            cx, cy = xs[i0[0]:i1[0] + 1], ys[i0[1]:i1[1] + 1]
-            centres = np.stack(np.meshgrid(cx, cy, indexing="ij"), axis=-1).reshape(-1, 2)
-            inside = (ob.signed_distance(centres) <= 0).reshape(len(cx), len(cy))
-            free[i0[0]:i1[0] + 1, i0[1]:i1[1] + 1][inside] = 0.0
+        floor = WalkableFloor(scene)
+        self.cell, self.origin = floor.cell, floor.origin
+        free = (~floor.blocked).astype(float)
         self.share = gaussian_filter(free, SIGMA_M / self.cell, mode="constant", cval=0.0, truncate=3.0)
 
     def at(self, points: np.ndarray) -> np.ndarray:
