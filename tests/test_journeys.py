@@ -602,13 +602,38 @@ def test_a_queue_s_waits_over_time_and_an_exit_s_flow_are_reported_as_worked_out
     assert counter["served_s"] == [1.5, 2.5, 3.5] and counter["wait_s"] == [1.0, 2.0, 3.0]
     assert counter["mean_wait_s"] == 2.0 and counter["max_wait_s"] == 3.0
     assert counter["length_per_s"][:5] == [0, 3, 2, 1, 0]
-    assert door == {"left": 3, "first_s": 2.0, "evacuation_time_s": 4.0, "flow_per_s": 1.0, "left_per_s": [0, 0, 1, 1, 1]}
+    assert door == {"left": 3, "first_s": 2.0, "evacuation_time_s": 4.0, "flow_per_s": 1.0, "left_per_s": [0, 0, 1, 1, 1],
+                    "steady_flow_per_s": None, "steady_span_s": None}  # too few who left for a stationary part
     queue_row, leave_row = report["stages"]["visitors"]
     assert queue_row["mean_time_s"] == 2.5 and queue_row["max_time_s"] == 3.5  # from 0 s to being served
     assert leave_row["mean_time_s"] == 0.5
     assert report["groups"]["visitors"] == {
         "queues": {"counter": {"served": 3, "mean_wait_s": 2.0, "max_wait_s": 3.0}},
         "exits": {"door": {"left": 3, "first_s": 2.0, "evacuation_time_s": 4.0}}}
+
+
+def test_an_exits_steady_flow_leaves_out_a_straggler_that_thins_its_flow_over_first_to_last():
+    # 20 people served at a counter at 1 person/s leave by the door at 2, 3, ... 21 s; one
+    # more stands 30 s where it came in and leaves by the same door at 30.5 s
+    import json
+
+    from crowdmotion.groups import Rect
+    from crowdmotion.journeys import Journeys
+    from crowdmotion.stages import Leave, Queue, Wait
+
+    door = Leave(Rect([20.0, -1.0], [21.0, 1.0]), name="door")
+    routes = [[Queue([10.0, 0.0], rate=1.0, direction=[-1.0, 0.0], name="counter"), door], [Wait(30.0), door]]
+    w = Teleport(21, 0.5)
+    journeys = Journeys(routes, [0] * 20 + [1], [None, None], np.full(21, 0.25), np.full(21, 1.3), key=1)
+    journeys.update(w, w.dt)
+    while journeys.busy(w.active):
+        w.step(journeys)
+    row = journeys.report(["crowd", "straggler"])["exits"]["door"]
+    assert row["first_s"] == 2.0 and row["evacuation_time_s"] == 30.5
+    assert row["flow_per_s"] == pytest.approx(20 / 28.5)  # (n - 1) / (last - first), thinned by the straggler
+    # the 10-90 % of those who left (the 3rd, 4 s, to the 19th, 20 s): the counter's rate
+    assert row["steady_flow_per_s"] == 1.0 and row["steady_span_s"] == [4.0, 20.0]
+    json.dumps(row)  # plain numbers for summary.json
 
 
 def test_the_report_of_a_run_with_routes_gives_each_group_its_stages_queues_and_exits(tmp_path, capsys):

@@ -1,6 +1,7 @@
 """Verification cases as data: a case builds its runs (:class:`Setup`) per method, runs
 them through the registry as ``crowdmotion run`` does (:func:`simulate`) and judges the
-outcomes into a :class:`Verdict`; with the measures cases share (crossing times, flow).
+outcomes into a :class:`Verdict`; with the measures cases share (crossing times, flow, the
+stationary part of an N–t curve).
 The public test cases (:mod:`crowdmotion.verify`) and the comparisons with measured crowds
 (:mod:`crowdmotion.empirical`) are both written in these terms."""
 
@@ -111,3 +112,13 @@ def flow(times: np.ndarray) -> float:
     """Persons per second through a line: count over the span of crossing times."""
     t = np.sort(times[np.isfinite(times)])
     return float((len(t) - 1) / (t[-1] - t[0])) if len(t) > 1 and t[-1] > t[0] else float("nan")
+
+
+def stationary(times: np.ndarray, low: float = 0.1, high: float = 0.9) -> tuple[float, float, float]:
+    """(start, end, flow) of the stationary part of an N–t curve: between the ``low`` and
+    ``high`` shares of the crossings (persons/s over that span; NaN with too few)."""
+    t = np.sort(times[np.isfinite(times)])
+    if len(t) < 10:
+        return float("nan"), float("nan"), float("nan")
+    i0, i1 = int(low * len(t)), int(high * len(t))
+    return float(t[i0]), float(t[i1]), float((i1 - i0) / (t[i1] - t[i0])) if t[i1] > t[i0] else float("nan")

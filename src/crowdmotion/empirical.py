@@ -33,7 +33,7 @@ from crowdmotion.groups import Group, Rect
 from crowdmotion.rvo.density import speed_share, weidmann_speed
 from crowdmotion.scene import Box, Scene
 from crowdmotion.trajectories import Trajectories
-from crowdmotion.cases import Case, Outcome, Setup, crossing_times
+from crowdmotion.cases import Case, Outcome, Setup, crossing_times, stationary
 
 SEEDS = (0, 1, 2)
 RADIUS = 0.2
@@ -78,16 +78,6 @@ def _params(method: str, **extra) -> dict:
 
 
 # ---- measures ----------------------------------------------------------------------------------
-def stationary(times: np.ndarray, low: float = 0.1, high: float = 0.9) -> tuple[float, float, float]:
-    """(start, end, flow) of the stationary part of an N–t curve: between the ``low`` and
-    ``high`` shares of the crossings (persons/s over that span; NaN with too few)."""
-    t = np.sort(times[np.isfinite(times)])
-    if len(t) < 10:
-        return float("nan"), float("nan"), float("nan")
-    i0, i1 = int(low * len(t)), int(high * len(t))
-    return float(t[i0]), float(t[i1]), float((i1 - i0) / (t[i1] - t[i0])) if t[i1] > t[i0] else float("nan")
-
-
 def area_density_speed(traj: Trajectories, lower, upper, start: float, end: float) -> tuple[float, float]:
     """Classical density (persons/m²) and mean speed (m/s, central differences) in the
     rectangle ``lower``–``upper``, averaged over the frames between ``start`` and ``end`` s."""
