@@ -39,3 +39,19 @@ def test_the_whole_scenarios_a_page_shows_load_as_written():
     assert len(whole) >= 4
     for name, block in whole:
         parse_scenario(block, f"docs/{name}")
+
+
+def test_the_pedpy_sections_setting_for_measurement_writes_the_steps_as_simulated():
+    """docs/exporting.md tells a researcher measuring with PedPy which RVO setting makes
+    the trajectory file hold the steps as simulated rather than the relaxed paths."""
+    import textwrap
+    import tomllib
+
+    from crowdmotion.rvo.adapter import output_copy
+    from crowdmotion.rvo.params import RVOParams
+
+    section = (DOCS / "exporting.md").read_text().split("## Pedestrian analysis with PedPy")[1].split("\n## ")[0]
+    block = re.search(r"```toml\n(.*?)```", section, re.S).group(1)
+    settings = tomllib.loads(textwrap.dedent(block))["rvo"]
+    assert output_copy(RVOParams())  # the default: the file holds the steps relaxed
+    assert not output_copy(RVOParams(**settings))
