@@ -125,10 +125,30 @@ def test_an_output_folder_holds_one_run(tmp_path, capsys):
     assert main(["run", str(mdp), "-o", str(out), "-q"]) == 0
     assert (out / "values.png").is_file()
     refused(capsys, ["run", str(rvo), "-o", str(out), "-q"], "holds an earlier run", "--overwrite")
-    refused(capsys, ["validate", str(rvo), "-o", str(out)], "holds an earlier run")
     assert main(["run", str(rvo), "-o", str(out), "-q", "--overwrite"]) == 0
     assert not (out / "values.png").exists(), "the MDP run's value field is gone with it"
     assert json.loads((out / "summary.json").read_text())["method"] == "rvo"
+
+
+def test_validate_notes_an_earlier_run_in_the_output_folder_that_run_refuses(tmp_path, capsys, monkeypatch):
+    # iterating on a scenario whose default folder (out/<name>) holds the last run: the scenario is fine
+    monkeypatch.chdir(tmp_path)
+    path = scenario(tmp_path, "rvo", name="r", extra="[rvo]\nmax_steps = 40\n")
+    out = tmp_path / "out" / "r"
+    assert main(["run", str(path), "-q"]) == 0 and (out / "summary.json").is_file()
+    capsys.readouterr()
+    before = sorted(p.name for p in out.iterdir())
+    assert main(["validate", str(path)]) == 0
+    said = capsys.readouterr().out
+    assert ": OK:" in said and "note: output folder out/r holds an earlier run" in said
+    assert "--overwrite" in said and "-o" in said
+    assert main(["validate", str(path), "--overwrite"]) == 0
+    assert "note:" not in capsys.readouterr().out
+    assert sorted(p.name for p in out.iterdir()) == before, "validate writes nothing"
+    # run still refuses it; a scenario error is still an error with such a folder
+    refused(capsys, ["run", str(path), "-q"], "holds an earlier run", "--overwrite")
+    path.write_text(path.read_text().replace("[rvo]\n", "[rvo]\ntime_stepp = 0.1\n"))
+    refused(capsys, ["validate", str(path)], "time_stepp")
 
 
 def test_a_run_that_ends_with_collisions_exits_non_zero_unless_allowed(tmp_path, capsys):

@@ -269,17 +269,25 @@ def cmd_demo(args) -> int:
 
 
 def cmd_validate(args) -> int:
-    from crowdmotion.outputs import check_output_folder
+    from crowdmotion.outputs import EarlierRunError, check_output_folder
     from crowdmotion.scenario import load_scenario
 
     path = scenario_path(args.scenario)
     sc = load_scenario(path, max_memory=args.max_memory)
     out = _output_folder(args, sc)
-    check_output_folder(out, args.overwrite)
+    try:
+        check_output_folder(out, args.overwrite)
+        earlier = None
+    except EarlierRunError as exc:  # nothing wrong with the scenario: validate writes nothing there
+        earlier = exc
     n_obs, n_groups = len(sc.scene.obstacles), len(sc.groups)
     print(f"{path}: OK: {sc.scene.dim}D scene, {n_obs} obstacle{'' if n_obs == 1 else 's'}, "
           f"{n_groups} group{'' if n_groups == 1 else 's'}, method {sc.method}; {_size_estimate(sc)}; "
           f"output folder {out}")
+    if earlier is not None:
+        print(f"note: output folder {out} holds {earlier.what} ({earlier.names}): `run` would refuse it as it "
+              f"stands; give run --overwrite to replace it (only the files its manifest.json lists are removed), "
+              f"or another folder with -o")
     return 0
 
 
@@ -1008,7 +1016,8 @@ exit status:
        the run's trajectories and summary.json)
   2    refused or failed, with a message naming what: a bad argument, scenario or
        trajectory file; an output folder in use by another run, holding an earlier run
-       (without --overwrite) or files no run listed; a file that could not be read or
+       (run without --overwrite; validate only notes it) or files no run listed; a file
+       that could not be read or
        written (a full disk: none of the run's files are kept)
   3    run: the run ends with agent overlaps or obstacle penetrations (its files are
        written; --allow-collisions exits 0)
@@ -1067,7 +1076,9 @@ def build_parser() -> argparse.ArgumentParser:
     p = sub.add_parser("validate", help="check a scenario as `run` would, without simulating")
     p.add_argument("scenario", help="a scenario TOML file, or the name of a built-in scene")
     p.add_argument("-o", "--output", help="the output folder `run` would use (default ./out/<scenario name>)")
-    p.add_argument("--overwrite", action="store_true", help="as for run: an earlier run there may be replaced")
+    p.add_argument("--overwrite", action="store_true",
+                   help="as for run: an earlier run there may be replaced (without it, validate notes an earlier "
+                        "run there, which run would refuse)")
     p.add_argument("--max-memory", type=_memory_size, metavar="SIZE",
                    help="refuse a run whose trajectories may take more memory than this (e.g. 8G, 512MiB; "
                         "default: the memory available now)")

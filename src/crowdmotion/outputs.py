@@ -38,6 +38,18 @@ class OutputFolderError(ValueError):
     earlier run, or holding files no run listed."""
 
 
+class EarlierRunError(OutputFolderError):
+    """The output folder holds an earlier run's files and no ``--overwrite`` was given:
+    ``run`` refuses it, ``validate`` (which writes nothing) notes it. ``what``: "an
+    earlier run" or "an earlier run that did not finish writing"; ``names``: its files,
+    shortened for a message."""
+
+    def __init__(self, out: Path, what: str, names: str):
+        self.out, self.what, self.names = out, what, names
+        super().__init__(f"output folder {out} holds {what} ({names}): pass --overwrite to replace it (only the files "
+                         f"its {MANIFEST} lists are removed), or choose another folder with -o")
+
+
 class PictureError(RuntimeError):
     """Drawing a run's pictures failed (a bug of ours): the run's trajectories and
     summary.json are kept, whole (``written``), and the pictures that did draw."""
@@ -114,9 +126,7 @@ def _earlier_run(out: Path, overwrite: bool) -> list[Path]:
     listed = [out / n for n in dict.fromkeys(manifest["files"]) if os.path.lexists(out / n)] + [out / MANIFEST]
     if not overwrite:
         what = "an earlier run" if manifest.get("complete") else "an earlier run that did not finish writing"
-        raise OutputFolderError(f"output folder {out} holds {what} ({_names(listed)}): pass --overwrite to replace "
-                                f"it (only the files its {MANIFEST} lists are removed), or choose another folder "
-                                f"with -o")
+        raise EarlierRunError(out, what, _names(listed))
     return listed
 
 
@@ -170,8 +180,9 @@ def check_writable(out) -> None:
 
 def check_output_folder(out, overwrite: bool = False) -> list[Path]:
     """Refuse a folder ``run`` could not write, one another run is writing into, one holding
-    an earlier run's files (unless ``overwrite``) and one holding files no run's manifest
-    lists; creates nothing. Returns the files ``overwrite`` would remove."""
+    an earlier run's files (unless ``overwrite``: :class:`EarlierRunError`) and one holding
+    files no run's manifest lists; creates nothing. Returns the files ``overwrite`` would
+    remove."""
     out = Path(out)
     check_writable(out)
     if not out.is_dir():
