@@ -144,3 +144,19 @@ def test_a_walker_that_stood_turns_to_its_new_way_before_it_sets_off_not_while()
     walking_east = np.flatnonzero(v > 0.3)
     assert np.all(np.abs(wrap(yaw[walking_east, 0])) < np.radians(45)), "faces east once walking east"
     assert np.abs(wrap(yaw[100, 0] - np.pi)) < 1e-6, "stood facing west, the way it came, until near setting off"
+
+
+def test_the_causal_turn_follows_a_moving_agents_velocity_at_the_bounded_rate_and_holds_a_standing_one():
+    from crowdmotion.facing import turn_towards
+
+    yaw = np.array([0.0, 0.0, np.nan, 3.0, 0.0])
+    v = np.array([[0.0, 1.0],      # a quarter turn away: turns max_step towards it
+                  [0.05, 0.05],    # a crawl below min_speed: holds
+                  [-1.0, 0.0],     # no facing yet: takes the heading at once
+                  [-1.0, -0.01],   # just past pi: the short way round, wrapped into [-pi, pi)
+                  [1.0, 0.0]])     # not stepped: holds
+    out = turn_towards(yaw, v, np.full(5, 0.3), 0.1, np.array([True, True, True, True, False]))
+    assert out[0] == pytest.approx(0.1) and out[1] == 0.0 and out[4] == 0.0
+    assert out[2] == pytest.approx(-np.pi)
+    assert out[3] == pytest.approx(wrap(3.0 + 0.1)) and -np.pi <= out[3] < np.pi
+    assert np.isnan(yaw[2]), "the input is not changed"

@@ -15,6 +15,12 @@ A character rig needs none of that. :func:`facing_from_motion` gives every agent
    does not walk off backwards while it turns;
 3. the turn from frame to frame is at most ``max_turn_rate`` radians per second.
 
+:func:`turn_towards` is the same rule applied causally, one step at a time, for a
+simulator stepped live (``rvo.Simulator.facing``): it cannot look ahead, so it turns
+towards the velocity of the step just taken (not the centred window), walking means
+faster than ``standing_fraction`` of the agent's preferred speed (its cruising speed
+before the run has shown one), and an agent that has not moved yet faces its goal.
+
 Methods that know better pass their own yaw to :class:`~crowdmotion.trajectories.Trajectories`
 (a car's pair angle, a soldier facing his formation's heading); exporters write
 whichever the Trajectories carries.
@@ -102,6 +108,24 @@ def facing_from_motion(positions: np.ndarray, dt: float, active: np.ndarray | No
     # pitch: the climb angle while flying, level while hovering (a drone does not hold a tilt)
     pitch = np.where(walking(full), np.arctan2(v[..., 2], flat), 0.0)
     return yaw, limit_turn(pitch, step)
+
+
+def turn_towards(yaw: np.ndarray, velocity: np.ndarray, min_speed: np.ndarray, max_step: float,
+                 stepped: np.ndarray | None = None) -> np.ndarray:
+    """(N,) yaw after one step of the causal facing: each agent ``stepped`` (default all)
+    moving faster than its ``min_speed`` turns towards its ``velocity``'s heading, the
+    short way round, by at most ``max_step`` radians; the others hold theirs. A NaN yaw
+    (an agent with no facing yet) takes the heading at once. ``velocity``: (N, 2)."""
+    yaw = np.asarray(yaw, float)
+    v = np.asarray(velocity, float)
+    vx, vy = v[:, 0], v[:, 1]
+    moving = vx * vx + vy * vy > min_speed * min_speed
+    if stepped is not None:
+        moving &= stepped
+    target = np.arctan2(vy, vx)
+    turn = np.clip((target - yaw + np.pi) % (2 * np.pi) - np.pi, -max_step, max_step)  # the short way round
+    new = np.where(np.isnan(yaw), target, yaw + turn)
+    return np.where(moving, (new + np.pi) % (2 * np.pi) - np.pi, yaw)
 
 
 def turn_rate(yaw: np.ndarray, dt: float) -> np.ndarray:

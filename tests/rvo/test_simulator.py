@@ -963,3 +963,69 @@ def test_goal_points_given_away_from_their_goal_region_are_told_of():
         sim.add_agents([[1, 3]], [[20, 5]], goal_region=cm.Rect([36, 1], [39, 9]))
     with pytest.warns(UserWarning, match=r"set_goals: 2 of the 2 goal points lie outside"):
         sim.set_goals([0, 1], [[5, 5], [6, 5]], goal_region=cm.Rect([36, 1], [39, 9]))
+
+
+def test_live_facing_turns_at_most_the_max_turn_rate_per_step_in_a_doorway_crowd_at_60_hz():
+    # the velocities of a crowd pressing through a 1.2 m door snap round within a frame
+    # (a reversal in 16 ms); a character's root set from sim.facing turns smoothly
+    from crowdmotion.facing import MAX_TURN_RATE, wrap
+
+    dt = 1 / 60
+    walls = [cm.Box([14.5, 0], [15.5, 9.4]), cm.Box([14.5, 10.6], [15.5, 20])]
+    sim = rvo.Simulator(cm.Scene(bounds=([0, 0], [30, 20]), obstacles=walls), time_step=dt,
+                        rng=np.random.default_rng(0))
+    xs, ys = np.meshgrid(np.arange(8, 14, 0.8), np.arange(6, 14, 0.8))
+    exit_area = cm.Rect([26, 6], [29, 14])
+    sim.add_agents(np.c_[xs.ravel(), ys.ravel()][:60], exit_area.center, goal_region=exit_area,
+                   arrive_anywhere=True, radius=0.25)
+    assert np.allclose(np.cos(sim.facing), 1.0, atol=0.3), "each faces the exit (to +x) before it moves"
+    facing, headings, stepped = [sim.facing.copy()], [], []
+    for _ in range(600):
+        stepped.append(sim.active.copy())
+        sim.step()
+        facing.append(sim.facing.copy())
+        headings.append(np.arctan2(sim.velocities[:, 1], sim.velocities[:, 0]))
+    stepped = np.array(stepped)
+    turn = np.abs(wrap(np.diff(np.array(facing), axis=0)))
+    assert turn.max() <= MAX_TURN_RATE * dt + 1e-9
+    snaps = np.abs(wrap(np.diff(np.array(headings), axis=0)))[stepped[1:] & stepped[:-1]]
+    assert (snaps > np.pi / 4).sum() > 10, "the velocities themselves do snap round"
+    with pytest.raises(ValueError):
+        sim.facing[0] = 1.0  # read-only
+
+
+def test_live_facing_converges_to_the_walking_direction_and_holds_while_standing():
+    from crowdmotion.facing import MAX_TURN_RATE, wrap
+
+    dt = 1 / 60
+    sim = rvo.Simulator(cm.Scene(bounds=([0, 0], [40, 10])), time_step=dt, remove_on_arrival=False)
+    ids = sim.add_agents([[12, 5], [5, 5]], [[35, 5], [5, 5]])  # the second stands on its goal
+    assert sim.facing[0] == pytest.approx(0.0) and sim.facing[1] == 0.0
+    for _ in range(120):
+        sim.step()
+    sim.set_goals(ids[:1], [8, 5])  # turn back: west
+    turns, walks_west, faces_west = [], None, None
+    for k in range(1800):
+        if sim.arrived[0]:
+            break
+        before = sim.facing[0]
+        sim.step()
+        turns.append(abs(wrap(sim.facing[0] - before)))
+        if walks_west is None and sim.velocities[0, 0] < -0.25 * 1.3:  # it stops (comfortably), then walks back
+            walks_west = k
+        heading = np.arctan2(sim.velocities[0, 1], sim.velocities[0, 0])
+        if walks_west is not None and faces_west is None and abs(wrap(sim.facing[0] - heading)) < 1e-9:
+            faces_west = k  # on the walking direction itself
+    assert max(turns) <= MAX_TURN_RATE * dt + 1e-9
+    # once it walks west, it faces the way it walks within a half turn's time at the max turn rate
+    assert walks_west is not None and faces_west is not None
+    assert (faces_west - walks_west + 1) * dt <= np.pi / MAX_TURN_RATE + 0.05
+    for _ in range(240):  # it walks on to its goal point (a side step: it faces it), and stops
+        sim.step()
+    held, speeds = sim.facing[0], []
+    for _ in range(60):
+        sim.step()
+        speeds.append(np.linalg.norm(sim.velocities[0]))
+    assert sim.arrived[0] and max(speeds) < 0.25 * 1.3, "it stands"
+    assert sim.facing[0] == held, "standing at its goal, it holds its facing"
+    assert sim.facing[1] == 0.0, "one that never moved holds +x"

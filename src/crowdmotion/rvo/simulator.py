@@ -12,6 +12,7 @@ from scipy.spatial import cKDTree
 from crowdmotion._rng import step_key
 from crowdmotion._threads import ThreadedKernel
 from crowdmotion._validation import id_range
+from crowdmotion.facing import MAX_TURN_RATE, STANDING_FRACTION, turn_towards, wrap
 from crowdmotion.geometry import finite_array, finite_number, require_finite_agents, row_norms
 from crowdmotion.groups import Disc, Lattice, MovingTarget, Points, Rect
 from crowdmotion.placement import GOAL_CLEARANCE_M, standing_points
@@ -156,7 +157,8 @@ class Simulator(LiveObstacles):
     frames after each one, so a game that steps live smooths the drawn position on its
     side, and :class:`crowdmotion.rvo.recorder.Recorder` relaxes a recorded session
     afterwards. :func:`warm_up` readies the kernels before a game's first frame.
-    ``sim.dt`` is the time step.
+    ``sim.dt`` is the time step. ``sim.facing`` is each agent's heading for a character's
+    root, turned at a bounded rate each step (the velocities snap round in a crowd).
 
     Parameters
     ----------
@@ -291,6 +293,7 @@ class Simulator(LiveObstacles):
         n0 = (0, 2)
         self.positions = np.zeros(n0)
         self.velocities = np.zeros(n0)
+        self._facing = np.zeros(0)  # yaw, radians; NaN: added on its goal and not moved yet
         self.goals = np.zeros(n0)
         self.active = np.zeros(0, dtype=bool)
         self.arrival_time = np.zeros(0)
@@ -454,6 +457,7 @@ class Simulator(LiveObstacles):
         ids = np.arange(start, start + n)
         self.positions = np.concatenate([self.positions, pos])
         self.velocities = np.concatenate([self.velocities, np.zeros((n, 2))])
+        self._facing = np.concatenate([self._facing, _heading(goal - pos)])
         self.goals = np.concatenate([self.goals, goal])
         self.active = np.concatenate([self.active, ~later])
         self.arrival_time = np.concatenate([self.arrival_time, np.full(n, np.nan)])
@@ -777,6 +781,7 @@ class Simulator(LiveObstacles):
         now = due[ok]
         self.active[now] = True
         self.velocities[now] = 0.0
+        self._facing[now] = _heading(self.goals[now] - self.positions[now])  # from where it enters
         self.entry_time[now] = self.time
 
     def _bodies(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -1238,6 +1243,8 @@ class Simulator(LiveObstacles):
             new[driven] = (to - at) / self.dt
         self.positions = self.positions + new * self.dt
         self.velocities = new
+        self._facing = turn_towards(self._facing, new, STANDING_FRACTION * p["pref_speed"], MAX_TURN_RATE * self.dt,
+                                    self.active)
         self.time += self.dt
         self.steps += 1
         if steer.any():
@@ -1409,6 +1416,21 @@ class Simulator(LiveObstacles):
         return self.active & ~self._fields.reachable(self.field_of, self.positions, window=2)
 
     @property
+    def facing(self) -> np.ndarray:
+        """(N,) read-only: the way each agent faces, yaw radians about the up axis from +x,
+        in [-pi, pi), for a character's root. Updated causally at each step (the offline
+        :func:`crowdmotion.facing.facing_from_motion` needs the frames after each one): it
+        turns towards the velocity of the step just taken by at most
+        ``facing.MAX_TURN_RATE`` (4 rad/s) × ``dt`` while the agent moves faster than
+        ``facing.STANDING_FRACTION`` (a quarter) of its ``pref_speed``, and holds while it
+        stands or is nudged about at a crawl. An agent faces its goal when added (or when
+        it enters, for one that waited); one added on its goal faces +x (0) until it
+        first moves, then the way it moves. An agent that left keeps its last facing."""
+        out = np.nan_to_num(self._facing, nan=0.0)
+        out.flags.writeable = False
+        return out
+
+    @property
     def density(self) -> np.ndarray:
         """(N,) the density (agents/m²) each agent sensed ahead of it at the last step
         (0 with ``density_slowing`` off)."""
@@ -1455,6 +1477,12 @@ def warm_up(max_agents: int | None = None) -> int:
                     kernel.threaded.compile(signature)
                     ready += 1
     return ready
+
+
+def _heading(offset: np.ndarray) -> np.ndarray:
+    """(n,) the yaw of each (n, 2) ``offset``, NaN where it is (nearly) zero."""
+    far = row_norms(offset) > 1e-9
+    return np.where(far, wrap(np.arctan2(offset[:, 1], offset[:, 0])), np.nan)
 
 
 def _ordinal(i: int) -> str:
