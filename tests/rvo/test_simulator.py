@@ -1029,3 +1029,27 @@ def test_live_facing_converges_to_the_walking_direction_and_holds_while_standing
     assert sim.arrived[0] and max(speeds) < 0.25 * 1.3, "it stands"
     assert sim.facing[0] == held, "standing at its goal, it holds its facing"
     assert sim.facing[1] == 0.0, "one that never moved holds +x"
+
+
+def test_a_time_step_above_the_stall_step_warns_naming_the_value_and_one_above_the_scenarios_limit_is_refused():
+    from crowdmotion.rvo.params import MAX_TIME_STEP_S, STALL_TIME_STEP_S, RVOParams
+
+    scene = cm.Scene(bounds=([0, 0], [10, 10]))
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        rvo.Simulator(scene, time_step=STALL_TIME_STEP_S)  # the largest step that still arrives as at 0.25 s
+    with pytest.warns(UserWarning, match=r"^time_step 2\.0 s is above 0\.6 s: .*stall"):
+        rvo.Simulator(scene, time_step=2.0)
+    # as the scenario's [rvo] time_step: up to MAX_TIME_STEP_S, no further
+    RVOParams(time_step=MAX_TIME_STEP_S)
+    with pytest.raises(ValueError, match=r"time_step must be a positive number of seconds, at most 10, got 10\.5"):
+        rvo.Simulator(scene, time_step=10.5)
+
+
+def test_sim_time_is_steps_times_the_time_step_not_a_running_sum_that_drifts():
+    sim = rvo.Simulator(cm.Scene(bounds=([0, 0], [10, 10])), time_step=0.05)
+    for _ in range(709):
+        sim.step()
+    assert sim.time == 709 * 0.05 == 35.45  # a running sum of 0.05 drifts to 35.450000000000124
+    with pytest.raises(AttributeError):
+        sim.time = 0.0

@@ -13,6 +13,14 @@ from crowdmotion.stage_kinds import KINDS
 PosFloat = Positive
 STAGES = KINDS  # the route stages an RVO agent follows: every one (validate reads it)
 MAX_TIME_STEP_S = 10.0  # seconds: a longer step walks through walls between two looks
+# seconds: above this step a crowd arrives late, then stalls (rvo.Simulator warns): the
+# largest step at which 40 walkers crossing past a block in a 30 x 20 m room (two groups
+# of 20 bound opposite ways) still arrive as at 0.25 s. Everyone in by 32-35 s at 0.25 s,
+# 32-40 s at 0.5 s, 33-37 s at 0.6 s, 37-44 s at 0.7 s (seeds 0-4), 48-52 s at 1 s; at
+# 2 s 6-14 of the 40 are still out after 60 s, at 5 s 26-31 (seeds 0-2). A door slows
+# sooner: 40 through a 1.2 m door, the last out at 43-46 s at 0.25 s, 51-55 s at 0.5 s,
+# 53-60 s at 0.6 s (seeds 0-2)
+STALL_TIME_STEP_S = 0.6
 # the per-agent parameters a group may set for itself (attributes) share these bounds
 MAX_NEIGHBORS = 10_000
 MAX_SAMPLES = 10_000
@@ -25,7 +33,8 @@ Safety = NonNegative
 class RVOParams(MethodParams):
     """Parameters of the RVO method (paper symbols in brackets).
 
-    time_step : float        simulation step Δt, seconds
+    time_step : float        simulation step Δt, seconds (above 0.6 s a warning: crowds
+                             arrive late, then stall)
     max_steps : int          stop after this many steps even if agents are still walking
     max_neighbors : int      [M] nearest neighbours considered (groups without a personality)
     neighbor_dist : float    [D] metres within which neighbours count (groups without a personality)
