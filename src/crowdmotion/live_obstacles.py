@@ -143,7 +143,10 @@ class LiveObstacles:
     def _obstacle_index(self, index, what: str) -> None:
         """Refuse an index that names no obstacle of ``scene.obstacles``."""
         n = len(self.scene.obstacles)
-        if isinstance(index, bool) or not isinstance(index, (int, np.integer)) or not 0 <= index < n:
+        if isinstance(index, (bool, np.bool_)) or not isinstance(index, (int, np.integer)):
+            raise ValueError(f"{what}: the obstacle index must be an int (add_obstacle returns it), got "
+                             f"{index!r} ({type(index).__name__})")
+        if not 0 <= index < n:
             raise ValueError(f"{what}: no obstacle {index!r} (indices run from 0 to {n - 1})")
 
     def _clock(self) -> float:

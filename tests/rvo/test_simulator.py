@@ -280,7 +280,7 @@ def test_a_removed_agent_no_longer_blocks_the_way():
 @pytest.mark.parametrize("call,args,message", [
     ("set_goals", ([5], [1, 1]), r"set_goals: no agent 5 \(ids run from 0 to 2\)"),
     ("set_goals", ([0], [np.nan, 1]), "goals"),
-    ("set_goals", ([0, 1], [[1, 1]]), r"goals must be \(2,\) or \(2, 2\)"),
+    ("set_goals", ([0, 1], [[1, 1], [2, 2], [3, 3]]), r"goals must be \(2,\) or \(2, 2\), got shape \(3, 2\)"),
     ("set_goals", ([0.5], [1, 1]), "agents must be a list of agent ids"),
     ("remove_agents", ([-1],), "remove_agents: no agent -1"),
 ])
@@ -1053,3 +1053,50 @@ def test_sim_time_is_steps_times_the_time_step_not_a_running_sum_that_drifts():
     assert sim.time == 709 * 0.05 == 35.45  # a running sum of 0.05 drifts to 35.450000000000124
     with pytest.raises(AttributeError):
         sim.time = 0.0
+
+
+@pytest.mark.parametrize("positions", [[], np.zeros((0, 2))])
+def test_an_empty_wave_adds_nobody_and_returns_an_empty_id_array(positions):
+    sim = _sim()
+    ids = sim.add_agents(positions, [18, 18])
+    assert ids.dtype == np.int64 and ids.shape == (0,) and sim.n_agents == 3
+    sim.step()
+    assert sim.n_agents == 3 and len(sim.facing) == 3
+    with pytest.raises(ValueError, match="goals"):
+        sim.add_agents(positions, [np.nan, 18])  # the goal is still checked
+    with pytest.raises(ValueError, match=r"positions must be an \(N, 2\) array"):
+        sim.add_agents(np.zeros((2, 0)), [18, 18])
+
+
+def test_goals_of_shape_1_by_2_are_one_goal_for_every_agent_added_or_sent_on():
+    sim = rvo.Simulator(cm.Scene(bounds=([0, 0], [20, 20])), rng=np.random.default_rng(0))
+    goals = np.array([[18.0, 10.0], [18.0, 4.0]])
+    ids = sim.add_agents([[2, 2], [2, 6], [2, 10]], goals[:1])
+    assert np.array_equal(sim.goals, np.tile([18.0, 10.0], (3, 1)))
+    sim.set_goals(ids, goals[1:])
+    assert np.array_equal(sim.goals, np.tile([18.0, 4.0], (3, 1)))
+    with pytest.raises(ValueError, match=r"goals must be \(2,\) or \(3, 2\), got shape \(2, 2\)"):
+        sim.add_agents([[4, 2], [4, 6], [4, 10]], goals)
+
+
+@pytest.mark.parametrize("call", ["remove_obstacle", "move_obstacle"])
+def test_a_float_obstacle_index_is_refused_as_not_an_int(call):
+    boxes = [cm.Box([5, 5], [6, 6]), cm.Box([9, 9], [10, 10])]
+    sim = rvo.Simulator(cm.Scene(bounds=([0, 0], [20, 20]), obstacles=boxes))
+    args = (1.0,) if call == "remove_obstacle" else (1.0, (0, 1))
+    with pytest.raises(ValueError, match=rf"^{call}: the obstacle index must be an int \(add_obstacle returns it\), "
+                                         r"got 1\.0 \(float\)$"):
+        getattr(sim, call)(*args)
+    with pytest.raises(ValueError, match=rf"^{call}: no obstacle 2 \(indices run from 0 to 1\)$"):
+        getattr(sim, call)(*((2,) + args[1:]))
+
+
+def test_add_agents_refusing_an_agent_that_does_not_fit_does_not_first_warn_that_it_moved_its_goal():
+    sim = rvo.Simulator(cm.Scene(bounds=([0, 0], [30, 20])))
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")  # a warning would raise here instead of the refusal
+        with pytest.raises(ValueError, match="does not fit inside the scene bounds"):
+            sim.add_agents([[15, 17]], [[25, 17]], radius=5)
+    assert sim.n_agents == 0
+    with pytest.warns(UserWarning, match="Moved the least way"):  # one that fits is still told
+        sim.add_agents([[15, 10]], [[25, 17]], radius=5)

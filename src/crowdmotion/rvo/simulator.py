@@ -384,10 +384,12 @@ class Simulator(LiveObstacles):
 
         Parameters
         ----------
-        positions : (N, 2) start positions, metres.
-        goals : (N, 2) or (2,) goal points, or a MovingTarget they all chase. A point
-            closer to a wall or the scene's edge than its agent's radius (no body stands
-            there) is moved the least way to where the body fits, with a warning.
+        positions : (N, 2) start positions, metres; none (an empty wave) adds nobody and
+            returns an empty id array (the goals are still checked).
+        goals : (N, 2) goal points, (2,) or (1, 2) one for all, or a MovingTarget they all
+            chase. A point closer to a wall or the scene's edge than its agent's radius (no
+            body stands there) is moved the least way to where the body fits, with a
+            warning (once the agents are known to fit: a call refused warns of nothing).
         radius, max_speed, pref_speed : body radius (m), v_max and |v_pref| (m/s).
         neighbor_dist : D, metres: neighbours farther away are ignored.
         max_neighbors : M: at most this many nearest neighbours are considered.
@@ -416,22 +418,23 @@ class Simulator(LiveObstacles):
         (N,) int array of the new agents' ids (their rows in ``positions``).
         """
         pos = finite_array(positions, "positions")
-        if pos.ndim != 2 or pos.shape[1] != 2 or len(pos) == 0:
-            raise ValueError(f"positions must be a non-empty (N, 2) array, got shape {pos.shape}")
+        if pos.shape in ((0,), (0, 2)):
+            # an empty wave (a spawner's np.flatnonzero(mask) that matched no one): nothing
+            # added, as set_goals, drive, place and remove_agents take an empty selection
+            self._goal_points(goals, 0)  # the goal is still checked: a NaN goal still raises
+            if goal_region is not None:
+                self._check_goal_region(goal_region)
+            return np.zeros(0, dtype=np.int64)
+        if pos.ndim != 2 or pos.shape[1] != 2:
+            raise ValueError(f"positions must be an (N, 2) array, got shape {pos.shape}")
         n = len(pos)
         goal, target = self._goal_points(goals, n)
         if goal_region is not None:
             self._check_goal_region(goal_region)
-            if target is None and not arrive_anywhere:
-                _warn_goals_outside(goal, goal_region, "add_agents")
         anywhere = bool(arrive_anywhere)
         if anywhere and not isinstance(goal_region, (Rect, Disc)):
             raise ValueError(f"arrive_anywhere needs a Rect or Disc goal_region, got {goal_region!r}")
         rad = _per_agent(radius, n, "radius")
-        if anywhere:
-            goal = self._aims(goal_region, pos, np.full(n, self.remove_on_arrival), rad)
-        if target is None and not anywhere:
-            goal = self._standing_goals(goal, rad, goal_region)
         vmax = _per_agent(max_speed, n, "max_speed")
         vpref = _per_agent(pref_speed, n, "pref_speed")
         over = np.flatnonzero(vpref > vmax)
@@ -463,6 +466,13 @@ class Simulator(LiveObstacles):
             _per_agent(entrance, n, "entrance", integer=True, strict=False, minimum=-1)
         later = np.full(n, enter_at is not None)  # given times: every one enters through _admit, when free
         self._check_placement(pos, rad, ~later)
+        # the goals' warnings (moved, outside their region) once the agents are known to fit
+        if goal_region is not None and target is None and not anywhere:
+            _warn_goals_outside(goal, goal_region, "add_agents")
+        if anywhere:
+            goal = self._aims(goal_region, pos, np.full(n, self.remove_on_arrival), rad)
+        if target is None and not anywhere:
+            goal = self._standing_goals(goal, rad, goal_region)
         # fields already solved serve bodies no wider: only new goals' fields are solved
         # (a wider body needs every field again, with its clearance: rebuilt when next used)
         keep = self._fields is not None and not self._fields_stale and rad.max() <= self.params["radius"].max()
@@ -505,7 +515,7 @@ class Simulator(LiveObstacles):
         Parameters
         ----------
         agents : ids (rows of ``positions``) of agents still in the simulation.
-        goals : (2,) one goal point for all of them, (K, 2) one each, or a MovingTarget
+        goals : (2,) or (1, 2) one goal point for all of them, (K, 2) one each, or a MovingTarget
             they all chase (points no body stands on are moved, as in :meth:`add_agents`).
         goal_region : the region the goals lie in, for the guidance field (default: the
             goal points). A region given before, or the same points, reuses its field.
@@ -642,7 +652,9 @@ class Simulator(LiveObstacles):
             if goals.dim != 2:
                 raise ValueError("goals: a 2D moving target is needed")
             return np.tile(goals.at(self.time), (n, 1)), goals
-        return _xy_each(goals, n, "goals"), None
+        xy = finite_array(goals, "goals")
+        # one goal as a (1, 2) row (a slice of a goals array) is one goal for all
+        return _xy_each(xy[0] if xy.shape == (1, 2) else xy, n, "goals"), None
 
     def _check_goal_region(self, region) -> None:
         """Refuse a goal region that is no Rect, Disc or Points region, or a group's
