@@ -99,6 +99,27 @@ def test_a_crowd_sharing_one_goal_point_all_arrive_when_arrivals_stay():
     assert collision_audit(result.trajectories, scene).clean
 
 
+@pytest.mark.parametrize("time_step", [0.25, 1 / 30])
+def test_a_crowd_told_to_gather_at_one_point_and_stay_settles_there(time_step):
+    # a game's "everyone to the stage": once all have arrived they stand packed round the
+    # point (each edging in while there is room), where aiming on at the point they swirled
+    # round it at 0.4-0.7 m/s for good
+    sim = rvo.Simulator(cm.Scene(bounds=([0, 0], [30, 30])), time_step=time_step, remove_on_arrival=False,
+                        rng=np.random.default_rng(0))
+    xs, ys = np.meshgrid(np.arange(2, 10.0), np.arange(2, 10.0))
+    sim.add_agents(np.c_[xs.ravel(), ys.ravel()][:30], [20, 20], radius=0.25)
+    while sim.time < 90:
+        sim.step()
+    assert sim.arrived.all()
+    speeds = []
+    while sim.time < 100:
+        sim.step()
+        speeds.append(np.linalg.norm(sim.velocities, axis=1))
+    assert np.mean(speeds) < 0.1 and np.percentile(speeds, 95) < 0.3, np.mean(speeds)
+    packed = np.sqrt(30 * (2 * 0.25) ** 2 / np.pi)
+    assert np.linalg.norm(sim.positions - [20, 20], axis=1).max() < 4 * packed
+
+
 def _standing_pair(blocker_wants, blocker_goal, seconds=4.0, dt=0.1):
     """Agent 0 at the origin wants +x (goal 10 m east) with agent 1 standing in its way,
     both standing still for ``seconds``: is agent 0 on a gridlock detour?"""

@@ -75,9 +75,13 @@ crossing (RVO2's Blocks) everyone pushes in and the crossing jams for good.
 
 And for goals shared by a crowd when arrivals stay (``remove_on_arrival = False``):
 
-5. **Arrival by contact**: an agent touching (within 0.1 m) an agent already arrived at the
-   same goal point, which is nearer the point than itself, has arrived too. The arrived
-   agents form a packed disc round the point that grows with the queue.
+5. **Arrival by contact**: an agent touching (within ``CONTACT_GAP_M``) an agent already
+   arrived at the same goal point, which is nearer the point than itself, has arrived too.
+   The arrived agents form a packed disc round the point that grows with the queue; the
+   walkers in it edge towards the point while there is room and otherwise stand
+   (``Simulator._aim_points``). Eq. (3) keeps a margin round every body, so a newcomer
+   pressing in stopped short of touching and slid round the disc: 0.25 m counts as
+   touching (0.1 m left two of 60 walkers sent to one point circling it for good).
 """
 
 from __future__ import annotations
@@ -101,7 +105,7 @@ YIELD_TURN = np.deg2rad(30.0)  # a yielding agent backs away turned this far to 
 YIELD_MAX_S = 10.0
 ABREAST_MAX_S = 4.0  # longest wait of one wedged abreast at a door for the other to pass
 ABREAST_STILL_S = 1.0  # wedged abreast: both have stood (not crept) this long
-CONTACT_GAP_M = 0.1
+CONTACT_GAP_M = 0.25
 DETOUR_STILL_S = 3.0  # standing (not creeping in a queue) this long, and the blocker too: a gridlock
 STILL = 0.05  # below this fraction of pref_speed an agent stands
 DETOUR_TURN = np.deg2rad(60.0)  # a gridlocked agent walks this far to the right of its way

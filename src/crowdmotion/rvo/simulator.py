@@ -40,6 +40,7 @@ ESCAPE_HEADINGS = 32  # headings an agent in a moving obstacle's way tries after
 # O pair (mid-way between O+ and O−), rounded
 ENTRY_GAP_M = 0.05  # clearance an entering agent needs round its body
 ENTRY_NEIGHBOURS = 8  # bodies nearest its place an entering agent is checked against
+PACKED_CREEP_MPS = 0.1  # a walker packed round a goal point it shares with others edges towards it this slowly
 # different goal points given in one call without a goal_region get a guidance field each,
 # up to this many (a field is a grid of the scene; more are grouped by place into this many)
 OWN_FIELDS_MAX = 16
@@ -305,6 +306,7 @@ class Simulator(LiveObstacles):
         self.goals = np.zeros(n0)
         self.active = np.zeros(0, dtype=bool)
         self.arrival_time = np.zeros(0)
+        self.packed = np.zeros(0, dtype=bool)  # arrived at a goal point it shares with others, staying
         self.enter_at = np.zeros(0)     # when each agent is due to enter, seconds
         self.anywhere = np.zeros(0, dtype=bool)  # arrives anywhere in its goal region (its goal: the nearest point)
         self.leaves = np.zeros(0, dtype=bool)    # leaves the simulation on arrival (else stays there)
@@ -485,6 +487,7 @@ class Simulator(LiveObstacles):
         self.goals = np.concatenate([self.goals, goal])
         self.active = np.concatenate([self.active, ~later])
         self.arrival_time = np.concatenate([self.arrival_time, np.full(n, np.nan)])
+        self.packed = np.concatenate([self.packed, np.zeros(n, dtype=bool)])
         self.enter_at = np.concatenate([self.enter_at, due])
         self.anywhere = np.concatenate([self.anywhere, np.full(n, anywhere)])
         self.leaves = np.concatenate([self.leaves, np.full(n, self.remove_on_arrival)])
@@ -557,6 +560,7 @@ class Simulator(LiveObstacles):
         self.anywhere[ids] = bool(arrive_anywhere)
         self.field_of[ids] = field
         self.arrival_time[ids] = np.nan
+        self.packed[ids] = False
         self.deadlock.forget(ids)
         self.lanes.forget(ids)
         self._unchecked = np.concatenate([self._unchecked, ids])
@@ -1166,7 +1170,7 @@ class Simulator(LiveObstacles):
             self.goals[ids] = target.at(self.time)
         self._nearest_goals()
         lost = np.zeros(self.n_agents, dtype=bool) if self._grouped else None  # only a shared field ends elsewhere
-        v, aim = preferred_velocities(self.positions, self.goals, self.params["pref_speed"], self.active, self.dt,
+        v, aim = preferred_velocities(self.positions, self._aim_points(), self.params["pref_speed"], self.active, self.dt,
                                       self._fields, self.field_of, prims, self.params["radius"], lost)
         v[~self.active] = 0.0
         if lost is not None and lost.any():
@@ -1352,14 +1356,15 @@ class Simulator(LiveObstacles):
         that it stops there at the comfortable deceleration; wider bodies, and those
         leaving on entering their goal region, keep theirs."""
         out = np.empty_like(vpref)
-        K.turned_in(vpref, self.goals, self.positions, self.velocities, self.params["radius"], PERSON_MAX_RADIUS_M,
+        goals = self._aim_points()
+        K.turned_in(vpref, goals, self.positions, self.velocities, self.params["radius"], PERSON_MAX_RADIUS_M,
                     self.comfort_accel, out)
         # one that stays at its goal brakes for it at the comfortable deceleration: no faster
         # than √(2 a d) at d metres off (eq. (3) prices a harder stop above walking on: at a
         # game's 30 steps a second a walker ran a metre past its goal, then paced to and fro)
         stay = ~self.leaves & (self.params["radius"] <= PERSON_MAX_RADIUS_M)
         if stay.any():
-            cap = np.sqrt(2.0 * self.comfort_accel * row_norms(self.goals - self.positions))
+            cap = np.sqrt(2.0 * self.comfort_accel * row_norms(goals - self.positions))
             speed = row_norms(out)
             out *= np.where(stay & (speed > cap), cap / np.maximum(speed, 1e-12), 1.0)[:, None]
         # one that leaves on entering its goal region leaves wherever it enters it: slowing
@@ -1367,6 +1372,22 @@ class Simulator(LiveObstacles):
         # of 100 by a 1 m door emptied 9 % later, 13 % fewer a second through the door)
         out[self._exiting] = vpref[self._exiting]
         return out
+
+    def _aim_points(self) -> np.ndarray:
+        """(N, 2) where each agent heads: its goal, but for a walker *packed* round a goal
+        point it shares with others (arrived there and staying, at the point or by touching
+        the crowd round it, :mod:`crowdmotion.rvo.deadlock`): a point ``PACKED_CREEP_MPS``
+        × dt towards its goal, so that it edges in while there is room and otherwise stands.
+        Aiming on at the shared point at its walking speed, each of them pressed towards it
+        for good and a crowd of 30 swirled round it at about half a metre a second; standing
+        wherever it arrived, the crowd settled but as loose as the newcomers had pushed it.
+        One that reached a goal point of its own keeps aiming at it: pushed off by someone
+        passing, it walks back. Bodies wider than a person keep aiming at the point."""
+        packed = self.active & self.packed & ~self.leaves & (self.params["radius"] <= PERSON_MAX_RADIUS_M)
+        to = self.goals - self.positions
+        d = row_norms(to)
+        creep = self.positions + to * (np.minimum(d, PACKED_CREEP_MPS * self.dt) / np.maximum(d, 1e-12))[:, None]
+        return np.where(packed[:, None], creep, self.goals)
 
     def _threatened(self, prims, driven: np.ndarray) -> np.ndarray:
         """(N,) 1.0 for agents within two steps' reach of a moving obstacle or a
@@ -1402,6 +1423,9 @@ class Simulator(LiveObstacles):
                                      self.active & np.isnan(self.arrival_time) & ~now & stays, arrived)
             self.stats["contact_arrivals"] += int(touch.sum())
             now |= touch
+            first = now & stays & ~touch  # at the point itself: packed if others share it
+            self.packed |= touch | (first & _shared_points(self.goals, stays & (self.active | arrived))
+                                    if first.any() else touch)
         self.arrival_time[now] = self.time
         gone = now & self.leaves
         if gone.any():
@@ -1529,3 +1553,13 @@ def _points_region(goal: np.ndarray):
     from crowdmotion.groups import Points
 
     return Points(np.unique(goal, axis=0))
+
+
+def _shared_points(goals: np.ndarray, among: np.ndarray) -> np.ndarray:
+    """(N,) whether each agent's goal point is also the goal point of another of ``among``."""
+    out = np.zeros(len(goals), dtype=bool)
+    ids = np.flatnonzero(among)
+    if len(ids) > 1:
+        _, inverse, counts = np.unique(goals[ids], axis=0, return_inverse=True, return_counts=True)
+        out[ids] = counts[inverse.ravel()] > 1
+    return out
