@@ -16,6 +16,7 @@ from crowdmotion.scene import Box, Obstacle, Polygon, Scene, _Round, scene_of
 from crowdmotion.trajectories import Trajectories
 
 MAX_EVENTS = 100
+ORIENTATION_NOTE_DEG = 5.0  # a formation that ends turned further than this off its heading is named in the line
 
 
 @dataclass
@@ -624,6 +625,11 @@ def headline(summary: dict) -> str:
         done = sum(g["recovered_s"] is not None for g in groups.values())
         worst = max(g["edge_length_error_mean"] for g in groups.values())
         parts.append(f"formations recovered {done}/{len(groups)} (edge-length error {worst:.1%})")
+        turned = {n: g["orientation_error_deg"] for n, g in groups.items()
+                  if g.get("orientation_error_deg") is not None and g["orientation_error_deg"] > ORIENTATION_NOTE_DEG}
+        if turned:  # in its shape, but not facing the way it should (its given heading, or its route's last leg)
+            n, deg = max(turned.items(), key=lambda kv: kv[1])
+            parts[-1] += f", {len(turned)} turned off the way it should face ({n!r} {deg:.0f}°)"
         if summary.get("ended_at_limit") and "arrival_rate" not in summary:
             parts[-1] += (f"; {_stopped_at(summary)} before every formation had recovered: raise it, or give them "
                           f"room to re-form at their goals")

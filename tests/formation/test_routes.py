@@ -70,3 +70,39 @@ def test_a_block_walking_down_a_corridor_to_its_corner_faces_the_way_it_walks():
     assert sim.positions[:, 0].mean() >= 18.0
     assert off(headings) < 12.0  # the rest shape, turned where the route leads
     assert off(facing) < 0.5 * off(headings)  # the soldiers, along the group's travel
+
+
+def _corner_scene():
+    # an L street: 10 m wide going east, then 10 m wide going north; the goal round the corner
+    return cm.Scene(bounds=([0, -5], [30, 30]), obstacles=[cm.Box([0, 5], [20, 30])])
+
+
+def test_a_block_with_no_heading_sets_out_along_its_street_and_ends_facing_the_way_it_came_in():
+    # the straight line to the goal (48 degrees) runs through the wall: the block used to start
+    # as a diamond facing it, walk the street so, and re-form at 48 degrees on the goal
+    sim, traj = _walk(_corner_scene(), formation.block(3, 6, spacing=1.2), (25, 22), (5, 0))
+    g = sim.groups[0]
+    assert abs(np.degrees(g.heading0)) < 8, np.degrees(g.heading0)  # east, down its street
+    assert g.recovered_at is not None and collision_audit(traj, _corner_scene()).clean
+    final = np.degrees(np.angle(np.exp(1j * sim.facing()).mean()))
+    assert abs(final - 90) < 8, final  # north, the way its last leg came in
+    rest = traj.positions[0] - traj.positions[0].mean(axis=0)
+    end = traj.positions[-1] - traj.positions[-1].mean(axis=0)
+    turn = np.degrees(g.heading0 + np.arctan2(np.sum(rest[:, 0] * end[:, 1] - rest[:, 1] * end[:, 0]),
+                                              np.sum(rest * end)))
+    assert abs(turn - final) < 1 and sim.groups[0].heading_given is False, turn  # square to it, not a diamond
+
+
+def test_the_report_judges_a_formation_turned_off_its_heading_as_out_of_shape():
+    from crowdmotion.formation.simulation import orientation
+
+    sim = formation.Simulator(cm.Scene(bounds=([0, -10], [40, 10])), time_step=0.1)
+    sim.add_group(formation.block(4, 4, spacing=1.2), goal=(30, 0), start=(8, 0), radius=0.3)
+    g = sim.groups[0]
+    square = orientation(sim, g, sim.slot_positions(0))
+    assert square["orientation_error_deg"] < 1e-6 and square["oriented_rms_m"] < 1e-9
+    c, s = np.cos(np.radians(40)), np.sin(np.radians(40))
+    rest = g.mesh.rest - g.mesh.rest.mean(axis=0)
+    diamond = orientation(sim, g, rest @ np.array([[c, -s], [s, c]]).T + (30, 0))  # in shape, turned 40 degrees
+    assert abs(diamond["orientation_error_deg"] - 40) < 1e-6 and diamond["oriented_rms_m"] > 1.0
+    assert diamond["heading_deg"] == 0.0

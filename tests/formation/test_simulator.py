@@ -13,7 +13,8 @@ from crowdmotion.scene import Box, Circle, Sphere
 def _sim(**kw):
     scene = Scene(((0, -15), (60, 15)), [Circle((25, 0.5), 1.0)])
     sim = formation.Simulator(scene, time_step=0.1, **kw)
-    gid = sim.add_group(formation.block(5, 5, 1.2), goal=(50, 0), start=(8, 0), radius=0.3)
+    gid = sim.add_group(formation.block(5, 5, 1.2), goal=(50, 0), start=(8, 0), radius=0.3,
+                        heading=0.0)  # facing the goal (its route's first leg bends round the rock)
     return sim, gid
 
 

@@ -53,7 +53,7 @@ from crowdmotion.formation._kernels import repulsion
 from crowdmotion.live_obstacles import LiveObstacles
 from crowdmotion.obstacle_primitives import ObstacleSet
 from crowdmotion.placement import standing_centre
-from crowdmotion.routing import DistanceFields, distance_fields
+from crowdmotion.routing import DistanceFields, default_cell, distance_fields
 from crowdmotion.scene import Scene
 
 GROUP_FIELDS = ("radius", "max_speed", "pref_speed", "start", "heading", "name", "reassign", "enter_at")
@@ -125,6 +125,9 @@ class FormationGroup:
     extent: float
     heading0: float = 0.0  # the rest shape's heading as placed
     heading: float = 0.0   # where the rest shape faces now (turned to the direction of travel)
+    heading_given: bool = False  # the caller gave the start heading (else: along the route's first leg)
+    arrival_heading: float | None = None  # the way the route's last leg runs into the goal (planned_legs)
+    half_width: float = 0.0  # half its width across its front (the template's y), bodies included
     symmetry: tuple = (0.0,)  # turns (radians) that map the rest shape's slots onto themselves
     facing_offset: float = 0.0  # soldiers face heading + this (set on arrival: see _arrive)
     squaring: bool = False  # turning back square to its rest shape in the open (_square_up) ...
@@ -252,6 +255,7 @@ class Simulator(LiveObstacles):
             raise ValueError(f"{what}: pref_speed {pref_speed} exceeds max_speed {max_speed}")
         region, gc = _region_goal(goal)
         heading = 0.0
+        given = True  # the start heading: the caller's (a point set's own orientation, or ``heading``) ...
         if isinstance(template, (np.ndarray, list, tuple)):  # start positions, any point set
             pts = np.asarray(template, float)
             start_pos = pts
@@ -261,8 +265,10 @@ class Simulator(LiveObstacles):
             start = np.asarray(params.get("start", (0.0, 0.0)), float).ravel()
             if start.shape != (2,) or not np.isfinite(start).all():
                 raise ValueError(f"{what}: start must be a finite 2D point, got {params.get('start')!r}")
-            to_goal = gc - start
-            heading = params.get("heading", float(np.arctan2(to_goal[1], to_goal[0])))
+            heading = params.get("heading")
+            given = heading is not None
+            if not given:  # ... or along the first leg of the way its centre will walk (round walls)
+                heading = self.planned_legs(start, region, gc, radius, self._half_width(tpl.points, radius))[0]
             if not np.isfinite(float(heading)):
                 raise ValueError(f"{what}: heading must be a finite angle in radians, got {heading!r}")
             start_pos = tpl.placed(start, float(heading))
@@ -284,8 +290,11 @@ class Simulator(LiveObstacles):
         idx = np.arange(len(self.positions), len(self.positions) + n)
         grp = FormationGroup(name, tpl, mesh, solver, guide, start_pos.copy(), idx, region, gc, pref_speed, max_speed,
                              radius, extent, float(heading), float(heading), symmetry=rotational_symmetry(mesh.rest),
+                             heading_given=given, half_width=self._half_width(tpl.points, radius),
                              vertex_velocity=np.zeros_like(start_pos), enter_at=due,
                              entered_at=None if later else self.time)
+        if not grp.heading_given:
+            grp.arrival_heading = self.planned_legs(start_pos.mean(axis=0), region, gc, radius, grp.half_width)[1]
         self._route_stale = True
         self.groups.append(grp)
         self.positions = np.concatenate([self.positions, start_pos])
@@ -327,6 +336,8 @@ class Simulator(LiveObstacles):
             raise
         g.arrived_at = g.recovered_at = g.settled_at = None
         g.facing_offset = 0.0
+        if not g.heading_given:  # it recovers along the new route's last leg
+            g.arrival_heading = self.planned_legs(g.vertices.mean(axis=0), region, gc, g.radius, g.half_width)[1]
         g.best_progress, g.stale_steps, g.uniform_until = float("inf"), 0, float("-inf")
 
     def _goal_checked(self, goal, g: FormationGroup, what: str) -> tuple[Any, np.ndarray]:
@@ -540,6 +551,17 @@ class Simulator(LiveObstacles):
             if comfortable:  # no faster than it can stop in at the comfortable deceleration
                 speed = np.minimum(speed, stopping_speed(gl, p.mesh_acceleration))
             moved = V + gap * np.minimum(1.0, speed * dt / np.maximum(gl, 1e-300))
+            if self._now.static_obstacles and (gl[:, 0] > p.occupy_distance).any():
+                # a vertex a wall hides from its place (left behind a door the rest went
+                # through, the mesh torn there) comes round it down the route, not into the wall
+                far = np.flatnonzero(gl[:, 0] > p.occupy_distance)
+                hid = far[~self._in_reach(V[far], slot[far], g.radius)]
+                if len(hid):
+                    if self._route_stale:
+                        self._build_route()
+                    if self._route is not None:
+                        way = self._descent(k, V[hid], gap[hid[0]] / gl[hid[0]])
+                        moved[hid] = V[hid] + dt * np.minimum(g.pref_speed, gl[hid]) * way
         # every vertex is pulled weakly to its place in the rest shape (with the group's
         # heading) centred on the mesh: torn-off vertices come back until their edges
         # relink, and the formation keeps facing the way it set out
@@ -736,6 +758,75 @@ class Simulator(LiveObstacles):
             self._route = self._routes_solved[key]
         self._held = set(self._cut_off())  # (none without a route field)
 
+    @staticmethod
+    def _half_width(points: np.ndarray, radius: float) -> float:
+        """Half a template's width across its front (its +x), bodies included."""
+        y = np.asarray(points, float)[:, 1]
+        return float(np.abs(y - y.mean()).max()) + radius if len(y) else radius
+
+    def planned_legs(self, start, goal, centre, radius: float, half_width: float = 0.0) -> tuple[float, float]:
+        """(first, last): the directions (radians) of the first and the last straight leg
+        of the way a group's centre should walk from ``start`` to its goal (``goal`` a point
+        or a Rect / Disc area, ``centre`` its centre, where the group recovers). Straight at
+        the centre where a body of ``radius`` walks there in a straight line past the
+        obstacles; else down the goal's distance field (crowdmotion.routing) solved with a
+        clearance of ``half_width`` (the group's half width: it walks down a street's
+        middle, not along the wall a body's shortest way hugs), halved until the start
+        reaches the goal (a gate narrower than the group), down to ``radius``; pulled taut:
+        the first leg ends at the farthest point of that path seen from the start (every
+        point before it seen too), the last begins at the first point of it from which the
+        rest of the path sees the centre. A group that gives no heading sets out along the
+        first leg and recovers its shape along the last: an 8 x 10 block sent round a
+        corner from a 16 m street to the north street starts facing east (0.2°) and ends
+        facing north (89°); it faced the straight line to its goal, 49° through the wall,
+        walked the street as a diamond and re-formed at 49°. Straight at the centre where
+        no path is found."""
+        start = np.asarray(start, float).reshape(2)
+        centre = np.asarray(centre, float).reshape(2)
+        to = centre - start
+        straight = float(np.arctan2(to[1], to[0]))
+        if not self._now.static_obstacles or not np.isfinite(start).all():
+            return straight, straight
+        prims = self.obstacles.at(self.time, self.dt)
+
+        def sight(A, B, radius=radius):
+            out = np.empty(len(A), dtype=bool)
+            line_of_sight(A, B, np.full(len(A), radius), np.ones(len(A), dtype=bool), prims.circ_c, prims.circ_r,
+                          prims.seg_a, prims.seg_b, out)
+            return out
+
+        if sight(start[None], centre[None])[0]:
+            return straight, straight
+        area = goal if isinstance(goal, (Rect, Disc)) else Points([centre])
+        cell = default_cell(self._now, radius)
+        fields, far = None, np.inf
+        clearance = max(float(half_width), radius)
+        while not np.isfinite(far):  # the widest clearance, halved, by which the start reaches the goal
+            key = ("legs", type(area).__name__, repr(area), clearance, cell)
+            try:
+                if key not in self._routes_solved:
+                    self._routes_solved[key] = distance_fields(self._now, [area], clearance, cell=cell)
+                fields = self._routes_solved[key]
+                far = float(fields.at(0, start[None])[0])
+            except ValueError:  # the goal has no free cell at this clearance
+                far = np.inf
+            if not np.isfinite(far):
+                if clearance <= radius:
+                    return straight, straight  # no path: walled off
+                clearance = max(radius, clearance / 2) if clearance / 2 > 1.5 * radius else radius
+        path = fields.descent_path(0, start[None], int(np.ceil(far / cell)) + 2)[0]
+        stride = max(1, int(round(ROUTE_PULL_STRIDE_M / cell)))
+        path = np.vstack([path[::stride], path[-1:], centre[None]])
+        seen = sight(np.broadcast_to(start, (len(path) - 1, 2)), path[1:], clearance)  # pulled taut, as wide
+        run = int(np.argmin(seen)) if not seen.all() else len(seen)  # path[1:run + 1] all seen
+        first = path[max(run, 1)] - start
+        sees = sight(path[:-1], np.broadcast_to(centre, (len(path) - 1, 2)), clearance)
+        j = int(np.flatnonzero(~sees).max()) + 1 if not sees.all() else 0
+        last = centre - path[min(j, len(path) - 2)]
+        if np.hypot(*last) < 1e-9:
+            last = to
+        return float(np.arctan2(first[1], first[0])), float(np.arctan2(last[1], last[0]))
+
     def _standing_centre(self, g: FormationGroup, obstacles: bool = True) -> np.ndarray:
         """Where the group's rest shape, at its heading now, stands nearest its goal's
         centre with every slot inside the bounds and (``obstacles``) clear of the static
@@ -764,7 +855,7 @@ class Simulator(LiveObstacles):
         fit = g.heading0 + float(np.arctan2(np.sum(a[:, 0] * b[:, 1] - a[:, 1] * b[:, 0]),
                                             np.sum(a[:, 0] * b[:, 0] + a[:, 1] * b[:, 1])))
         off = lambda x, y: abs(float(wrap(x - y)))  # noqa: E731
-        square = min((g.heading0 + s for s in g.symmetry), key=lambda h: off(h, fit))
+        square = min((self.recovery_heading(g) + s for s in g.symmetry), key=lambda h: off(h, fit))
         travelled = g.heading
         g.heading = square
         if off(square, fit) > ARRIVAL_TURN_MAX:  # turned on its way, with room to turn back?
@@ -773,6 +864,14 @@ class Simulator(LiveObstacles):
             if not (room and off(square, travelled) < off(fit, travelled)):
                 g.heading = fit
         g.facing_offset = min(g.symmetry, key=lambda s: off(g.heading + s, travelled))
+
+    @staticmethod
+    def recovery_heading(g: FormationGroup) -> float:
+        """The heading (radians) a group recovers its shape square to in its target area
+        (up to a turn that maps its slots onto themselves; :meth:`_arrive`): the caller's
+        start heading where one was given, else the way its route's last leg runs into
+        the goal (:meth:`planned_legs`)."""
+        return g.heading0 if g.heading_given or g.arrival_heading is None else g.arrival_heading
 
     def _square_up(self, g: FormationGroup, V: np.ndarray, centroid: np.ndarray) -> float:
         """The rigid turn (radians, this step) that brings a mesh turned off its rest shape
