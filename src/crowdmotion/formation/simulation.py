@@ -240,8 +240,7 @@ def orientation(sim: Simulator, g, slots: np.ndarray) -> dict:
     RMS of 3 m."""
     a = g.mesh.rest - g.mesh.rest.mean(axis=0)
     b = slots - slots.mean(axis=0)
-    fit = g.heading0 + float(np.arctan2(np.sum(a[:, 0] * b[:, 1] - a[:, 1] * b[:, 0]),
-                                        np.sum(a[:, 0] * b[:, 0] + a[:, 1] * b[:, 1])))
+    fit = g.fitted_heading(slots)
     ref = sim.recovery_heading(g)
     want = min((ref + s for s in g.symmetry), key=lambda h: abs(float(wrap(h - fit))))
     c, s_ = np.cos(want - g.heading0), np.sin(want - g.heading0)

@@ -101,6 +101,12 @@ def rotational_symmetry(points: np.ndarray) -> tuple:
                  if k == 0 or tree.query(p @ _rotation(k * np.pi / 2).T)[0].max() <= tol)
 
 
+def best_turn(a: np.ndarray, b: np.ndarray) -> float:
+    """The turn (radians) that best maps the centred points ``a`` onto the centred points
+    ``b`` (least squares, 2D Kabsch)."""
+    return float(np.arctan2(np.sum(a[:, 0] * b[:, 1] - a[:, 1] * b[:, 0]), np.sum(a[:, 0] * b[:, 0] + a[:, 1] * b[:, 1])))
+
+
 def _rotation(angle: float) -> np.ndarray:
     c, s = np.cos(angle), np.sin(angle)
     return np.array([[c, -s], [s, c]])
@@ -163,6 +169,12 @@ class FormationGroup:
     def rest_shape(self) -> np.ndarray:
         """The rest shape about its centre, turned to the group's heading now."""
         return (self.mesh.rest - self.mesh.rest.mean(axis=0)) @ _rotation(self.heading - self.heading0).T
+
+    def fitted_heading(self, points: np.ndarray) -> float:
+        """The heading (radians) at which the rest shape best fits ``points`` (one per
+        vertex): the start heading plus the best-fit turn (least squares, about their
+        centres) of the rest shape onto them."""
+        return self.heading0 + best_turn(self.mesh.rest - self.mesh.rest.mean(axis=0), points - points.mean(axis=0))
 
     @property
     def all_vertices(self) -> np.ndarray:
@@ -850,10 +862,7 @@ class Simulator(LiveObstacles):
         Soldiers then face whichever of the equivalent headings lies nearest the way the
         group travelled. (A wedge swung 100° by two small obstacles on its way recovered
         turned 52° in an open square, every soldier facing 52° off its march.)"""
-        a = g.mesh.rest - g.mesh.rest.mean(axis=0)
-        b = V - centroid
-        fit = g.heading0 + float(np.arctan2(np.sum(a[:, 0] * b[:, 1] - a[:, 1] * b[:, 0]),
-                                            np.sum(a[:, 0] * b[:, 0] + a[:, 1] * b[:, 1])))
+        fit = g.heading0 + best_turn(g.mesh.rest - g.mesh.rest.mean(axis=0), V - centroid)
         off = lambda x, y: abs(float(wrap(x - y)))  # noqa: E731
         square = min((self.recovery_heading(g) + s for s in g.symmetry), key=lambda h: off(h, fit))
         travelled = g.heading
@@ -886,8 +895,7 @@ class Simulator(LiveObstacles):
         a best fit that points nowhere."""
         rest = g.rest_shape()
         b = V - centroid
-        off = float(np.arctan2(np.sum(rest[:, 0] * b[:, 1] - rest[:, 1] * b[:, 0]),
-                               np.sum(rest[:, 0] * b[:, 0] + rest[:, 1] * b[:, 1])))
+        off = best_turn(rest, b)
         g.squaring = abs(off) > (SQUARE_DONE if g.squaring else SQUARE_START)
         if not g.squaring or g.mesh.torn.any() or \
                 np.sqrt(np.mean(np.sum((rest @ _rotation(off).T - b) ** 2, axis=1))) > SQUARE_FIT_M:
