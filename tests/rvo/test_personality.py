@@ -87,3 +87,20 @@ def test_bad_personalities_name_the_problem(bad, words):
     with pytest.raises(ValueError) as e:
         sample_personalities(bad, 3, np.random.default_rng(0))
     assert words in str(e.value)
+
+
+def test_a_crowd_without_personalities_writes_no_personality_rows_into_its_metadata():
+    # a row of five nulls per agent went into every export's metadata (USD layer data,
+    # JSON sidecars), growing with the crowd
+    import crowdmotion as cm
+    from crowdmotion import rvo
+
+    plain = cm.Group("plain", 3, spawn=cm.Rect([0, 0], [4, 4]), goal=cm.Rect([8, 0], [10, 4]))
+    scene = cm.Scene(bounds=([0, 0], [10, 4]))
+    traj = rvo.simulate(scene, [plain], rvo.RVOParams(max_steps=4), np.random.default_rng(0))
+    assert "personality" not in traj.metadata
+    typed = cm.Group("typed", 2, spawn=cm.Rect([0, 0], [4, 4]), goal=cm.Rect([8, 0], [10, 4]),
+                     attributes={"personality": "O+"})
+    traj = rvo.simulate(scene, [plain, typed], rvo.RVOParams(max_steps=4), np.random.default_rng(0))
+    rows = traj.metadata["personality"]
+    assert len(rows) == 5 and all(np.isnan(v) for v in rows[0]) and rows[3][0] == 1.0

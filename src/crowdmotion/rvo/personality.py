@@ -223,3 +223,12 @@ def describe(psi: Sequence[float], rule: DominantRule = "abs") -> str:
     """'O+ 0.80' style label of a personality's dominant pole and intensity."""
     d = dominant_trait(psi, rule)
     return f"{d.pole} {d.intensity:.2f}"
+
+
+def personality_metadata(psi: np.ndarray) -> dict:
+    """The run's metadata entry for its agents' personalities: ``{"personality": (N, 5)
+    rows}`` where any agent has one (rows of agents without one are NaN: null in JSON),
+    nothing where none has (a crowd without personalities wrote a row of five nulls per
+    agent into every export's metadata)."""
+    psi = np.asarray(psi, dtype=float)
+    return {"personality": psi.tolist()} if np.isfinite(psi).any() else {}

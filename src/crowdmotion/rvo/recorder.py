@@ -21,6 +21,7 @@ from typing import Literal
 
 import numpy as np
 
+from crowdmotion.rvo.personality import personality_metadata
 from crowdmotion.trajectories import Trajectories, held_absent
 
 #: seconds of the moving average the relaxed steps are drawn towards (``RVOParams.smoothing_window``)
@@ -85,7 +86,7 @@ class Recorder:
         metadata = {"method": "rvo", "live": True, "scene": sim.scene.to_dict(), "steps": int(self._steps[-1]),
                     "jumps": [[f * sim.dt, i] for f, i in self._jumps],
                     "first_step": int(self._steps[0]), "stats": dict(sim.stats),
-                    "personality": sim.personality.tolist()}
+                    **personality_metadata(sim.personality)}
         traj = Trajectories(frames, sim.dt, group=np.array([f"agents {g}" for g in sim.group], dtype=object),
                             radius=sim.params["radius"], active=None if present.all() else present, metadata=metadata)
         if smoothing == "relaxed":

@@ -16,7 +16,7 @@ from crowdmotion.journeys import Journeys, entrance_of, entry_points, entry_time
 from crowdmotion.path_relaxation import relaxed_steps
 from crowdmotion.placement import spawn_positions
 from crowdmotion.rvo.params import RVOParams
-from crowdmotion.rvo.personality import PARAM_KEYS, sample_personalities
+from crowdmotion.rvo.personality import PARAM_KEYS, personality_metadata, sample_personalities
 from crowdmotion.rvo.simulator import Simulator
 from crowdmotion.scene import Scene
 from crowdmotion.trajectories import Trajectories, held_absent
@@ -190,7 +190,7 @@ def run(scene: Scene, groups: Sequence[Group], params: RVOParams, rng: np.random
     active = np.array(present[:n])
     metadata = {"method": "rvo", "params": params.model_dump(), "scene": scene.to_dict(), "version": __version__,
                 "steps": sim.steps, "stats": dict(sim.stats),
-                "personality": sim.personality.tolist(), "partial": partial}
+                **personality_metadata(sim.personality), "partial": partial}
     if journeys is not None:
         metadata["stages"] = journeys.stage_table(names)
     traj = Trajectories(
