@@ -29,11 +29,6 @@ def group_problems(groups, check) -> None:
         raise ValueError(f"{len(found)} problems:\n  " + "\n  ".join(found))
 
 
-# random sequential placement of discs jams at 54.7 % of the area (Feder 1980); ask for
-# no more than this share so that sampling with rejection finds room quickly
-PLACEABLE_SHARE = 0.5
-
-
 def where(k: int, group: Group) -> str:
     """How messages name a group: ``group 'walkers' (groups.0)``."""
     return f"group {group.name!r} (groups.{k})"
@@ -85,27 +80,78 @@ def check_goal_clear(scene: Scene, k: int, group: Group) -> None:
                          f"keeps an agent of radius {group.radius:g} m clear")
 
 
+#: about how many points sample a spawn region (and the region grown by a body) when its
+#: room is counted; cells are near cubes, one layer across an axis the region is flat along
+ROOM_SAMPLES = {2: 40_000, 3: 64_000}
+
+
+def _ball(dim: int, radius: float) -> float:
+    """Area (2D) or volume (3D) of a disc or ball of ``radius``."""
+    return np.pi * radius ** 2 if dim == 2 else 4 / 3 * np.pi * radius ** 3
+
+
+def _grid(lo: np.ndarray, hi: np.ndarray, total: int) -> tuple[np.ndarray, np.ndarray]:
+    """(points, cell sizes) of a lattice of about ``total`` near-cubic cells filling the
+    box ``lo``-``hi``, a cell's centre each; one layer (cell size 0) along an axis where
+    the box is flat."""
+    size = hi - lo
+    wide = size > 0
+    step = float(np.prod(size[wide]) / total) ** (1 / max(int(wide.sum()), 1)) if wide.any() else 1.0
+    n = np.where(wide, np.clip(np.round(size / step), 1, total), 1).astype(int)
+    cell = size / n
+    axes = [lo[d] + (np.arange(n[d]) + 0.5) * cell[d] for d in range(len(lo))]
+    return np.stack(np.meshgrid(*axes, indexing="ij"), axis=-1).reshape(-1, len(lo)), cell
+
+
 def spawn_room(scene: Scene, group: Group, gap: float, clearance=None) -> tuple[int, float]:
-    """(about how many bodies of the group fit ``gap`` apart in its spawn region, the
-    area (volume in 3D) free of obstacles there). ``clearance(points)``: distances to
-    further obstacles, beyond the scene's own."""
+    """(the most bodies of the group that fit ``gap`` apart in its spawn region, the
+    measure where their centres may stand: an area in 2D, a volume in 3D, an area or a
+    length for a region flat along one or two axes). ``clearance(points)``: distances to
+    further obstacles, beyond the scene's own.
+
+    Centres may stand where :func:`~crowdmotion.placement.spawn_positions` takes them:
+    in the region, the body inside the bounds, its radius and the gap clear of obstacles.
+    The count is a packing bound, so that a refusal never turns down what fits: discs
+    (balls) of diameter s = 2 radius + gap round the centres do not overlap, and lie in
+    the centres' set grown by s / 2, so no more of them fit than that grown measure
+    over one's. A region thinner than a body (a launch pad in a 3D scene, even a flat
+    one) is so judged by its area, one layer of bodies side by side, not by its volume
+    (the sampled regions' old estimate, half their free volume over a body's, refused
+    50 drones on a 20 x 10 m pad 0.1 m thick: "room for about 34")."""
     if isinstance(group.spawn, Lattice):  # exactly: the sites clear at the closest spacing
         free = float(np.prod(group.spawn.upper - group.spawn.lower))
         return len(lattice_sites(scene, group, gap, 2.0 * group.radius + gap, clearance=clearance)), free
-    pts, cell_area = region_samples(scene, group.spawn, with_area=True)
-    clear = scene.clearance(pts)
-    if clearance is not None and len(pts):
-        clear = np.minimum(clear, clearance(pts))
-    free = float(np.sum(clear >= group.radius + gap) * cell_area)
-    body = np.pi * (group.radius + gap / 2) ** (2 if scene.dim == 2 else 3) * (1 if scene.dim == 2 else 4 / 3)
-    return int(min(PLACEABLE_SHARE * free / body, 1e15)), free
+    r, dim = group.radius, scene.dim
+    region = group.spawn
+    lo, hi = region_box(region)
+    lo, hi = np.maximum(lo, scene.lower + r), np.minimum(hi, scene.upper - r)  # the body inside the bounds
+    if np.any(hi < lo):
+        return 0, 0.0
+    total = ROOM_SAMPLES[dim]
+    pts, cell = _grid(lo, hi, total)
+    ok = region.contains(pts) & (scene.obstacle_distance(pts, 0.0) >= r + gap)
+    if clearance is not None and ok.any():
+        ok[ok] = clearance(pts[ok]) >= r + gap
+    centres = pts[ok]
+    free = float(len(centres) * np.prod(cell[cell > 0]))
+    if not len(centres):
+        return 0, free
+    from scipy.spatial import cKDTree
+
+    s = 2.0 * r + gap  # the grown set: within s / 2 of a centre, each sample standing for its cell
+    probe, probe_cell = _grid(lo - s / 2, hi + s / 2, total)
+    reach = s / 2 + 0.5 * float(np.linalg.norm(cell)) + 0.5 * float(np.linalg.norm(probe_cell))
+    near = cKDTree(centres).query(probe, distance_upper_bound=reach)[0] <= reach
+    grown = float(near.sum() * np.prod(probe_cell))
+    return int(min(grown / _ball(dim, s / 2), 1e15)), free
 
 
 def _room_at_least(scene: Scene, group: Group, gap: float) -> int:
     """A lower bound of :func:`spawn_room`'s count without sampling: the spawn region's
     box within the bounds, a body and the gap in from the walls, less the part inside it
     of every static obstacle's bounding box grown by as much (0 for a disc or sphere
-    region)."""
+    region), over a body's disc (ball) a gap wide: the centres' set holds that box's
+    free part, and the grown set it."""
     region = group.spawn
     if not isinstance(region, Rect):
         return 0
@@ -118,8 +164,7 @@ def _room_at_least(scene: Scene, group: Group, gap: float) -> int:
         olo, ohi = ob.bounds()
         free -= float(np.prod(np.clip(np.minimum(hi, np.asarray(ohi) + reach) - np.maximum(lo, np.asarray(olo) - reach),
                                       0.0, None)))
-    body = np.pi * (group.radius + gap / 2) ** (2 if scene.dim == 2 else 3) * (1 if scene.dim == 2 else 4 / 3)
-    return int(max(PLACEABLE_SHARE * free / body, 0.0))
+    return int(max(0.9 * free / _ball(scene.dim, group.radius + gap / 2), 0.0))
 
 
 def region_box(region) -> tuple[np.ndarray, np.ndarray] | None:
@@ -177,7 +222,8 @@ def warn_late_entries(k: int, group: Group, run_end_s: float, setting: str) -> N
 
 
 def check_spawn_capacity(scene: Scene, k: int, group: Group, gap: float) -> None:
-    """Refuse a spawn region that cannot hold the group's bodies ``gap`` apart (by area)."""
+    """Refuse a spawn region that cannot hold the group's bodies ``gap`` apart (by a
+    packing bound: :func:`spawn_room`)."""
     spawn = group.spawn
     if isinstance(spawn, Points):
         if len(spawn.points) != group.count:
@@ -187,12 +233,13 @@ def check_spawn_capacity(scene: Scene, k: int, group: Group, gap: float) -> None
         return  # room enough by a lower bound: no sampling needed
     room, free = spawn_room(scene, group, gap)
     if group.count > room:
-        unit = "m²" if scene.dim == 2 else "m³"
+        lo, hi = region_box(spawn)
+        unit = ("m", "m", "m²", "m³")[int(np.sum(hi > lo))]
         if free <= 0.0:  # nothing of it is walkable: say where it lies, not how crowded it is
             raise ValueError(f"{where(k, group)} spawn: {describe_region(spawn)} has no free room: all of it lies in "
                              f"obstacles or within a body's radius ({group.radius:g} m) of them or of the scene's "
                              f"edge; move it into the free space")
-        raise ValueError(f"{where(k, group)} spawn: {describe_region(spawn)} has room for about {room} agents of "
+        raise ValueError(f"{where(k, group)} spawn: {describe_region(spawn)} has room for at most {room} agents of "
                          f"radius {group.radius:g} m ({free:.3g} {unit} free of obstacles), but count = "
                          f"{group.count}: enlarge the spawn region or lower the count")
 

@@ -91,7 +91,7 @@ def test_a_pso_obstacle_field_that_leaves_no_room_to_start_is_refused_at_once(mo
     real = pso_simulation.generated_obstacles
     monkeypatch.setattr(pso_simulation, "generated_obstacles", lambda *a, **kw: draws.append(1) or real(*a, **kw))
     refused(scenario(extra="[pso.obstacle_field]\ncount = 5000\nradius = 2"),
-            "pso.obstacle_field: 5000 obstacles of radius 2 m leave group 'w' (groups.0) room for about 0 agents",
+            "pso.obstacle_field: 5000 obstacles of radius 2 m leave group 'w' (groups.0) room for at most 0 agents",
             "count = 9")
     assert len(draws) == FIELD_DRAWS, "refused after the check's own draws, before any run or placement"
     assert parse_scenario(scenario(extra="[pso.obstacle_field]\ncount = 5\nradius = 1")).params.obstacle_field

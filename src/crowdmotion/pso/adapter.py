@@ -140,7 +140,7 @@ def _check_field(scene, groups, params: PSOParams) -> None:
         if len(rooms) == FIELD_DRAWS:
             g = groups[i]
             raise ValueError(f"pso.obstacle_field: {spec.count} obstacles of radius {spec.radius:g} m leave "
-                             f"{where(i, g)} room for about {max(rooms)} agents in its spawn "
+                             f"{where(i, g)} room for at most {max(rooms)} agents in its spawn "
                              f"{describe_region(g.spawn)} (in each of {FIELD_DRAWS} draws), but count = {g.count}: "
                              f"lower pso.obstacle_field.count or radius, or set its lower and upper corners away "
                              f"from the spawn")
