@@ -20,3 +20,19 @@ def test_a_clamp_that_lets_particles_outrun_their_max_speed_is_warned_of_from_py
     with warnings.catch_warnings():
         warnings.simplefilter("error")  # within it: nothing to say
         pso.simulate(scene, [group], pso.PSOParams(iterations=2, v_max=[0.4, 0.4, 0.4]), np.random.default_rng(0))
+
+
+def test_one_v_max_number_applies_to_every_axis_and_is_still_checked():
+    # docs/pso.md: "one value applies to every axis"; v_max = 0.5 was refused as "Input should be a valid list"
+    from crowdmotion.pso.params import make_params
+
+    assert make_params(v_max=0.5).axis_vmax(3) == [0.5, 0.5, 0.5]
+    assert make_params(v_max=[0.5]).axis_vmax(2) == [0.5, 0.5]
+    for bad in (0, -1.0, float("nan"), float("inf")):
+        with pytest.raises(ValueError, match=r"pso.v_max: must be a finite number more than 0"):
+            make_params(v_max=bad)
+    for bad in ("0.5", True, [], [0.5] * 4):
+        with pytest.raises(ValueError, match=r"pso.v_max: must be a number for every axis or a list of 1 to 3"):
+            make_params(v_max=bad)
+    with pytest.raises(ValueError, match=r"pso.v_max.0: must be more than 0"):
+        make_params(v_max=[-1.0])

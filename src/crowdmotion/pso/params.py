@@ -8,7 +8,7 @@ import warnings
 from typing import Annotated, Literal
 
 import numpy as np
-from pydantic import BaseModel, ConfigDict, Field, model_validator
+from pydantic import BaseModel, ConfigDict, Field, field_validator, model_validator
 
 from crowdmotion._validation import Coordinate, MethodParams, NonNegative, Positive
 
@@ -60,7 +60,7 @@ class PSOParams(MethodParams, _Model):
     iterations : int          [k] iterations per target update (gathering: in all)
     w, c1, c2 : float         inertia and acceleration constants; w = 1 is the 1995 form
     constriction : bool       Clerc's constriction χ = 2/|2 − φ − √(φ² − 4φ)|, φ = c1 + c2 > 4
-    v_max : [float]           per-axis velocity clamp, units per iteration (2D uses x, y)
+    v_max : float | [float]   velocity clamp, units per iteration: one number for every axis, or one an axis (2D uses x, y)
     threshold : float         a particle this close to its target stops
     iteration_time : float    seconds per iteration (the path's time base)
     fps : float | None        output frame rate (None: one frame per iteration)
@@ -116,6 +116,21 @@ class PSOParams(MethodParams, _Model):
     max_iterations: Annotated[int, Field(gt=0, le=10_000_000)] = 100_000
     spawn_gap: NonNeg = 0.05
     obstacle_field: ObstacleField | None = None
+
+    @field_validator("v_max", mode="before")
+    @classmethod
+    def _one_v_max(cls, v):
+        """A single number for every axis, as ``[v]`` (docs/pso.md: "one value applies to
+        every axis"; ``v_max = 0.5`` was refused as not a list, only ``[0.5]`` passed),
+        still finite and positive; a list is checked entry by entry."""
+        if isinstance(v, (int, float)) and not isinstance(v, bool):
+            if not math.isfinite(v) or v <= 0:
+                raise ValueError("must be a finite number more than 0 (m an axis per iteration)")
+            return [v]
+        if isinstance(v, (list, tuple)) and 1 <= len(v) <= 3:
+            return v
+        raise ValueError("must be a number for every axis or a list of 1 to 3 numbers, one an axis, e.g. 0.5 or "
+                         "[0.5, 0.5, 0.3]")
 
     @model_validator(mode="after")
     def _constriction(self):
