@@ -201,6 +201,32 @@ def test_formation_scenario_errors_name_the_field(old, new, words):
     _refused(FORMATION.replace(old, new), words)
 
 
+def test_a_group_attribute_written_in_the_group_table_says_to_write_it_under_attributes():
+    # heading_deg = 0.0 beside count and radius said only "is not a known field"
+    with pytest.raises(ScenarioError) as e:
+        parse_scenario(FORMATION.replace("count = 9", "count = 9\nheading_deg = 0.0"))
+    line = next(ln for ln in str(e.value).splitlines() if "groups.0.heading_deg" in ln)
+    assert "group attribute (method 'formation' reads it)" in line
+    assert "attributes = { heading_deg = ... }" in line and "(got 0.0)" in line
+    with pytest.raises(ScenarioError, match=r"groups.0.reassign.*method 'formation' reads it.*attributes = \{ reassign"):
+        parse_scenario(FORMATION.replace("count = 9", "count = 9\nreassign = false"))
+
+
+@pytest.mark.parametrize("coordinates", ["bounds only", "all"])
+def test_a_3d_scene_under_a_2d_only_method_is_told_first_that_the_method_is_2d(coordinates):
+    # it was refused field by field ("spawn coordinates [5, 0] are not 3D like the scene",
+    # then "Scene.obstacles[0] ... is 2D"), never saying formation works in 2D only
+    text = FORMATION.replace("bounds = [[0, -10], [40, 10]]", "bounds = [[0, -10, 0], [40, 10, 5]]")
+    if coordinates == "all":
+        text = (text.replace("center = [20, 0.4]", "center = [20, 0.4, 2]").replace("[5, 0]", "[5, 0, 2]")
+                .replace("[33, 0]", "[33, 0, 2]").replace('"circle"', '"sphere"'))
+    with pytest.raises(ScenarioError) as e:
+        parse_scenario(text)
+    first = str(e.value).splitlines()[1].strip()
+    assert first.startswith("scene.bounds: method 'formation' works in 2D only, but the scene is 3D")
+    assert "set method = 'mdp' or 'pso' for a 3D scene" in first
+
+
 def test_remove_on_arrival_is_one_option_in_mdp_and_rvo_and_the_old_mdp_name_still_reads():
     from crowdmotion.mdp import MDPParams
     from crowdmotion.rvo import RVOParams

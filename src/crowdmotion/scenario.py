@@ -778,7 +778,9 @@ def _close(key: str, names) -> str:
 
 def _unknown_key(loc: tuple, key: str) -> str | None:
     """What to say of an unknown ``key`` in the table at ``loc``: a method block's key
-    that belongs to another method's block, or a near miss among this block's own keys."""
+    that belongs to another method's block, or a near miss among this block's own keys; a
+    group attribute (``heading_deg``) written in the group's table, not in its
+    ``attributes`` (it was only "not a known field")."""
     if len(loc) == 1 and loc[0] in PARAMS:
         block = loc[0]
         owners = _owners(key, PARAMS, block)
@@ -786,6 +788,12 @@ def _unknown_key(loc: tuple, key: str) -> str | None:
             return (f"is not a [{block}] parameter: it belongs to " + " and ".join(f"[{m}]" for m in owners)
                     + _close(key, PARAMS[block].model_fields))
         return f"is not a [{block}] parameter{_close(key, field_names(PARAMS[block]))}"
+    if len(loc) == 2 and loc[0] == "groups":  # a group attribute written in the group's own table
+        readers = [m for m, model in ATTRIBUTES.items() if model is not None and key in model.model_fields]
+        if readers:
+            return (f"is not a [[groups]] field but a group attribute (method "
+                    + " and ".join(repr(m) for m in readers) + f" {'reads' if len(readers) == 1 else 'read'} it): "
+                    f"write it in the group's attributes table, attributes = {{ {key} = ... }}")
     if not loc and key not in ScenarioSpec.model_fields:  # a method's parameter written at the top
         blocks = {m: model.model_fields for m, model in PARAMS.items() if model is not None}
         names = set(ScenarioSpec.model_fields) | {k for fields in blocks.values() for k in fields}
@@ -819,6 +827,30 @@ def _attribute_lines(attrs: dict, method: str, where: str) -> list[str]:
     except ValidationError as exc:
         return error_lines(exc, where, known=model.model_fields, hint=lambda loc, key: about(key))
     return []
+
+
+#: the scene dimensions each method simulates in
+METHOD_DIMENSIONS = {"mdp": (2, 3), "rvo": (2,), "pso": (2, 3), "formation": (2,)}
+
+
+def _dimension_lines(data: Any) -> list[str]:
+    """A 3D scene (bounds of 3 coordinates) under a 2D-only method, said as such and
+    first: the spawn, obstacle and bounds errors that follow from it were all it said (a
+    formation scene with 3D bounds failed on 'spawn coordinates [10.0, 0.0] are not 3D like
+    the scene', then on '(Box) is 2D', never on the method)."""
+    if not isinstance(data, dict) or data.get("method") not in METHOD_DIMENSIONS:
+        return []
+    scene = data.get("scene")
+    bounds = scene.get("bounds") if isinstance(scene, dict) else None
+    if not (isinstance(bounds, list) and bounds and isinstance(bounds[0], list)):
+        return []
+    method, dim, dims = data["method"], len(bounds[0]), METHOD_DIMENSIONS[data["method"]]
+    if dim in dims or dim not in (2, 3):
+        return []
+    others = " or ".join(repr(m) for m, d in METHOD_DIMENSIONS.items() if dim in d)
+    return [f"scene.bounds: method {method!r} works in " + " or ".join(f"{d}D" for d in dims) + f" only, but the "
+            f"scene is {dim}D (scene.bounds has {dim} coordinates): give the bounds, obstacles, spawns, goals and "
+            f"route areas {dims[0]} coordinates each, or set method = {others} for a {dim}D scene (got {shown(bounds)})"]
 
 
 def _method_lines(data: Any) -> list[str]:
@@ -928,7 +960,7 @@ def validate_spec(data: Any, source: str = "scenario") -> ScenarioSpec:
         lines = error_lines(exc, known=field_names(ScenarioSpec), hint=_unknown_key, model=ScenarioSpec)
     except RecursionError:
         raise ScenarioError(f"{source}: tables or arrays nested too deeply to be a scenario") from None
-    lines = _route_error_lines(lines) + _method_lines(data)
+    lines = _dimension_lines(data) + _route_error_lines(lines) + _method_lines(data)
     if lines:
         raise ScenarioError(_report(lines, source, data))
     return spec
