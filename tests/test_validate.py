@@ -417,3 +417,21 @@ def test_fifty_drones_on_a_launch_pad_thinner_than_a_body_pass_validate(tmp_path
                     'spawn = { shape = "rect", lower = [-10, 15, 0.3], upper = [10, 25, 0.4] }\n'
                     'goal = { shape = "point", position = [0, 0, 25] }\n')
     assert main(["validate", str(path)]) == 0, capsys.readouterr().err
+
+
+@pytest.mark.parametrize("z, ok", [(0.0, False), (0.5, True)])
+def test_a_flat_landing_pad_goal_is_judged_in_its_plane(tmp_path, capsys, z, ok):
+    # a goal rect with lower z = upper z (a landing pad) was "outside scene.bounds" wherever
+    # it lay: a flat region gave no sample points; on the floor itself a body cannot stand
+    path = tmp_path / "land.toml"
+    path.write_text('name = "land"\nmethod = "pso"\n[scene]\nbounds = [[0, 0, 0], [40, 40, 30]]\n'
+                    '[[groups]]\nname = "drones"\ncount = 20\nradius = 0.3\n'
+                    'spawn = { shape = "rect", lower = [5, 5, 1], upper = [15, 15, 2] }\n'
+                    f'goal = {{ shape = "rect", lower = [25, 25, {z}], upper = [35, 35, {z}] }}\n')
+    code = main(["validate", str(path)])
+    err = capsys.readouterr().err
+    if ok:
+        assert code == 0, err
+    else:
+        assert code == 2 and "outside scene.bounds" not in err
+        assert "keeps an agent of radius 0.3 m clear" in err and "from the walls of scene.bounds" in err

@@ -76,8 +76,10 @@ def check_goal_clear(scene: Scene, k: int, group: Group) -> None:
     if isinstance(goal, Points):
         _refuse_unfit(scene, k, group, "goal", pts, clear, "stand")
     elif not np.any(clear >= group.radius):
-        raise ValueError(f"{where(k, group)} goal: {describe_region(goal)} is covered by obstacles: no spot in it "
-                         f"keeps an agent of radius {group.radius:g} m clear")
+        best = int(np.argmax(clear))
+        raise ValueError(f"{where(k, group)} goal: no spot in {describe_region(goal)} keeps an agent of radius "
+                         f"{group.radius:g} m clear: its best, {_fmt(pts[best])}, "
+                         f"{_why_unfit(scene, pts[best], clear[best])}")
 
 
 #: about how many points sample a spawn region (and the region grown by a body) when its
@@ -317,21 +319,19 @@ def check_reachable(scene: Scene, k: int, group: Group) -> None:
                          f"{group.radius:g} m")
 
 
-def region_samples(scene: Scene, region, with_area: bool = False):
-    """Points of a regular lattice filling ``region`` within the scene bounds (and the area
-    or volume each stands for, with ``with_area``)."""
+def region_samples(scene: Scene, region) -> np.ndarray:
+    """Points of a regular lattice filling ``region`` within the scene bounds; a region
+    flat along an axis (a landing pad with lower z = upper z) is sampled in its plane."""
     lo, hi = (region.lower, region.upper) if isinstance(region, Rect) else \
         (region.center - region.radius, region.center + region.radius)
     lo, hi = np.maximum(lo, scene.lower), np.minimum(hi, scene.upper)
-    if np.any(hi <= lo):
-        return (np.empty((0, scene.dim)), 0.0) if with_area else np.empty((0, scene.dim))
+    if np.any(hi < lo):
+        return np.empty((0, scene.dim))
     n = 200 if scene.dim == 2 else 40
-    axes = [lo[d] + (np.arange(n) + 0.5) * (hi[d] - lo[d]) / n for d in range(scene.dim)]
+    axes = [lo[d] + (np.arange(n) + 0.5) * (hi[d] - lo[d]) / n if hi[d] > lo[d] else lo[d:d + 1]
+            for d in range(scene.dim)]
     pts = np.stack(np.meshgrid(*axes, indexing="ij"), axis=-1).reshape(-1, scene.dim)
-    pts = pts[region.contains(pts)]
-    if not with_area:
-        return pts
-    return pts, float(np.prod((hi - lo) / n))
+    return pts[region.contains(pts)]
 
 
 def _refuse_unfit(scene: Scene, k: int, group: Group, part: str, pts: np.ndarray, clear: np.ndarray,
