@@ -102,3 +102,46 @@ def test_a_robot_walled_off_from_its_goal_is_said_so_from_python():
     group = cm.Group("g", 1, spawn=(2, 5), goal=(18, 5), radius=0.8)
     with pytest.warns(UserWarning, match=r"1 agent\(s\) \(e.g. 0\) cannot reach their goal on the grid"):
         mdp.simulate(wall, [group], mdp.MDPParams(max_steps=5), np.random.default_rng(0))
+
+
+def test_starts_and_goals_are_the_centres_of_their_cells_within_half_a_cell_diagonal_of_the_points_given():
+    # a robotics user found starts and goals 0.2-0.9 m off the poses given, at large cells
+    import crowdmotion as cm
+    from crowdmotion import mdp
+
+    scene = cm.Scene(bounds=([0, 0], [20, 10]))
+    start, goal = np.array([2.6, 5.1]), np.array([17.3, 3.9])
+    robot = cm.Group("r", 1, spawn=cm.Points([start]), goal=cm.Points([goal]), radius=0.3)
+    for cell in (None, 1.27):
+        traj = mdp.simulate(scene, [robot], mdp.MDPParams(cell_size=cell), np.random.default_rng(0))
+        size = traj.metadata["cell_size"]
+        grid = mdp.rasterise(scene, size)
+        np.testing.assert_allclose(traj.positions[0, 0], grid.centers(grid.cell_of(start)), atol=1e-9)
+        np.testing.assert_allclose(traj.positions[-1, 0], grid.centers(grid.cell_of(goal)), atol=1e-9)
+        for given, got in ((start, traj.positions[0, 0]), (goal, traj.positions[-1, 0])):
+            assert np.linalg.norm(got - given) <= size * np.sqrt(2) / 2
+    # a point given at a cell's centre is kept exactly (docs/mdp.md's way to exact poses)
+    centre = grid.centers(grid.cell_of(start))
+    exact = cm.Group("r", 1, spawn=cm.Points([centre]), goal=cm.Points([goal]), radius=0.3)
+    traj = mdp.simulate(scene, [exact], mdp.MDPParams(cell_size=1.27), np.random.default_rng(0))
+    np.testing.assert_allclose(traj.positions[0, 0], centre, atol=1e-9)
+
+
+def test_two_robots_in_one_cell_are_refused_with_the_cell_size_and_the_finer_cells_that_part_them():
+    # two one-robot groups 0.9 m apart were refused as "sharing a cell", nothing said of the cell size
+    import crowdmotion as cm
+    from crowdmotion import mdp
+
+    scene = cm.Scene(bounds=([0, 0], [20, 10]))
+    a = cm.Group("r1", 1, spawn=cm.Points([[2.6, 5.1]]), goal=(18, 2), radius=0.3)
+    b = cm.Group("r2", 1, spawn=cm.Points([[3.5, 5.2]]), goal=(18, 8), radius=0.3)
+    with pytest.raises(ValueError, match=r"group 'r1' at \[2.6, 5.1\] and group 'r2' at \[3.5, 5.2\] fall in the "
+                                         r"same grid cell of 1.27 m .*set a finer \[mdp\] cell_size, between "
+                                         r"0.849 m .* and 0.9 m"):
+        mdp.simulate(scene, [a, b], mdp.MDPParams(cell_size=1.27), np.random.default_rng(0))
+    traj = mdp.simulate(scene, [a, b], mdp.MDPParams(cell_size=0.9, smoothing=None), np.random.default_rng(0))
+    assert traj.positions.shape[1] == 2  # the finer cell suggested parts them
+    close = cm.Group("r2", 1, spawn=cm.Points([[2.9, 5.3]]), goal=(18, 8), radius=0.3)
+    with pytest.raises(ValueError, match=r"0.3 m apart along an axis, closer than the finest cell the bodies "
+                                         r"allow, 0.849 m .*place them further apart"):
+        mdp.simulate(scene, [a, close], mdp.MDPParams(), np.random.default_rng(0))

@@ -121,7 +121,11 @@ def check_goal_room(groups: Sequence[Group], goal_cells: list[np.ndarray], cell:
                              f"arrive; enlarge the goal, lower the count or set [mdp] remove_on_arrival = true")
 
 
-def spawn_cells(grid: GridMap, group: Group, taken: set, rng: np.random.Generator) -> np.ndarray:
+def spawn_cells(grid: GridMap, group: Group, taken: dict, rng: np.random.Generator,
+                finest: float | None = None) -> np.ndarray:
+    """Each agent's start cell; ``taken`` maps the cells given out so far to who holds
+    them (the group's name and the point given, or None), and gets these. ``finest``: the
+    smallest cell the bodies allow (the paper's rule), for the refusal's advice."""
     what = f"group {group.name!r} spawn"
     if isinstance(group.spawn, Lattice):
         raise ValueError(f"{what}: a lattice places bodies in continuous space, but the MDP method starts each agent "
@@ -130,6 +134,7 @@ def spawn_cells(grid: GridMap, group: Group, taken: set, rng: np.random.Generato
         if len(group.spawn.points) != group.count:
             raise ValueError(f"{what}: {len(group.spawn.points)} points given for {group.count} agents")
         cells = region_cells(grid, group.spawn, what)
+        points = np.asarray(group.spawn.points, dtype=float)
     else:
         cand = region_cells(grid, group.spawn, what)
         cand = np.array([c for c in cand if tuple(c) not in taken])
@@ -138,13 +143,42 @@ def spawn_cells(grid: GridMap, group: Group, taken: set, rng: np.random.Generato
                              f"{grid.cell_size:.3g} m{ONE_GRID} but count = {group.count} agents need one each: "
                              f"enlarge the spawn region or lower the count")
         cells = cand[rng.choice(len(cand), size=group.count, replace=False)]
-    for c in cells:
+        points = None
+    for k, c in enumerate(cells):
+        mine = (group.name, None if points is None else points[k])
         if tuple(c) in taken:
-            centre = grid.origin + (np.asarray(c, float) + 0.5) * grid.cell_size
-            raise ValueError(f"{what}: two agents would share the grid cell at {np.round(centre, 3).tolist()} "
-                             f"({grid.cell_size:.3g} m cells){ONE_GRID}: place them at least a cell apart")
-        taken.add(tuple(c))
+            raise ValueError(shared_cell_message(what, grid, c, taken[tuple(c)], mine, finest))
+        taken[tuple(c)] = mine
     return cells
+
+
+def shared_cell_message(what: str, grid: GridMap, cell, first: tuple, second: tuple, finest: float | None) -> str:
+    """Why two start points that fall in one grid cell are refused, and what separates
+    them: every agent starts on a cell centre, one to a cell, so points closer than a
+    cell can share one (two robots 0.9 m apart did, in cells of 1.2 m)."""
+    centre = grid.centers(cell)
+    cell_m = grid.cell_size
+
+    def who(name, point):
+        if point is None:
+            return f"a cell drawn from group {name!r}'s spawn area"
+        return f"group {name!r} at {np.round(point, 3).tolist()}"
+
+    head = (f"{what}: {who(*first)} and {who(*second)} fall in the same grid cell of {cell_m:.3g} m{ONE_GRID}, "
+            f"centred at {np.round(centre, 3).tolist()}; the MDP method starts each agent on the centre of its "
+            f"cell, one agent to a cell")
+    if first[1] is None:  # (a spawn area's cells are drawn among those still free: only the first can be)
+        return head + (f": keep group {second[0]!r}'s points out of group {first[0]!r}'s spawn area, or list "
+                       f"group {second[0]!r} first")
+    gap = float(np.max(np.abs(np.asarray(first[1]) - np.asarray(second[1]))))  # along the axis most apart
+    if finest is None:
+        return head + f": set a finer [mdp] cell_size (at most {gap:.3g} m) or place them at least a cell apart"
+    rule = "sqrt(2) x the largest body's diameter, the paper's rule"
+    if gap > finest:  # any cell of at most ``gap`` puts them in different cells
+        return head + (f": set a finer [mdp] cell_size, between {finest:.3g} m ({rule}) and {gap:.3g} m (their "
+                       f"largest offset along an axis), or place them at least a cell apart")
+    return head + (f": they are {gap:.3g} m apart along an axis, closer than the finest cell the bodies allow, "
+                   f"{finest:.3g} m ({rule}): place them further apart")
 
 
 #: value of a cell a moving obstacle will cover soon, less the steps out of it: below any
@@ -250,9 +284,10 @@ def setup(scene: Scene, groups: Sequence[Group], params: MDPParams, rng: np.rand
                 raise ValueError(f"group {g.name!r} goal: {exc}") from None
     if not params.remove_on_arrival:
         check_goal_room(groups, goal_cells, cell)
-    taken: set = set()
+    taken: dict = {}
+    finest = min_cell_size(max(g.radius for g in groups))
     # groups entering over time take their cells one by one, when free (mdp.sources)
-    cells = [None if "enter" in g.attributes else spawn_cells(grid, g, taken, rng) for g in groups]
+    cells = [None if "enter" in g.attributes else spawn_cells(grid, g, taken, rng, finest) for g in groups]
     arrivals = None
     if any(c is None for c in cells):
         arrivals = Arrivals(grid, groups, step_time(groups, params, cell, np.sqrt(grid.dim)), rng, region_cells)
@@ -524,7 +559,17 @@ def _all_settled(walker: Walker, masks, values) -> bool:
 
 def simulate(scene: Scene, groups: Sequence[Group], params: MDPParams | None = None,
              rng: np.random.Generator | None = None) -> Trajectories:
-    """The MDP method's entry point: ``simulate(scene, groups, params, rng) -> Trajectories``."""
+    """The MDP method's entry point: ``simulate(scene, groups, params, rng) -> Trajectories``.
+
+    Agents stand and move on grid cell centres (paper 000), so each start and goal point
+    is moved to the centre of its cell, by up to half a cell's diagonal (cell_size · √D / 2:
+    0.60 m in the default cells of 0.3 m robots, 0.85 m; ``metadata["cell_size"]`` gives
+    the cell used). The first and last frames are those centres, not the points given:
+    for exact poses give points that are cell centres (``origin + (cell_of(p) + 0.5) ·
+    cell_size`` of ``rasterise(scene, cell_size)``, origin the scene's lower bound), or
+    shrink the error with a smaller ``params.cell_size`` (over √2 × the largest body's
+    diameter). Two start points in one cell are refused, naming the cell size and the
+    finer cells that would part them (docs/mdp.md, "Starts and goals sit on cell centres")."""
     params = MDPParams() if params is None else params
     rng = np.random.default_rng() if rng is None else rng
     traj = run(scene, groups, params, rng).trajectories
