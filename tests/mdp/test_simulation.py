@@ -145,3 +145,59 @@ def test_two_robots_in_one_cell_are_refused_with_the_cell_size_and_the_finer_cel
     with pytest.raises(ValueError, match=r"0.3 m apart along an axis, closer than the finest cell the bodies "
                                          r"allow, 0.849 m .*place them further apart"):
         mdp.simulate(scene, [a, close], mdp.MDPParams(), np.random.default_rng(0))
+
+
+def _last_move_step(positions) -> int:
+    moved = np.flatnonzero(np.abs(np.diff(positions, axis=0)).max(axis=(1, 2)) > 1e-9)
+    return int(moved[-1]) + 1 if len(moved) else 0
+
+
+def test_a_run_with_a_moving_obstacle_ends_once_every_agent_has_arrived_to_stay_not_at_max_steps():
+    # mdp_moving_obstacle with arrivals staying ran on to max_steps: 560 steps (374 s of
+    # frames) with the last move at step 83 (55 s)
+    from crowdmotion.builtin import builtin_scenarios
+
+    path = next(p for p in builtin_scenarios() if p.stem == "mdp_moving_obstacle")
+    text = path.read_text().replace("max_steps = 150", "max_steps = 560")
+    text = text.replace("remove_on_arrival = true", "remove_on_arrival = false\nsmoothing = \"none\"")
+    stopped = run_scenario(parse_scenario(text, "staying"), progress=False)
+    full = run_scenario(parse_scenario(text.replace("[mdp]", "[mdp]\nstop_when_done = false"), "staying"),
+                        progress=False)
+    assert full.summary["steps"] == 560 and stopped.summary["arrival_rate"] == 1.0
+    last = _last_move_step(full.trajectories.positions)
+    assert last < stopped.summary["steps"] <= last + 2  # within a replan (2 steps) of the last move: 84 of 560
+    # the same steps up to there, and nobody moves in the steps it no longer runs
+    np.testing.assert_array_equal(stopped.trajectories.positions, full.trajectories.positions[:stopped.summary["steps"] + 1])
+
+
+def test_a_run_does_not_end_while_a_moving_obstacle_is_still_on_its_way_to_the_arrived_agents():
+    # the robots are all in their goal area after 14 s; a cart sets off at 30 s and parks in
+    # that area at 45 s: the robots in its way must still step aside
+    text = """
+name = "cart_parks_in_goal"
+method = "mdp"
+seed = 1
+[scene]
+bounds = [[0.0, 0.0], [20.0, 10.0]]
+obstacles = [
+  { shape = "box", lower = [1.0, 8.5], upper = [2.5, 9.5], path = { times = [0.0, 30.0, 45.0], positions = [[1.75, 9.0], [1.75, 9.0], [16.0, 5.0]] } },
+]
+[[groups]]
+name = "robots"
+count = 8
+radius = 0.3
+spawn = { shape = "rect", lower = [1.0, 1.0], upper = [5.0, 7.0] }
+goal = { shape = "rect", lower = [14.0, 1.0], upper = [19.0, 9.0] }
+[mdp]
+max_steps = 400
+smoothing = "none"
+"""
+    r = run_scenario(parse_scenario(text, "cart"), progress=False)
+    full = run_scenario(parse_scenario(text + "stop_when_done = false\n", "cart"), progress=False)
+    traj, s = r.trajectories, r.summary
+    assert s["agent_obstacle_penetrations"] == 0 and s["agent_agent_overlaps"] == 0 and s["arrival_rate"] == 1.0
+    dt = traj.dt
+    moves = np.flatnonzero(np.abs(np.diff(full.trajectories.positions, axis=0)).max(axis=(1, 2)) > 1e-9) + 1
+    assert moves[-2] * dt < 14 and moves[-1] * dt > 30  # all in by 14 s; one steps aside after the cart sets off
+    assert 45 <= s["duration_s"] < 60  # it ran on until the cart stood for good, then ended (not at 320 s)
+    np.testing.assert_array_equal(traj.positions, full.trajectories.positions[:s["steps"] + 1])

@@ -327,12 +327,21 @@ def run(scene: Scene, groups: Sequence[Group], params: MDPParams, rng: np.random
     # goal areas that keep their agents: latecomers are routed to the cells still free
     fill = not params.remove_on_arrival and not moving and any(len(gc) > 1 for gc in goal_cells)
     taken_before = None
+    solved_at = 0  # the step the values were last solved at (moving obstacles placed from there on)
+    reach: list = []
+
+    def static_values() -> list:  # each field's values past the static obstacles alone, once needed
+        if not reach:
+            reach.extend(solve_field(static.occupancy, gc, params) for gc in goal_cells)
+        return reach
+
     with step_loop() as loop:  # Ctrl-C: keep the steps so far, marked partial
         while done < params.max_steps:
             chunk = min(params.replan_every if moving or fill else 64, params.max_steps - done)
             if arrivals is not None:  # agents enter between chunks: end one at the next frame one may
                 chunk = min(chunk, arrivals.steps_to_next(done))
             if values is None or moving:
+                solved_at = done
                 hard, occ = obstacle_cells(static, moving, done, chunk, params.lookahead, dt)
                 prev = values
                 values = np.stack([
@@ -367,6 +376,10 @@ def run(scene: Scene, groups: Sequence[Group], params: MDPParams, rng: np.random
             if params.stop_when_done and moving and not (walker.active == 1).any() and (
                     arrivals is None or not arrivals.pending):
                 break  # everyone has left: nobody for a moving obstacle to meet
+            if (params.stop_when_done and moving and (arrivals is None or not arrivals.pending)
+                    and _settled_for_good(walker, masks, values, static, moving, solved_at, dt, static_values,
+                                          params.remove_on_arrival)):
+                break  # everyone stays for good: the moving obstacles come near none of them again
     partial = loop.stopped
     n = min(len(cells_out), len(active_out))
     cells_out, active_out = cells_out[:n], active_out[:n]
@@ -543,6 +556,55 @@ def free_goal_values(occupancy: np.ndarray, goal_cells: list[np.ndarray], taken:
         v[tuple(gc[on].T)] = 0.0
         out[k] = v
     return out
+
+
+def _settled_for_good(walker: Walker, masks, values: np.ndarray, static: GridMap, moving, since: int, dt: float,
+                      static_values: Callable[[], list], leave: bool) -> bool:
+    """With moving obstacles: whether nothing can move anyone any more (a goal area keeps
+    its agents, and a run went on to max_steps with nobody moving: 373 s of frames, the
+    last move at 55 s).
+
+    Once every path has ended before ``since`` (the step the current ``values`` were
+    solved at, every obstacle then placed where it stays), the scene is static and the
+    static rule holds: every agent on a goal cell with no free, deeper goal cell next to
+    it, or unable to reach one. Before: every agent stands on such a goal cell, or cannot
+    reach its goal past the static obstacles alone (``static_values()``: each field's
+    values there; the moving ones only close more ways), and no moving obstacle, placed at
+    each step from ``since`` until its path has ended, covers a cell of their goal areas,
+    a stuck agent's cell, or a cell next to one of those. Those cells and their neighbours
+    are all that the agents' moves, the goal areas' fill depth and the walk out of a cell
+    an obstacle comes to read, so every later solve leaves them as they are. ``leave``
+    (``remove_on_arrival``): an agent on a goal cell is not settled but leaving."""
+    from scipy.ndimage import binary_dilation
+
+    on = walker.active == 1
+    if not on.any():
+        return True
+    cells, field = walker.cells[on], walker.field_of[on]
+    masks = np.asarray(masks)
+    at_goal = masks[(field, *cells.T)]
+    if leave and at_goal.any():
+        return False  # they leave at their next turn
+    end = max(float(ob.path.times[-1]) for ob in moving)  # each stands at its last key position after
+    if since * dt >= end:
+        return _all_settled(walker, masks, values) and not walker.can_fill_deeper().any()
+    stuck = np.zeros(len(cells), dtype=bool)
+    if not at_goal.all():
+        stuck = ~at_goal & ~np.isfinite(np.stack(static_values())[(field, *cells.T)])
+        if not (at_goal | stuck).all():
+            return False
+    if walker.can_fill_deeper().any():
+        return False
+    watch = np.zeros(static.shape, dtype=bool)
+    for f in np.unique(field[at_goal]):
+        watch |= masks[f]
+    watch[tuple(cells[stuck].T)] = True
+    watch = binary_dilation(watch, structure=np.ones((3,) * static.dim, dtype=bool))
+    covered = GridMap(np.zeros(static.shape, dtype=np.uint8), static.cell_size, static.origin)
+    for ob in moving:
+        for k in range(since, max(since, int(np.ceil(end / dt))) + 1):
+            mark_obstacle(covered, ob, k * dt)
+    return not (covered.occupancy.astype(bool) & watch).any()
 
 
 def _all_settled(walker: Walker, masks, values) -> bool:
