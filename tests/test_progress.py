@@ -3,9 +3,11 @@
 import io
 from types import SimpleNamespace
 
+import pytest
+
 from crowdmotion import progress
 from crowdmotion.progress import FIRST, LineBar, step_bar
-from crowdmotion.pso.adapter import expected_steps
+from crowdmotion.pso.simulation import expected_steps
 from crowdmotion.scenario import load_scenario
 from crowdmotion.cli import builtin_scenarios
 
@@ -119,3 +121,36 @@ def test_a_count_of_cases_on_a_log_counts_its_time_from_the_start(monkeypatch):
         steps.done(10)
     assert log.getvalue().splitlines()[0] == "rvo steps: 1/10 steps (10 %) in 0 s"
     assert log.getvalue().splitlines()[-1] == "rvo steps: 10/10 steps (100 %) in 2 s"
+
+
+def _small_run(method):
+    """(simulate, scene, groups, params) of a few steps of ``method``."""
+    import crowdmotion as cm
+    from crowdmotion import formation, mdp, pso, rvo
+
+    scene = cm.Scene(bounds=([0, 0], [12, 6]))
+    group = cm.Group("g", 3, spawn=cm.Rect([1, 1], [3, 5]), goal=cm.Rect([9, 1], [11, 5]), radius=0.25)
+    if method == "mdp":
+        return mdp.simulate, scene, [group], mdp.MDPParams(max_steps=6, smoothing=None)
+    if method == "rvo":
+        return rvo.simulate, scene, [group], rvo.RVOParams(max_steps=6)
+    if method == "pso":
+        return pso.simulate, scene, [group], pso.PSOParams(iterations=6, v_max=[0.25, 0.25], smoothing="linear")
+    block = cm.Group("block", 4, cm.Points([[2.0, 3.0]]), (10.0, 3.0), radius=0.25,
+                     attributes={"formation": {"kind": "block", "rows": 2, "cols": 2, "spacing": 1.0}})
+    return formation.simulate, scene, [block], {"max_steps": 6, "fps": None}
+
+
+@pytest.mark.parametrize("method", ["mdp", "rvo", "pso", "formation"])
+def test_every_method_s_simulate_shows_the_command_s_progress_when_asked_and_nothing_by_default(method, capsys):
+    # mdp.simulate said nothing while its kernels compiled (about 10 s on a first run), and
+    # no method's simulate could show the bar the command and crowdmotion.run show
+    import numpy as np
+
+    simulate, scene, groups, params = _small_run(method)
+    simulate(scene, groups, params, np.random.default_rng(0))
+    assert capsys.readouterr().err == ""
+    simulate(scene, groups, params, np.random.default_rng(0), progress=True)
+    err = capsys.readouterr().err  # not a terminal here: the command's progress lines
+    desc = {"mdp": "mdp steps", "rvo": "rvo steps", "pso": "pso", "formation": "formation steps"}[method]
+    assert err.startswith(f"{desc}: ") and ("/6 " in err or "of at most 6 " in err), err

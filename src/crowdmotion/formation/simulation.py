@@ -263,6 +263,11 @@ def car_measures(frames: np.ndarray, facing: np.ndarray, heading: np.ndarray, pa
 
 
 def simulate(scene: Scene, groups: Sequence[Group], params: FormationParams | dict | None = None,
-             rng: np.random.Generator | None = None) -> Trajectories:
-    """The formation method end to end: ``formation.simulate(scene, groups, params, rng) -> Trajectories``."""
-    return run(scene, groups, params, rng).trajectories
+             rng: np.random.Generator | None = None, progress: bool = False) -> Trajectories:
+    """The formation method end to end: ``formation.simulate(scene, groups, params, rng) -> Trajectories``;
+    ``progress=True`` shows the command's bar of steps on stderr (``crowdmotion.progress.step_bar``)."""
+    from crowdmotion.progress import step_bar
+
+    params = params if isinstance(params, FormationParams) else make_params(params)
+    with step_bar(params.max_steps, "formation steps", progress) as bar:
+        return run(scene, groups, params, rng, progress=bar.advance).trajectories

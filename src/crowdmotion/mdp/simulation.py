@@ -18,6 +18,7 @@ from crowdmotion.mdp.sources import Arrivals
 from crowdmotion.mdp.solvers import solve, value_iteration
 from crowdmotion.mdp.trajectory import Walker
 from crowdmotion.scene import Scene
+from crowdmotion.progress import step_bar
 from crowdmotion.path_relaxation import RELAX_AT_FPS_MAX, STEP_RATE_ITERATIONS, relaxed_trajectories  # noqa: F401
 from crowdmotion.smoothing import resample_checked
 from crowdmotion.trajectories import Trajectories, held_absent, held_stages
@@ -620,8 +621,11 @@ def _all_settled(walker: Walker, masks, values) -> bool:
 
 
 def simulate(scene: Scene, groups: Sequence[Group], params: MDPParams | None = None,
-             rng: np.random.Generator | None = None) -> Trajectories:
-    """The MDP method's entry point: ``simulate(scene, groups, params, rng) -> Trajectories``.
+             rng: np.random.Generator | None = None, progress: bool = False) -> Trajectories:
+    """The MDP method's entry point: ``simulate(scene, groups, params, rng) -> Trajectories``;
+    ``progress=True`` shows the command's bar of steps on stderr (a line every 10 s where
+    that is not a terminal), which says so while the kernels load, or compile on a first
+    run (``crowdmotion.progress.step_bar``; as every method's ``simulate``).
 
     Agents stand and move on grid cell centres (paper 000), so each start and goal point
     is moved to the centre of its cell, by up to half a cell's diagonal (cell_size · √D / 2:
@@ -634,7 +638,8 @@ def simulate(scene: Scene, groups: Sequence[Group], params: MDPParams | None = N
     finer cells that would part them (docs/mdp.md, "Starts and goals sit on cell centres")."""
     params = MDPParams() if params is None else params
     rng = np.random.default_rng() if rng is None else rng
-    traj = run(scene, groups, params, rng).trajectories
+    with step_bar(params.max_steps, "mdp steps", progress) as bar:
+        traj = run(scene, groups, params, rng, progress=bar.done).trajectories
     stranded = traj.metadata.get("unreachable_agents") or []
     if stranded:  # as a scenario's check refuses: said here, where nothing refuses it
         warnings.warn(f"{len(stranded)} agent(s) (e.g. {stranded[0]}) cannot reach their goal on the grid: walls "

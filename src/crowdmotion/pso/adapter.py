@@ -13,7 +13,7 @@ from crowdmotion.journeys import entry_report
 from crowdmotion.groups import MovingTarget, Points
 from crowdmotion.pso.obstacles import ObstacleArrays
 from crowdmotion.pso.params import PSOParams, warn_fast_clamp
-from crowdmotion.pso.simulation import PSORun, run
+from crowdmotion.pso.simulation import PSORun, expected_steps, run
 from crowdmotion.smoothing import smoothing_report
 
 Params = PSOParams
@@ -144,19 +144,6 @@ def _check_field(scene, groups, params: PSOParams) -> None:
                              f"{describe_region(g.spawn)} (in each of {FIELD_DRAWS} draws), but count = {g.count}: "
                              f"lower pso.obstacle_field.count or radius, or set its lower and upper corners away "
                              f"from the spawn")
-
-
-def expected_steps(groups, params: PSOParams) -> int:
-    """Iterations a run records at most: k, or k per target update when targets move
-    (capped at ``max_iterations``); gathering may stop sooner."""
-    from crowdmotion.pso.swarm import follow_schedule
-
-    paths = [g.goal for g in groups if isinstance(g.goal, MovingTarget)]
-    updates = 1
-    if paths:
-        updates = len(follow_schedule(min(p.times[0] for p in paths), max(p.times[-1] for p in paths),
-                                      params.iterations, params.iteration_time)) + 1
-    return min(updates * params.iterations, params.max_iterations)
 
 
 def step_seconds(groups, params: PSOParams) -> float:

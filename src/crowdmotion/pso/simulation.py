@@ -194,10 +194,26 @@ def _run_stepped(swarm: Swarm, groups: Sequence[Group], params: PSOParams, rng: 
                   journeys if routed else None, *entry)
 
 
+def expected_steps(groups, params: PSOParams) -> int:
+    """Iterations a run records at most: k, or k per target update when targets move
+    (capped at ``max_iterations``); gathering may stop sooner."""
+    paths = [g.goal for g in groups if isinstance(g.goal, MovingTarget)]
+    updates = 1
+    if paths:
+        updates = len(follow_schedule(min(p.times[0] for p in paths), max(p.times[-1] for p in paths),
+                                      params.iterations, params.iteration_time)) + 1
+    return min(updates * params.iterations, params.max_iterations)
+
+
 def simulate(scene: Scene, groups: Sequence[Group], params: PSOParams | None = None,
-             rng: np.random.Generator | None = None) -> Trajectories:
+             rng: np.random.Generator | None = None, progress: bool = False) -> Trajectories:
     """The particle-swarm method end to end: ``pso.simulate(scene, groups, params, rng) -> Trajectories``;
     warns, as a scenario's check does, when pso.v_max lets a particle outrun its group's
-    max_speed."""
+    max_speed; ``progress=True`` shows the command's bar of iterations on stderr
+    (``crowdmotion.progress.step_bar``)."""
+    from crowdmotion.progress import step_bar
+
     warn_fast_clamp(scene, groups, make_params(params))
-    return run(scene, groups, params, np.random.default_rng(0) if rng is None else rng).trajectories
+    with step_bar(expected_steps(groups, make_params(params)), "pso", progress, unit="iteration") as bar:
+        return run(scene, groups, params, np.random.default_rng(0) if rng is None else rng,
+                   progress=bar.advance).trajectories

@@ -205,9 +205,10 @@ def run(scene: Scene, groups: Sequence[Group], params: RVOParams, rng: np.random
 
 
 def simulate(scene: Scene, groups: Sequence[Group], params: RVOParams | dict | None = None,
-             rng: np.random.Generator | None = None) -> Trajectories:
+             rng: np.random.Generator | None = None, progress: bool = False) -> Trajectories:
     """The RVO method end to end: ``rvo.simulate(scene, groups, params, rng) -> Trajectories``;
-    ``params`` an RVOParams or a dict of its fields (validated as the scenario's [rvo])."""
+    ``params`` an RVOParams or a dict of its fields (validated as the scenario's [rvo]);
+    ``progress=True`` shows the command's bar of steps on stderr (``crowdmotion.progress.step_bar``)."""
     if isinstance(params, dict):
         params = RVOParams(**params)
     elif params is None:
@@ -216,4 +217,7 @@ def simulate(scene: Scene, groups: Sequence[Group], params: RVOParams | dict | N
         raise TypeError(f"rvo.simulate: params must be an RVOParams or a dict of its fields, "
                         f"got {type(params).__name__}")
     rng = np.random.default_rng(0) if rng is None else rng
-    return run(scene, groups, params, rng).trajectories
+    from crowdmotion.progress import step_bar
+
+    with step_bar(params.max_steps, "rvo steps", progress) as bar:
+        return run(scene, groups, params, rng, progress=bar.done).trajectories
