@@ -545,3 +545,21 @@ def test_a_run_whose_reader_leaves_early_still_writes_its_files(tmp_path, monkey
     monkeypatch.setattr("sys.stderr", Closed())
     assert main(["run", str(path), "-o", str(tmp_path / "out"), "--plots", "none"]) == 0
     assert (tmp_path / "out" / "trajectories.parquet").is_file() and (tmp_path / "out" / "summary.json").is_file()
+
+
+def test_the_export_root_motion_line_prints_p95_and_max_at_one_precision():
+    """A max just under 0.05 printed to 0.1 read 'p95 0.05 m/s², max 0.0': a max below its
+    own p95 (walkers at constant speeds, as `crowdmotion export` prints it)."""
+    import crowdmotion as cm
+    from crowdmotion.cli import _file_root_motion
+
+    t = np.arange(200) / 24
+    n = 40
+    pos = np.zeros((len(t), n, 2))
+    pos[..., 0] = t[:, None] * np.linspace(0.9, 1.5, n)
+    pos[..., 1] = np.arange(n) + 0.2 * np.sin(0.5 * t[:, None] + np.arange(n))
+    line = _file_root_motion(cm.Trajectories(pos, 1 / 24, radius=0.25, metadata={"dim": 2}))
+    values = [float(v) for v in re.findall(r"(?:p95|max) (\d+\.\d+)", line)]
+    assert len(values) == 4, line
+    acc_p95, acc_max, turn_p95, turn_max = values
+    assert acc_max >= acc_p95 and turn_max >= turn_p95, line

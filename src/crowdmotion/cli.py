@@ -681,8 +681,9 @@ def _file_root_motion(traj) -> str:
     acc, turn = rm.get("acceleration_mps2") or {}, rm.get("turn_rate_rad_s") or {}
     if acc.get("p95") is None or turn.get("p95") is None:
         return "  root motion: nobody moves faster than 0.3 m/s over three frames here"
+    # p95 and max at the same precision: a max printed to 0.1 read "p95 0.05, max 0.0"
     return (f"  root motion of these frames (moving agents): acceleration p95 {acc['p95']:.2f} m/s², max "
-            f"{acc['max']:.1f}; turn rate p95 {turn['p95']:.2f} rad/s, max {turn['max']:.1f}")
+            f"{acc['max']:.2f}; turn rate p95 {turn['p95']:.2f} rad/s, max {turn['max']:.2f}")
 
 
 def _refuse_foreign(dest: Path, manifest: dict | None) -> None:
