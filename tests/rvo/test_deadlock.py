@@ -164,8 +164,30 @@ def test_a_gridlock_detour_only_for_crossing_streams_bound_elsewhere():
     assert not _standing_pair([1.3, 0.0], [10.0, 0.5])
     # a crowd converging on one door: from the side, but bound to the same place
     assert not _standing_pair([0.0, 1.3], [10.0, 1.0])
-    # head-on is the yielding rule's, not a detour
+    # head-on is the yielding rule's, not a detour, until both have stood HEADON_STILL_S
     assert not _standing_pair([-1.3, 0.0], [-10.0, 0.0])
+
+
+def test_two_fronts_standing_nose_to_nose_bound_opposite_ways_walk_round_to_the_right_at_last():
+    # two counterflow streams whose fronts filled a corridor's width stood for good (the
+    # FZJ BOT-360 corridor rebuilt, 2.5 m entrances, seed 1402: 45 % out): past what yielding
+    # settles (the yielder, pressed from behind, cannot back off), the one not yielding
+    # walks round to the right once both have stood HEADON_STILL_S
+    def detours(blocker_goal, seconds, dt=0.1):
+        dl = deadlock.Deadlock(keep_right=0.0, patience=2.0)
+        dl.grow(2)
+        pos = np.array([[0.0, 0.0], [0.6, 0.0]])
+        wanted = np.array([[1.3, 0.0], [-1.3, 0.0]])
+        goals = np.array([[10.0, 0.0], blocker_goal])
+        one = np.ones(2)
+        for _ in range(int(round(seconds / dt))):
+            dl.update(pos, wanted, np.zeros((2, 2)), 1.3 * one, 0.25 * one, 5.0 * one, np.ones(2, bool), dt, goals)
+        return dl.detour.tolist()
+
+    assert detours([-10.0, 0.0], deadlock.HEADON_STILL_S - 1.0) == [False, False]
+    assert detours([-10.0, 0.0], deadlock.HEADON_STILL_S + 1.0) == [False, True]
+    # bound for the same place (two converging on one goal from either side): no detour
+    assert detours([10.0, 0.5], deadlock.HEADON_STILL_S + 1.0) == [False, False]
 
 
 def _converging_pair(seconds, goal_1=(8.0, 0.0), dt=0.1):
