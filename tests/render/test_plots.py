@@ -178,3 +178,13 @@ def test_formation_pictures_draw_a_group_that_enters_after_the_first_snapshot(tm
     snapshots = [{"time": 0.0, "groups": []}, {"time": 5.0, "groups": [mesh]}]  # not in yet at t = 0
     assert plots.animate_formation_snapshots(scene, snapshots, tmp_path / "f.gif").exists()
     assert list(plots._snapshot_colours(snapshots)) == ["soldiers"]
+
+
+def test_a_floor_of_many_rooms_gives_every_group_its_own_colour():
+    # twelve groups drew the eleventh and twelfth in the first two's colours (tab10 cycled)
+    from matplotlib import colormaps
+
+    names = [f"room {k}" for k in range(40)]
+    colours = plots.group_colours(names)
+    assert len(set(colours.values())) == 40
+    assert [colours[n] for n in names[:10]] == [colormaps["tab10"](i) for i in range(10)]  # as before
