@@ -123,9 +123,9 @@ def turn_towards(yaw: np.ndarray, velocity: np.ndarray, min_speed: np.ndarray, m
     if stepped is not None:
         moving &= stepped
     target = np.arctan2(vy, vx)
-    turn = np.clip((target - yaw + np.pi) % (2 * np.pi) - np.pi, -max_step, max_step)  # the short way round
+    turn = np.clip(wrap(target - yaw), -max_step, max_step)  # the short way round
     new = np.where(np.isnan(yaw), target, yaw + turn)
-    return np.where(moving, (new + np.pi) % (2 * np.pi) - np.pi, yaw)
+    return np.where(moving, wrap(new), yaw)
 
 
 def turn_rate(yaw: np.ndarray, dt: float) -> np.ndarray:

@@ -183,7 +183,7 @@ def test_a_column_that_arrives_far_turned_turns_back_where_it_has_room_and_keeps
     g = sim.groups[0]
     V = (g.mesh.rest - g.mesh.rest.mean(axis=0)) @ np.array([[0.0, -1.0], [1.0, 0.0]]).T  # 90 degrees, at the goal
     g.heading = 0.0  # the way it travelled
-    sim._arrive(g, V, np.zeros(2))
+    sim._arrive(g, V)
     if kept:
         assert abs(np.cos(g.heading)) < 0.05, "it keeps lying east-west: no room to turn back"
     else:
@@ -212,7 +212,7 @@ def test_arriving_turned_71_degrees_a_square_block_recovers_a_quarter_turn_round
         centre = np.array([40.0, 0.0])
         V = (g.mesh.rest - g.mesh.rest.mean(axis=0)) @ rot.T + centre
         g.heading = turn  # the way it travelled
-        sim._arrive(g, V, centre)
+        sim._arrive(g, V)
         assert abs(wrap(g.heading - want)) < 1e-9
         assert abs(wrap(g.heading + g.facing_offset - turn)) <= np.pi / 4, "soldiers face about the way it came"
 

@@ -11,7 +11,7 @@ import numpy as np
 
 from crowdmotion.facing import MAX_TURN_RATE, limit_turn, wrap
 from crowdmotion.formation.params import FormationParams, make_params
-from crowdmotion.formation.simulator import Simulator
+from crowdmotion.formation.simulator import Simulator, _rotation
 from crowdmotion.formation.templates import Template, from_spec
 from crowdmotion.groups import Group, Lattice, Points
 from crowdmotion.interrupts import step_loop
@@ -243,8 +243,7 @@ def orientation(sim: Simulator, g, slots: np.ndarray) -> dict:
     fit = g.fitted_heading(slots)
     ref = sim.recovery_heading(g)
     want = min((ref + s for s in g.symmetry), key=lambda h: abs(float(wrap(h - fit))))
-    c, s_ = np.cos(want - g.heading0), np.sin(want - g.heading0)
-    placed = a @ np.array([[c, -s_], [s_, c]]).T
+    placed = a @ _rotation(want - g.heading0).T
     return {"heading_deg": float(np.degrees(wrap(want))),
             "orientation_error_deg": float(np.degrees(abs(wrap(fit - want)))),
             "oriented_rms_m": float(np.sqrt(np.mean(np.sum((placed - b) ** 2, axis=1))))}

@@ -267,7 +267,7 @@ class Simulator(LiveObstacles):
             raise ValueError(f"{what}: pref_speed {pref_speed} exceeds max_speed {max_speed}")
         region, gc = _region_goal(goal)
         heading = 0.0
-        given = True  # the start heading: the caller's (a point set's own orientation, or ``heading``) ...
+        legs = None  # the first and last legs of its centre's way, where it takes its headings from them
         if isinstance(template, (np.ndarray, list, tuple)):  # start positions, any point set
             pts = np.asarray(template, float)
             start_pos = pts
@@ -277,10 +277,10 @@ class Simulator(LiveObstacles):
             start = np.asarray(params.get("start", (0.0, 0.0)), float).ravel()
             if start.shape != (2,) or not np.isfinite(start).all():
                 raise ValueError(f"{what}: start must be a finite 2D point, got {params.get('start')!r}")
-            heading = params.get("heading")
-            given = heading is not None
-            if not given:  # ... or along the first leg of the way its centre will walk (round walls)
-                heading = self.planned_legs(start, region, gc, radius, self._half_width(tpl.points, radius))[0]
+            heading = params.get("heading")  # the caller's, else along its centre's first leg (round walls)
+            if heading is None:
+                legs = self.planned_legs(start, region, gc, radius, self._half_width(tpl.points, radius))
+                heading = legs[0]
             if not np.isfinite(float(heading)):
                 raise ValueError(f"{what}: heading must be a finite angle in radians, got {heading!r}")
             start_pos = tpl.placed(start, float(heading))
@@ -302,11 +302,10 @@ class Simulator(LiveObstacles):
         idx = np.arange(len(self.positions), len(self.positions) + n)
         grp = FormationGroup(name, tpl, mesh, solver, guide, start_pos.copy(), idx, region, gc, pref_speed, max_speed,
                              radius, extent, float(heading), float(heading), symmetry=rotational_symmetry(mesh.rest),
-                             heading_given=given, half_width=self._half_width(tpl.points, radius),
+                             heading_given=legs is None, arrival_heading=None if legs is None else legs[1],
+                             half_width=self._half_width(tpl.points, radius),
                              vertex_velocity=np.zeros_like(start_pos), enter_at=due,
                              entered_at=None if later else self.time)
-        if not grp.heading_given:
-            grp.arrival_heading = self.planned_legs(start_pos.mean(axis=0), region, gc, radius, grp.half_width)[1]
         self._route_stale = True
         self.groups.append(grp)
         self.positions = np.concatenate([self.positions, start_pos])
@@ -528,7 +527,7 @@ class Simulator(LiveObstacles):
             if dist <= p.arrive_distance or inside:
                 g.arrived_at = self.time
                 in_area = True
-                self._arrive(g, V, centroid)
+                self._arrive(g, V)
                 g.goal_center = self._standing_centre(g)  # it recovers where its rest shape fits
         if in_area:  # the heading stays as it arrived
             u = np.zeros(2)
@@ -850,7 +849,7 @@ class Simulator(LiveObstacles):
         return standing_centre(self._now, g.goal_center, g.rest_shape(), g.radius + VERTEX_CLEARANCE,
                                obstacles=obstacles)
 
-    def _arrive(self, g: FormationGroup, V: np.ndarray, centroid: np.ndarray) -> None:
+    def _arrive(self, g: FormationGroup, V: np.ndarray) -> None:
         """The heading a group recovers with in its target area. The mesh stands turned
         ``fit`` from its rest shape (best fit); its slots at its start heading, or at a
         turn of it under which the slots map onto themselves (a square block: every
@@ -862,7 +861,7 @@ class Simulator(LiveObstacles):
         Soldiers then face whichever of the equivalent headings lies nearest the way the
         group travelled. (A wedge swung 100° by two small obstacles on its way recovered
         turned 52° in an open square, every soldier facing 52° off its march.)"""
-        fit = g.heading0 + best_turn(g.mesh.rest - g.mesh.rest.mean(axis=0), V - centroid)
+        fit = g.fitted_heading(V)
         off = lambda x, y: abs(float(wrap(x - y)))  # noqa: E731
         square = min((self.recovery_heading(g) + s for s in g.symmetry), key=lambda h: off(h, fit))
         travelled = g.heading
