@@ -5,7 +5,7 @@ from __future__ import annotations
 import difflib
 import math
 import re
-from typing import Annotated, Any, Callable, ClassVar, Iterable
+from typing import Annotated, Any, Callable, ClassVar, Iterable, get_args
 
 from pydantic import BaseModel, Field, ValidationError
 
@@ -108,8 +108,6 @@ _BOUNDS = {"greater_than": ("more than", "gt"), "greater_than_equal": ("at least
 
 def _models_in(tp) -> list[type[BaseModel]]:
     """The pydantic models an annotation holds: itself, or those of its unions, lists, options."""
-    from typing import get_args
-
     if isinstance(tp, type) and issubclass(tp, BaseModel):
         return [tp]
     return [m for arg in get_args(tp) for m in _models_in(arg)]
@@ -120,8 +118,6 @@ def fields_at(model: type[BaseModel], loc: tuple) -> set[str]:
     key) under ``model``: ``("groups", 0)`` is a GroupSpec, ``("scene", "obstacles", 0,
     "box")`` a BoxSpec (a tagged union's member is named by its tag). Empty where the
     location cannot be followed."""
-    from typing import get_args
-
     here = [model]
     for key in loc:
         if isinstance(key, int):
@@ -179,8 +175,6 @@ def error_lines(err: ValidationError, prefix: str = "", known: Iterable[str] = (
 
 def field_names(model: type[BaseModel]) -> set[str]:
     """Every field name in a pydantic model and the models its fields hold, recursively."""
-    from typing import get_args
-
     seen: set[type] = set()
     names: set[str] = set()
 

@@ -322,8 +322,7 @@ def check_reachable(scene: Scene, k: int, group: Group) -> None:
 def region_samples(scene: Scene, region) -> np.ndarray:
     """Points of a regular lattice filling ``region`` within the scene bounds; a region
     flat along an axis (a landing pad with lower z = upper z) is sampled in its plane."""
-    lo, hi = (region.lower, region.upper) if isinstance(region, Rect) else \
-        (region.center - region.radius, region.center + region.radius)
+    lo, hi = region_box(region)
     lo, hi = np.maximum(lo, scene.lower), np.minimum(hi, scene.upper)
     if np.any(hi < lo):
         return np.empty((0, scene.dim))
