@@ -41,7 +41,7 @@ from typing import Protocol
 import numpy as np
 
 from crowdmotion._rng import uniforms
-from crowdmotion.cases import stationary
+from crowdmotion.cases import flow, stationary
 from crowdmotion.geometry import finite_number
 from crowdmotion.groups import Disc, Points, Rect
 from crowdmotion.placement import spawn_positions
@@ -795,11 +795,11 @@ class Journeys:
         exits = {}
         for name, times in self.exits.items():
             t = np.sort(np.array(times))
-            flow = (len(t) - 1) / (t[-1] - t[0]) if len(t) > 1 and t[-1] > t[0] else None
+            overall = flow(t)
             # the N–t curve's stationary part (10-90 % of those who left), as measured at a bottleneck:
             # a straggler long after the crowd does not thin it as it thins the flow over first to last
             start, end, steady = stationary(t)
-            exits[name] = {**exit_row(t), "flow_per_s": None if flow is None else float(flow),
+            exits[name] = {**exit_row(t), "flow_per_s": None if np.isnan(overall) else overall,
                            "steady_flow_per_s": None if np.isnan(steady) else steady,
                            "steady_span_s": None if np.isnan(steady) else [start, end],
                            "left_per_s": np.bincount(np.floor(t + 1e-9).astype(np.int64)).tolist()}
