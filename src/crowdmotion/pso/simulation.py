@@ -213,7 +213,8 @@ def simulate(scene: Scene, groups: Sequence[Group], params: PSOParams | None = N
     (``crowdmotion.progress.step_bar``)."""
     from crowdmotion.progress import step_bar
 
-    warn_fast_clamp(scene, groups, make_params(params))
-    with step_bar(expected_steps(groups, make_params(params)), "pso", progress, unit="iteration") as bar:
+    params = make_params(params)
+    warn_fast_clamp(scene, groups, params)
+    with step_bar(expected_steps(groups, params), "pso", progress, unit="iteration") as bar:
         return run(scene, groups, params, np.random.default_rng(0) if rng is None else rng,
                    progress=bar.advance).trajectories
