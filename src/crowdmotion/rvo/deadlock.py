@@ -62,9 +62,10 @@ break that; none touches the continuous-time guarantee, which the step's safety 
    the same once both have stood ``HEADON_STILL_S``: two streams whose fronts fill a
    corridor's width nose to nose, each pressed from behind, are past what yielding
    settles (a yielder has nowhere to back off to); walking round to the right, each front
-   opens a lane (the FZJ BOT-360 corridor rebuilt, 2.5 m entrances, seed 1402: 45 % out
-   in 600 s for good, now everyone, the last at 329 s). Standing, not slow progress, and goals apart keep it out of queues
-   and of crowds converging on one door.
+   opens a lane (the FZJ BOT-360 corridor rebuilt, 2.5 m entrances, seed 1402: without
+   it 45 % got out and the rest stood for good; with it everyone, the last at 329 s).
+   Standing, not slow progress, and goals apart keep it out of queues and of crowds
+   converging on one door.
 
 4. **Making room for a yielder** (``_make_room``): an agent within ``ROOM_GAP_M`` of a
    yielder's body, ahead along the yielder's step back and on its line, steps back the
