@@ -201,9 +201,9 @@ def test_a_queue_of_30_is_served_in_order_at_half_a_person_per_second():
     full = gaps[len(gaps) // 3:]  # once the line has formed
     assert np.allclose(full, 2.0), full
     report = result.summary["journeys"]
-    assert report["queues"]["gate"]["served"] == 30 and max(report["queues"]["gate"]["length_per_s"]) >= 20
+    assert report["queues"]["gate"]["served"] == 30 and max(report["queues"]["gate"]["length_per_s"]) >= 15
     assert report["exits"]["east"]["left"] == 30 and result.summary["arrival_rate"] == 1.0
-    # the line forms behind the head, along -x, a place every 0.65 m: 25 in line reach back 16 m
+    # the line forms behind the head, along -x, a place every 0.65 m: 17 in line reach back 10 m
     traj, journeys = result.trajectories, result.extras.journeys
     in_line = (journeys.reached[:, 0][None] <= traj.times[:, None] + 1e-9) & (traj.stage == 0)
     frame = int(np.argmax(in_line.sum(axis=1)))
@@ -211,7 +211,7 @@ def test_a_queue_of_30_is_served_in_order_at_half_a_person_per_second():
     off = np.abs(pos[:, 1] - 10.0)  # RVO bodies shuffling up a place sway a little
     # (two or three bodies stepping aside or still walking up may stand out: the 90th
     # percentile spreads 0.39-1.15 m over seeds 0-7, the median 0.14-0.27 m)
-    assert len(pos) >= 20 and np.percentile(off, 90) < 1.25 and np.median(off) < 0.3
+    assert len(pos) >= 15 and np.percentile(off, 90) < 1.25 and np.median(off) < 0.3
     # (the line's length beyond 0.65 m a place spreads -0.1-1.2 m over seeds 0-7)
     assert pos[:, 0].max() < 30.5 and 30.0 - pos[:, 0].min() == pytest.approx(0.65 * (len(pos) - 1), abs=1.5)
 

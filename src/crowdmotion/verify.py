@@ -96,6 +96,47 @@ def _judge_rimea_4(out: dict[str, Outcome]) -> tuple[str, str, bool]:
     return ("mean speed falls as density rises (0.5, 1, 2, 3 /m²)", measured, falling)
 
 
+# ---- RiMEA 5: premovement times ---------------------------------------------------------------
+#: where RiMEA 5's ten persons stand in its 8 x 5 m room (x 0-5, y 0-8; the 1 m exit at x 2-3 in
+#: the wall at y 8) and when each starts: 10, 20, ... 100 s, the earliest farthest from the exit
+RIMEA_5_PLACES = [(1.0, 1.0), (2.5, 1.0), (4.0, 1.0), (1.0, 3.0), (2.5, 3.0), (4.0, 3.0), (1.0, 5.0), (2.5, 5.0),
+                  (4.0, 5.0), (2.5, 6.5)]
+RIMEA_5_STARTED_M = 0.5  # a person this far from where it stood has set off (one stepping aside for a passer has not)
+RIMEA_5_LATE_S = 2.0     # ... at most this long after its premovement time
+
+
+def _span(values: np.ndarray) -> str:
+    """'0.50' or '0.50-1.25': the least and the greatest of ``values``."""
+    lo, hi = f"{np.min(values):.2f}", f"{np.max(values):.2f}"
+    return lo if lo == hi else f"{lo}-{hi}"
+
+
+def _rimea_5(method: str) -> dict[str, Setup]:
+    from crowdmotion.stages import Leave, Wait
+
+    scene = Scene(bounds=([0, 0], [5, 11]), obstacles=[Box([0, 8], [2, 8.3]), Box([3, 8], [5, 8.3])])
+    outside = Rect([0.5, 9.5], [4.5, 11.0])
+    groups = [Group(f"p{k + 1:02d}", 1, spawn=Points([place]), goal=outside, radius=RADIUS, max_speed=1.5,
+                    pref_speed=SPEED, attributes={"route": [Wait(10.0 * (k + 1)), Leave(outside)]})
+              for k, place in enumerate(RIMEA_5_PLACES)]
+    return {"room": Setup(scene, groups, _params(method))}
+
+
+def _judge_rimea_5(out: dict[str, Outcome]) -> tuple[str, str, bool]:
+    tr = out["room"].traj
+    p, act = tr.positions, tr.active_mask
+    offsets = []
+    for k in range(len(RIMEA_5_PLACES)):
+        gone = act[:, k] & (np.linalg.norm(p[:, k] - p[0, k], axis=1) >= RIMEA_5_STARTED_M)
+        offsets.append(np.flatnonzero(gone)[0] * tr.dt - 10.0 * (k + 1) if gone.any() else np.inf)
+    offsets = np.array(offsets)
+    ok = bool(_arrived(out["room"]) == 1.0 and np.all((offsets >= 0) & (offsets <= RIMEA_5_LATE_S)))
+    return (f"each of 10 persons sets off ({RIMEA_5_STARTED_M:g} m from its place) at its premovement time "
+            f"(10, 20, ... 100 s), at most {RIMEA_5_LATE_S:g} s late; everyone leaves",
+            f"set off {_span(offsets)} s after their times; arrived {_arrived(out['room']):.0%}",
+            ok)
+
+
 # ---- RiMEA 6: 20 persons round a left corner ---------------------------------------------------
 def _rimea_6(method: str) -> dict[str, Setup]:
     scene = Scene(bounds=([0, 0], [12, 12]), obstacles=[Box([0, 2], [10, 12])])
@@ -396,6 +437,9 @@ CASES: list[Case] = [
     Case("rimea_4_fundamental_diagram", "RiMEA test 4",
          "speed against density (0.5-3 persons/m²) in a 4 m corridor: the shape of the fundamental diagram",
          ("rvo",), _rimea_4, _judge_rimea_4),
+    Case("rimea_5_premovement", "RiMEA test 5",
+         "10 persons in an 8 x 5 m room set off at their premovement times, 10 to 100 s, by a 1 m exit",
+         ("rvo",), _rimea_5, _judge_rimea_5, quick=True),
     Case("rimea_6_corner", "RiMEA test 6",
          "20 persons round a left corner of a 2 m corridor without passing through its walls",
          ("rvo", "mdp", "formation"), _rimea_6, _judge_rimea_6, quick=True),

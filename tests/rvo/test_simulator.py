@@ -1100,3 +1100,47 @@ def test_add_agents_refusing_an_agent_that_does_not_fit_does_not_first_warn_that
     assert sim.n_agents == 0
     with pytest.warns(UserWarning, match="Moved the least way"):  # one that fits is still told
         sim.add_agents([[15, 10]], [[25, 17]], radius=5)
+
+
+# ---- people who have arrived and stay: the others pass them as standing obstacles -----------------
+#: RiMEA test 5's room (x 0-5, y 0-8, the 1 m exit at x 2-3) and its ten places
+_ROOM_PLACES = [(1.0, 1.0), (2.5, 1.0), (4.0, 1.0), (1.0, 3.0), (2.5, 3.0), (4.0, 3.0), (1.0, 5.0), (2.5, 5.0),
+                (4.0, 5.0), (2.5, 6.5)]
+
+
+def _room_waiting(walker: int, **params):
+    """RiMEA 5's room: ``walker`` due at 1 s, the other nine waiting 100 s; stepped until
+    the walker is out or 30 s. (simulator, places, the others' ids, frames, present)"""
+    from crowdmotion.stages import Leave, Wait
+
+    scene = cm.Scene(bounds=([0, 0], [5, 11]), obstacles=[cm.Box([0, 8], [2, 8.3]), cm.Box([3, 8], [5, 8.3])])
+    sim = rvo.Simulator(scene, rng=np.random.default_rng(0), remove_on_arrival=False, **params)
+    places = np.array(_ROOM_PLACES)
+    ids = sim.add_agents(places, places)
+    outside = Leave(cm.groups.Rect([0.5, 9.5], [4.5, 11.0]))
+    sim.set_route(ids[[walker]], [Wait(1.0), outside])
+    others = np.delete(ids, walker)
+    sim.set_route(others, [Wait(100.0), outside])
+    frames, present = [sim.positions.copy()], [sim.present.copy()]
+    while sim.present[walker] and sim.time < 30.0:
+        sim.step()
+        _record(sim, frames, present)
+    return sim, places, others, frames, present
+
+
+@pytest.mark.parametrize("walker", [1, 7])  # three waiting in its way to the exit / one waiting before the exit
+def test_a_person_whose_wait_is_over_walks_round_people_still_waiting_in_its_way(walker):
+    sim, places, others, frames, present = _room_waiting(walker)
+    # 8.5 m at most to the exit's far side: 6.4 s at 1.33 m/s; standing behind them, it would wait 100 s
+    assert not sim.present[walker] and sim.time < 12.0, (sim.time, sim.positions[walker])
+    shoved = np.linalg.norm(np.array(frames)[:, others] - places[others], axis=2)
+    assert shoved.max() < 0.3, "those waiting step aside at most a little for it"
+    assert np.linalg.norm(sim.positions[others] - places[others], axis=1).max() < 0.05, "and are back in place"
+    traj = cm.Trajectories(np.array(frames), sim.dt, radius=sim.params["radius"], active=np.array(present))
+    audit = collision_audit(traj, sim.scene)
+    assert audit.agent_agent == 0 and audit.agent_obstacle == 0, audit.events[:3]
+
+
+def test_with_pass_standing_off_those_waiting_count_as_eq3_has_them_and_hold_the_walker():
+    sim, *_ = _room_waiting(1, pass_standing=False)
+    assert sim.present[1], "eq. (3)'s reciprocal rule: every line through the gaps meets someone within 4 m"

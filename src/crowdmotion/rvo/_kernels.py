@@ -24,6 +24,8 @@ SLACK = 1e-6
 COMFORT_WEIGHT = 2.0
 RING = 8  # candidates on the circle of comfortable changes round the current velocity
 LEAVE_LOOK_S = 1.0  # an agent counts on leaving at its goal when it would get there within this many seconds
+PASS_SIDE_M = 0.5  # ... one whose body comes this near our line ahead (m): we walk round it
+PASS_BEYOND_M = 1.0  # a walker whose way a parked neighbour blocks turns this far past it (its aim, for eq. (3))
 # lane choice leaves out a neighbour whose weight at every offset is below exp(−LANE_TRUNCATE)
 # of its own (3e-4): a quarter of the strip's agents fewer than at 2e-16, and a quarter of the
 # kernel's time, with the same choices on captured 10,000-agent steps and the same positions
@@ -119,7 +121,8 @@ def _obstacle_time(px, py, cx_, cy_, r, circ_c, circ_r, circ_v, near_c, n_near_c
 def choose_velocities(pos, vel, vpref, aim_dist, radius, vmax, max_nb, nb_dist, samples, safety, active,
                       cell_start, items, origin_x, origin_y, h, nx, ny,
                       circ_c, circ_r, circ_v, seg_a, seg_b, seg_v, dt, key,
-                      out_vel, out_forced, keep_right, look_s, follow, comfort, goals, leave_r, squeeze_s, squeeze_side):
+                      out_vel, out_forced, keep_right, look_s, follow, comfort, goals, leave_r, squeeze_s, squeeze_side,
+                      parked):
     """Sampling RVO for every active agent at once (simultaneous, order-independent).
 
     For agent i the candidates are v_pref, the current velocity, standing still and
@@ -156,6 +159,18 @@ def choose_velocities(pos, vel, vpref, aim_dist, radius, vmax, max_nb, nb_dist, 
     v_pref to the right by ``keep_right`` before choosing, so head-on pairs pass left side
     to left side instead of meeting nose to nose.
 
+    Passing those who stand (a documented addition, ``parked``: agents that have arrived and
+    stay): a parked neighbour is passed as a standing obstacle, along the ray v′ − v_j (it
+    keeps its velocity and takes no share of the avoidance); while one stands in the
+    agent's way (ahead along v_pref, its body within ``PASS_SIDE_M`` of the line) the agent
+    turns ``PASS_BEYOND_M`` past it, so a wall or parked neighbour met farther along a
+    candidate does not count (as past ``aim_dist``), and it squeezes past (walls within
+    ``squeeze_s[i]``, below). Eq. (3) otherwise kept a walker behind people standing 1 m
+    apart: every straight line through the gaps meets someone or a wall within a few
+    metres, and standing costs only ‖v_pref‖. A parked agent ignores a walker whose goal
+    is nearer the walker than the parked one's body: it stops short (one walking up to
+    its place in front of it made it step aside for nothing).
+
     Squeezing past (a documented addition, ``squeeze_s[i]`` seconds, inf = off): an agent
     meeting an oncoming neighbour bound the other way (as for keep right, but within the
     sum of radii plus ``squeeze_side`` metres of its line on either side, and the straight
@@ -181,7 +196,7 @@ def choose_velocities(pos, vel, vpref, aim_dist, radius, vmax, max_nb, nb_dist, 
         # scratch space once per block of agents, not once per agent
         idx = np.empty(mcap, dtype=np.int64)
         d2 = np.empty(mcap, dtype=np.float64)
-        rel = np.empty((mcap, 6), dtype=np.float64)
+        rel = np.empty((mcap, 7), dtype=np.float64)
         c_vx = np.empty(scap + 4 + RING, dtype=np.float64)  # the candidates, one array per component
         c_vy = np.empty(scap + 4 + RING, dtype=np.float64)
         c_sp = np.empty(scap + 4 + RING, dtype=np.float64)
@@ -248,6 +263,7 @@ def choose_velocities(pos, vel, vpref, aim_dist, radius, vmax, max_nb, nb_dist, 
             # c = -(its velocity anticipated ``follow[i]`` of the way to its v_pref): it will not
             # make room for us, and we expect it to walk on
             un = np.sqrt(wx * wx + wy * wy)
+            aim_i = aim_dist[i]  # how far ahead the agent turns: its aim, or past a parked one in its way
             for q in range(k):
                 j = idx[q]
                 rel[q, 0] = px - pos[j, 0]
@@ -257,7 +273,26 @@ def choose_velocities(pos, vel, vpref, aim_dist, radius, vmax, max_nb, nb_dist, 
                 rel[q, 3] = -vix - vel[j, 0]
                 rel[q, 4] = -viy - vel[j, 1]
                 rel[q, 5] = 2.0
-                if follow[i] > 0.0 and un > 0.0:
+                rel[q, 6] = 0.0
+                if parked[j]:
+                    # parked (waiting, or arrived and staying): it keeps its velocity and takes
+                    # no share of the avoidance; it counts as a static thing
+                    rel[q, 3] = -vel[j, 0]
+                    rel[q, 4] = -vel[j, 1]
+                    rel[q, 5] = 1.0
+                    rel[q, 6] = 1.0
+                    if un > 0.0:  # in our way: we turn once past it, and what lies beyond does not count yet
+                        ahead = -(rel[q, 0] * wx + rel[q, 1] * wy) / un
+                        if ahead > 0.0 and abs(rel[q, 0] * wy - rel[q, 1] * wx) / un < rr_ + PASS_SIDE_M:
+                            aim_i = min(aim_i, ahead + PASS_BEYOND_M)
+                            wall_s = min(wall_s, squeeze_s[i])  # and squeezes past it, as past one oncoming
+                elif parked[i]:
+                    # we stand and it walks: one whose goal is nearer it than we are stops short of us
+                    gjx, gjy = goals[j, 0] - pos[j, 0], goals[j, 1] - pos[j, 1]
+                    reach = np.sqrt(rel[q, 0] * rel[q, 0] + rel[q, 1] * rel[q, 1]) - rr_
+                    if reach > 0.0 and gjx * gjx + gjy * gjy < reach * reach:
+                        rel[q, 6] = 2.0
+                elif follow[i] > 0.0 and un > 0.0:
                     pjx, pjy = vpref[j, 0], vpref[j, 1]
                     side = abs(rel[q, 0] * wy - rel[q, 1] * wx) / un  # |lateral offset| from our line
                     ahead = -(rel[q, 0] * wx + rel[q, 1] * wy) / un   # how far ahead of us along it
@@ -349,7 +384,7 @@ def choose_velocities(pos, vel, vpref, aim_dist, radius, vmax, max_nb, nb_dist, 
                     c0 = rel[q, 2]
                     if c0 < 0.0:
                         tc = 0.0
-                        break
+                        break  # (overlapping a parked one counts in full too)
                     if b >= 0.0:
                         continue
                     a = vrx * vrx + vry * vry
@@ -359,6 +394,10 @@ def choose_velocities(pos, vel, vpref, aim_dist, radius, vmax, max_nb, nb_dist, 
                     tt = (-b - np.sqrt(disc)) / a
                     if tt >= gone:
                         continue  # it will have left before that collision
+                    if rel[q, 6] == 1.0 and tt * c_sp[cnd] > aim_i:
+                        continue  # a parked one met only past where we turn (as a wall there)
+                    if rel[q, 6] == 2.0:
+                        continue  # a walker that stops short of us
                     if tt < tc:
                         tc = tt
                         if tc < limit:
@@ -371,7 +410,7 @@ def choose_velocities(pos, vel, vpref, aim_dist, radius, vmax, max_nb, nb_dist, 
                     t_static, t_moving = _obstacle_time(px, py, cx_, cy_, ri, circ_c, circ_r, circ_v, near_c, nc,
                                                         seg_a, seg_b, seg_v, near_s, ns)
                 t_obs = min(t_static if t_static <= wall_s else INF, t_moving)
-                if t_obs < INF and not (sp > 0.0 and t_obs * sp > aim_dist[i]):
+                if t_obs < INF and not (sp > 0.0 and t_obs * sp > aim_i):
                     tc = min(tc, t_obs)
                 if tc == INF:
                     pen = dev

@@ -83,6 +83,11 @@ class RVOParams(MethodParams):
     squeeze_past : bool      a walker meeting an oncoming one in its way, bound the other
                              way, counts a wall only within 0.5 s, so it steps up to the
                              wall to let the other pass (rvo.deadlock; walkers only)
+    pass_standing : bool     agents that have arrived and stay (waiting, queueing, gathered)
+                             are passed as standing obstacles: a walker takes all the
+                             avoidance and, while one stands in its way, counts what lies
+                             beyond where it walks round it only once past it (False =
+                             eq. (3)'s reciprocal rule for them too)
     counterflow_safety : float  in (0, 1]: the share of w a walker keeps while it walks into
                              people bound the other way, so it passes them as close as
                              people do in counterflow (rvo.density; walkers only; 1 = w)
@@ -124,6 +129,7 @@ class RVOParams(MethodParams):
     lane_choice: bool = True
     comfort_accel: Annotated[float, Field(ge=0, le=100, allow_inf_nan=False)] = 0.8
     squeeze_past: bool = True
+    pass_standing: bool = True
     counterflow_safety: Annotated[float, Field(gt=0, le=1, allow_inf_nan=False)] = 0.15
     smoothing: Literal["relaxed", "none"] = "relaxed"
     smoothing_window: Annotated[float, Field(gt=0, le=60.0, allow_inf_nan=False)] = 1.0

@@ -241,6 +241,14 @@ class Simulator(LiveObstacles):
         the other way (sensed ahead, :mod:`crowdmotion.rvo.density`), so that it passes
         them at the close range real walkers accept in counterflow instead of backing off;
         walkers (radius up to 0.4 m) only. 1 = w throughout.
+    pass_standing : bool
+        Agents that have arrived and stay (waiting, in a queue, gathered round their goal)
+        are passed as standing obstacles: a walker takes all the avoidance of one (eq. (3)'s
+        ray along v′ against its own velocity, not the reciprocal 2v′ − v_i − v_j), and
+        while one stands in its way it counts a wall or another standing one only up to
+        ``PASS_BEYOND_M`` past it, where it turns (:func:`crowdmotion.rvo._kernels.choose_velocities`);
+        one standing ignores a walker that stops short of it (its goal nearer). False =
+        eq. (3)'s reciprocal rule for them too.
     """
 
     def __init__(self, scene: Scene, time_step: float = 0.25, guidance: str = "auto",
@@ -250,7 +258,7 @@ class Simulator(LiveObstacles):
                  patience: float = 2.0, congestion: float = 1.0, replan_s: float = 2.0,
                  density_slowing: bool = True, follow: float = 0.5, lane_choice: bool = True,
                  comfort_accel: float = 0.8, counterflow: float = 20.0, squeeze_past: bool = True,
-                 counterflow_safety: float = COUNTERFLOW_SAFETY):
+                 counterflow_safety: float = COUNTERFLOW_SAFETY, pass_standing: bool = True):
         if not isinstance(scene, Scene):
             raise TypeError(f"scene must be a crowdmotion.Scene, got {scene!r}")
         if not (finite_number(time_step) and 0 < time_step <= MAX_TIME_STEP_S):
@@ -344,7 +352,7 @@ class Simulator(LiveObstacles):
         self._fields_stale = True
         self.deadlock = Deadlock(np.deg2rad(keep_right_deg), float(patience))
         for name, flag in (("density_slowing", density_slowing), ("lane_choice", lane_choice),
-                           ("squeeze_past", squeeze_past)):
+                           ("squeeze_past", squeeze_past), ("pass_standing", pass_standing)):
             if not isinstance(flag, (bool, np.bool_)):
                 raise ValueError(f"{name} must be True or False, got {flag!r}")
         if not (isinstance(follow, (int, float)) and np.isfinite(follow) and 0 <= follow <= 1):
@@ -355,6 +363,7 @@ class Simulator(LiveObstacles):
         self.comfort_accel = float(comfort_accel)
         self.lane_choice = bool(lane_choice)
         self.squeeze_past = bool(squeeze_past)
+        self.pass_standing = bool(pass_standing)
         if not (isinstance(counterflow_safety, (int, float)) and np.isfinite(counterflow_safety)
                 and 0 < counterflow_safety <= 1):
             raise ValueError(f"counterflow_safety must be a number in (0, 1], got {counterflow_safety!r}")
@@ -1308,7 +1317,7 @@ class Simulator(LiveObstacles):
                             prims.seg_v, self.dt, key, new, forced, dl.keep_right, KEEP_RIGHT_LOOK_S,
                             self.follow * np.minimum(self.density / FOLLOW_FULL_DENSITY, 1.0),
                             self._comfort_reach(), self.goals,
-                            self._leave_reach(), self._squeeze_s(), SQUEEZE_SIDE_M)
+                            self._leave_reach(), self._squeeze_s(), SQUEEZE_SIDE_M, self._parked())
         # safety: of two agents that would touch during the step, the one with the lower
         # (random, per step) priority stands still instead, until none would
         # agents a moving obstacle bears down on go first: standing still is no refuge for them
@@ -1321,6 +1330,12 @@ class Simulator(LiveObstacles):
                 prims.circ_r, prims.circ_v, prims.seg_a, prims.seg_b, prims.seg_v, self.dt, ESCAPE_HEADINGS)
         self.stats["forced_choices"] += int(forced[steer].sum())
         return new
+
+    def _parked(self) -> np.ndarray:
+        """(N,) agents that have arrived and stay (waiting, queueing, gathered): the others
+        pass them as they would a standing obstacle (``K.choose_velocities``); none with
+        ``pass_standing`` off."""
+        return self.active & ~self.leaves & ~np.isnan(self.arrival_time) & self.pass_standing
 
     def _squeeze_s(self) -> np.ndarray:
         """(N,) seconds within which a walker squeezing past an oncoming one counts a
