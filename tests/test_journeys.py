@@ -876,3 +876,34 @@ def test_a_run_cut_short_whose_routes_all_leave_does_not_blame_routes_that_do_no
     assert result.summary["ended_at_limit"] and journeys["finished"] > 0
     assert journeys["standing_at_end"] == 0
     assert "does not leave" not in headline(result.summary)
+
+
+def test_a_first_in_line_overtaken_in_a_single_file_gate_loses_its_turn_instead_of_holding_the_line_for_good():
+    # 4 queue in a 0.8 m gate (places 1 m apart, 0.2 persons/s); once all four are in line
+    # the second is put 2 m behind the line's end (a push out of the gate): the third and
+    # fourth now stand in the gate between it and its place, on their own places. It used
+    # to stay second for good, the line waiting for it (JuPedSim's queues_waiting scene:
+    # 2 of 20 visitors never served in 4 of 8 seeds); now it takes its turn after them
+    from crowdmotion.groups import Rect
+    from crowdmotion.stages import Leave, Queue
+
+    scene = cm.Scene(bounds=([0, 0], [10, 20]), obstacles=[cm.Box([0, 12], [4.6, 15]), cm.Box([5.4, 12], [10, 15])])
+    sim = rvo.Simulator(scene, time_step=0.25)
+    ids = sim.add_agents([[5, 8], [5, 7], [5, 6], [5, 5]], [[5, 18]] * 4, radius=0.2)
+    sim.set_route(ids, [Queue([5.0, 14.5], rate=0.2, direction=[0.0, -1.0], spacing=1.0, name="gate"),
+                        Leave(Rect([3.0, 18.0], [7.0, 20.0]), name="out")])
+    queue = sim.journeys.queues[0]
+    pushed = None
+    for _ in range(400):  # 100 s
+        sim.step()
+        if pushed is None and len(queue.members) == 4 and queue.serving:
+            pushed = queue.members[1]
+            sim.place([pushed], [[5.0, queue.slots[3][1] - 2.0]])
+        if not sim.active.any():
+            break
+    assert pushed is not None
+    served = [a for a, _, _ in queue.served]
+    assert len(served) == 4 and not queue.members, (served, queue.members)
+    assert served[-1] == pushed, "the one pushed out takes its turn behind those now before it"
+    released = np.array([r for _, _, r in queue.served])
+    assert np.diff(released).min() >= 5.0 - 1e-9 and released[-1] < 40.0, released

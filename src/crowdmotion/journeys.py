@@ -609,6 +609,9 @@ class Journeys:
             self._close_up(q, w)  # the line moves up a place
             self._next(np.array([freed]), w)
         if q.members and not q.serving:
+            members = np.asarray(q.members)
+            if q.reorder_overtaken(w.positions[members], self.radius[members], self.time):
+                self._close_up(q, w)  # each to the place of its new turn
             q.start(self.time, w.positions[q.members[0]], freed is not None)
 
     # ---- choices and places -------------------------------------------------------------

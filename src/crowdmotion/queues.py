@@ -9,6 +9,7 @@ from crowdmotion.groups import Points
 from crowdmotion.stages import Queue
 
 REACH_SLACK_M = 0.1  # service starts once the first in line is within one spacing (and this) of the head
+OVERTAKEN_S = 5.0  # a first in line kept out of reach this long, while a later one stands within reach, loses its turn
 
 
 def wait_row(waits: np.ndarray) -> dict:
@@ -39,6 +40,7 @@ class ServiceQueue:
         self.service_end = -np.inf  # when the service under way ends (or the last ended), seconds
         self.joined_at: dict[int, float] = {}
         self.served: list[tuple[int, float, float]] = []  # (agent, joined, released), in service order
+        self.stalled_since = np.inf  # since when the first in line stands out of reach while a later one is within
         self.lengths: list[tuple[float, int]] = []       # (second, agents in line), sampled
 
     @property
@@ -92,6 +94,54 @@ class ServiceQueue:
     def places(self) -> np.ndarray:
         """(len(members), 2) each member's place in line now."""
         return self.slots[np.minimum(np.arange(len(self.members)), len(self.slots) - 1)]
+
+    def along(self, points: np.ndarray) -> np.ndarray:
+        """(K,) how far back along the line from the head each of ``points`` (K, 2)
+        stands: its projection onto the polyline through the places, metres."""
+        points = np.asarray(points, dtype=float).reshape(-1, 2)
+        if len(self.slots) < 2:
+            return np.linalg.norm(points - self.slots[0], axis=1)
+        a, b = self.slots[:-1], self.slots[1:]
+        ab = b - a
+        length = np.linalg.norm(ab, axis=1)
+        start = np.concatenate([[0.0], np.cumsum(length)[:-1]])
+        rel = points[:, None, :] - a[None]
+        t = np.clip((rel * ab[None]).sum(axis=2) / np.maximum(length * length, 1e-12)[None], 0.0, 1.0)
+        gap = np.linalg.norm(rel - t[..., None] * ab[None], axis=2)
+        k = np.argmin(gap, axis=1)
+        return start[k] + t[np.arange(len(points)), k] * length[k]
+
+    def reorder_overtaken(self, positions: np.ndarray, radii: np.ndarray, time: float) -> bool:
+        """Let the first in line lose its turn to those it stands behind, once it has stood
+        out of reach of the head for ``OVERTAKEN_S`` seconds while a later member stood
+        within reach (``positions`` (len(members), 2) and ``radii`` (len(members),): the
+        members', in line order). It moves back behind every member that stands ahead of
+        it along the line by more than their two radii (a body's width: not beside it);
+        the others keep their order. A first in line pushed out of a single-file gate and
+        overtaken there cannot pass those now before it, who stand on their places:
+        without this the line waited for it for good. Only while no one is being served.
+        True if the order changed."""
+        if self.serving or len(self.members) < 2:
+            self.stalled_since = np.inf
+            return False
+        positions = np.asarray(positions, dtype=float)
+        reach = self.stage.spacing + REACH_SLACK_M
+        off = np.linalg.norm(positions - self.stage.head, axis=1)
+        if off[0] <= reach or not (off[1:] <= reach).any():
+            self.stalled_since = np.inf
+            return False
+        self.stalled_since = min(self.stalled_since, time)
+        if time - self.stalled_since < OVERTAKEN_S - 1e-9:
+            return False
+        self.stalled_since = np.inf
+        along = self.along(positions)
+        ahead = along[0] - along[1:] > radii[0] + np.asarray(radii, dtype=float)[1:]
+        if not ahead.any():
+            return False
+        first, rest = self.members[0], self.members[1:]
+        self.members = ([a for a, before in zip(rest, ahead) if before] + [first]
+                        + [a for a, before in zip(rest, ahead) if not before])
+        return True
 
     def release(self, time: float) -> int | None:
         """The head whose service has ended by ``time``, now out of line (the others
