@@ -310,3 +310,42 @@ smoothing = "none"
     hidden = ~tr.active_mask[1:] & ~tr.active_mask[:-1]
     moves = np.linalg.norm(np.diff(tr.positions, axis=0), axis=-1)
     assert hidden.any() and moves[hidden].max() == 0.0
+
+
+CORRIDOR_WAIT = """
+name = "held_in_a_corridor"
+method = "rvo"
+seed = 0
+
+[scene]
+bounds = [[0.0, 0.0], [20.0, 1.4]]
+
+[[groups]]
+name = "waiter"
+count = 1
+spawn = { shape = "points", points = [[10.0, 0.7]] }
+route = [
+  { kind = "wait", time = 100.0 },
+  { kind = "leave", area = { shape = "rect", lower = [19.0, 0.2], upper = [19.9, 1.2] } },
+]
+
+[[groups]]
+name = "walker"
+count = 1
+spawn = { shape = "points", points = [[1.0, 0.7]] }
+goal = { shape = "rect", lower = [19.0, 0.2], upper = [19.9, 1.2] }
+
+[rvo]
+max_steps = 200
+"""
+
+
+def test_a_run_ended_at_its_step_limit_tells_one_held_for_good_from_one_still_waiting():
+    # a 1.4 m corridor with one waiting 100 s in its middle: no room to pass (0.45 m either
+    # side of it); the walker stands behind it, the one waiting has its wait to stand out
+    from crowdmotion.metrics import headline
+    from crowdmotion.scenario import parse_scenario, run_scenario
+
+    summary = run_scenario(parse_scenario(CORRIDOR_WAIT), progress=False).summary
+    assert summary["ended_at_limit"]["stalled"] == 1, summary["ended_at_limit"]
+    assert "with 1 short of their goal that came no nearer it" in headline(summary)

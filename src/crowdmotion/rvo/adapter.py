@@ -134,8 +134,13 @@ def run_scenario(scene, groups, params: RVOParams, rng, progress: bool = True):
         "smoothing": smoothing_report(traj, "none" if traj.metadata.get("partial") else params.smoothing,
                                       params.smoothing_window),
     })
-    metrics.note_step_limit(summary, "rvo.max_steps", params.max_steps, sim.steps >= params.max_steps,
-                            sim.steps * params.time_step)
+    at_limit = sim.steps >= params.max_steps
+    stalled = 0
+    if at_limit and not arrived.all():  # those standing out a wait are not stuck
+        waiting = np.isfinite(journeys.wait_until) if journeys is not None else np.zeros(len(arrived), dtype=bool)
+        stalled = metrics.stalled_short(result.steps, sim.goals, arrived | waiting)
+    metrics.note_step_limit(summary, "rvo.max_steps", params.max_steps, at_limit, sim.steps * params.time_step,
+                            stalled=stalled)
     return traj, result, summary
 
 
