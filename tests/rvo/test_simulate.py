@@ -337,12 +337,14 @@ goal = { shape = "rect", lower = [19.0, 0.2], upper = [19.9, 1.2] }
 
 [rvo]
 max_steps = 200
+pass_standing = false
 """
 
 
 def test_a_run_ended_at_its_step_limit_tells_one_held_for_good_from_one_still_waiting():
-    # a 1.4 m corridor with one waiting 100 s in its middle: no room to pass (0.45 m either
-    # side of it); the walker stands behind it, the one waiting has its wait to stand out
+    # a 1.4 m corridor with one waiting 100 s in its middle (0.45 m either side of it) that
+    # does not step aside (pass_standing off): the walker stands behind it for good, the
+    # one waiting has its wait to stand out
     from crowdmotion.metrics import headline
     from crowdmotion.scenario import parse_scenario, run_scenario
 

@@ -1144,3 +1144,25 @@ def test_a_person_whose_wait_is_over_walks_round_people_still_waiting_in_its_way
 def test_with_pass_standing_off_those_waiting_count_as_eq3_has_them_and_hold_the_walker():
     sim, *_ = _room_waiting(1, pass_standing=False)
     assert sim.present[1], "eq. (3)'s reciprocal rule: every line through the gaps meets someone within 4 m"
+
+
+def test_one_waiting_in_the_middle_of_a_narrow_corridor_steps_aside_for_a_walker_held_behind_it_and_returns():
+    # 1.4 m wide: 0.45 m either side of the one waiting, too little for a 0.5 m body
+    from crowdmotion.stages import Leave, Wait
+
+    sim = rvo.Simulator(cm.Scene(bounds=([0, 0], [20, 1.4])), rng=np.random.default_rng(0))
+    place = np.array([10.0, 0.7])
+    waiting = sim.add_agents(place[None], place[None])
+    sim.set_route(waiting, [Wait(60.0), Leave(cm.groups.Rect([19.0, 0.2], [19.9, 1.2]))])
+    walker = sim.add_agents([[1.0, 0.7]], [[19.5, 0.7]])
+    frames, present = [sim.positions.copy()], [sim.present.copy()]
+    while sim.time < 40.0:
+        sim.step()
+        _record(sim, frames, present)
+    assert not sim.present[walker[0]], "the walker got past (15 s of free walking)"
+    moved = np.linalg.norm(np.array(frames)[:, waiting[0]] - place, axis=1)
+    assert 0.05 < moved.max() < 0.5, "it stepped aside, no farther than the wall lets it"
+    assert moved[-1] < 0.05, "and is back in its place"
+    traj = cm.Trajectories(np.array(frames), sim.dt, radius=sim.params["radius"], active=np.array(present))
+    audit = collision_audit(traj, sim.scene)
+    assert audit.agent_agent == 0 and audit.agent_obstacle == 0, audit.events[:3]

@@ -24,6 +24,9 @@ SLACK = 1e-6
 COMFORT_WEIGHT = 2.0
 RING = 8  # candidates on the circle of comfortable changes round the current velocity
 LEAVE_LOOK_S = 1.0  # an agent counts on leaving at its goal when it would get there within this many seconds
+ASIDE_MPS = 0.4  # one standing steps aside this fast for a walker held in its way ...
+ASIDE_AHEAD_M = 1.5  # ... standing within this gap of it (m) ...
+HELD_S = 2.0  # ... that has stood this long (s)
 PASS_SIDE_M = 0.5  # ... one whose body comes this near our line ahead (m): we walk round it
 PASS_BEYOND_M = 1.0  # a walker whose way a parked neighbour blocks turns this far past it (its aim, for eq. (3))
 # lane choice leaves out a neighbour whose weight at every offset is below exp(−LANE_TRUNCATE)
@@ -122,7 +125,7 @@ def choose_velocities(pos, vel, vpref, aim_dist, radius, vmax, max_nb, nb_dist, 
                       cell_start, items, origin_x, origin_y, h, nx, ny,
                       circ_c, circ_r, circ_v, seg_a, seg_b, seg_v, dt, key,
                       out_vel, out_forced, keep_right, look_s, follow, comfort, goals, leave_r, squeeze_s, squeeze_side,
-                      parked):
+                      parked, still):
     """Sampling RVO for every active agent at once (simultaneous, order-independent).
 
     For agent i the candidates are v_pref, the current velocity, standing still and
@@ -169,7 +172,10 @@ def choose_velocities(pos, vel, vpref, aim_dist, radius, vmax, max_nb, nb_dist, 
     apart: every straight line through the gaps meets someone or a wall within a few
     metres, and standing costs only ‖v_pref‖. A parked agent ignores a walker whose goal
     is nearer the walker than the parked one's body: it stops short (one walking up to
-    its place in front of it made it step aside for nothing).
+    its place in front of it made it step aside for nothing). One parked in the way of a
+    walker that has stood ``HELD_S`` (``still``, seconds), its goal beyond, steps aside
+    square to the walker's line at ``ASIDE_MPS`` until the walker moves on (1.4 m corridor,
+    one waiting in its middle: 0.45 m on either side for a 0.5 m body), then goes back.
 
     Squeezing past (a documented addition, ``squeeze_s[i]`` seconds, inf = off): an agent
     meeting an oncoming neighbour bound the other way (as for keep right, but within the
@@ -247,6 +253,8 @@ def choose_velocities(pos, vel, vpref, aim_dist, radius, vmax, max_nb, nb_dist, 
             ax_, ay_ = 0.0, 0.0
             vix, viy = vel[i, 0], vel[i, 1]
             wx, wy = _kept_right(i, k, idx, pos, vpref, radius, vpref[i, 0], vpref[i, 1], keep_right, look_s)
+            if parked[i]:  # one standing in a held walker's way steps aside for it
+                wx, wy = _aside(i, k, idx, pos, vpref, radius, parked, still, goals, wx, wy)
             wall_s = INF  # a static obstacle's collision counts when met within this many seconds
             # (only obstacles within reach can be squeezed past: in the open the test is skipped)
             if squeeze_s[i] < INF and nc + ns > 0 and _meets_oncoming(
@@ -429,6 +437,35 @@ def choose_velocities(pos, vel, vpref, aim_dist, radius, vmax, max_nb, nb_dist, 
             else:
                 out_vel[i, 0], out_vel[i, 1] = ax_, ay_
                 out_forced[i] = True
+
+
+@njit(inline="always")
+def _aside(i, k, idx, pos, vpref, radius, parked, still, goals, wx, wy):
+    """A parked agent's v_pref: ``(wx, wy)``, or a step aside at ASIDE_MPS when a walker
+    among its ``k`` neighbours ``idx`` has stood HELD_S (``still``, seconds)
+    within ASIDE_AHEAD_M of it with it in its way (its body within the sum of radii of the
+    walker's line, the walker's goal beyond it): square to that line, away from it (to the
+    walker's right when on it)."""
+    for q in range(k):
+        j = idx[q]
+        if parked[j]:
+            continue
+        ojx, ojy = vpref[j, 0], vpref[j, 1]
+        on = np.sqrt(ojx * ojx + ojy * ojy)
+        if on == 0.0 or still[j] < HELD_S:
+            continue
+        ux, uy = ojx / on, ojy / on
+        dx, dy = pos[i, 0] - pos[j, 0], pos[i, 1] - pos[j, 1]
+        ahead = dx * ux + dy * uy
+        lat = dx * uy - dy * ux  # + = to the walker's right
+        if ahead <= 0.0 or ahead > ASIDE_AHEAD_M + radius[i] + radius[j] or abs(lat) >= radius[i] + radius[j]:
+            continue
+        gx, gy = goals[j, 0] - pos[j, 0], goals[j, 1] - pos[j, 1]
+        if gx * gx + gy * gy <= ahead * ahead:
+            continue  # it stops short of us
+        side = 1.0 if lat >= -1e-6 else -1.0
+        return side * uy * ASIDE_MPS, -side * ux * ASIDE_MPS
+    return wx, wy
 
 
 @njit(inline="always")

@@ -86,7 +86,8 @@ class RVOParams(MethodParams):
     pass_standing : bool     agents that have arrived and stay (waiting, queueing, gathered)
                              are passed as standing obstacles: a walker takes all the
                              avoidance and, while one stands in its way, counts what lies
-                             beyond where it walks round it only once past it (False =
+                             beyond where it walks round it only once past it; one of
+                             them steps aside for a walker held 2 s behind it (False =
                              eq. (3)'s reciprocal rule for them too)
     counterflow_safety : float  in (0, 1]: the share of w a walker keeps while it walks into
                              people bound the other way, so it passes them as close as

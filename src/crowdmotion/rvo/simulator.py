@@ -247,7 +247,8 @@ class Simulator(LiveObstacles):
         ray along v′ against its own velocity, not the reciprocal 2v′ − v_i − v_j), and
         while one stands in its way it counts a wall or another standing one only up to
         ``PASS_BEYOND_M`` past it, where it turns (:func:`crowdmotion.rvo._kernels.choose_velocities`);
-        one standing ignores a walker that stops short of it (its goal nearer). False =
+        one standing ignores a walker that stops short of it (its goal nearer), and steps
+        aside for one that has stood 2 s behind it with its goal beyond. False =
         eq. (3)'s reciprocal rule for them too.
     """
 
@@ -1317,7 +1318,7 @@ class Simulator(LiveObstacles):
                             prims.seg_v, self.dt, key, new, forced, dl.keep_right, KEEP_RIGHT_LOOK_S,
                             self.follow * np.minimum(self.density / FOLLOW_FULL_DENSITY, 1.0),
                             self._comfort_reach(), self.goals,
-                            self._leave_reach(), self._squeeze_s(), SQUEEZE_SIDE_M, self._parked())
+                            self._leave_reach(), self._squeeze_s(), SQUEEZE_SIDE_M, self._parked(), self.deadlock.still)
         # safety: of two agents that would touch during the step, the one with the lower
         # (random, per step) priority stands still instead, until none would
         # agents a moving obstacle bears down on go first: standing still is no refuge for them
