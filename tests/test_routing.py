@@ -114,3 +114,24 @@ def test_a_crowd_whose_only_way_out_is_a_door_just_wider_than_a_body_goes_throug
     assert (traj.positions[-1, :, 0] > 12).all(), "everyone through the door"
     audit = metrics.collision_audit(traj, scene)
     assert audit.agent_agent == 0 and audit.agent_obstacle == 0
+
+
+def test_a_narrow_door_a_body_fits_through_is_open_though_a_longer_way_round_exists():
+    # SteerSuite's doorway-one-way: a corridor in an open world, cut by a wall with a 1.2 m
+    # door; bodies of radius 0.5 m on 0.5 m cells fit through it (centre within y 0.4-0.6)
+    # but no cell centre in it is clear. The floor stays joined round the corridor's ends,
+    # so the door is a shortcut, not the only way: it was left shut and the field sent
+    # walkers 65 m round the outside instead of 25 m through it.
+    scene = cm.Scene(bounds=([-100, -100], [100, 100]), obstacles=[
+        cm.Box([-20, 3.1], [20, 5]), cm.Box([-20, -3], [20, -1]), cm.Box([-0.2, -3], [0, -0.1]),
+        cm.Box([-0.2, 1.1], [0, 5])])
+    from crowdmotion.groups import Points
+
+    f = distance_fields(scene, [Points(np.array([[15.0, 1.0]]))], 0.5)
+    assert f.at(0, np.array([[-10.0, 2.0]]))[0] < 27.0, "through the door, not 65 m round the corridor"
+    # a door narrower than a body stays shut: the way round it is the way
+    shut = cm.Scene(bounds=([-100, -100], [100, 100]), obstacles=[
+        cm.Box([-20, 3.1], [20, 5]), cm.Box([-20, -3], [20, -1]), cm.Box([-0.2, -3], [0, 0.05]),
+        cm.Box([-0.2, 0.95], [0, 5])])
+    g = distance_fields(shut, [Points(np.array([[15.0, 1.0]]))], 0.5)
+    assert g.at(0, np.array([[-10.0, 2.0]]))[0] > 60.0
