@@ -517,13 +517,19 @@ def _meets_oncoming(i, k, idx, pos, vpref, radius, wx, wy, look_s, right_bodies,
 # ---- guidance: the distance field (line of sight lives in crowdmotion._contact) --------------
 @threaded
 def field_directions(pos, field_of, dist, origin_x, origin_y, cell, window, use, radius,
-                     circ_c, circ_r, seg_a, seg_b, out):
+                     circ_c, circ_r, seg_a, seg_b, inside, out):
     """Offset to the next aim point along an exact distance field, for agents with ``use``.
 
     ``dist`` is (F, nx, ny) metres to the nearest goal cell (inf where blocked). The agent
     aims at the window cell c (within ``window`` cells) minimising dist[c] + ‖centre(c) − p‖
     among the cells it can walk to in a straight line: a look-ahead on the shortest path
     that turns the field's 8 directions into smooth headings without cutting corners.
+    A cell whose centre no body of the agent's radius stands on (a narrow passage's,
+    opened by ``routing.narrow_passages`` where a body fits at some point of it) is aimed
+    at the first of the points ``inside`` ((K, 2) offsets from its centre, nearest first)
+    that the agent can walk to: aiming at the centres alone, a walker at the mouth of a
+    1.2 m door (radius 0.5 m, 0.5 m cells) saw none of the door's cells and paced on the
+    spot before it for good.
     """
     n = pos.shape[0]
     gx_n, gy_n = dist.shape[1], dist.shape[2]
@@ -560,10 +566,22 @@ def field_directions(pos, field_of, dist, origin_x, origin_y, cell, window, use,
                     best, b = cost[q], q
             if b < 0:
                 break
-            if _clear(px, py, px + offx[b], py + offy[b], radius[i], circ_c, circ_r, seg_a, seg_b):
+            qx, qy = px + offx[b], py + offy[b]
+            if _clear(px, py, qx, qy, radius[i], circ_c, circ_r, seg_a, seg_b):
                 out[i, 0] = offx[b]
                 out[i, 1] = offy[b]
                 break
+            if not _clear(qx, qy, qx, qy, radius[i], circ_c, circ_r, seg_a, seg_b):
+                found = False
+                for k in range(inside.shape[0]):  # no body stands on its centre: a point of it
+                    if _clear(px, py, qx + inside[k, 0], qy + inside[k, 1], radius[i], circ_c, circ_r, seg_a,
+                              seg_b):
+                        out[i, 0] = offx[b] + inside[k, 0]
+                        out[i, 1] = offy[b] + inside[k, 1]
+                        found = True
+                        break
+                if found:
+                    break
             cost[b] = INF
 
 
