@@ -378,11 +378,28 @@ def test_without_squeezing_past_or_easing_w_in_counterflow_the_narrow_corridor_s
     assert run.summary["arrival_rate"] < 0.5
 
 
-def test_only_walkers_squeeze_past_robots_and_vehicles_mind_every_wall():
+def test_only_people_squeeze_past_robots_and_vehicles_mind_every_wall():
     sim = rvo.Simulator(cm.Scene(bounds=([0, 0], [20, 3])))
     sim.add_agents([[2, 1.5]], [[18, 1.5]], radius=0.25)
     sim.add_agents([[18, 1.5]], [[2, 1.5]], radius=0.6)
-    assert sim._squeeze_s().tolist() == [deadlock.SQUEEZE_WALL_S, np.inf]
+    sim.add_agents([[10, 1.5]], [[2, 1.5]], radius=0.5)  # SteerSuite's people
+    assert sim._squeeze_s().tolist() == [deadlock.SQUEEZE_WALL_S, np.inf, deadlock.SQUEEZE_WALL_S]
     off = rvo.Simulator(cm.Scene(bounds=([0, 0], [20, 3])), squeeze_past=False)
     off.add_agents([[2, 1.5]], [[18, 1.5]], radius=0.25)
     assert off._squeeze_s().tolist() == [np.inf]
+
+
+def test_two_steersuite_people_head_on_in_a_corridor_with_room_for_both_pass_each_other():
+    # SteerSuite's squeeze test case: bodies of radius 0.5 m, a 2.5 m corridor (room for two
+    # and 0.5 m to spare). Squeezing past for people only up to 0.4 m, one walked backwards
+    # 12-13 s ahead of the other and arrived at 47-50 s against a free walk of 19 s
+    scene = cm.Scene(bounds=([-100, -100], [100, 100]),
+                     obstacles=[cm.Box([-20, 1.25], [20, 3]), cm.Box([-20, -3], [20, -1.25])])
+    sim = rvo.Simulator(scene, rng=np.random.default_rng(0))
+    sim.add_agents([[-10, 0], [10, 0]], [[15, 0], [-15, 0]], radius=0.5, max_speed=1.5, pref_speed=1.3)
+    backwards = np.zeros(2)
+    while sim.active.any() and sim.time < 60.0:
+        sim.step()
+        backwards += (sim.velocities[:, 0] * np.array([1.0, -1.0]) < -0.1) * sim.dt * sim.active
+    assert not sim.active.any() and sim.time < 1.2 * 25.0 / 1.3, sim.time
+    assert backwards.max() <= 0.5, backwards

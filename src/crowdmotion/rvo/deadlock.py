@@ -107,6 +107,7 @@ BLOCKER_CANDIDATES = 6  # nearest neighbours searched for the one in an agent's 
 KEEP_RIGHT_LOOK_S = 5.0  # keep right for an oncoming agent met within this many seconds
 SQUEEZE_WALL_S = 0.5  # squeezing past an oncoming walker, a wall counts when met within this many seconds
 SQUEEZE_SIDE_M = 0.2  # ... one within the sum of radii plus this of our line, either side
+SQUEEZE_MAX_RADIUS_M = 0.5  # bodies up to this radius squeeze past (people, SteerSuite's 0.5 m ones too)
 SLOW = 0.1             # progress along v_pref below this fraction of pref_speed is "held up"
 YIELD_TURN = np.deg2rad(30.0)  # a yielding agent backs away turned this far to its right
 YIELD_MAX_S = 10.0

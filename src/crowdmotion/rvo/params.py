@@ -82,7 +82,8 @@ class RVOParams(MethodParams):
                              not twitch (0 = eq. (3)'s free choice; walkers only)
     squeeze_past : bool      a walker meeting an oncoming one in its way, bound the other
                              way, counts a wall only within 0.5 s, so it steps up to the
-                             wall to let the other pass (rvo.deadlock; walkers only)
+                             wall to let the other pass (rvo.deadlock; bodies up to
+                             0.5 m radius only)
     pass_standing : bool     agents that have arrived and stay (waiting, queueing, gathered)
                              are passed as standing obstacles: a walker takes all the
                              avoidance and, while one stands in its way, counts what lies

@@ -20,8 +20,8 @@ from crowdmotion.rvo import _kernels as K
 from crowdmotion.rvo import congestion as _congestion
 from crowdmotion.rvo import deadlock as _deadlock
 from crowdmotion.rvo.congestion import CongestionRouter
-from crowdmotion.rvo.deadlock import (KEEP_RIGHT_LOOK_S, SQUEEZE_SIDE_M, SQUEEZE_WALL_S, Deadlock,
-                                      contact_arrivals)
+from crowdmotion.rvo.deadlock import (KEEP_RIGHT_LOOK_S, SQUEEZE_MAX_RADIUS_M, SQUEEZE_SIDE_M, SQUEEZE_WALL_S,
+                                      Deadlock, contact_arrivals)
 from crowdmotion.rvo.density import COUNTERFLOW_SAFETY, PERSON_MAX_RADIUS_M, DensitySlowing
 from crowdmotion.rvo.lanes import LaneChoice
 from crowdmotion.routing import DistanceFields, distance_fields
@@ -234,8 +234,8 @@ class Simulator(LiveObstacles):
         A walker meeting an oncoming one in its way, bound the other way, counts a wall
         only when it would meet it within ``SQUEEZE_WALL_S`` (0.5 s), so it steps up to
         the wall to let the other pass instead of standing (:mod:`crowdmotion.rvo.deadlock`,
-        rule 1); walkers (radius up to 0.4 m) only. False = every wall counts as eq. (3)
-        has it.
+        rule 1); people (radius up to ``SQUEEZE_MAX_RADIUS_M``, 0.5 m: SteerSuite's bodies
+        too) only. False = every wall counts as eq. (3) has it.
     counterflow_safety : float
         In (0, 1]: the share of w (eq. (3)) a walker keeps while it walks into people bound
         the other way (sensed ahead, :mod:`crowdmotion.rvo.density`), so that it passes
@@ -1342,7 +1342,7 @@ class Simulator(LiveObstacles):
         """(N,) seconds within which a walker squeezing past an oncoming one counts a
         wall's collision (:mod:`crowdmotion.rvo.deadlock`, rule 1); inf where it counts
         them all: bodies wider than a person (robots, vehicles), or ``squeeze_past`` off."""
-        person = self.params["radius"] <= PERSON_MAX_RADIUS_M
+        person = self.params["radius"] <= SQUEEZE_MAX_RADIUS_M
         return np.where(person & self.squeeze_past, SQUEEZE_WALL_S, np.inf)
 
     def _comfort_reach(self) -> np.ndarray:
