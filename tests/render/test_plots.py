@@ -188,3 +188,19 @@ def test_a_floor_of_many_rooms_gives_every_group_its_own_colour():
     colours = plots.group_colours(names)
     assert len(set(colours.values())) == 40
     assert [colours[n] for n in names[:10]] == [colormaps["tab10"](i) for i in range(10)]  # as before
+
+
+def test_a_few_walkers_in_a_large_world_are_drawn_zoomed_on_their_paths_and_a_crowd_over_it_is_not():
+    from crowdmotion.render.plots import ZOOM_PAD_M, _view_2d
+
+    scene = cm.Scene(bounds=([-100, -100], [100, 100]))
+    walk = np.stack([np.linspace(-10, 15, 50), np.zeros(50)], axis=1)  # SteerSuite's squeeze: 25 m of 200
+    traj = cm.Trajectories(np.stack([walk, walk[::-1] + [0, 1]], axis=1), 0.25)
+    lo, hi = _view_2d(traj, scene, np.arange(2), None, None)
+    assert lo[0] == pytest.approx(-10 - 0.15 * 25) and hi[0] == pytest.approx(15 + 0.15 * 25)
+    assert lo[1] == pytest.approx(-0.15 * 25) and hi[1] == pytest.approx(1 + 0.15 * 25)
+    wide = cm.Trajectories(np.stack([walk * 6, walk[::-1] + [0, 1]], axis=1), 0.25)  # 150 m: the whole world
+    assert [v.tolist() for v in _view_2d(wide, scene, np.arange(2), None, None)] == [[-100, -100], [100, 100]]
+    lone = cm.Trajectories(np.zeros((3, 1, 2)), 0.25)  # one standing still: a few metres round it
+    lo, hi = _view_2d(lone, scene, np.arange(1), None, None)
+    assert lo.tolist() == [-ZOOM_PAD_M, -ZOOM_PAD_M] and hi.tolist() == [ZOOM_PAD_M, ZOOM_PAD_M]

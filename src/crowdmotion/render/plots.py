@@ -91,6 +91,9 @@ def _group_colours(traj: Trajectories) -> dict:
 
 MAX_ASPECT = 6.0  # a scene's picture is at most this many times longer than high (or higher than long)
 TITLE_WIDTH = 90  # characters a title's line holds before it wraps (the figure keeps its width)
+ZOOM_SHARE = 0.25  # paths spanning less than this share of the bounds along both axes: drawn zoomed in
+ZOOM_PAD = 0.15    # ... padded by this share of their span
+ZOOM_PAD_M = 2.0   # ... or these metres, whichever is more
 MAX_PATHS = 400  # more paths than this turn into a solid block: draw an even sample
 
 
@@ -212,6 +215,25 @@ def write_gif(frames: list, path, fps: float) -> None:
 FEW_TARGETS = 20  # up to this many goals are targets drawn as stars over the paths; more are goal cells
 
 
+def _view_2d(traj: Trajectories, scene: Scene, drawn: np.ndarray, goals, goal_paths) -> tuple[np.ndarray, np.ndarray]:
+    """(lower, upper) of the 2D picture: the scene's bounds, or, where the paths (with the
+    goals and targets' paths) take up under ZOOM_SHARE of them along both axes (a few
+    walkers in SteerSuite's 200 m world), the box round them padded by ZOOM_PAD (at least
+    ZOOM_PAD_M), within the bounds."""
+    lo, hi = np.asarray(scene.lower[:2], float), np.asarray(scene.upper[:2], float)
+    pts = [traj.positions[traj.active_mask[:, i], i, :2] for i in drawn]
+    pts += [np.atleast_2d(goals)[:, :2]] if goals is not None else []
+    pts += [np.asarray(t)[:, :2] for t in goal_paths or []]
+    pts = np.concatenate([p for p in pts if len(p)]) if any(len(p) for p in pts) else np.zeros((0, 2))
+    if not len(pts):
+        return lo, hi
+    a, b = pts.min(axis=0), pts.max(axis=0)
+    if np.any(b - a >= ZOOM_SHARE * (hi - lo)):
+        return lo, hi
+    pad = np.maximum(ZOOM_PAD * (b - a).max(), ZOOM_PAD_M)
+    return np.maximum(a - pad, lo), np.minimum(b + pad, hi)
+
+
 def plot_paths(traj: Trajectories, scene: Scene, path, title: str = "", goals=None, goal_paths=None) -> Path:
     """Every agent's path (start ○, end ●) over the scene's obstacles; 2D or 3D; with
     ``goals`` marked and ``goal_paths`` (polylines: moving targets as followed) dashed."""
@@ -225,7 +247,10 @@ def plot_paths(traj: Trajectories, scene: Scene, path, title: str = "", goals=No
         # a scene far longer than wide (a 120 x 4 m corridor) drawn to scale is a strip a
         # few pixels high: y is drawn stretched (or, far taller than wide, squeezed) to
         # MAX_ASPECT, and the title says so
-        shape = (scene.upper[1] - scene.lower[1]) / (scene.upper[0] - scene.lower[0])
+        lo, hi = _view_2d(traj, scene, drawn, goals, goal_paths)
+        if np.any(lo > np.asarray(scene.lower[:2])) or np.any(hi < np.asarray(scene.upper[:2])):
+            note += ", zoomed to the paths"
+        shape = (hi[1] - lo[1]) / (hi[0] - lo[0])
         aspect = float(np.clip(shape, 1 / MAX_ASPECT, MAX_ASPECT)) / shape
         if abs(aspect - 1.0) > 1e-9:
             note += f", y scale × {aspect:.2g}"
@@ -251,8 +276,8 @@ def plot_paths(traj: Trajectories, scene: Scene, path, title: str = "", goals=No
                 ax.plot(g[:, 0], g[:, 1], "s", color="gold", alpha=0.35, ms=6, zorder=1)
             else:  # a few targets: on top, where the bodies that reach them do not hide them
                 ax.plot(g[:, 0], g[:, 1], "*", color="gold", mec="k", mew=0.7, ms=13, zorder=6)
-        ax.set_xlim(scene.lower[0], scene.upper[0])
-        ax.set_ylim(scene.lower[1], scene.upper[1])
+        ax.set_xlim(lo[0], hi[0])
+        ax.set_ylim(lo[1], hi[1])
         ax.set_aspect(aspect)
         ax.set_xlabel("x (m)")
         ax.set_ylabel("y (m)")
