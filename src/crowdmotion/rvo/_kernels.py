@@ -24,11 +24,11 @@ SLACK = 1e-6
 COMFORT_WEIGHT = 2.0
 RING = 8  # candidates on the circle of comfortable changes round the current velocity
 LEAVE_LOOK_S = 1.0  # an agent counts on leaving at its goal when it would get there within this many seconds
-ASIDE_MPS = 0.4  # one standing steps aside this fast for a walker held in its way ...
+PASS_SIDE_M = 0.5  # a parked neighbour ahead whose body comes this near our line (m) is in our way ...
+PASS_BEYOND_M = 1.0  # ... and we turn this far past it (our aim, for eq. (3))
+ASIDE_MPS = 0.4  # one parked steps aside this fast for a walker held in its way ...
 ASIDE_AHEAD_M = 1.5  # ... standing within this gap of it (m) ...
 HELD_S = 2.0  # ... that has stood this long (s)
-PASS_SIDE_M = 0.5  # ... one whose body comes this near our line ahead (m): we walk round it
-PASS_BEYOND_M = 1.0  # a walker whose way a parked neighbour blocks turns this far past it (its aim, for eq. (3))
 # lane choice leaves out a neighbour whose weight at every offset is below exp(−LANE_TRUNCATE)
 # of its own (3e-4): a quarter of the strip's agents fewer than at 2e-16, and a quarter of the
 # kernel's time, with the same choices on captured 10,000-agent steps and the same positions
