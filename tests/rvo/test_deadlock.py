@@ -403,3 +403,23 @@ def test_two_steersuite_people_head_on_in_a_corridor_with_room_for_both_pass_eac
         backwards += (sim.velocities[:, 0] * np.array([1.0, -1.0]) < -0.1) * sim.dt * sim.active
     assert not sim.active.any() and sim.time < 1.2 * 25.0 / 1.3, sim.time
     assert backwards.max() <= 0.5, backwards
+
+
+@pytest.mark.parametrize("compiled", [True, False])
+def test_a_detour_walked_briskly_ends_even_when_avoidance_turns_it_square_to_the_way(compiled):
+    # Menge's circle (100 swapping through the centre): one walked its 60° detour with a
+    # sidestep on top, 90° off its way, at 0.8 m/s; progress measured along the unturned
+    # way never came, its held-up time grew, and the detour ran for 88 of its 99 s
+    dl = deadlock.Deadlock(keep_right=0.0, patience=2.0)
+    dl.grow(1)
+    dl.detour[0], dl.stuck[0] = True, 4.0
+    wanted = np.array([[1.3, 0.0]])
+    chosen = np.array([[0.0, -0.8]])  # square to its way, to the right: along the detour's heading +0.69 m/s
+    update = dl.update if compiled else dl.update_numpy
+    for _ in range(20):  # 5 s
+        update(np.zeros((1, 2)), wanted, chosen, np.array([1.3]), np.array([0.25]), np.array([5.0]),
+               np.ones(1, bool), 0.25, np.array([[20.0, 0.0]]))
+        if not dl.detour[0]:
+            break
+    assert not dl.detour[0], dl.stuck
+    assert dl.stuck[0] < 1.0

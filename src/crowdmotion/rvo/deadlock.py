@@ -56,8 +56,8 @@ break that; none touches the continuous-time guarantee, which the step's safety 
    ``DETOUR_STILL_S`` seconds, held up by an agent in its way that stands as long, comes
    from the side (their v_pref 60-120° apart) and is bound elsewhere (the straight lines
    to their goals over 60° apart), walks 60° to the right of its way until it makes
-   progress again: crossing streams locked in a crossing circulate round it, as traffic
-   round a roundabout.
+   progress again (along the way it walks, turned: :meth:`Deadlock._way`): crossing
+   streams locked in a crossing circulate round it, as traffic round a roundabout.
    Head-on (v_pref over 120° apart, bound the other way: goal lines over 120° apart),
    the same once both have stood ``HEADON_STILL_S``: two streams whose fronts fill a
    corridor's width nose to nose, each pressed from behind, are past what yielding
@@ -207,6 +207,17 @@ class Deadlock:
         they move off briskly."""
         return (self.yield_to >= 0) | self.detour | (self.still >= self.patience)
 
+    def _way(self, wanted: np.ndarray) -> np.ndarray:
+        """(N, 2) the way each agent makes progress along: its v_pref, turned right by
+        DETOUR_TURN while it walks round a gridlock. Measured along the unturned v_pref, a
+        detour walked at 60° plus a sidestep made no progress, so it never ended (Menge's
+        circle: one walked 61 m for a 17 m trip, detouring for 88 of its 99 s)."""
+        if not self.detour.any():
+            return wanted
+        way = wanted.copy()
+        way[self.detour] = _turn_right(wanted[self.detour], DETOUR_TURN)
+        return way
+
     def update(self, pos, wanted, chosen, pref_speed, radius, sight, active, dt, goals=None) -> int:
         """After a step: held-up time, end of yields, new yields and detours; returns how
         many yields began.
@@ -215,8 +226,9 @@ class Deadlock:
         ``goals`` (N, 2) where each agent is going (detours need them).
         """
         cand = np.empty(len(pos), dtype=np.int64)
-        n_cand = _settle(wanted, chosen, pos, pref_speed, radius, active, dt, self.patience, self.stuck,
-                         self.yield_to, self.yield_left, self.still, self.detour, self.abreast, self.cornered, cand)
+        n_cand = _settle(wanted, self._way(wanted), chosen, pos, pref_speed, radius, active, dt, self.patience,
+                         self.stuck, self.yield_to, self.yield_left, self.still, self.detour, self.abreast,
+                         self.cornered, cand)
         if n_cand == 0:
             return 0
         cand = cand[:n_cand]
@@ -232,7 +244,7 @@ class Deadlock:
     def update_numpy(self, pos, wanted, chosen, pref_speed, radius, sight, active, dt, goals=None) -> int:
         """:meth:`update` as numpy array operations: the rules as written, the reference
         the compiled :meth:`update` is tested against."""
-        held_up_time(wanted, chosen, pref_speed, active, self.yield_to, SLOW, dt, self.stuck)
+        held_up_time(self._way(wanted), chosen, pref_speed, active, self.yield_to, SLOW, dt, self.stuck)
         # yields end once the other has walked past, is gone, or after YIELD_MAX_S
         y = np.flatnonzero(self.yield_to >= 0)
         if len(y):
@@ -473,12 +485,13 @@ def _make_room(pos, out, radius, pref_speed, active, yield_to, cell_start, items
 
 
 @njit(cache=True)
-def _settle(wanted, chosen, pos, pref_speed, radius, active, dt, patience, stuck, yield_to, yield_left, still,
+def _settle(wanted, way, chosen, pos, pref_speed, radius, active, dt, patience, stuck, yield_to, yield_left, still,
             detour, abreast, cornered, cand):
-    """The first part of :meth:`Deadlock.update`, in place: held-up time, ends of yields,
-    standing time and ends of detours; writes the agents held up for the patience (the
-    candidates to yield) into ``cand`` and returns how many."""
-    held_up_time(wanted, chosen, pref_speed, active, yield_to, SLOW, dt, stuck)
+    """The first part of :meth:`Deadlock.update`, in place: held-up time (along ``way``:
+    :meth:`Deadlock._way`), ends of yields, standing time and ends of detours; writes the
+    agents held up for the patience (the candidates to yield) into ``cand`` and returns
+    how many."""
+    held_up_time(way, chosen, pref_speed, active, yield_to, SLOW, dt, stuck)
     n = pos.shape[0]
     for i in range(n):  # yields end once the other has walked past, is gone, or after YIELD_MAX_S
         j = yield_to[i]
