@@ -11,6 +11,7 @@ Dijkstra on small grids, nothing to compile; the numba bucket solver on large on
 from __future__ import annotations
 
 from dataclasses import dataclass
+from functools import cached_property
 
 import numpy as np
 
@@ -32,6 +33,11 @@ class DistanceFields:
     cell: float
     blocked: np.ndarray | None = None  # (nx, ny) cells a body does not fit in
     goal_cells: list | None = None     # per field, (K, 2) goal cells
+
+    @cached_property
+    def passage_points(self) -> np.ndarray:
+        """:func:`passage_samples` of this grid's cell, made once."""
+        return passage_samples(self.cell)
 
     def cells(self, points: np.ndarray) -> np.ndarray:
         """(P, 2) the grid cell index of each point, off the grid (negative or past its
@@ -115,6 +121,16 @@ def default_cell(scene: Scene, radius: float) -> float:
     return float(max(radius, np.sqrt(np.prod(extent) / 4e6)))
 
 
+def passage_samples(cell: float) -> np.ndarray:
+    """(PASSAGE_SAMPLES², 2) offsets from a cell's centre of the points spread over it where
+    a body is tried in a narrow passage (:func:`narrow_passages`), nearest the centre
+    first (rvo guidance aims at the first of them an agent can reach)."""
+    k = PASSAGE_SAMPLES
+    off = ((np.arange(k) + 0.5) / k - 0.5) * cell
+    pts = np.stack(np.meshgrid(off, off, indexing="ij"), axis=-1).reshape(-1, 2)
+    return np.ascontiguousarray(pts[np.argsort(np.einsum("ij,ij->i", pts, pts), kind="stable")])
+
+
 def narrow_passages(scene: Scene, centres: np.ndarray, clearance: np.ndarray, blocked: np.ndarray,
                     radius: float, cell: float) -> np.ndarray:
     """(shape) the blocked cells of a passage that a body fits through but whose cell
@@ -137,9 +153,7 @@ def narrow_passages(scene: Scene, centres: np.ndarray, clearance: np.ndarray, bl
     opened = np.zeros(blocked.shape, dtype=bool)
     if not maybe.any():
         return opened
-    k = PASSAGE_SAMPLES
-    off = ((np.arange(k) + 0.5) / k - 0.5) * cell
-    grid = np.stack(np.meshgrid(off, off, indexing="ij"), axis=-1).reshape(-1, 2)
+    grid = passage_samples(cell)
     rows = np.flatnonzero(maybe)
     pts = (centres[rows][:, None, :] + grid[None]).reshape(-1, 2)
     fits = np.zeros(blocked.size, dtype=bool)

@@ -7,22 +7,12 @@ import numpy as np
 
 from crowdmotion.geometry import row_norms
 from crowdmotion.obstacle_primitives import ObstaclePrimitives
-from crowdmotion.routing import PASSAGE_SAMPLES, DistanceFields
+from crowdmotion.routing import DistanceFields, passage_samples
 from crowdmotion.rvo import _kernels as K
 
 FIELD_REACH_M = 0.45  # agents aim about this far along the field ...
 FIELD_WINDOW_MIN = 2  # ... and at least this many cells each way
 FIELD_END_M = 1.0  # an agent this near its field's end with its goal out of sight is lost on it
-
-
-def cell_points(cell: float) -> np.ndarray:
-    """(K, 2) offsets from a cell's centre of the points ``routing.narrow_passages`` tries a
-    body at (``PASSAGE_SAMPLES`` a side), nearest the centre first: where an agent aims in a
-    narrow passage's cell whose centre no body stands on (:func:`_kernels.field_directions`)."""
-    k = PASSAGE_SAMPLES
-    off = ((np.arange(k) + 0.5) / k - 0.5) * cell
-    pts = np.stack(np.meshgrid(off, off, indexing="ij"), axis=-1).reshape(-1, 2)
-    return np.ascontiguousarray(pts[np.argsort(row_norms(pts), kind="stable")])
 
 
 def field_window(cell: float) -> int:
@@ -62,7 +52,7 @@ def preferred_velocities(pos, goal, pref_speed, active, dt, fields: DistanceFiel
             fdir = np.zeros_like(pos)
             K.field_directions(pos, field_of, fields.dist, float(fields.origin[0]), float(fields.origin[1]),
                                fields.cell, field_window(fields.cell), use, radius, prims.circ_c, prims.circ_r,
-                               prims.seg_a, prims.seg_b, cell_points(fields.cell), fdir)
+                               prims.seg_a, prims.seg_b, fields.passage_points, fdir)
             reach = row_norms(fdir)
             ok = use & (reach > 0)
             if lost is not None:
