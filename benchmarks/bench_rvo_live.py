@@ -11,6 +11,12 @@
 3. A cart pushed every frame: 250 walkers bound for four goal regions in a 40 × 30 m
    square (a fountain, four kiosks) at 60 steps a second; a 0.6 m cart moved 2 cm with
    ``move_obstacle`` before each of 300 steps: the cost of a move (median, max).
+4. The stand evacuation stepped at a game's 60 frames a second: 2000 walkers bound for the
+   concourse (one goal region) through three 2 m exits, 600 frames (five congestion
+   re-solves, every 2 s): each frame's time (median, the frames that start a re-solve,
+   the worst), beside the same run with each re-solve done whole in its first frame
+   (``REPLAN_SPREAD_S`` = 0), as a single field's search was before it was cut into
+   slices spread over the frames of a quarter second.
 
     python benchmarks/bench_rvo_live.py
 """
@@ -115,8 +121,41 @@ def pushed_cart() -> None:
           f"{np.median(moves) * 1e3:.0f} ms median, {max(moves) * 1e3:.0f} ms at most")
 
 
+def stand_at_60_fps() -> None:
+    walls = [([0, 13], [9, 14]), ([11, 13], [29, 14]), ([31, 13], [49, 14]), ([51, 13], [60, 14])]
+    scene = cm.Scene(bounds=([0, 0], [60, 40]), obstacles=[cm.Box(a, b) for a, b in walls])
+    rng = np.random.default_rng(0)
+    places = np.stack(np.meshgrid(np.arange(0.8, 59.5, 0.62), np.arange(14.8, 39.5, 0.62)), -1).reshape(-1, 2)
+    places = places[rng.choice(len(places), 2000, replace=False)]
+    speeds = rng.uniform(0.9, 1.5, 2000)
+    concourse = cm.Rect([0.5, 0.5], [59.5, 5.0])
+    rows = {}
+    for label, spread_s in (("sliced over 0.25 s", rvo.simulator.REPLAN_SPREAD_S), ("whole in one frame", 0.0)):
+        rvo.simulator.REPLAN_SPREAD_S, kept = spread_s, rvo.simulator.REPLAN_SPREAD_S
+        try:
+            sim = rvo.Simulator(scene, time_step=1 / 60, rng=np.random.default_rng(0))
+            sim.add_agents(places, concourse.center, goal_region=concourse, radius=0.25, pref_speed=speeds,
+                           max_speed=1.8)
+            sim.step()
+            frames, starts = [], []
+            for _ in range(600):
+                t = time.perf_counter()
+                replan = sim.steps % sim.replan_steps == 0
+                sim.step()
+                frames.append(time.perf_counter() - t)
+                if replan:
+                    starts.append(frames[-1])
+        finally:
+            rvo.simulator.REPLAN_SPREAD_S = kept
+        rows[label] = (np.median(frames), np.median(starts), max(frames))
+    print("the stand (2000 walkers, one goal region) at 60 frames/s, 600 frames: " + "; ".join(
+        f"re-solve {label}: {m * 1e3:.1f} ms median frame, {s * 1e3:.1f} ms the re-solve's first, "
+        f"{w * 1e3:.1f} ms the worst" for label, (m, s, w) in rows.items()))
+
+
 if __name__ == "__main__":
     rvo.warm_up()
     wave_of_goals()
     wanderers()
     pushed_cart()
+    stand_at_60_fps()

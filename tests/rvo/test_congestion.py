@@ -49,6 +49,22 @@ def test_a_field_solved_near_some_points_has_the_whole_searchs_distances_there_a
     assert near.sum() == 2 * (2 * 4 + 1) ** 2  # 1 m at 0.25 m cells: 4 cells each way round each point
 
 
+def test_a_search_cut_into_slices_gives_the_whole_searchs_distances():
+    f = _fields()
+    router = CongestionRouter(f, 1.0, 20.0)
+    w = _random_weights(router, 2)
+    near = router.near(np.array([[12.0, 7.0]]), 3.0)
+    for mask in (None, near):
+        whole = router.graph.distances_on(w, f.goal_cells, f.blocked.shape, None if mask is None else [mask])[0]
+        search = router.searches(np.array([0]), w, None if mask is None else [mask])[0]
+        slices = 0
+        while not search.advance(37):
+            slices += 1
+        assert slices > 3, "the search took several slices"
+        assert search.settled <= 37 * (slices + 1)
+        np.testing.assert_array_equal(search.distances(), whole)
+
+
 def test_with_nobody_about_the_re_solved_field_is_the_exact_one():
     f = _fields()
     d = CongestionRouter(f, 1.0).resolve(np.array([[-50.0, -50.0]]), f.dist)
@@ -197,20 +213,43 @@ def test_two_streams_in_a_corridor_form_lanes_and_pass():
 def test_at_a_games_frame_rate_the_fields_are_re_solved_over_several_frames_and_taken_together():
     import crowdmotion as cm
     from crowdmotion import rvo
+    from crowdmotion.rvo import congestion
 
     scene = cm.Scene(bounds=([0, 0], [40, 30]), obstacles=[cm.Circle([20, 15], 2.5)])
-    sim = rvo.Simulator(scene, time_step=1 / 60)
-    regions = [cm.Rect([1, 1 + 3 * k], [3, 3 + 3 * k]) for k in range(6)]
-    for k, region in enumerate(regions):
-        sim.add_agents([[30 + k, 5], [30 + k, 25]], region.center, goal_region=region)
-    sim.step()
-    solves = []
-    real = sim._router.solve
-    sim._router.solve = lambda *a, **kw: solves.append(len(a[1])) or real(*a, **kw)
-    fields = [sim._fields.dist]
-    for _ in range(sim.replan_steps):
-        sim.step()
-        fields.append(sim._fields.dist)
-    assert sum(solves) == 6 and max(solves) == 1, solves  # one Dijkstra a frame, each field once
-    changed = [k for k in range(1, len(fields)) if fields[k] is not fields[k - 1]]
-    assert len(changed) == 1, "the six new fields are taken in one frame, together"
+    for regions in ([cm.Rect([1, 1 + 3 * k], [3, 3 + 3 * k]) for k in range(6)], [cm.Rect([1, 1], [3, 29])]):
+        sim = rvo.Simulator(scene, time_step=1 / 60)
+        for k, region in enumerate(regions):
+            sim.add_agents([[30 + k, 5], [30 + k, 25]], region.center, goal_region=region)
+        sim.step()  # the period's first step: the crowd's costs taken, the first slices solved
+        weights = sim._weights
+        settled = []
+        real = congestion.FieldSearch.advance
+
+        def advance(self, pops, real=real):
+            before = self.settled
+            done = real(self, pops)
+            settled.append((sim.steps, self.settled - before))
+            return done
+
+        congestion.FieldSearch.advance = advance
+        try:
+            fields = [sim._fields.dist]
+            for _ in range(sim.replan_steps - 1):
+                sim.step()
+                fields.append(sim._fields.dist)
+        finally:
+            congestion.FieldSearch.advance = real
+        nodes = len(sim._router.graph.cell_index)
+        per_step = {}
+        for step, n in settled:
+            per_step[step] = per_step.get(step, 0) + n
+        frames = round(rvo.simulator.REPLAN_SPREAD_S * 60)
+        assert len(per_step) > frames // 2, f"the searches ran in {len(per_step)} frames"
+        assert max(per_step.values()) <= -(-len(regions) * nodes // frames), "no frame settles more than its share"
+        changed = [k for k in range(1, len(fields)) if fields[k] is not fields[k - 1]]
+        assert len(changed) == 1, "the new fields are taken in one frame, together"
+        taken = fields[changed[0]]
+        for k in range(len(regions)):  # as the whole search from the period's crowd gives them where solved
+            whole = sim._router.graph.distances_on(weights, [sim._fields.goal_cells[k]], taken.shape[1:])[0]
+            solved = np.isfinite(taken[k])
+            np.testing.assert_allclose(taken[k][solved], whole[solved])

@@ -9,11 +9,13 @@ about a metre). Every ``replan_s`` seconds the field is re-solved on the same
 goal cells at once; agents then aim along it exactly as before. The search stops once it
 has settled every cell the field's agents can reach or look at before the next re-solve
 (``near``): cells farther from the goal than all of those are left unsolved (inf), and the
-cells solved hold the same distances as a search of the whole grid. With several goal
-regions and steps shorter than a quarter second (a game's frames), the costs are taken
-from the crowd at the period's first step and the fields' Dijkstras spread over the
-steps of its first quarter second, the new fields taken together (the simulator's
-``_replan``): a 12-region square at 60 fps steps in at most 9 ms instead of 30 ms.
+cells solved hold the same distances as a search of the whole grid. With steps
+shorter than a quarter second (a game's frames), the costs are taken
+from the crowd at the period's first step and the fields' Dijkstras cut into slices
+(:class:`FieldSearch`) spread over the steps of its first quarter second, the new fields
+taken together (the simulator's ``_replan``): the stand's 2000 walkers at 60 frames a
+second step in 9.1 ms in the frame that starts a re-solve, against 14.4 ms with the
+search whole in it (``benchmarks/bench_rvo_live.py``).
 With ``congestion = 0`` and ``counterflow = 0`` the field is the exact distance,
 unchanged.
 
@@ -142,11 +144,12 @@ class GridGraph:
         """The weights of the directed graph's edges in its CSR layout (each edge both ways;
         without ``against`` the same both ways), as :meth:`distances` says: built once for
         several :meth:`distances_on`."""
-        w = self.length if cost is None else self.length * 0.5 * (cost[self.src] + cost[self.dst])
-        # Dijkstra runs outward from the goal cells, so the edge an agent walks a -> b is b -> a
-        both = np.concatenate([w, w] if against is None else
-                              [w + self.length * against[0], w + self.length * against[1]])
-        return both[self._layout[0]]
+        order = self._layout[0]
+        out = np.empty(len(order))
+        no = np.zeros(0)
+        _edge_weights(self.length, self.src, self.dst, no if cost is None else cost,
+                      no if against is None else against[0], no if against is None else against[1], order, out)
+        return out
 
     def distances_on(self, weighted: np.ndarray, goal_cells: list, shape: tuple,
                      near: list | None = None) -> np.ndarray:
@@ -170,6 +173,43 @@ class GridGraph:
         out = np.full((n_fields,) + tuple(shape), np.inf)
         out.reshape(n_fields, -1)[:, self.cell_index] = dist
         return out
+
+
+@njit(cache=True)
+def _edge_weights(length, src, dst, cost, against_fwd, against_back, order, out):
+    """:meth:`GridGraph.weighted` into ``out``: edge e (of E) walked src -> dst costs
+    length · (mean ``cost`` of its cells, 1 if none given) + length · ``against_fwd[e]``,
+    walked dst -> src the same with ``against_back`` (none given: 0). The directed graph's
+    entries are edges 0 … 2E-1 (e + E: edge e walked back), in the CSR ``order``;
+    Dijkstra runs outward from the goal cells, so the entry of an agent walking a -> b
+    is the edge b -> a."""
+    n_edges = length.shape[0]
+    for q in range(order.shape[0]):
+        e = order[q]
+        back = e >= n_edges
+        if back:
+            e -= n_edges
+        w = length[e]
+        if cost.shape[0]:
+            w *= 0.5 * (cost[src[e]] + cost[dst[e]])
+        if against_fwd.shape[0]:
+            w += length[e] * (against_back[e] if back else against_fwd[e])
+        out[q] = w
+
+
+@njit(cache=True)
+def _against(jx, jy, fwd_a, fwd_b, back_a, back_b, unit, counterflow, ahead, back):
+    """:meth:`CongestionRouter.against` per edge e: ``counterflow`` × max(0, −J · n̂)
+    walking src -> dst (J the mean of cells ``fwd_a[e]`` and ``fwd_b[e]`` of the flux
+    ``jx``, ``jy``; n̂ = ``unit[e]``), and × max(0, J · n̂) walking back (cells
+    ``back_a``, ``back_b``), into ``ahead`` and ``back``."""
+    for e in range(unit.shape[0]):
+        a, b = fwd_a[e], fwd_b[e]
+        along = 0.5 * ((jx[a] + jx[b]) * unit[e, 0] + (jy[a] + jy[b]) * unit[e, 1])
+        ahead[e] = counterflow * max(-along, 0.0)
+        a, b = back_a[e], back_b[e]
+        along = 0.5 * ((jx[a] + jx[b]) * unit[e, 0] + (jy[a] + jy[b]) * unit[e, 1])
+        back[e] = counterflow * max(along, 0.0)
 
 
 @threaded(min_items=3)
@@ -218,19 +258,16 @@ def _sift_down(key, node, slot, size, d, v):
 
 
 @njit(cache=True)
-def _dijkstra(indptr, indices, weights, sources, needed, dist):
-    """Least cost from any of ``sources`` to every node of a CSR graph into ``dist`` (a
-    binary heap with one entry per node, its distance lowered in place), stopping once
-    every node ``needed`` that the sources reach is settled; the unsettled nodes: inf.
-    A settled node's distance is the least sum over paths, the same whatever order ties
-    are settled in (adding a non-negative weight never lowers a sum), as scipy's gives."""
-    n = indptr.shape[0] - 1
-    slot = np.full(n, -1, dtype=np.int64)  # heap entry; -1 never reached; -2 settled
-    key = np.empty(n)
-    node = np.empty(n, dtype=np.int64)
-    size = 0
+def _search_start(sources, needed, dist, slot, key, node, state):
+    """Set up a Dijkstra from any of ``sources`` (see :func:`_search_run`): every distance
+    inf but the sources' 0, the heap (``key``, ``node``, with each node's entry in
+    ``slot``: -1 never reached, -2 settled) holding the sources; ``state`` = (heap size,
+    needed nodes not yet settled)."""
+    n = dist.shape[0]
     for v in range(n):
         dist[v] = np.inf
+        slot[v] = -1
+    size = 0
     for s in sources:
         if slot[s] == -1:
             dist[s] = 0.0
@@ -239,12 +276,30 @@ def _dijkstra(indptr, indices, weights, sources, needed, dist):
     left = 0
     for v in range(n):
         left += needed[v]
-    while size > 0 and left > 0:
+    state[0] = size
+    state[1] = left
+
+
+@njit(cache=True)
+def _search_run(indptr, indices, weights, needed, dist, slot, key, node, state, budget):
+    """Settle up to ``budget`` more nodes of the Dijkstra :func:`_search_start` set up on a
+    CSR graph (a binary heap with one entry per node, its distance lowered in place).
+    Returns how many it settled. The search is over once every node ``needed`` that the
+    sources reach is settled (``state``: the heap is empty or none is left); then the
+    unsettled nodes' distances are inf. A
+    settled node's distance is the least sum over paths, the same whatever order ties are
+    settled in (adding a non-negative weight never lowers a sum), as scipy's gives, and
+    the same however the search is cut into runs."""
+    size = state[0]
+    left = state[1]
+    pops = 0
+    while size > 0 and left > 0 and pops < budget:
         u = node[0]
         du = key[0]
         slot[u] = -2
         left -= needed[u]
         size -= 1
+        pops += 1
         if size > 0:  # the last entry moved to the top and sifted down
             _sift_down(key, node, slot, size, key[size], node[size])
         for q in range(indptr[u], indptr[u + 1]):
@@ -260,9 +315,72 @@ def _dijkstra(indptr, indices, weights, sources, needed, dist):
                     size += 1
                 else:
                     _sift_up(key, node, slot, at, d, v)
-    for v in range(n):
-        if slot[v] != -2:
-            dist[v] = np.inf
+    state[0] = size
+    state[1] = left
+    if size == 0 or left == 0:
+        for v in range(dist.shape[0]):
+            if slot[v] != -2:
+                dist[v] = np.inf
+    return pops
+
+
+@njit(cache=True)
+def _dijkstra(indptr, indices, weights, sources, needed, dist):
+    """Least cost from any of ``sources`` to every node of a CSR graph into ``dist``,
+    stopping once every node ``needed`` that the sources reach is settled; the unsettled
+    nodes: inf (:func:`_search_start`, then :func:`_search_run` to its end)."""
+    n = indptr.shape[0] - 1
+    slot = np.empty(n, dtype=np.int64)
+    key = np.empty(n)
+    node = np.empty(n, dtype=np.int64)
+    state = np.zeros(2, dtype=np.int64)
+    _search_start(sources, needed, dist, slot, key, node, state)
+    _search_run(indptr, indices, weights, needed, dist, slot, key, node, state, n + 1)
+
+
+class FieldSearch:
+    """One field's Dijkstra on a :class:`GridGraph`, run a slice at a time
+    (:meth:`advance`): a re-solve spread over a game's frames, whose distances are those
+    of the whole search at once (:meth:`GridGraph.distances_on`)."""
+
+    def __init__(self, graph: GridGraph, weighted: np.ndarray, goal_cells, shape: tuple,
+                 near: np.ndarray | None = None):
+        n = len(graph.cell_index)
+        goals = np.asarray(goal_cells, dtype=np.int64).reshape(-1, 2)
+        self._graph, self._weighted, self.shape = graph, weighted, tuple(shape)
+        self._needed = np.ones(n, dtype=bool) if near is None else near.ravel()[graph.cell_index]
+        self._dist = np.empty(n)
+        self._slot = np.empty(n, dtype=np.int64)
+        self._key = np.empty(n)
+        self._node = np.empty(n, dtype=np.int64)
+        self._state = np.zeros(2, dtype=np.int64)
+        self.settled = 0  # nodes settled so far
+        self.done = False
+        _search_start(graph.node[goals[:, 0], goals[:, 1]], self._needed, self._dist, self._slot, self._key,
+                      self._node, self._state)
+
+    @property
+    def nodes(self) -> int:
+        """The graph's node count: no search settles more."""
+        return len(self._dist)
+
+    def advance(self, pops: int) -> bool:
+        """Settle up to ``pops`` more cells; whether the search is over."""
+        if not self.done:
+            _, indices, indptr = self._graph._layout
+            self.settled += int(_search_run(indptr, indices, self._weighted, self._needed, self._dist, self._slot,
+                                            self._key, self._node, self._state, max(int(pops), 0)))
+            self.done = bool(self._state[0] == 0 or self._state[1] == 0)
+        return self.done
+
+    def distances(self) -> np.ndarray:
+        """(nx, ny) the field (inf where no path leads or the search stopped short), once
+        :meth:`advance` has said it is over."""
+        if not self.done:
+            raise RuntimeError("the search is not over: advance it to its end first")
+        out = np.full(self.shape, np.inf)
+        out.ravel()[self._graph.cell_index] = self._dist
+        return out
 
 
 class CongestionRouter:
@@ -314,13 +432,9 @@ class CongestionRouter:
         b = self.bins(positions) if bins is None else bins
         jx = self.density(positions, velocities[:, 0], b).ravel()
         jy = self.density(positions, velocities[:, 1], b).ravel()
-        fwd_a, fwd_b, back_a, back_b = self._read_at
-
-        def along(a: np.ndarray, b: np.ndarray) -> np.ndarray:  # J · n̂, J the mean of cells a and b
-            return 0.5 * ((jx[a] + jx[b]) * g.unit[:, 0] + (jy[a] + jy[b]) * g.unit[:, 1])
-
-        ahead, back = along(fwd_a, fwd_b), along(back_a, back_b)  # walking src -> dst, and dst -> src
-        return self.counterflow * np.maximum(-ahead, 0.0), self.counterflow * np.maximum(back, 0.0)
+        ahead, back = np.empty(len(g.unit)), np.empty(len(g.unit))  # walking src -> dst, and dst -> src
+        _against(jx, jy, *self._read_at, g.unit, self.counterflow, ahead, back)
+        return ahead, back
 
     def resolve(self, positions: np.ndarray, exact: np.ndarray, velocities: np.ndarray | None = None,
                 fields: np.ndarray | None = None) -> np.ndarray:
@@ -355,6 +469,15 @@ class CongestionRouter:
         weighted = self.weights(positions, velocities) if weights is None else weights
         goal_cells = self.fields.goal_cells
         return self.graph.distances_on(weighted, [goal_cells[k] for k in fields], self.fields.blocked.shape, near)
+
+    def searches(self, fields: np.ndarray, weights, near: list | None = None) -> list[FieldSearch]:
+        """:meth:`solve`'s searches for the fields ``fields`` (indices) by ``weights``
+        (:meth:`weights`), not yet run: each to be run a slice at a time
+        (:meth:`FieldSearch.advance`)."""
+        goal_cells = self.fields.goal_cells
+        shape = self.fields.blocked.shape
+        return [FieldSearch(self.graph, weights, goal_cells[k], shape, None if near is None else near[i])
+                for i, k in enumerate(np.asarray(fields).tolist())]
 
     def near(self, points: np.ndarray, reach: float) -> np.ndarray:
         """(nx, ny) the cells within ``reach`` metres, along each axis, of any of ``points``."""

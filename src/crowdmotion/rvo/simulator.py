@@ -51,7 +51,7 @@ OWN_FIELDS_MAX = 16
 UNUSED_FIELDS_MB = 64.0
 UNUSED_FIELDS_MIN = 8
 # the congestion-aware fields of a replan period are re-solved within this many seconds
-# of its first step, spread over the steps in it (several per step where more fields)
+# of its first step, the searches cut into slices spread over the steps in it
 REPLAN_SPREAD_S = 0.25
 DEFAULTS = {"max_neighbors": 10, "neighbor_dist": 10.0, "samples": 50, "safety": 5.0}
 
@@ -1092,16 +1092,17 @@ class Simulator(LiveObstacles):
 
     def _replan(self) -> None:
         """Re-solve the congestion-aware fields every ``replan_s``, from the crowd as it is
-        at the period's first step. With several goal regions and steps shorter than
-        ``REPLAN_SPREAD_S`` (a game's frames), the Dijkstras are spread over the steps of
-        that first ``REPLAN_SPREAD_S``, so that no frame pays for them all, and the new
-        fields are taken all at once when the last is done, so that every group's field
-        answers the same crowd (spread further, or taken one by one, the roadmap crowd
-        of RVO2's example gridlocked). At the default step they are all solved and
-        taken in the period's first step. A field nobody walks goes back to its exact
-        distances."""
+        at the period's first step. With steps shorter than ``REPLAN_SPREAD_S`` (a game's
+        frames), the Dijkstras are cut into slices spread over the steps of that first
+        ``REPLAN_SPREAD_S`` (the same share of cells settled each step, one field or
+        many), so that no frame pays for them all, and the new fields are taken all at
+        once when the last is done, so that every group's field answers the same crowd
+        (taken one by one, the roadmap crowd of RVO2's example gridlocked). At the default
+        step they are all solved and taken in the period's first step. A field nobody walks
+        goes back to its exact distances."""
         if self._router is None or not self._router.enabled:
             return
+        spread = min(self.replan_steps, max(1, int(round(REPLAN_SPREAD_S / self.dt))))
         if self.steps % self.replan_steps == 0:
             if not self.active.any():
                 self._replanning = None
@@ -1109,40 +1110,56 @@ class Simulator(LiveObstacles):
                 self._partial, self._weighted = set(), set()
                 return
             self._weights = self._router.weights(self.positions[self.active], self.velocities[self.active])
-            self._replanning = (np.unique(self.field_of[self.active]), {})  # fields to solve, those solved
-        if self._replanning is None:
-            return
-        todo, solved = self._replanning
-        spread = min(self.replan_steps, max(1, int(round(REPLAN_SPREAD_S / self.dt))))
-        now = todo[len(solved):len(solved) + -(-len(todo) // spread)]
-        if len(now):
+            todo = np.unique(self.field_of[self.active])
             # each field solved as far as its agents (in or waiting) walk or look before the
             # next fields are taken (_complete_partial catches any that go farther)
             reach = self.params["max_speed"].max() * (self.replan_steps * self.dt + REPLAN_SPREAD_S + self.dt) + \
                 (field_window(self._fields.cell) + 2) * self._fields.cell
             present = self.active | self.waiting
-            near = [self._router.near(self.positions[present & (self.field_of == k)], reach) for k in now]
-            solved.update(zip(now.tolist(), self._router.solve(None, now, weights=self._weights, near=near)))
-        if len(solved) == len(todo):
-            dist = self._fields.dist
-            if dist is self._exact:
-                dist = self._exact.copy()
-            else:  # the last period's array: exact again where no longer weighted
-                for k in self._weighted.difference(solved):
-                    dist[k] = self._exact[k]
-            for k, d in solved.items():
-                dist[k] = d
-            self._fields.dist = dist
-            self._weighted = set(solved)
-            self._partial, self._partial_weights = set(solved), self._weights
-            # where an agent's window (and a cell more) holds only solved cells, or cells
-            # no field reaches: it reads what the whole search would give
-            self._solved_round = np.ones(dist.shape, dtype=bool)
-            size = 2 * (field_window(self._fields.cell) + 1) + 1
-            for k in solved:
-                self._solved_round[k] = minimum_filter(np.isfinite(dist[k]) | ~np.isfinite(self._exact[k]), size=size,
-                                                       mode="nearest")
-            self._replanning = None
+            near = [self._router.near(self.positions[present & (self.field_of == k)], reach) for k in todo]
+            if spread == 1:
+                solved = dict(zip(todo.tolist(), self._router.solve(None, todo, weights=self._weights, near=near)))
+                self._replanning = (todo, solved)
+            else:
+                searches = self._router.searches(todo, self._weights, near)
+                self._replanning = (todo, searches, -(-sum(f.nodes for f in searches) // spread))
+        if self._replanning is None:
+            return
+        todo = self._replanning[0]
+        if len(self._replanning) == 3:  # slices of the searches, the step's share of cells
+            _, searches, share = self._replanning
+            for search in searches:
+                if search.done:
+                    continue
+                before = search.settled
+                search.advance(share)
+                share -= search.settled - before
+                if share <= 0:
+                    break
+            if not all(f.done for f in searches):
+                return
+            solved = {k: f.distances() for k, f in zip(todo.tolist(), searches)}
+        else:
+            solved = self._replanning[1]
+        dist = self._fields.dist
+        if dist is self._exact:
+            dist = self._exact.copy()
+        else:  # the last period's array: exact again where no longer weighted
+            for k in self._weighted.difference(solved):
+                dist[k] = self._exact[k]
+        for k, d in solved.items():
+            dist[k] = d
+        self._fields.dist = dist
+        self._weighted = set(solved)
+        self._partial, self._partial_weights = set(solved), self._weights
+        # where an agent's window (and a cell more) holds only solved cells, or cells
+        # no field reaches: it reads what the whole search would give
+        self._solved_round = np.ones(dist.shape, dtype=bool)
+        size = 2 * (field_window(self._fields.cell) + 1) + 1
+        for k in solved:
+            self._solved_round[k] = minimum_filter(np.isfinite(dist[k]) | ~np.isfinite(self._exact[k]), size=size,
+                                                   mode="nearest")
+        self._replanning = None
 
     def _complete_partial(self) -> None:
         """Solve to the end the congestion-aware fields, solved only near their agents, that
