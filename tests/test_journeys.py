@@ -461,9 +461,42 @@ def test_with_rechoose_late_agents_bound_for_a_gate_whose_queue_grows_switch_to_
     assert done(again) < done(once) - 10.0
 
 
+def _taken_exit(rechoose):
+    """The exit a walker re-choosing the nearest of two every ``rechoose`` seconds (None:
+    chosen once) leaves by, when 2 s after setting off for the south exit it is put
+    across the room, by the north one (a player the game teleported, one the crowd
+    carried over)."""
+    from crowdmotion.groups import Group, Points, Rect
+    from crowdmotion.rvo.params import RVOParams
+    from crowdmotion.rvo.simulation import build_journeys, build_simulator
+    from crowdmotion.stages import Choose, Leave
+
+    scene = cm.Scene(bounds=([0, 0], [40, 20]))
+    south, north = Rect([30, 0.5], [34, 1.5]), Rect([30, 18.5], [34, 19.5])
+    route = [Choose([Leave(south, name="south"), Leave(north, name="north")], "nearest", rechoose=rechoose)]
+    group = Group("walker", 1, spawn=Points([[2.0, 9.0]]), goal=south, attributes={"route": route})
+    rng = np.random.default_rng(0)
+    params = RVOParams()
+    sim = build_simulator(scene, [group], params, rng)
+    journeys = build_journeys(sim, scene, [group], rng)
+    journeys.update(sim, params.time_step)
+    for _ in range(8):
+        sim.step()
+    sim.place([0], [[20.0, 17.0]])
+    while sim.steps < 400 and journeys.busy(sim.active):
+        sim.step()
+    return [name for name, times in journeys.exits.items() if times]
+
+
+def test_rechoosing_the_nearest_a_walker_put_across_the_room_takes_the_exit_now_nearer():
+    assert _taken_exit(None) == ["south"], "chosen once, it walks back to the exit it took"
+    assert _taken_exit(1.0) == ["north"]
+
+
 @pytest.mark.parametrize("written,message", [
-    ('by = "nearest", rechoose = 2.0,', r'groups\.0\.route\.0 \(group \'late\'\): rechoose and rechoose_margin go with '
-                                        r'by = "least_crowded", not by = \'nearest\''),
+    ('by = "weights", weights = [1.0, 1.0], rechoose = 2.0,',
+     r'groups\.0\.route\.0 \(group \'late\'\): rechoose and rechoose_margin go with by = "nearest" or '
+     r'"least_crowded", not by = "weights"'),
     ('by = "least_crowded", rechoose = -1.0,', r"groups\.0\.route\.0\.rechoose \(group 'late'\): must be more "
                                                r"than 0 \(got -1\.0\)"),
     ('by = "least_crowded", rechoose = nan,', r"groups\.0\.route\.0\.rechoose \(group 'late'\): must be a finite "
@@ -479,8 +512,9 @@ def test_validate_refuses_a_bad_rechoose_naming_it(written, message):
 def test_a_choose_stage_in_python_refuses_a_bad_rechoose_naming_it():
     from crowdmotion.stages import Choose, Leave
     among = [Leave(cm.Rect([0, 0], [1, 1])), Leave(cm.Rect([5, 0], [6, 1]))]
-    with pytest.raises(ValueError, match="choose.rechoose goes with by = 'least_crowded'"):
-        Choose(among, "nearest", rechoose=2.0)
+    with pytest.raises(ValueError, match="choose.rechoose goes with by = 'nearest' or 'least_crowded'"):
+        Choose(among, "weights", [1.0, 1.0], rechoose=2.0)
+    assert Choose(among, "nearest", rechoose=2.0).rechoose == 2.0
     with pytest.raises(ValueError, match=r"choose.rechoose must be a number of seconds > 0, got nan"):
         Choose(among, "least_crowded", rechoose=float("nan"))
     with pytest.raises(ValueError, match=r"choose.rechoose_margin must be a number of seconds >= 0, got -1"):

@@ -681,9 +681,10 @@ class Journeys:
         """Agents ``ids`` due to weigh their choice again (``Choose.rechoose``): those
         still walking to the option they took switch, one at a time (the largest saving
         first, each switch counted before the next is weighed), to another option whose
-        least-crowded cost is lower than their own option's, without themselves among
-        those bound there, by more than ``rechoose_margin``; they weigh again
-        ``rechoose`` seconds later. The others stop re-weighing."""
+        cost is lower than their own option's by more than ``rechoose_margin``: the
+        least-crowded cost (their own option's without themselves among those bound
+        there), or by "nearest" the walking time alone; they weigh again ``rechoose``
+        seconds later. The others stop re-weighing."""
         walking = self.expect[ids] & (self.chooser[ids] >= 0) & w.active[ids]
         self.recheck_at[ids[~walking]] = np.inf
         self.chooser[ids[~walking]] = -1
@@ -695,6 +696,8 @@ class Journeys:
             st = self.flat[g][sid][1]
             walk = self._distances(sub, st, w) / self.pref_speed[sub, None]
             cap, bound = self._crowding(st)
+            if st.by == "nearest":  # the walking time alone: nobody bound anywhere weighs
+                cap = np.full(len(cap), np.inf)
             first = np.asarray(self.maps[g].options[sid])
             own = np.argmax(self.stage[sub][:, None] == first[None], axis=1)  # the option each is on
             rows = np.arange(len(sub))

@@ -442,12 +442,13 @@ class ChooseStageSpec(_Model):
                         stage, or be empty (straight on)
     weights : list      with by = "weights": one weight per stage of among
     name : str          the stage's name in summary.json
-    rechoose : float    with by = "least_crowded": seconds between two looks at the choice
-                        by agents still walking to the option they took; each switches
-                        to an option cheaper by more than rechoose_margin (default:
-                        chosen once, on entering the stage)
-    rechoose_margin : float  seconds of cost (walking time + bound / capacity) another
-                        option must save before an agent switches (default 2)
+    rechoose : float    with by = "nearest" or "least_crowded": seconds between two looks
+                        at the choice by agents still walking to the option they took;
+                        each switches to an option cheaper by more than rechoose_margin
+                        (default: chosen once, on entering the stage)
+    rechoose_margin : float  seconds of cost (walking time, + bound / capacity by
+                        least_crowded) another option must save before an agent switches
+                        (default 2)
     """
 
     kind: Literal["choose"]
@@ -478,8 +479,9 @@ class ChooseStageSpec(_Model):
             raise ValueError("weights go with by = \"weights\", and it needs them")
         if self.weights is not None and (len(self.weights) != len(self.among) or sum(self.weights) <= 0):
             raise ValueError(f"weights: give {len(self.among)} weights (one per stage of among), not all 0")
-        if (self.rechoose is not None or self.rechoose_margin is not None) and self.by != "least_crowded":
-            raise ValueError(f"rechoose and rechoose_margin go with by = \"least_crowded\", not by = {self.by!r}")
+        if (self.rechoose is not None or self.rechoose_margin is not None) and self.by == "weights":
+            raise ValueError("rechoose and rechoose_margin go with by = \"nearest\" or \"least_crowded\", not by = "
+                             "\"weights\"")
         if self.rechoose_margin is not None and self.rechoose is None:
             raise ValueError("rechoose_margin goes with rechoose (seconds between two looks at the choice)")
         for j, o in enumerate(self.among):

@@ -267,14 +267,16 @@ class Choose:
     take it go straight on).
 
     The choice is made once, on entering the stage, unless ``rechoose`` is set (seconds;
-    by = "least_crowded" only): then an agent still walking to the option it took (not
-    yet arrived at its first stage, or not yet in its queue's line) weighs the options
-    again every ``rechoose`` seconds, its own option without itself among those bound
-    there, and switches to another whose cost (walking time plus bound over capacity,
-    seconds) is lower by more than ``rechoose_margin`` seconds (default
-    RECHOOSE_MARGIN_S): as a queue at one exit builds, those still on their way take
-    another. The margin keeps an agent from switching back and forth between options of
-    about the same cost."""
+    by = "nearest" or "least_crowded"): then an agent still walking to the option it took
+    (not yet arrived at its first stage, or not yet in its queue's line) weighs the
+    options again every ``rechoose`` seconds and switches to another whose cost is lower
+    by more than ``rechoose_margin`` seconds (default RECHOOSE_MARGIN_S). By
+    "least_crowded" the cost is the walking time plus those bound there over the
+    capacity, its own option counted without itself: as a queue at one exit builds, those
+    still on their way take another. By "nearest" it is the walking time alone: an agent
+    takes the option nearer where it walks now (people leaving a corridor by the side
+    exit on the side they walk). The margin keeps an agent from switching back and forth
+    between options of about the same cost."""
 
     among: list
     by: str = "nearest"
@@ -312,9 +314,9 @@ class Choose:
                                  f"got {self.weights!r}")
             self.weights = (w / w.sum()).tolist()
         if self.rechoose is not None:
-            if self.by != "least_crowded":
-                raise ValueError(f"choose.rechoose goes with by = 'least_crowded' (the choice that changes as "
-                                 f"others choose), not by = {self.by!r}")
+            if self.by == "weights":
+                raise ValueError("choose.rechoose goes with by = 'nearest' or 'least_crowded' (a choice that "
+                                 "changes as the agent walks or others choose), not by = 'weights'")
             self.rechoose = _seconds(self.rechoose, "choose.rechoose", positive=True)
         self.rechoose_margin = _seconds(self.rechoose_margin, "choose.rechoose_margin", positive=False)
         self.name = _name(self.name, f"choose {self.by}")
