@@ -26,6 +26,7 @@ from crowdmotion.empirical import (BOTTLENECK_FLOWS, BOTTLENECK_WIDTHS, UG_RUNS,
                                    stationary)
 from crowdmotion.groups import Rect
 from crowdmotion.placement import spawn_positions
+from crowdmotion.routing import distance_fields
 from crowdmotion.rvo.density import weidmann_speed
 from crowdmotion.scene import Box, Scene
 from crowdmotion.trajectories import Trajectories
@@ -80,6 +81,48 @@ def _rect_polygon(rect: Rect):
     return box(*rect.lower, *rect.upper)
 
 
+def _exits(group) -> tuple[list[Rect], tuple[float, float] | None]:
+    """The exit areas of a group (its goal; or the leave stages of a route that is one
+    choose by nearest among leaves, as the BOT-360 case writes its side exits) and, for
+    such a route, (rechoose seconds, margin seconds)."""
+    route = group.attributes.get("route") if group.attributes else None
+    if route is None:
+        return [group.goal], None
+    from crowdmotion.stages import Choose, Leave
+
+    st = route[0] if len(route) == 1 else None
+    if not (isinstance(st, Choose) and st.by == "nearest" and all(isinstance(o, Leave) for o in st.among)):
+        raise ValueError(f"group {group.name!r}: only a route of one choose by nearest among leave stages can be "
+                         f"given to JuPedSim here, got {route!r}")
+    return [o.area for o in st.among], (st.rechoose or np.inf, st.rechoose_margin)
+
+
+def _walking(fields, points: np.ndarray) -> np.ndarray:
+    """(K, m) metres from each of ``points`` to each exit, round the walls."""
+    return np.column_stack([fields.nearby(k, points) for k in range(len(fields.goal_cells))])
+
+
+def _rechoose(sim, choosers, taken: dict, ids: list, active: np.ndarray, positions: np.ndarray, t: float) -> None:
+    """Every ``rechoose`` seconds (on the recorded frames), each agent of a choosing group
+    still in switches to the exit nearer by more than ``margin`` seconds of its walking:
+    crowdmotion's ``Choose(by="nearest", rechoose=...)`` (journeys), done with JuPedSim's
+    ``switch_agent_journey``."""
+    for members, options, fields, speeds, every, margin in choosers:
+        if not np.isfinite(every) or round(t / (RECORD_EVERY * DT)) % max(1, round(every / (RECORD_EVERY * DT))):
+            continue
+        inside = members[active[members]]
+        if not len(inside):
+            continue
+        walk = _walking(fields, positions[inside]) / speeds[inside - members[0], None]
+        own = np.array([taken[int(a)] for a in inside])
+        best = np.argmin(walk, axis=1)
+        rows = np.arange(len(inside))
+        switch = walk[rows, best] < walk[rows, own] - margin
+        for a, k in zip(inside[switch].tolist(), best[switch].tolist()):
+            sim.switch_agent_journey(ids[a], *options[k])
+            taken[a] = k
+
+
 def run_jupedsim(model_name: str, scene: Scene, groups, seed: int, max_time_s: float) -> Trajectories:
     """One run of JuPedSim's ``model_name`` ("csm", "avm" or "sfm") on a crowdmotion scene
     and its groups, recorded every 0.25 s as crowdmotion Trajectories (agents that left
@@ -93,17 +136,30 @@ def run_jupedsim(model_name: str, scene: Scene, groups, seed: int, max_time_s: f
     rng = np.random.default_rng(seed)
     sim = jps.Simulation(model=_model(model_name, seed), geometry=walkable_area(scene), dt=DT)
     ids, names, start = [], [], []
+    choosers = []  # (agent indices, the options' (journey, exit) ids, their fields, speeds, rechoose s, margin s)
+    taken = {}  # agent index -> the option it is bound for (choosers' agents)
     for g in groups:
         placed = np.array(start, dtype=float).reshape(-1, 2)  # groups may share a spawn region
         pos = spawn_positions(scene, g, placed, np.full(len(placed), RADIUS), SPAWN_GAP, rng)
         rng_speed = g.attributes.get("pref_speed_range") if g.attributes else None
         speeds = rng.uniform(*rng_speed, size=len(pos)) if rng_speed else np.full(len(pos), g.pref_speed)
-        exit_id = sim.add_exit_stage(_rect_polygon(g.goal))
-        journey_id = sim.add_journey(jps.JourneyDescription([exit_id]))
-        for p, v in zip(pos, speeds):
-            ids.append(sim.add_agent(_agent_parameters(model_name, p, v, journey_id, exit_id)))
+        exits, choice = _exits(g)
+        options = []
+        for area in exits:
+            exit_id = sim.add_exit_stage(_rect_polygon(area))
+            options.append((sim.add_journey(jps.JourneyDescription([exit_id])), exit_id))
+        first = np.zeros(len(pos), dtype=np.int64)
+        if choice is not None:  # the nearest exit, as crowdmotion's walkers choose it
+            fields = distance_fields(scene, exits, RADIUS)
+            first = np.argmin(_walking(fields, pos), axis=1)
+            members = np.arange(len(ids), len(ids) + len(pos))
+            choosers.append((members, options, fields, speeds, *choice))
+            taken.update(zip(members.tolist(), first.tolist()))
+        for p, v, k in zip(pos, speeds, first):
+            ids.append(sim.add_agent(_agent_parameters(model_name, p, v, *options[k])))
             names.append(g.name)
             start.append(p)
+
     index = {aid: k for k, aid in enumerate(ids)}
     last = np.array(start, dtype=float).reshape(-1, 2)
     frames, active = [], []
@@ -128,6 +184,7 @@ def run_jupedsim(model_name: str, scene: Scene, groups, seed: int, max_time_s: f
             error = f"{exc} (at t = {sim.elapsed_time():.2f} s)"
             break
         record()
+        _rechoose(sim, choosers, taken, ids, active[-1], last, len(frames) * RECORD_EVERY * DT)
         if len(frames) > window:  # frozen: nobody still in has moved FREEZE_M in FREEZE_S
             still = active[-1] & active[-1 - window]
             if still.any() and np.linalg.norm(frames[-1][still] - frames[-1 - window][still], axis=1).max() < FREEZE_M:

@@ -17,7 +17,8 @@ a few minutes on two cores), prints their table and draws:
   printed as a table and drawn beside crowdmotion's.
 
 It also prints how the walkers of each counterflow run (and of each measured run) pass
-the oncoming stream (``empirical.bot_passing``).
+the oncoming stream (``empirical.bot_passing``) and keep their side to the corridor's
+end (``empirical.bot_exit_sides``).
 """
 
 from __future__ import annotations
@@ -66,12 +67,14 @@ def print_passing(runs: dict) -> None:
     """How each run's walkers pass the oncoming stream (``empirical.bot_passing``), as a table."""
     print(f"| run | density | meeting an oncoming one (within {empirical.PASS_AHEAD_M:g} m ahead, "
           f"{empirical.PASS_SIDE_M:g} m across) | speed then | speed otherwise | slower than "
-          f"{empirical.PASS_STOPPED:g} m/s then | walking backwards |\n|---|---|---|---|---|---|---|")
+          f"{empirical.PASS_STOPPED:g} m/s then | walking backwards | on the same side 3 m in and at the end "
+          f"(correlation) |\n|---|---|---|---|---|---|---|---|")
     for name, traj in runs.items():
         rho = empirical.bot_measures(traj, np.random.default_rng(0))[0]
         p = empirical.bot_passing(traj)
+        same, corr = empirical.bot_exit_sides(traj)
         print(f"| {name} | {rho:.2f}/m² | {p.meeting:.0%} | {p.speed_meeting:.2f} m/s | {p.speed_others:.2f} m/s | "
-              f"{p.stopped:.0%} | {p.backwards:.1%} |")
+              f"{p.stopped:.0%} | {p.backwards:.1%} | {same:.0%} ({corr:.2f}) |")
 
 
 def _snapshot(ax, traj, title: str) -> None:

@@ -108,6 +108,17 @@ def test_walkers_meet_the_oncoming_stream_only_when_one_must_step_aside_to_pass(
     assert close.meeting == 1.0 and close.speed_meeting == pytest.approx(1.2) and close.stopped == 0.0
 
 
+def test_walkers_keeping_their_lane_to_the_corridors_end_keep_their_side_and_crossers_do_not():
+    kept, corr = empirical.bot_exit_sides(_two_lanes(0.9, 2.7))
+    assert kept == 1.0 and corr == pytest.approx(1.0)
+    traj = _two_lanes(0.9, 2.7)
+    p = traj.positions.copy()
+    east = np.flatnonzero(traj.group == "east")
+    p[..., east, 1] = np.where(p[..., east, 0] > 14.0, 2.7, 0.9)  # the east lane crosses over past mid-corridor
+    kept, corr = empirical.bot_exit_sides(Trajectories(p, 0.25, group=traj.group, radius=0.2))
+    assert kept == pytest.approx(0.5, abs=0.05)
+
+
 def test_a_walker_stepping_back_before_the_oncoming_stream_counts_as_stopped_and_backwards():
     passing = empirical.bot_passing(_two_lanes(1.6, 2.0, west_speed=0.3))  # the west lane drifts east
     assert passing.meeting == 1.0
