@@ -2,7 +2,12 @@
 
 Derived from :class:`~crowdmotion.trajectories.Trajectories` alone (methods do not compute
 it), on the frames that are written: an export resampled to 24 fps gets channels of its
-24 frames a second. :func:`locomotion` gives, as (T, N) arrays:
+24 frames a second. What happens between two frames is timed within the step: a state
+changes at the instant its speed or turn rate crosses the threshold (taken linearly
+between the two frames), the speed window is as long in seconds at any rate, and the
+closing and opening steps start at that instant and end where the last foot strikes;
+so exports of one run at different rates agree at the instants they share, to what
+their resampled paths differ by. :func:`locomotion` gives, as (T, N) arrays:
 
 ``distance``
     metres travelled along the path since the first frame (steps into or out of an
@@ -17,10 +22,10 @@ it), on the frames that are written: an export resampled to 24 fps gets channels
     at the reference cadence ``f(v_ref) / 2`` until each foot has struck the ground once
     more (at most a stride, about a second: the *closing steps* that bring both feet under
     the standing body), then holds while it stands; when it sets off from standing, the
-    phase advances at least at that rate until each foot has struck once (short, quick
-    *opening steps*, where the stride model at the low speeds of a start would make the
-    first stance cover most of a stride). The step length follows the documented stride
-    model (:func:`step_length`):
+    phase advances at least at that rate until each foot has struck once after it set
+    off, the strike it stood on not counted (short, quick *opening steps*, where the
+    stride model at the low speeds of a start would make the first stance cover most of
+    a stride). The step length follows the documented stride model (:func:`step_length`):
 
         L(v) = L_ref · (v / v_ref) ** a,   cadence f(v) = v / L(v) steps/s
 
@@ -38,9 +43,9 @@ it), on the frames that are written: an export resampled to 24 fps gets channels
     spot) for walkers; ``idle`` and ``move`` for cars and drones. From the speed averaged
     over ``speed_window_s`` and the turn rate, each with two thresholds (hysteresis: a
     walker starts walking above ``walk_start`` and stops below ``walk_stop``, ...), then
-    any state that lasts less than ``min_state_s`` between two others is taken by the
-    state before it: no flicker shorter than that, except at the clip's two ends.
-    Inactive frames are idle.
+    any state that lasts less than ``min_state_s`` (from the instant it begins to the
+    instant the next begins) between two others is taken by the state before it: no
+    flicker shorter than that, except at the clip's two ends. Inactive frames are idle.
 ``turn_rate``
     rad/s about the up axis, positive counter-clockwise seen from above (a left turn):
     the time derivative of :attr:`Trajectories.facing`; 0 on inactive frames.
@@ -71,6 +76,7 @@ STATES = ("idle", "walk", "run", "turn", "move")
 IDLE, WALK, RUN, TURN, MOVE = range(len(STATES))
 KINDS = ("walker", "car", "drone")
 GOLDEN = (math.sqrt(5.0) - 1.0) / 2.0  # 0.618...: the phase offsets of ids 0, 1, 2, ... spread out evenly
+STRIKE_TOLERANCE = 1e-6  # strides: a phase this close below a heel strike stands on it
 
 
 @dataclass(frozen=True)
@@ -217,7 +223,9 @@ def body_kinds(traj, kinds: dict | None = None) -> np.ndarray:
 
 def path_speed(positions: np.ndarray, active: np.ndarray, dt: float, window_s: float) -> tuple[np.ndarray, np.ndarray]:
     """(step lengths (T, N) with 0 at frame 0 and where a step touches an inactive frame,
-    path speed (T, N) averaged over a centred window of about ``window_s`` seconds)."""
+    path speed (T, N) averaged over a centred window of ``window_s`` seconds (at least a
+    frame either side; shorter at the ends), the distance at the window's ends taken
+    linearly between frames: the same speed at the same instant at any frame rate)."""
     t, n, _ = positions.shape
     ds = np.zeros((t, n))
     if t < 2:
@@ -228,11 +236,28 @@ def path_speed(positions: np.ndarray, active: np.ndarray, dt: float, window_s: f
     if positions.shape[2] == 3:
         length = np.hypot(length, step[..., 2])
     ds[1:] = np.where(both, length, 0.0)  # NaN where inactive: 0
-    k = max(1, int(round(window_s / (2 * dt))))
-    csum = np.concatenate([np.zeros((1, n)), np.cumsum(ds[1:], axis=0)])  # csum[j]: steps 1..j
-    idx = np.arange(t)
-    lo, hi = np.maximum(idx - k, 0), np.minimum(idx + k, t - 1)
-    speed = (csum[hi] - csum[lo]) / ((hi - lo) * dt)[:, None]
+    half = max(1.0, window_s / (2 * dt))  # frames either side
+    whole = int(half)
+    part = half - whole  # the window's ends lie `part` of a step past frame k +- whole
+    csum = np.cumsum(ds, axis=0)  # csum[j]: steps 1..j, the distance at frame j
+    # the distance at k + half (interpolated within its step; the last frame's past the end) ...
+    speed = np.empty((t, n))
+    inside = min(max(int(math.floor(t - 1 - half + 1e-9)) + 1, 0), t)  # the frames whose k + half <= t - 1
+    speed[:inside] = csum[whole:whole + inside]
+    if part > 1e-9:
+        speed[:inside] += part * ds[whole + 1:whole + 1 + inside]
+    speed[inside:] = csum[-1]
+    # ... less that at k - half (0 before the first frame)
+    if part > 1e-9:
+        inside = whole + 1  # the first frame whose k - half >= 0
+        if inside < t:
+            speed[inside:] -= csum[:t - inside]
+            speed[inside:] -= (1.0 - part) * ds[1:t - inside + 1]
+    elif whole < t:
+        speed[whole:] -= csum[:t - whole]
+    idx = np.arange(t, dtype=np.float64)
+    lo, hi = np.maximum(idx - half, 0.0), np.minimum(idx + half, t - 1.0)
+    speed /= ((hi - lo) * dt)[:, None]
     return ds, speed
 
 
@@ -253,11 +278,50 @@ def hysteresis(x: np.ndarray, start: float, stop: float) -> np.ndarray:
     return np.where(lead, (first_on < first_off)[None, :], out)
 
 
-def drop_short_states(state: np.ndarray, min_frames: int) -> np.ndarray:
-    """(T, N) states in which every run of one state shorter than ``min_frames`` frames,
-    other than an agent's first and last, is taken by the state before it."""
+def change_leads(state: np.ndarray, speed: np.ndarray, turn: np.ndarray, params: LocomotionParams) -> np.ndarray:
+    """(T, N) float: where each agent's state changes at frame k, the share of the step
+    from frame k-1 to k that passes before it changes: the instant the value behind the
+    change (the speed for idle/turn <-> walk/run/move at ``walk_start`` or ``walk_stop``,
+    and for walk <-> run at ``run_start`` or ``run_stop``; the absolute turn rate for idle
+    <-> turn) crosses its threshold, taken linearly between the two frames. 0 elsewhere
+    and where no such crossing lies between them (a change the active mask made). Taken
+    before :func:`drop_short_states`: a change it leaves is one of these, at the instant
+    the state it changes to began."""
     t, n = state.shape
-    if min_frames <= 1 or t < 3:
+    lead = np.zeros((t, n))
+    if t < 2:
+        return lead
+    k, i = np.nonzero(state[1:] != state[:-1])
+    if not len(k):
+        return lead
+    k += 1
+    s0, s1 = state[k - 1, i], state[k, i]
+    goes = np.array([s in (WALK, RUN, MOVE) for s in range(len(STATES))])
+    moving_flip = goes[s0] != goes[s1]
+    running_flip = ~moving_flip & ((s0 == RUN) | (s1 == RUN))
+    turning = ~moving_flip & ~running_flip
+    up = np.where(moving_flip, goes[s1], np.where(running_flip, s1 == RUN, s1 == TURN))
+    start = np.where(moving_flip, params.walk_start, np.where(running_flip, params.run_start, params.turn_start))
+    stop = np.where(moving_flip, params.walk_stop, np.where(running_flip, params.run_stop, params.turn_stop))
+    threshold = np.where(up, start, stop)
+    x0 = np.where(turning, np.abs(turn[k - 1, i]), speed[k - 1, i])
+    x1 = np.where(turning, np.abs(turn[k, i]), speed[k, i])
+    rise = x1 - x0
+    with np.errstate(divide="ignore", invalid="ignore"):
+        share = (threshold - x0) / rise
+    crossed = np.isfinite(share) & (share >= 0.0) & (share <= 1.0) & np.where(up, rise > 0, rise < 0)
+    lead[k, i] = np.where(crossed, share, 0.0)
+    return lead
+
+
+def drop_short_states(state: np.ndarray, min_frames: float, lead: np.ndarray | None = None) -> np.ndarray:
+    """(T, N) states in which every run of one state that lasts less than ``min_frames``
+    frames, other than an agent's first and last, is taken by the state before it. A run
+    lasts from the instant it begins to the instant the next begins: a change at frame k
+    comes ``lead[k]`` of a step after frame k-1 (:func:`change_leads`; at frame k-1 when
+    None)."""
+    t, n = state.shape
+    if min_frames <= (0 if lead is not None else 1) or t < 3:  # (a run of whole frames lasts at least one)
         return state
     flat = np.ascontiguousarray(state.T).ravel()  # agent by agent
     start = np.ones(flat.size, bool)
@@ -266,7 +330,13 @@ def drop_short_states(state: np.ndarray, min_frames: int) -> np.ndarray:
     first = np.flatnonzero(start)
     length = np.diff(np.append(first, flat.size))
     at = first % t
-    short = (length < min_frames) & (at > 0) & (at + length < t)
+    inner = (at > 0) & (at + length < t)
+    lasts = length.astype(np.float64)
+    if lead is not None and inner.any():
+        begins = lead[at, first // t]  # 0 at an agent's first frame: never inner
+        ends = np.append(begins[1:], 0.0)  # the next run's lead (an inner run has a next one)
+        lasts += ends - begins
+    short = (lasts < min_frames - 1e-9) & inner
     if not short.any():
         return state
     keep = ~np.repeat(short, length)  # an agent's first run is always kept: no fill crosses agents
@@ -288,56 +358,89 @@ def signed_turn_rate(yaw: np.ndarray, dt: float) -> np.ndarray:
     return out
 
 
+def changes_of(flags: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """(agents, frames) where the (T, N) ``flags`` change from the frame before, agent by
+    agent in time order."""
+    agent_of, frame_of = np.nonzero((flags[1:] != flags[:-1]).T)
+    return agent_of, frame_of + 1
+
+
 def closing_and_opening_steps(advance: np.ndarray, stepping: np.ndarray, active: np.ndarray,
-                              rate: float) -> np.ndarray:
+                              rate: float, lead: np.ndarray | None = None,
+                              changes: tuple[np.ndarray, np.ndarray] | None = None) -> np.ndarray:
     """Add the closing and opening steps to the phase increments ``advance`` (T, N) in
-    place (see the module docstring). From each frame an agent stops stepping (and is
-    there), the phase runs on by ``rate`` strides a frame until both feet have struck once
-    more (the next whole and the next half stride after the phase at the stop), or until
-    it steps again; from each frame it sets off from standing, it advances by at least
-    ``rate`` a frame until both feet have struck once. Returns (T, N) bool, the frames of
-    the closing steps."""
+    place (see the module docstring). An agent stops or sets off where ``stepping``
+    changes, at frame k, ``lead[k]`` of a step after frame k-1 (at frame k-1 when None;
+    ``advance`` there holds the natural advance of the share of the step it steps). From
+    the instant it stops (and is there), the phase runs on at ``rate`` strides a step
+    until both feet have struck once more (the next whole and the next half stride after
+    the phase at the stop), or until it steps again; from the instant it sets off, it
+    advances at least at ``rate`` until both feet have struck once, and then at its own
+    rate again, within the step it gets there. ``changes``: :func:`changes_of` ``stepping``
+    when that is at hand. Returns (T, N) bool, the frames inside the closing steps (the
+    last foot to strike not yet down)."""
     t, n = advance.shape
     closing = np.zeros((t, n), bool)
     if t < 2:
         return closing
-    change = np.zeros((t, n), bool)
-    change[1:] = stepping[1:] != stepping[:-1]
-    agent_of, frame_of = np.nonzero(change.T)  # agent by agent, in time order
+    agent_of, frame_of = changes_of(stepping) if changes is None else changes
     if not len(agent_of):
         return closing
     # each change's next one, where stepping changes back (t: none)
     next_change = np.r_[frame_of[1:], t]
     next_change[np.r_[agent_of[1:] != agent_of[:-1], True]] = t
+    shares = np.zeros(len(agent_of)) if lead is None else lead[frame_of, agent_of]
+    next_share = np.r_[shares[1:], 0.0]  # the share of its step before the next change
     stop = ~stepping[frame_of, agent_of]
     keep = ~stop | active[frame_of, agent_of]  # no closing steps for an agent that is gone
     agent_of, frame_of, next_change, stop = agent_of[keep], frame_of[keep], next_change[keep], stop[keep]
+    shares, next_share = shares[keep], next_share[keep]
     if not len(agent_of):
         return closing
+    natural = advance[frame_of, agent_of]  # the natural advance of each change's own step
     ordinal = np.arange(len(agent_of)) - np.searchsorted(agent_of, agent_of)  # 0 for an agent's first event, ...
     phase = np.cumsum(advance, axis=0)  # before any closing or opening step
     carried = np.zeros(n)  # the phase they have added so far, per agent
     for j in range(int(ordinal.max()) + 1):  # the j-th event of every agent that has one, at once
         pick = ordinal == j
-        i, k0 = agent_of[pick], frame_of[pick]
-        p0 = phase[k0 - 1, i] + carried[i]
-        goal = np.maximum(np.floor(p0) + 1.0, np.floor(p0 - 0.5) + 1.5)  # left strikes at whole strides, right at halves
-        frames = np.ceil((goal - p0) / rate - 1e-9).astype(np.int64)  # at least `rate` a frame: no more than these
-        length = np.minimum(k0 + frames, next_change[pick]) - k0
+        i, k0, k1, closes0 = agent_of[pick], frame_of[pick], next_change[pick], stop[pick]
+        # the phase at the instant of the change: a stop comes after its step's stepping share
+        p0 = phase[k0 - 1 + closes0, i] + carried[i]
+        # left strikes at whole strides, right at halves; a strike the phase stands on (to rounding: where
+        # closing steps left it) has been made
+        q = p0 + STRIKE_TOLERANCE
+        goal = np.maximum(np.floor(q) + 1.0, np.floor(q - 0.5) + 1.5)
+        # the share of each step the window's motion takes: all of it inside, the first step's after the
+        # change, the next change's step before that change
+        first = 1.0 - shares[pick]
+        steps = np.maximum(np.ceil((goal - p0) / rate - first - 1e-9), 0).astype(np.int64)  # then whole steps
+        # the window: from the change's frame to the one it gets there in, or the next change's, or the last
+        length = np.minimum(np.minimum(k0 + steps, k1), t - 1) - k0 + 1
+        offsets = np.cumsum(length) - length
         gap = np.repeat(goal - p0, length)
-        s = np.arange(length.sum()) - np.repeat(np.cumsum(length) - length, length)  # frames into each window
+        s = np.arange(length.sum()) - np.repeat(offsets, length)  # frames into each window
         rows, cols = np.repeat(k0, length) + s, np.repeat(i, length)
-        closes = np.repeat(stop[pick], length)
+        closes = np.repeat(closes0, length)
+        share = np.where(rows == np.repeat(k1, length), np.repeat(next_share[pick], length), 1.0)
+        share[offsets] = first
         before = advance[rows, cols]
-        boosted = np.maximum(before, rate)
-        run = np.cumsum(boosted)
-        run -= np.repeat(np.r_[0.0, run][np.cumsum(length) - length], length)  # summed within each window
-        # closing: exactly `rate` a frame up to the goal; opening: at least `rate` while short of it
-        added = np.where(closes, np.minimum((s + 1) * rate, gap) - np.minimum(s * rate, gap),
-                         np.where(run - boosted < gap, boosted, before))
-        advance[rows, cols] = np.where(closes, before + added, added)
-        closing[rows[closes], cols[closes]] = True
+        before[offsets] = natural[pick]
+        boosted = share * rate
+        np.maximum(boosted, before, out=boosted, where=~closes)
+        done = np.cumsum(boosted)
+        done -= np.repeat(np.r_[0.0, done][offsets], length)  # summed within each window, to each step's end
+        prior = done - boosted  # ... up to its beginning
+        # closing: exactly `rate` a step up to the goal; opening: at least `rate` up to the goal, then the
+        # natural advance for the rest of the step it gets there in
+        reach = np.clip(gap - prior, 0.0, None)
+        within = np.divide(reach, boosted, out=np.ones_like(reach), where=boosted > 0)
+        added = np.where(closes, np.minimum(done, gap) - np.minimum(prior, gap),
+                         np.where(done <= gap, boosted,
+                                  np.where(prior < gap, reach + before * (1.0 - np.minimum(within, 1.0)), before)))
         extra = np.where(closes, added, added - before)
+        advance[rows, cols] += extra
+        moving = closes & (done < gap - STRIKE_TOLERANCE)  # at the frame, short of the last strike: a foot is up
+        closing[rows[moving], cols[moving]] = True
         np.add.at(carried, cols, extra)
     return closing
 
@@ -391,7 +494,8 @@ def locomotion(traj, params: LocomotionParams | None = None, kinds: dict | None 
         state = walker_state
     else:
         state = np.where(walker[None, :], walker_state, moving.view(i8) * i8(MOVE)).astype(i8)
-    state = drop_short_states(state, math.ceil(p.min_state_s / dt - 1e-9))
+    lead = change_leads(state, speed, rate, p)
+    state = drop_short_states(state, p.min_state_s / dt, lead)
 
     stepping = (state == WALK) | (state == RUN)
     # a step's length at the speed of its two frames (never below walk_stop's: no blow-up at a crawl)
@@ -399,20 +503,26 @@ def locomotion(traj, params: LocomotionParams | None = None, kinds: dict | None 
     v_step[1:] += v_step[:-1]
     v_step[1:] *= 0.5
     advance = ds / (2.0 * step_length(v_step, p))
+    # where it sets off or stops, the share of the step it steps: after or before the change
+    changes = i, k = changes_of(stepping)
+    natural = advance[k, i] * np.where(stepping[k, i], 1.0 - lead[k, i], lead[k, i])
     advance *= stepping
+    advance[k, i] = natural
     if p.stagger:
         advance[0] += (traj.ids.astype(np.float64) * GOLDEN) % 1.0
     closing = np.zeros((t, n), bool)
     if p.gait_transitions:
         closing = closing_and_opening_steps(advance, stepping, active & walker[None, :],
-                                            0.5 * float(cadence(p.reference_speed, p)) * dt)
+                                            0.5 * float(cadence(p.reference_speed, p)) * dt, lead, changes)
     phase = np.cumsum(advance, axis=0)
-    np.mod(phase, 1.0, out=phase)
+    phase -= np.floor(phase)  # mod 1 (the same numbers: the phase is never negative), in less time
 
     duty = np.where(state == RUN, p.run_duty, p.walk_duty)
     feet_move = stepping | closing
     left = ~feet_move | (phase < duty)
-    right = ~feet_move | ((phase - 0.5) % 1.0 < duty)
+    behind = phase - 0.5
+    np.add(behind, 1.0, out=behind, where=behind < 0.0)  # (phase - 0.5) mod 1: the right foot's phase
+    right = ~feet_move | (behind < duty)
     if not walker.all():
         phase[:, ~walker] = np.nan
         left &= walker[None, :]
