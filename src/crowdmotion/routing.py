@@ -176,16 +176,11 @@ def narrow_passages(scene: Scene, centres: np.ndarray, clearance: np.ndarray, bl
     return np.isin(strips, joining) if joining else opened
 
 
-def distance_fields(scene: Scene, goals: list, radius: float, cell: float | None = None,
-                    names: list[str] | None = None) -> DistanceFields:
-    """Exact 8-connected distances (corner cutting off) to each goal region, in metres.
-
-    A cell is blocked when its centre lies within ``radius`` of a static obstacle, so the
-    field routes agents' centres where their bodies fit, unless it is part of a narrow
-    passage a body fits through (:func:`narrow_passages`). Goals are regions (their free
-    cells) or Points (the cells of the points). ``names``: what an error calls each goal
-    (default ``groups.K``, a scenario's group).
-    """
+def blocked_cells(scene: Scene, radius: float, cell: float | None = None) -> tuple[float, np.ndarray, np.ndarray]:
+    """(cell edge, (nx·ny, 2) cell centres, (nx, ny) blocked) of the grid
+    :func:`distance_fields` solves on: a cell is blocked when its centre lies within
+    ``radius`` of a static obstacle, unless it is part of a narrow passage a body fits
+    through (:func:`narrow_passages`)."""
     cell = default_cell(scene, radius) if cell is None else float(cell)
     if not (np.isfinite(cell) and cell > 0):
         raise ValueError(f"rvo.field_cell must be a positive number of metres, got {cell!r}")
@@ -198,6 +193,27 @@ def distance_fields(scene: Scene, goals: list, radius: float, cell: float | None
     clearance = scene.static_obstacle_distance(centres)
     blocked = (clearance < radius).reshape(shape)
     blocked &= ~narrow_passages(scene, centres, clearance, blocked, radius, cell)
+    return cell, centres, blocked
+
+
+def distance_fields(scene: Scene, goals: list, radius: float, cell: float | None = None,
+                    names: list[str] | None = None, blocked: np.ndarray | None = None) -> DistanceFields:
+    """Exact 8-connected distances (corner cutting off) to each goal region, in metres.
+
+    A cell is blocked when its centre lies within ``radius`` of a static obstacle, so the
+    field routes agents' centres where their bodies fit, unless it is part of a narrow
+    passage a body fits through (:func:`blocked_cells`). Goals are regions (their free
+    cells) or Points (the cells of the points). ``names``: what an error calls each goal
+    (default ``groups.K``, a scenario's group). ``blocked``: the blocked cells of fields
+    solved before on the same grid (``cell`` given) for the same obstacles and radius,
+    which are then not found again (the most of a new field's cost in a large scene).
+    """
+    if blocked is None:
+        cell, centres, blocked = blocked_cells(scene, radius, cell)
+    else:  # the grid of fields solved before for the same obstacles and bodies
+        cell = float(cell)
+        centres = scene.lower + (np.indices(blocked.shape).reshape(2, -1).T + 0.5) * cell
+    shape = blocked.shape
     goal_cells = []
     for k, goal in enumerate(goals):
         label = names[k] if names else f"groups.{k}"

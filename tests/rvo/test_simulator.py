@@ -168,6 +168,21 @@ def test_the_same_goal_given_again_reuses_its_guidance_field():
     assert sim._fields.dist.shape[0] == 2
 
 
+def test_a_new_goals_field_is_solved_on_the_blocked_cells_found_before_and_is_the_same(monkeypatch):
+    from crowdmotion import routing
+
+    sim = rvo.Simulator(_walled())
+    sim.add_agents([[2, 5], [3, 7]], [18, 5])
+    sim.step()
+    found = []
+    real = routing.blocked_cells
+    monkeypatch.setattr(routing, "blocked_cells", lambda *a, **kw: found.append(1) or real(*a, **kw))
+    sim.set_goals([1], [18, 9])  # a new goal: its field solved now
+    assert found == [], "the obstacles did not change: the blocked cells are those of the fields before"
+    fresh = routing.distance_fields(sim._now, [sim._goal_regions[-1]], 0.25, sim._fields.cell)
+    np.testing.assert_array_equal(sim._exact[-1], fresh.dist[0])
+
+
 def test_a_crowd_sent_to_ever_new_goals_keeps_fields_only_for_goals_in_use_and_a_few_more(monkeypatch):
     from crowdmotion.rvo import simulator as S
     monkeypatch.setattr(S, "UNUSED_FIELDS_MB", 0.0)  # keep the fewest unused fields: UNUSED_FIELDS_MIN

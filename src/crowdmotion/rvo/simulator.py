@@ -962,7 +962,7 @@ class Simulator(LiveObstacles):
         """Solve the fields of new goal regions, into ``places``: those of fields no longer
         used, then new ones beside those already solved."""
         more = distance_fields(self._now, regions, float(self.params["radius"].max()), self._fields.cell,
-                               names=[f"goal region {k}" for k in places])
+                               names=[f"goal region {k}" for k in places], blocked=self._fields.blocked)
         reused = [k for k in places if k < len(self._exact)]
         if reused:
             self._store_fields(reused, more.dist[:len(reused)], more.goal_cells[:len(reused)])
@@ -1087,7 +1087,8 @@ class Simulator(LiveObstacles):
         if not len(todo):
             return
         more = distance_fields(self._now, [self._goal_regions[k] for k in todo], float(self.params["radius"].max()),
-                               self._fields.cell, names=[f"goal region {k}" for k in todo])  # a goal covered now raises
+                               self._fields.cell, names=[f"goal region {k}" for k in todo],
+                               blocked=self._fields.blocked)  # a goal covered now raises
         self._store_fields(todo, more.dist, more.goal_cells)
 
     def _replan(self) -> None:
