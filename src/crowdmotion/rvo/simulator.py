@@ -344,7 +344,7 @@ class Simulator(LiveObstacles):
         self._exact: np.ndarray | None = None  # the exact distances, while _fields holds the weighted ones
         self._router: CongestionRouter | None = None
         self._weights = None  # the router's cell and edge weights for this replan period
-        self._replanning = None  # (fields to re-solve this period, {field: its new distances})
+        self._replanning = None  # (fields re-solving this period, their searches, cells a step settles)
         self._partial: set[int] = set()  # congestion-aware fields solved only near their agents
         self._partial_weights = None  # the graph weights they were solved with
         self._solved_round = None  # per field and cell: the window round it all solved (True off those fields)
@@ -1119,29 +1119,29 @@ class Simulator(LiveObstacles):
             present = self.active | self.waiting
             near = [self._router.near(self.positions[present & (self.field_of == k)], reach) for k in todo]
             if spread == 1:
-                solved = dict(zip(todo.tolist(), self._router.solve(None, todo, weights=self._weights, near=near)))
-                self._replanning = (todo, solved)
-            else:
-                searches = self._router.searches(todo, self._weights, near)
-                self._replanning = (todo, searches, -(-sum(f.nodes for f in searches) // spread))
+                self._replanning = None
+                self._take(dict(zip(todo.tolist(), self._router.solve(None, todo, weights=self._weights, near=near))))
+                return
+            searches = self._router.searches(todo, self._weights, near)
+            self._replanning = (todo, searches, -(-sum(f.nodes for f in searches) // spread))
         if self._replanning is None:
             return
-        todo = self._replanning[0]
-        if len(self._replanning) == 3:  # slices of the searches, the step's share of cells
-            _, searches, share = self._replanning
-            for search in searches:
-                if search.done:
-                    continue
-                before = search.settled
-                search.advance(share)
-                share -= search.settled - before
-                if share <= 0:
-                    break
-            if not all(f.done for f in searches):
-                return
-            solved = {k: f.distances() for k, f in zip(todo.tolist(), searches)}
-        else:
-            solved = self._replanning[1]
+        todo, searches, share = self._replanning  # this step settles its share of cells
+        for search in searches:
+            if search.done:
+                continue
+            before = search.settled
+            search.advance(share)
+            share -= search.settled - before
+            if share <= 0:
+                break
+        if all(f.done for f in searches):
+            self._replanning = None
+            self._take({k: f.distances() for k, f in zip(todo.tolist(), searches)})
+
+    def _take(self, solved: dict) -> None:
+        """The congestion-aware fields ``solved`` (field -> distances) of this period
+        taken, all at once; the others exact again."""
         dist = self._fields.dist
         if dist is self._exact:
             dist = self._exact.copy()
@@ -1160,7 +1160,6 @@ class Simulator(LiveObstacles):
         for k in solved:
             self._solved_round[k] = minimum_filter(np.isfinite(dist[k]) | ~np.isfinite(self._exact[k]), size=size,
                                                    mode="nearest")
-        self._replanning = None
 
     def _complete_partial(self) -> None:
         """Solve to the end the congestion-aware fields, solved only near their agents, that
