@@ -461,11 +461,11 @@ def test_with_rechoose_late_agents_bound_for_a_gate_whose_queue_grows_switch_to_
     assert done(again) < done(once) - 10.0
 
 
-def _taken_exit(rechoose):
+def _taken_exit(rechoose, to=(20.0, 17.0)):
     """The exit a walker re-choosing the nearest of two every ``rechoose`` seconds (None:
-    chosen once) leaves by, when 2 s after setting off for the south exit it is put
-    across the room, by the north one (a player the game teleported, one the crowd
-    carried over)."""
+    chosen once) leaves by, when 2 s after setting off for the south exit it is put at
+    ``to``: across the room, by the north one (a player the game teleported, one the
+    crowd carried over)."""
     from crowdmotion.groups import Group, Points, Rect
     from crowdmotion.rvo.params import RVOParams
     from crowdmotion.rvo.simulation import build_journeys, build_simulator
@@ -482,7 +482,7 @@ def _taken_exit(rechoose):
     journeys.update(sim, params.time_step)
     for _ in range(8):
         sim.step()
-    sim.place([0], [[20.0, 17.0]])
+    sim.place([0], [to])
     while sim.steps < 400 and journeys.busy(sim.active):
         sim.step()
     return [name for name, times in journeys.exits.items() if times]
@@ -491,6 +491,12 @@ def _taken_exit(rechoose):
 def test_rechoosing_the_nearest_a_walker_put_across_the_room_takes_the_exit_now_nearer():
     assert _taken_exit(None) == ["south"], "chosen once, it walks back to the exit it took"
     assert _taken_exit(1.0) == ["north"]
+
+
+def test_a_walker_bound_for_one_exit_that_finds_itself_in_another_of_its_choice_leaves_there():
+    # RiMEA 11 by nearest: people bound for the near exit pressed through the far door
+    # into its closed exit area stayed there (one for 420 s) instead of leaving
+    assert _taken_exit(None, to=(32.0, 19.0)) == ["north"]
 
 
 @pytest.mark.parametrize("written,message", [
