@@ -16,7 +16,7 @@ from functools import cached_property
 import numpy as np
 
 from crowdmotion.groups import MovingTarget, Points
-from crowdmotion.mdp.solvers import exact_values_each
+from crowdmotion.mdp.solvers import SCIPY_MAX_CELLS, exact_values_each, move_graph
 from crowdmotion.scene import Scene
 
 MAX_FIELD_CELLS = 16_000_000
@@ -38,6 +38,15 @@ class DistanceFields:
     def passage_points(self) -> np.ndarray:
         """:func:`passage_samples` of this grid's cell, made once."""
         return passage_samples(self.cell)
+
+    @cached_property
+    def move_graph(self):
+        """The moves between the free cells (corner cutting off) that scipy's Dijkstra
+        walks for a new field on this grid, built once (None on grids the numba solver
+        takes, or without ``blocked``)."""
+        if self.blocked is None or self.blocked.size > SCIPY_MAX_CELLS:
+            return None
+        return move_graph(self.blocked.astype(np.uint8), corner_cutting=False)
 
     def cells(self, points: np.ndarray) -> np.ndarray:
         """(P, 2) the grid cell index of each point, off the grid (negative or past its
@@ -197,7 +206,8 @@ def blocked_cells(scene: Scene, radius: float, cell: float | None = None) -> tup
 
 
 def distance_fields(scene: Scene, goals: list, radius: float, cell: float | None = None,
-                    names: list[str] | None = None, blocked: np.ndarray | None = None) -> DistanceFields:
+                    names: list[str] | None = None, blocked: np.ndarray | None = None,
+                    graph=None) -> DistanceFields:
     """Exact 8-connected distances (corner cutting off) to each goal region, in metres.
 
     A cell is blocked when its centre lies within ``radius`` of a static obstacle, so the
@@ -206,7 +216,8 @@ def distance_fields(scene: Scene, goals: list, radius: float, cell: float | None
     cells) or Points (the cells of the points). ``names``: what an error calls each goal
     (default ``groups.K``, a scenario's group). ``blocked``: the blocked cells of fields
     solved before on the same grid (``cell`` given) for the same obstacles and radius,
-    which are then not found again (the most of a new field's cost in a large scene).
+    which are then not found again (the most of a new field's cost in a large scene);
+    ``graph``: their moves (:attr:`DistanceFields.move_graph`), not built again.
     """
     if blocked is None:
         cell, centres, blocked = blocked_cells(scene, radius, cell)
@@ -231,6 +242,6 @@ def distance_fields(scene: Scene, goals: list, radius: float, cell: float | None
                              f"(field cell {cell:.3f} m, agent radius {radius} m)")
         goal_cells.append(np.array(sorted(set(cells)), dtype=np.int64))
     values = exact_values_each(blocked.astype(np.uint8), [[tuple(c) for c in cells] for cells in goal_cells],
-                               corner_cutting=False)
+                               corner_cutting=False, graph=graph)
     dist = -np.stack(values) * cell if values else np.zeros((0,) + shape)
     return DistanceFields(dist, scene.lower.astype(float).copy(), cell, blocked, goal_cells)

@@ -181,6 +181,28 @@ def test_a_new_goals_field_is_solved_on_the_blocked_cells_found_before_and_is_th
     assert found == [], "the obstacles did not change: the blocked cells are those of the fields before"
     fresh = routing.distance_fields(sim._now, [sim._goal_regions[-1]], 0.25, sim._fields.cell)
     np.testing.assert_array_equal(sim._exact[-1], fresh.dist[0])
+    graphs = []
+    real_graph = routing.move_graph
+    monkeypatch.setattr(routing, "move_graph", lambda *a, **kw: graphs.append(1) or real_graph(*a, **kw))
+    for k, goal in enumerate(([18, 2], [15, 8], [12, 9])):  # a goal a frame, as a chase gives them
+        sim.set_goals([0], goal)
+        sim.step()
+    assert len(graphs) <= 1, "the grid's moves are built once for the new goals' fields"
+    fresh = routing.distance_fields(sim._now, [sim._goal_regions[-1]], 0.25, sim._fields.cell)
+    np.testing.assert_array_equal(sim._exact[-1], fresh.dist[0])
+
+
+def test_fields_added_one_at_a_time_fill_the_room_kept_for_them_instead_of_copying_all_held():
+    from crowdmotion.rvo.simulator import _stacked
+
+    held = np.arange(2 * 3 * 4, dtype=float).reshape(2, 3, 4)
+    rows = _stacked(held, np.full((1, 3, 4), -1.0))
+    buffer = rows.base
+    assert len(buffer) > 3, "room kept for more"
+    more = _stacked(rows, np.full((1, 3, 4), -2.0))
+    assert more.base is buffer, "the next field went into that room"
+    np.testing.assert_array_equal(more[:2], held)
+    assert (more[2] == -1).all() and (more[3] == -2).all() and more.shape == (4, 3, 4)
 
 
 def test_a_crowd_sent_to_ever_new_goals_keeps_fields_only_for_goals_in_use_and_a_few_more(monkeypatch):

@@ -149,10 +149,12 @@ def exact_values(grid: np.ndarray, goals: Sequence[tuple[int, ...]], corner_cutt
 
 
 def exact_values_each(grid: np.ndarray, goal_sets: Sequence[Sequence[tuple[int, ...]]],
-                      corner_cutting: bool = True) -> list[np.ndarray]:
+                      corner_cutting: bool = True, graph: sp.csr_matrix | None = None) -> list[np.ndarray]:
     """:func:`exact_values` for each set of goal cells on one grid, the move graph scipy's
-    Dijkstra walks built once for them all."""
-    graph = move_graph(grid, corner_cutting) if len(goal_sets) > 1 and grid.size <= SCIPY_MAX_CELLS else None
+    Dijkstra walks built once for them all (or ``graph``, :func:`move_graph`'s of this
+    grid, built before)."""
+    if graph is None and len(goal_sets) > 1 and grid.size <= SCIPY_MAX_CELLS:
+        graph = move_graph(grid, corner_cutting)
     return [exact_values(grid, goals, corner_cutting, graph) for goals in goal_sets]
 
 
