@@ -17,7 +17,7 @@ from pathlib import Path
 import numpy as np
 
 from crowdmotion.cases import Case, Outcome, Setup, Verdict, crossing_times, flow, simulate  # noqa: F401
-from crowdmotion.groups import Group, Points, Rect
+from crowdmotion.groups import Group, Lattice, Points, Rect
 from crowdmotion.peers import CASES as PEER_CASES
 from crowdmotion.scene import Box, Polygon, Scene
 
@@ -292,6 +292,36 @@ def _judge_rimea_9(out: dict[str, Outcome]) -> tuple[str, str, bool]:
             f"{t4:.0f} s -> {t2:.0f} s ({ratio:.2f}x)", bool(everyone and 1.5 <= ratio <= 2.5))
 
 
+# ---- RiMEA 11: the choice of exit -------------------------------------------------------------
+RIMEA_11_EXITS = {"near": (21.0, 22.0), "far": (27.0, 28.0)}  # x of the two 1 m doors in the north wall
+
+
+def _rimea_11(method: str) -> dict[str, Setup]:
+    from crowdmotion.stages import Choose, Leave
+
+    # a 30 x 20 m room (y 0-20); its north wall (y 20-20.3) holds two 1 m doors 6 m apart, each
+    # opening into its own closed exit area (3 and 4 m wide, 2.7 m deep); the 1000 persons stand
+    # in the room's west half, so the west door is the nearer
+    scene = Scene(bounds=([0, 0], [30, 23]), obstacles=[
+        Box([0, 20], [21, 20.3]), Box([22, 20], [27, 20.3]), Box([28, 20], [30, 20.3]),
+        Box([0, 20.3], [20, 23]), Box([23, 20.3], [26, 23])])
+    exits = [Leave(Rect([x0, 21.5], [x1, 23.0]), name=name) for name, (x0, x1) in RIMEA_11_EXITS.items()]
+    group = Group("persons", 1000, spawn=Lattice([2, 2], [15, 18]), goal=exits[0].area, radius=0.2,
+                  max_speed=1.5, pref_speed=SPEED, attributes={"route": [Choose(exits, "nearest")]})
+    return {"1000": Setup(scene, [group], _params(method, max_steps=6000, spawn_gap=0.02))}
+
+
+def _judge_rimea_11(out: dict[str, Outcome]) -> tuple[str, str, bool]:
+    r = out["1000"]
+    exits = r.summary.get("journeys", {}).get("exits", {})
+    near, far = (int(exits.get(name, {}).get("left", 0)) for name in RIMEA_11_EXITS)
+    frames = np.flatnonzero(r.traj.active_mask.any(axis=1))
+    t = float((frames[-1] + 1) * r.traj.dt) if len(frames) else 0.0
+    everyone = _arrived(r) == 1.0 and near + far == r.traj.n_agents
+    return ("everyone leaves, most by the nearer door (RiMEA: documentation)",
+            f"near {near}, far {far}; the last out at {t:.0f} s", bool(everyone and near > far))
+
+
 # ---- RiMEA 12: no jam behind a bottleneck -----------------------------------------------------
 def _rimea_12(method: str) -> dict[str, Setup]:
     # room 10 x 10 m, a 1 m wide, 1 m deep bottleneck, an 18 m corridor 2 m wide, its open end
@@ -455,6 +485,10 @@ CASES: list[Case] = [
     Case("rimea_9_four_exits", "RiMEA test 9",
          "1000 persons leave a 30 x 20 m room by four 1 m exits, then with two of them closed",
          ("rvo", "mdp"), _rimea_9, _judge_rimea_9),
+    Case("rimea_11_exit_choice", "RiMEA test 11",
+         "1000 persons leave a 30 x 20 m room by the nearer of two 1 m doors 6 m apart in one wall, each opening "
+         "into its own closed exit area",
+         ("rvo",), _rimea_11, _judge_rimea_11),
     Case("rimea_12_bottleneck", "RiMEA test 12",
          "150 persons leave a 10 x 10 m room through a 1 m bottleneck into a 2 m corridor",
          ("rvo", "mdp"), _rimea_12, _judge_rimea_12),
