@@ -689,7 +689,7 @@ class Journeys:
 
     def _leave_where_they_stand(self, w: Walkers) -> None:
         """Agents walking to an exit (a leave option of a choose) that stand in the area of
-        another exit of the same choose leave by that one: one the crowd carried through
+        another exit of the same choose, and not in their own's, leave by that one: one the crowd carried through
         the other door has left the room (RiMEA 11 by nearest: 37 of 1000 bound for the
         near exit were pressed through the far door into its closed exit area and stayed
         there, one for 420 s)."""
@@ -702,6 +702,8 @@ class Journeys:
                 continue
             st = self.flat[g][cid][1]
             pos = w.positions[ids]
+            own = ~self.flat[g][sid][1].area.contains(pos)  # in its own exit's area too: it leaves there
+            ids, pos = ids[own], pos[own]
             for j, other in others:
                 inside = self.flat[g][other][1].area.contains(pos)
                 for a in ids[inside].tolist():
