@@ -461,7 +461,7 @@ def test_with_rechoose_late_agents_bound_for_a_gate_whose_queue_grows_switch_to_
     assert done(again) < done(once) - 10.0
 
 
-def _taken_exit(rechoose, to=(20.0, 17.0)):
+def _taken_exit(rechoose, to=(20.0, 17.0), north=((30, 18.5), (34, 19.5))):
     """The exit a walker re-choosing the nearest of two every ``rechoose`` seconds (None:
     chosen once) leaves by, when 2 s after setting off for the south exit it is put at
     ``to``: across the room, by the north one (a player the game teleported, one the
@@ -472,7 +472,7 @@ def _taken_exit(rechoose, to=(20.0, 17.0)):
     from crowdmotion.stages import Choose, Leave
 
     scene = cm.Scene(bounds=([0, 0], [40, 20]))
-    south, north = Rect([30, 0.5], [34, 1.5]), Rect([30, 18.5], [34, 19.5])
+    south, north = Rect([30, 0.5], [34, 1.5]), Rect(*north)
     route = [Choose([Leave(south, name="south"), Leave(north, name="north")], "nearest", rechoose=rechoose)]
     group = Group("walker", 1, spawn=Points([[2.0, 9.0]]), goal=south, attributes={"route": route})
     rng = np.random.default_rng(0)
@@ -497,6 +497,8 @@ def test_a_walker_bound_for_one_exit_that_finds_itself_in_another_of_its_choice_
     # RiMEA 11 by nearest: people bound for the near exit pressed through the far door
     # into its closed exit area stayed there (one for 420 s) instead of leaving
     assert _taken_exit(None, to=(32.0, 19.0)) == ["north"]
+    # standing where its own exit's area and the other's overlap, it leaves by its own
+    assert _taken_exit(None, to=(32.0, 1.0), north=((31, 0.5), (34, 5.0))) == ["south"]
 
 
 @pytest.mark.parametrize("written,message", [
