@@ -54,6 +54,8 @@ exit) costs nothing extra, and neither does a crossing at right angles: J · n̂
 
 from __future__ import annotations
 
+from functools import cached_property
+
 import numpy as np
 from numba import njit, prange
 from scipy.ndimage import gaussian_filter, maximum_filter
@@ -394,12 +396,19 @@ class CongestionRouter:
         self.fields = fields
         self.congestion = float(congestion)
         self.counterflow = float(counterflow)
-        free = ~fields.blocked
-        self.enabled = (self.congestion > 0 or self.counterflow > 0) and free.size <= MAX_CELLS
-        if self.enabled:
-            self.graph = GridGraph(free, fields.cell)
-            if self.counterflow > 0:
-                self._read_at = self.graph.beside(KEEP_RIGHT_M if keep_right else 0.0)
+        self.keep_right = bool(keep_right)
+        self.enabled = (self.congestion > 0 or self.counterflow > 0) and fields.blocked.size <= MAX_CELLS
+
+    @cached_property
+    def graph(self) -> GridGraph:
+        """The free cells' graph, built at the first re-solve (an obstacle moved at every
+        frame of a game rebuilds the router each frame; it re-solves every ``replan_s``)."""
+        return GridGraph(~self.fields.blocked, self.fields.cell)
+
+    @cached_property
+    def _read_at(self):
+        """Where the oncoming flux is read for each edge (:meth:`GridGraph.beside`)."""
+        return self.graph.beside(KEEP_RIGHT_M if self.keep_right else 0.0)
 
     def bins(self, positions: np.ndarray) -> np.ndarray:
         """(N,) each agent's cell of the field grid, flattened (−1 off the grid)."""
