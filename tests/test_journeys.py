@@ -523,6 +523,10 @@ def test_a_choose_stage_in_python_refuses_a_bad_rechoose_naming_it():
     with pytest.raises(ValueError, match="choose.rechoose goes with by = 'nearest' or 'least_crowded'"):
         Choose(among, "weights", [1.0, 1.0], rechoose=2.0)
     assert Choose(among, "nearest", rechoose=2.0).rechoose == 2.0
+    with pytest.raises(ValueError, match="choose.rechoose_margin goes with rechoose"):
+        Choose(among, "nearest", rechoose_margin=5.0)  # a margin that would be ignored
+    with pytest.raises(ValueError, match="choose.rechoose_margin goes with rechoose"):
+        Choose(among, "weights", [1.0, 1.0], rechoose_margin=1.0)
     with pytest.raises(ValueError, match=r"choose.rechoose must be a number of seconds > 0, got nan"):
         Choose(among, "least_crowded", rechoose=float("nan"))
     with pytest.raises(ValueError, match=r"choose.rechoose_margin must be a number of seconds >= 0, got -1"):

@@ -478,7 +478,8 @@ class ChooseStageSpec(_Model):
         if (self.by == "weights") != (self.weights is not None):
             raise ValueError("weights go with by = \"weights\", and it needs them")
         if self.weights is not None and (len(self.weights) != len(self.among) or sum(self.weights) <= 0):
-            raise ValueError(f"weights: give {len(self.among)} weights (one per stage of among), not all 0")
+            raise ValueError(f"weights: give {len(self.among)} weights (one per stage of among), not all 0; got "
+                             f"{len(self.weights)} summing to {sum(self.weights):g}")
         if (self.rechoose is not None or self.rechoose_margin is not None) and self.by == "weights":
             raise ValueError("rechoose and rechoose_margin go with by = \"nearest\" or \"least_crowded\", not by = "
                              "\"weights\"")

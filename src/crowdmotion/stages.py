@@ -270,7 +270,8 @@ class Choose:
     by = "nearest" or "least_crowded"): then an agent still walking to the option it took
     (not yet arrived at its first stage, or not yet in its queue's line) weighs the
     options again every ``rechoose`` seconds and switches to another whose cost is lower
-    by more than ``rechoose_margin`` seconds (default RECHOOSE_MARGIN_S). By
+    by more than ``rechoose_margin`` seconds (default RECHOOSE_MARGIN_S; only with
+    ``rechoose``). By
     "least_crowded" the cost is the walking time plus those bound there over the
     capacity, its own option counted without itself: as a queue at one exit builds, those
     still on their way take another. By "nearest" it is the walking time alone: an agent
@@ -283,7 +284,7 @@ class Choose:
     weights: list | None = None
     name: str | None = None
     rechoose: float | None = None
-    rechoose_margin: float = RECHOOSE_MARGIN_S
+    rechoose_margin: float | None = None
     kind = "choose"
 
     def __post_init__(self):
@@ -318,7 +319,11 @@ class Choose:
                 raise ValueError("choose.rechoose goes with by = 'nearest' or 'least_crowded' (a choice that "
                                  "changes as the agent walks or others choose), not by = 'weights'")
             self.rechoose = _seconds(self.rechoose, "choose.rechoose", positive=True)
-        self.rechoose_margin = _seconds(self.rechoose_margin, "choose.rechoose_margin", positive=False)
+        if self.rechoose_margin is not None and self.rechoose is None:
+            raise ValueError("choose.rechoose_margin goes with rechoose (seconds between two looks at the choice), "
+                             f"got a margin of {self.rechoose_margin!r} and no rechoose")
+        self.rechoose_margin = RECHOOSE_MARGIN_S if self.rechoose_margin is None else \
+            _seconds(self.rechoose_margin, "choose.rechoose_margin", positive=False)
         self.name = _name(self.name, f"choose {self.by}")
 
     @property
