@@ -1179,7 +1179,7 @@ def test_a_person_whose_wait_is_over_walks_round_people_still_waiting_in_its_way
 
 
 def test_with_pass_standing_off_those_waiting_count_as_eq3_has_them_and_hold_the_walker():
-    sim, *_ = _room_waiting(1, pass_standing=False)
+    sim, *_ = _room_waiting(1, pass_standing=False, held_horizon=False)
     assert sim.present[1], "eq. (3)'s reciprocal rule: every line through the gaps meets someone within 4 m"
 
 

@@ -90,6 +90,10 @@ class RVOParams(MethodParams):
                              beyond where it walks round it only once past it; one of
                              them steps aside for a walker held 2 s behind it (False =
                              eq. (3)'s reciprocal rule for them too)
+    held_horizon : bool      a walker (radius up to 0.4 m) that has stood held up 3 s
+                             counts a neighbour's collision only when met within 0.5 s,
+                             so it takes a gap a straight ray beyond it would price above
+                             standing (an arch in a door's mouth; rvo.deadlock)
     counterflow_safety : float  in (0, 1]: the share of w a walker keeps while it walks into
                              people bound the other way, so it passes them as close as
                              people do in counterflow (rvo.density; walkers only; 1 = w)
@@ -132,6 +136,7 @@ class RVOParams(MethodParams):
     comfort_accel: Annotated[float, Field(ge=0, le=100, allow_inf_nan=False)] = 0.8
     squeeze_past: bool = True
     pass_standing: bool = True
+    held_horizon: bool = True
     counterflow_safety: Annotated[float, Field(gt=0, le=1, allow_inf_nan=False)] = 0.15
     smoothing: Literal["relaxed", "none"] = "relaxed"
     smoothing_window: Annotated[float, Field(gt=0, le=60.0, allow_inf_nan=False)] = 1.0

@@ -75,7 +75,7 @@ def build_simulator(scene: Scene, groups: Sequence[Group], params: RVOParams, rn
                     density_slowing=params.density_slowing, follow=params.follow,
                     lane_choice=params.lane_choice, comfort_accel=params.comfort_accel,
                     squeeze_past=params.squeeze_past, counterflow_safety=params.counterflow_safety,
-                    pass_standing=params.pass_standing)
+                    pass_standing=params.pass_standing, held_horizon=params.held_horizon)
     placed = np.zeros((0, 2))
     placed_r = np.zeros(0)
     for k, g in enumerate(groups):

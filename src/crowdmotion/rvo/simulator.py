@@ -267,6 +267,12 @@ class Simulator(LiveObstacles):
         one standing ignores a walker that stops short of it (its goal nearer), and steps
         aside for one that has stood 2 s behind it with its goal beyond. False =
         eq. (3)'s reciprocal rule for them too.
+    held_horizon : bool
+        A walker (radius up to 0.4 m) that has stood held up ``_kernels.HELD_LONG_S``
+        seconds counts a neighbour's collision only when met within
+        ``_kernels.HELD_HORIZON_S``: it takes a gap between two pressed on a door's wall
+        faces that a straight ray meeting the body beyond would price above standing.
+        False: eq. (3)'s collisions at any time.
     """
 
     def __init__(self, scene: Scene, time_step: float = 0.25, guidance: str = "auto",
@@ -276,7 +282,8 @@ class Simulator(LiveObstacles):
                  patience: float = 2.0, congestion: float = 1.0, replan_s: float = 2.0,
                  density_slowing: bool = True, follow: float = 0.5, lane_choice: bool = True,
                  comfort_accel: float = 0.8, counterflow: float = 20.0, squeeze_past: bool = True,
-                 counterflow_safety: float = COUNTERFLOW_SAFETY, pass_standing: bool = True):
+                 counterflow_safety: float = COUNTERFLOW_SAFETY, pass_standing: bool = True,
+                 held_horizon: bool = True):
         if not isinstance(scene, Scene):
             raise TypeError(f"scene must be a crowdmotion.Scene, got {scene!r}")
         if not (finite_number(time_step) and 0 < time_step <= MAX_TIME_STEP_S):
@@ -370,7 +377,8 @@ class Simulator(LiveObstacles):
         self._fields_stale = True
         self.deadlock = Deadlock(np.deg2rad(keep_right_deg), float(patience))
         for name, flag in (("density_slowing", density_slowing), ("lane_choice", lane_choice),
-                           ("squeeze_past", squeeze_past), ("pass_standing", pass_standing)):
+                           ("squeeze_past", squeeze_past), ("pass_standing", pass_standing),
+                           ("held_horizon", held_horizon)):
             if not isinstance(flag, (bool, np.bool_)):
                 raise ValueError(f"{name} must be True or False, got {flag!r}")
         if not (isinstance(follow, (int, float)) and np.isfinite(follow) and 0 <= follow <= 1):
@@ -382,6 +390,7 @@ class Simulator(LiveObstacles):
         self.lane_choice = bool(lane_choice)
         self.squeeze_past = bool(squeeze_past)
         self.pass_standing = bool(pass_standing)
+        self.held_horizon = bool(held_horizon)
         if not (isinstance(counterflow_safety, (int, float)) and np.isfinite(counterflow_safety)
                 and 0 < counterflow_safety <= 1):
             raise ValueError(f"counterflow_safety must be a number in (0, 1], got {counterflow_safety!r}")
@@ -1353,7 +1362,8 @@ class Simulator(LiveObstacles):
                             prims.seg_v, self.dt, key, new, forced, dl.keep_right, KEEP_RIGHT_LOOK_S,
                             self.follow * np.minimum(self.density / FOLLOW_FULL_DENSITY, 1.0),
                             self._comfort_reach(), self.goals,
-                            self._leave_reach(), self._squeeze_s(), SQUEEZE_SIDE_M, self._parked(), self.deadlock.still)
+                            self._leave_reach(), self._squeeze_s(), SQUEEZE_SIDE_M, self._parked(), self.deadlock.still,
+                            K.HELD_LONG_S if self.held_horizon else np.inf)
         # safety: of two agents that would touch during the step, the one with the lower
         # (random, per step) priority stands still instead, until none would
         # agents a moving obstacle bears down on go first: standing still is no refuge for them
