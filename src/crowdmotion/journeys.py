@@ -689,10 +689,10 @@ class Journeys:
 
     def _leave_where_they_stand(self, w: Walkers) -> None:
         """Agents walking to an exit (a leave option of a choose) that stand in the area of
-        another exit of the same choose, and not in their own's, leave by that one: one the crowd carried through
-        the other door has left the room (RiMEA 11 by nearest: 37 of 1000 bound for the
-        near exit were pressed through the far door into its closed exit area and stayed
-        there, one for 420 s)."""
+        another exit of the same choose, and not in their own's, leave by that one: one
+        the crowd carried through the other door has left the room (RiMEA 11 by nearest:
+        37 of 1000 bound for the near exit were pressed through the far door into its
+        closed exit area and stayed there, one for 420 s)."""
         walking = self.expect & w.active & (self.stage >= 0)
         if not walking.any():
             return

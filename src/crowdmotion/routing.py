@@ -185,6 +185,11 @@ def narrow_passages(scene: Scene, centres: np.ndarray, clearance: np.ndarray, bl
     return np.isin(strips, joining) if joining else opened
 
 
+def _cell_centres(scene: Scene, cell: float, shape: tuple) -> np.ndarray:
+    """(nx·ny, 2) the centres of a field grid's cells, row by row."""
+    return scene.lower + (np.indices(shape).reshape(2, -1).T + 0.5) * cell
+
+
 def blocked_cells(scene: Scene, radius: float, cell: float | None = None) -> tuple[float, np.ndarray, np.ndarray]:
     """(cell edge, (nx·ny, 2) cell centres, (nx, ny) blocked) of the grid
     :func:`distance_fields` solves on: a cell is blocked when its centre lies within
@@ -197,8 +202,7 @@ def blocked_cells(scene: Scene, radius: float, cell: float | None = None) -> tup
     shape = tuple(int(n) for n in np.maximum(np.ceil(extent / cell - 1e-9), 1))
     if np.prod(shape) > MAX_FIELD_CELLS:
         raise ValueError(f"rvo.field_cell {cell} m gives a {shape} grid; use a larger cell")
-    idx = np.indices(shape).reshape(2, -1).T
-    centres = scene.lower + (idx + 0.5) * cell
+    centres = _cell_centres(scene, cell, shape)
     clearance = scene.static_obstacle_distance(centres)
     blocked = (clearance < radius).reshape(shape)
     blocked &= ~narrow_passages(scene, centres, clearance, blocked, radius, cell)
@@ -206,24 +210,24 @@ def blocked_cells(scene: Scene, radius: float, cell: float | None = None) -> tup
 
 
 def distance_fields(scene: Scene, goals: list, radius: float, cell: float | None = None,
-                    names: list[str] | None = None, blocked: np.ndarray | None = None,
-                    graph=None) -> DistanceFields:
+                    names: list[str] | None = None, like: DistanceFields | None = None) -> DistanceFields:
     """Exact 8-connected distances (corner cutting off) to each goal region, in metres.
 
     A cell is blocked when its centre lies within ``radius`` of a static obstacle, so the
     field routes agents' centres where their bodies fit, unless it is part of a narrow
     passage a body fits through (:func:`blocked_cells`). Goals are regions (their free
     cells) or Points (the cells of the points). ``names``: what an error calls each goal
-    (default ``groups.K``, a scenario's group). ``blocked``: the blocked cells of fields
-    solved before on the same grid (``cell`` given) for the same obstacles and radius,
-    which are then not found again (the most of a new field's cost in a large scene);
-    ``graph``: their moves (:attr:`DistanceFields.move_graph`), not built again.
+    (default ``groups.K``, a scenario's group). ``like``: fields solved before for the same
+    obstacles and radius, whose grid (cell, blocked cells and moves graph,
+    :attr:`DistanceFields.move_graph`) the new ones are solved on, not found again (the
+    most of a new field's cost in a large scene).
     """
-    if blocked is None:
+    if like is None:
         cell, centres, blocked = blocked_cells(scene, radius, cell)
-    else:  # the grid of fields solved before for the same obstacles and bodies
-        cell = float(cell)
-        centres = scene.lower + (np.indices(blocked.shape).reshape(2, -1).T + 0.5) * cell
+        graph = None
+    else:
+        cell, blocked, graph = like.cell, like.blocked, like.move_graph
+        centres = _cell_centres(scene, cell, blocked.shape)
     shape = blocked.shape
     goal_cells = []
     for k, goal in enumerate(goals):

@@ -271,10 +271,9 @@ class Choose:
     (not yet arrived at its first stage, or not yet in its queue's line) weighs the
     options again every ``rechoose`` seconds and switches to another whose cost is lower
     by more than ``rechoose_margin`` seconds (default RECHOOSE_MARGIN_S; only with
-    ``rechoose``). By
-    "least_crowded" the cost is the walking time plus those bound there over the
-    capacity, its own option counted without itself: as a queue at one exit builds, those
-    still on their way take another. By "nearest" it is the walking time alone: an agent
+    ``rechoose``). By "least_crowded" the cost is the walking time plus those bound there
+    over the capacity, its own option counted without itself: as a queue at one exit
+    builds, those still on their way take another. By "nearest" it is the walking time alone: an agent
     takes the option nearer where it walks now (people leaving a corridor by the side
     exit on the side they walk). The margin keeps an agent from switching back and forth
     between options of about the same cost."""

@@ -44,7 +44,7 @@ def _choose(pos, vel, vpref, samples=20, safety=5.0, segs=None, comfort=0.0, goa
                         lo[0], lo[1], h, nx, ny, np.zeros((0, 2)), np.zeros(0), np.zeros((0, 2)), seg_a, seg_b,
                         np.zeros_like(seg_a), 0.25, np.uint64(7), out, np.zeros(n, dtype=bool), 0.0, 5.0, np.zeros(n),
                         np.full(n, comfort), pos + 100.0 if goals is None else goals, np.full(n, leave_r),
-                        np.full(n, squeeze_s), 0.2, np.zeros(n, dtype=bool), np.zeros(n), np.inf)
+                        np.full(n, squeeze_s), 0.2, np.zeros(n, dtype=bool), np.zeros(n), np.full(n, np.inf))
     return out
 
 

@@ -31,7 +31,6 @@ ASIDE_AHEAD_M = 1.5  # ... standing within this gap of it (m) ...
 HELD_S = 2.0  # ... that has stood this long (s)
 HELD_LONG_S = 3.0  # a walker standing held up this long (s) ...
 HELD_HORIZON_S = 0.5  # ... counts a neighbour's collision only when met within this many seconds
-HELD_MAX_RADIUS_M = 0.4  # people: density.PERSON_MAX_RADIUS_M (that module imports this one)
 # lane choice leaves out a neighbour whose weight at every offset is below exp(−LANE_TRUNCATE)
 # of its own (3e-4): a quarter of the strip's agents fewer than at 2e-16, and a quarter of the
 # kernel's time, with the same choices on captured 10,000-agent steps and the same positions
@@ -190,14 +189,12 @@ def choose_velocities(pos, vel, vpref, aim_dist, radius, vmax, max_nb, nb_dist, 
     in a 1.2-1.8 m corridor stood for good. The step's hard constraint (no candidate
     reaching an obstacle within the step) still holds.
 
-    Held up for long (a documented addition, ``held_s``: ``HELD_LONG_S``, inf = off): a
-    walker (radius up to ``HELD_MAX_RADIUS_M``) that has stood ``held_s`` seconds
-    (``still``) counts a
-    neighbour's collision only when a candidate meets it within ``HELD_HORIZON_S``: a
-    straight ray through the mouth of a door, between two standing pressed on its wall
-    faces, meets the one beyond the mouth 0.6 m on, and standing priced below it; a 1 m
-    door with 300 people before it stood for good. The safety pass still keeps every move
-    of the step apart.
+    Held up for long (a documented addition, ``held_s[i]`` seconds, inf = off): an agent
+    that has stood ``held_s[i]`` seconds (``still``) counts a neighbour's collision only
+    when a candidate meets it within ``HELD_HORIZON_S``: a straight ray through the mouth
+    of a door, between two standing pressed on its wall faces, meets the one beyond the
+    mouth 0.6 m on, and standing priced below it; a 1 m door with 300 people before it
+    stood for good. The safety pass still keeps every move of the step apart.
     """
     n = pos.shape[0]
     mcap = 1
@@ -274,7 +271,7 @@ def choose_velocities(pos, vel, vpref, aim_dist, radius, vmax, max_nb, nb_dist, 
                     squeeze_side, goals):
                 wall_s = squeeze_s[i]  # squeezing past one coming towards us
             w_i = safety[i]
-            held_i = still[i] >= held_s and radius[i] <= HELD_MAX_RADIUS_M
+            held_i = still[i] >= held_s[i]
             # within reach of leaving on arrival (LEAVE_LOOK_S at most at vm, every candidate's top
             # speed): farther off, no candidate counts on leaving
             gx_, gy_ = px - goals[i, 0], py - goals[i, 1]

@@ -987,9 +987,8 @@ class Simulator(LiveObstacles):
     def _add_fields(self, regions: list, places: list) -> None:
         """Solve the fields of new goal regions, into ``places``: those of fields no longer
         used, then new ones beside those already solved."""
-        more = distance_fields(self._now, regions, float(self.params["radius"].max()), self._fields.cell,
-                               names=[f"goal region {k}" for k in places], blocked=self._fields.blocked,
-                               graph=self._fields.move_graph)
+        more = distance_fields(self._now, regions, float(self.params["radius"].max()),
+                               names=[f"goal region {k}" for k in places], like=self._fields)
         reused = [k for k in places if k < len(self._exact)]
         if reused:
             self._store_fields(reused, more.dist[:len(reused)], more.goal_cells[:len(reused)])
@@ -1114,8 +1113,7 @@ class Simulator(LiveObstacles):
         if not len(todo):
             return
         more = distance_fields(self._now, [self._goal_regions[k] for k in todo], float(self.params["radius"].max()),
-                               self._fields.cell, names=[f"goal region {k}" for k in todo],
-                               blocked=self._fields.blocked, graph=self._fields.move_graph)  # a goal covered now raises
+                               names=[f"goal region {k}" for k in todo], like=self._fields)  # a goal covered now raises
         self._store_fields(todo, more.dist, more.goal_cells)
 
     def _replan(self) -> None:
@@ -1363,7 +1361,7 @@ class Simulator(LiveObstacles):
                             self.follow * np.minimum(self.density / FOLLOW_FULL_DENSITY, 1.0),
                             self._comfort_reach(), self.goals,
                             self._leave_reach(), self._squeeze_s(), SQUEEZE_SIDE_M, self._parked(), self.deadlock.still,
-                            K.HELD_LONG_S if self.held_horizon else np.inf)
+                            self._held_s())
         # safety: of two agents that would touch during the step, the one with the lower
         # (random, per step) priority stands still instead, until none would
         # agents a moving obstacle bears down on go first: standing still is no refuge for them
@@ -1389,6 +1387,13 @@ class Simulator(LiveObstacles):
         them all: bodies wider than a person (robots, vehicles), or ``squeeze_past`` off."""
         person = self.params["radius"] <= SQUEEZE_MAX_RADIUS_M
         return np.where(person & self.squeeze_past, SQUEEZE_WALL_S, np.inf)
+
+    def _held_s(self) -> np.ndarray:
+        """(N,) seconds standing held up from which a walker counts a neighbour's collision
+        only when met within ``_kernels.HELD_HORIZON_S``; inf for bodies wider than a
+        person, or with ``held_horizon`` off."""
+        person = self.params["radius"] <= PERSON_MAX_RADIUS_M
+        return np.where(person & self.held_horizon, K.HELD_LONG_S, np.inf)
 
     def _comfort_reach(self) -> np.ndarray:
         """(N,) the change of velocity (m/s) each agent makes comfortably this step: the
