@@ -28,7 +28,7 @@ from crowdmotion.scenario import load_scenario
 
 
 # (comfort_accel, smoothing) as the table shows them, and the parameters that make them
-VARIANTS = [("0.8 m/s²", "relaxed", {}), ("0.8 m/s²", "none", {"smoothing": "none"}),
+VARIANTS = [("1.0 m/s²", "relaxed", {}), ("1.0 m/s²", "none", {"smoothing": "none"}),
             ("off", "relaxed", {"comfort_accel": 0.0})]
 
 

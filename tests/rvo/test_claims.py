@@ -69,7 +69,7 @@ DOCUMENTED = {"O+ walks spread wider than O-": "holds", "E+ walks spread wider t
               "A+ mixes into the other group more than A-": "holds",
               "A- forms more same-group clusters than A+": "holds",
               "A- walks in larger same-group clusters than A+": "holds",
-              "N+ walks in a narrower band than N-": "contradicted",
+              "N+ walks in a narrower band than N-": "not shown",
               "N+ walks in the narrowest band of all groups": "contradicted"}
 
 

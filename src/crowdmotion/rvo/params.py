@@ -133,7 +133,7 @@ class RVOParams(MethodParams):
     density_slowing: bool = True
     follow: Annotated[float, Field(ge=0, le=1, allow_inf_nan=False)] = 0.5
     lane_choice: bool = True
-    comfort_accel: Annotated[float, Field(ge=0, le=100, allow_inf_nan=False)] = 0.8
+    comfort_accel: Annotated[float, Field(ge=0, le=100, allow_inf_nan=False)] = 1.0
     squeeze_past: bool = True
     pass_standing: bool = True
     held_horizon: bool = True

@@ -281,7 +281,7 @@ class Simulator(LiveObstacles):
                  rng: np.random.Generator | None = None, keep_right_deg: float = 15.0,
                  patience: float = 2.0, congestion: float = 1.0, replan_s: float = 2.0,
                  density_slowing: bool = True, follow: float = 0.5, lane_choice: bool = True,
-                 comfort_accel: float = 0.8, counterflow: float = 20.0, squeeze_past: bool = True,
+                 comfort_accel: float = 1.0, counterflow: float = 20.0, squeeze_past: bool = True,
                  counterflow_safety: float = COUNTERFLOW_SAFETY, pass_standing: bool = True,
                  held_horizon: bool = True):
         if not isinstance(scene, Scene):
