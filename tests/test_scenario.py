@@ -415,6 +415,19 @@ def test_speeds_in_another_unit_and_a_wall_outside_the_scene_are_warned_of():
         parse_scenario(RVO, "street.toml")  # nothing to say of a plain scene
 
 
+
+def test_a_spawn_area_largely_inside_a_wall_is_warned_of():
+    # a new user's crossing: one group's spawn rect ran 5 m into a corner block; its agents
+    # were placed in the free half without a word
+    text = RVO.replace("bounds = [[0, 0], [30, 10]]", 'bounds = [[0, 0], [30, 10]]\nobstacles = [{ shape = "box", '
+                       'lower = [0.0, 0.0], upper = [6.0, 5.0] }]', 1)
+    with pytest.warns(UserWarning, match=r"groups.0.spawn: (4[0-9]|5[0-9])% of its area lies inside obstacles"):
+        parse_scenario(text, "street.toml")
+    touching = text.replace("lower = [1, 1], upper = [5, 9]", "lower = [1, 5], upper = [5, 9]", 1)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        parse_scenario(touching, "street.toml")  # only touching the block: nothing to say
+
 def test_a_method_parameter_written_at_the_top_level_is_pointed_to_its_table():
     with pytest.raises(ScenarioError) as err:
         parse_scenario(RVO.replace('method = "rvo"', 'method = "rvo"\ntimestep = 0.1'), "street.toml")
