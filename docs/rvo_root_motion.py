@@ -24,11 +24,13 @@ from crowdmotion.builtin import builtin_scenarios
 from crowdmotion.metrics import collision_audit, root_motion
 from crowdmotion.rvo.adapter import run_scenario as run_rvo
 from crowdmotion.rvo.density import PERSON_MAX_RADIUS_M
+from crowdmotion.rvo.params import RVOParams
 from crowdmotion.scenario import load_scenario
 
 
 # (comfort_accel, smoothing) as the table shows them, and the parameters that make them
-VARIANTS = [("1.0 m/s²", "relaxed", {}), ("1.0 m/s²", "none", {"smoothing": "none"}),
+SHIPPED = f"{RVOParams.model_fields['comfort_accel'].default:.1f} m/s²"  # the default, as it is
+VARIANTS = [(SHIPPED, "relaxed", {}), (SHIPPED, "none", {"smoothing": "none"}),
             ("off", "relaxed", {"comfort_accel": 0.0})]
 
 

@@ -1203,3 +1203,16 @@ def test_one_waiting_in_the_middle_of_a_narrow_corridor_steps_aside_for_a_walker
     traj = cm.Trajectories(np.array(frames), sim.dt, radius=sim.params["radius"], active=np.array(present))
     audit = collision_audit(traj, sim.scene)
     assert audit.agent_agent == 0 and audit.agent_obstacle == 0, audit.events[:3]
+
+
+def test_the_live_simulator_and_a_scenarios_rvo_table_have_the_same_defaults():
+    # each default is written twice (Simulator's keywords, RVOParams' fields): a live
+    # game and a scenario file must walk alike when neither sets it
+    import inspect
+
+    from crowdmotion.rvo.params import RVOParams
+
+    keywords = inspect.signature(rvo.Simulator.__init__).parameters
+    shared = [k for k in keywords if k in RVOParams.model_fields]
+    assert "comfort_accel" in shared and len(shared) >= 15
+    assert {k: keywords[k].default for k in shared} == {k: RVOParams.model_fields[k].default for k in shared}
