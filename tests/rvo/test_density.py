@@ -86,22 +86,42 @@ def test_a_stream_coming_towards_us_does_not_slow_us_one_going_our_way_does(thei
         assert sensing.density_against[walker] == pytest.approx(sensing.density[walker])
 
 
-@pytest.mark.parametrize("their_goal, against", [([0.0, 3.0], True), ([5.0, -30.0], False)])
-def test_those_who_face_us_count_as_bound_the_other_way_only_if_their_goal_is_behind_us(their_goal, against):
-    # a block in front of a walker, all wanting to go west (towards it): with their goal
-    # behind the walker they are bound the other way; with their goal beside it (on their
-    # way round a wall to a door we both want), they only face us for a while
+def _sense_block(wanted_block, their_goal):
+    """A walker at (2, 3) bound east for (19, 3) and a block of 16 in front of it (x 5-6.8)
+    wanting ``wanted_block``, bound for ``their_goal``: the walker's sensing after one look."""
     scene = cm.Scene(bounds=([-40, -40], [40, 40]))
     sensing = DensitySlowing(scene)
     block = np.c_[np.repeat([5.0, 5.6, 6.2, 6.8], 4), np.tile([2.1, 2.7, 3.3, 3.9], 4)]
     pos = np.r_[[[2.0, 3.0]], block]
-    wanted = np.r_[[[1.3, 0.0]], np.tile([-1.3, 0.0], (16, 1))]
+    wanted = np.r_[[[1.3, 0.0]], np.tile(wanted_block, (16, 1))]
     goals = np.r_[[[19.0, 3.0]], np.tile(their_goal, (16, 1))]
     radius, active = np.full(17, 0.2), np.ones(17, dtype=bool)
     sensing.grow(17)
     sensing.sense(pos, np.zeros((17, 2)), wanted, radius, active, grid_for(pos, active, radius, np.full(17, 1.5), 0.25),
                   0.25, goals)
+    return sensing
+
+
+@pytest.mark.parametrize("their_goal, against", [([0.0, 3.0], True), ([17.0, 3.5], False), ([5.0, -30.0], True)])
+def test_those_who_face_us_count_as_bound_the_other_way_only_if_their_goal_is_not_ours(their_goal, against):
+    # a block in front of a walker, all wanting to go west (towards it): with their goal
+    # behind the walker they are bound the other way; with their goal beside ours (on their
+    # way round a wall to the door we both want) they only face us for a while; with their
+    # goal far off to the side they cross our way
+    sensing = _sense_block([-1.3, 0.0], their_goal)
     assert sensing.density[0] > 1.0
     assert sensing.density_against[0] == (pytest.approx(sensing.density[0]) if against else 0.0)
     # w is eased in full from AGAINST_FULL_DENSITY on, and not at all with no one bound the other way
     assert sensing.safety_factors(0.15)[0] == pytest.approx(0.15 if against else 1.0)
+
+
+@pytest.mark.parametrize("their_goal, crossing", [([6.0, 40.0], True), ([11.0, 16.0], False)])
+def test_a_stream_crossing_our_way_eases_w_one_converging_on_our_goal_does_not(their_goal, crossing):
+    # a block walking north across the walker's way to a goal far off crosses it (w eased as
+    # in counterflow); the same block turned 69° off our way for a goal nearer ours (15 m)
+    # than the walker is (17 m) is bound where we are: it converges with us
+    wanted = np.subtract(their_goal, [5.9, 3.0])
+    sensing = _sense_block(1.3 * wanted / np.linalg.norm(wanted), their_goal)
+    assert sensing.density[0] > 1.0
+    assert sensing.density_against[0] == (pytest.approx(sensing.density[0]) if crossing else 0.0)
+    assert sensing.safety_factors(0.15)[0] == pytest.approx(0.15 if crossing else 1.0)

@@ -36,6 +36,11 @@ HELD_HORIZON_S = 0.5  # ... counts a neighbour's collision only when met within 
 # kernel's time, with the same choices on captured 10,000-agent steps and the same positions
 # over whole runs of the narrow door, the counterflow corridor and 200 steps of the stand
 LANE_TRUNCATE = 8.0
+# a neighbour that wants to go over 60° off our way (cos below CROSSING_COS) is bound the other
+# way when the straight lines to our goals are over 120° apart (cos below AGAINST_COS), and
+# crosses our way when they are over 60° apart and its goal lies farther from ours than we are
+AGAINST_COS = -0.5
+CROSSING_COS = 0.5
 # the choice and lane choice cost microseconds an agent, so threads pay from a few hundred
 # agents on (a 300-agent circle stepped in 1.9 ms on two threads against 2.5 ms on one,
 # 500 agents 2.7 against 4.0 ms), not only from the 1000 rows of cheaper kernels
@@ -647,11 +652,11 @@ def density_ahead(centre, own, pos, vel, head, oncoming_speed, wanted, goals, ce
     one sensing, into ``out``; into ``out_with`` the same count with each agent weighted by
     how far it goes our way: 1 when standing or going along ``head[k]``, falling linearly
     to 0 as it comes towards us at ``oncoming_speed``; into ``out_against`` the count of
-    those bound the other way: wanting to go against ``head[k]`` (``wanted`` over 120°
-    from it) with the straight lines to their goals and ours over 120° apart (two
-    converging on one door from either side face each other, but are bound the same
-    way). Divided by the kernel's area (:mod:`crowdmotion.rvo.density`) it is the density
-    there, persons/m²."""
+    those bound the other way or across our way: wanting to go over 60° off ``head[k]``
+    (``wanted``), with the straight lines to their goals and ours over 120° apart, or over
+    60° apart and their goal farther from ours than we are (two converging on one door
+    from either side face each other, but are bound to one place). Divided by the
+    kernel's area (:mod:`crowdmotion.rvo.density`) it is the density there, persons/m²."""
     n = centre.shape[0]
     reach = 3.0 * sigma
     r2 = reach * reach
@@ -696,10 +701,18 @@ def density_ahead(centre, own, pos, vel, head, oncoming_speed, wanted, goals, ce
                 if w > 0.0:
                     sw += g * w
                 wjx, wjy = wanted[j, 0], wanted[j, 1]
-                if wjx * hx + wjy * hy < -0.5 * np.sqrt(wjx * wjx + wjy * wjy):
+                if wjx * hx + wjy * hy < CROSSING_COS * np.sqrt(wjx * wjx + wjy * wjy):
                     gjx, gjy = goals[j, 0] - pos[j, 0], goals[j, 1] - pos[j, 1]
-                    if gix * gjx + giy * gjy < -0.5 * gin * np.sqrt(gjx * gjx + gjy * gjy):
-                        sa += g
+                    gc = gix * gjx + giy * gjy  # the straight lines to the two goals ...
+                    gn = gin * np.sqrt(gjx * gjx + gjy * gjy)
+                    if gc < AGAINST_COS * gn:
+                        sa += g  # ... over 120° apart: bound the other way
+                    elif gc < CROSSING_COS * gn:
+                        # crossing our way: bound elsewhere if its goal lies farther from ours
+                        # than we are (two converging on one door from beside are bound to one place)
+                        dgx, dgy = goals[j, 0] - goals[i, 0], goals[j, 1] - goals[i, 1]
+                        if dgx * dgx + dgy * dgy > gin * gin:
+                            sa += g
             out[k] = s
             out_with[k] = sw
             out_against[k] = sa

@@ -95,8 +95,9 @@ class RVOParams(MethodParams):
                              so it takes a gap a straight ray beyond it would price above
                              standing (an arch in a door's mouth; rvo.deadlock)
     counterflow_safety : float  in (0, 1]: the share of w a walker keeps while it walks into
-                             people bound the other way, so it passes them as close as
-                             people do in counterflow (rvo.density; walkers only; 1 = w)
+                             people bound the other way or across its way, so it passes
+                             them as close as people do in counterflow and crossing
+                             streams (rvo.density; walkers only; 1 = w)
     smoothing : str          "relaxed" (default): the run's steps relaxed for the characters
                              that play them (smoothed over ``smoothing_window`` and kept
                              apart, ``crowdmotion.path_relaxation.relaxed_steps``), audited

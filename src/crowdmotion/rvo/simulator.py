@@ -255,9 +255,10 @@ class Simulator(LiveObstacles):
         too) only. False = every wall counts as eq. (3) has it.
     counterflow_safety : float
         In (0, 1]: the share of w (eq. (3)) a walker keeps while it walks into people bound
-        the other way (sensed ahead, :mod:`crowdmotion.rvo.density`), so that it passes
-        them at the close range real walkers accept in counterflow instead of backing off;
-        walkers (radius up to 0.4 m) only. 1 = w throughout.
+        the other way or across its way (sensed ahead, :mod:`crowdmotion.rvo.density`), so
+        that it passes them at the close range real walkers accept in counterflow and in
+        crossing streams instead of backing off; walkers (radius up to 0.4 m) only. 1 = w
+        throughout.
     pass_standing : bool
         Agents that have arrived and stay (waiting, in a queue, gathered round their goal)
         are passed as standing obstacles: a walker takes all the avoidance of one (eq. (3)'s
@@ -396,7 +397,8 @@ class Simulator(LiveObstacles):
             raise ValueError(f"counterflow_safety must be a number in (0, 1], got {counterflow_safety!r}")
         self.counterflow_safety = float(counterflow_safety)
         self.lanes = LaneChoice(self.dt)
-        # the density sensed ahead slows walkers, scales following and lane choice, and eases w in counterflow
+        # the density sensed ahead slows walkers, scales following and lane choice, and eases w
+        # in counterflow and crossings
         self.density_slowing = DensitySlowing(scene, bool(density_slowing),
                                               sense=bool(density_slowing) or self.follow > 0 or self.lane_choice
                                               or self.counterflow_safety < 1)
