@@ -1,6 +1,7 @@
 """Congestion-aware guidance: the field re-solved with density-weighted costs."""
 
 import numpy as np
+import pytest
 
 import crowdmotion as cm
 from crowdmotion.groups import Rect
@@ -210,11 +211,19 @@ def test_two_streams_in_a_corridor_form_lanes_and_pass():
     assert order > order_mixed + 0.2 and v > v_mixed + 0.2, runs
 
 
-def test_at_a_games_frame_rate_the_fields_are_re_solved_over_several_frames_and_taken_together():
+@pytest.mark.parametrize("cells_per_step", [None, 2000])
+def test_at_a_games_frame_rate_the_fields_are_re_solved_over_several_frames_and_taken_together(cells_per_step,
+                                                                                                  monkeypatch):
+    # at the default budget the searches fit in a quarter second; with a budget of 2000
+    # cells a step, the six fields' searches (14,000 cells each at most) spread further
     import crowdmotion as cm
     from crowdmotion import rvo
     from crowdmotion.rvo import congestion
+    from crowdmotion.rvo import simulator as rvo_simulator
 
+    if cells_per_step is not None:
+        monkeypatch.setattr(rvo_simulator, "REPLAN_CELLS_PER_STEP", cells_per_step)
+    budget = rvo_simulator.REPLAN_CELLS_PER_STEP
     scene = cm.Scene(bounds=([0, 0], [40, 30]), obstacles=[cm.Circle([20, 15], 2.5)])
     for regions in ([cm.Rect([1, 1 + 3 * k], [3, 3 + 3 * k]) for k in range(6)], [cm.Rect([1, 1], [3, 29])]):
         sim = rvo.Simulator(scene, time_step=1 / 60)
@@ -243,9 +252,11 @@ def test_at_a_games_frame_rate_the_fields_are_re_solved_over_several_frames_and_
         per_step = {}
         for step, n in settled:
             per_step[step] = per_step.get(step, 0) + n
-        frames = round(rvo.simulator.REPLAN_SPREAD_S * 60)
+        frames = max(round(rvo.simulator.REPLAN_SPREAD_S * 60), -(-len(regions) * nodes // budget))
+        assert frames <= sim.replan_steps
         assert len(per_step) > frames // 2, f"the searches ran in {len(per_step)} frames"
         assert max(per_step.values()) <= -(-len(regions) * nodes // frames), "no frame settles more than its share"
+        assert max(per_step.values()) <= max(budget, -(-len(regions) * nodes // round(rvo.simulator.REPLAN_SPREAD_S * 60)))
         changed = [k for k in range(1, len(fields)) if fields[k] is not fields[k - 1]]
         assert len(changed) == 1, "the new fields are taken in one frame, together"
         taken = fields[changed[0]]

@@ -51,8 +51,11 @@ OWN_FIELDS_MAX = 16
 UNUSED_FIELDS_MB = 64.0
 UNUSED_FIELDS_MIN = 8
 # the congestion-aware fields of a replan period are re-solved within this many seconds
-# of its first step, the searches cut into slices spread over the steps in it
+# of its first step, the searches cut into slices spread over the steps in it ...
 REPLAN_SPREAD_S = 0.25
+# ... or over more steps, up to the period, where the fields hold more cells than this a
+# step (a few milliseconds of searching)
+REPLAN_CELLS_PER_STEP = 50_000
 DEFAULTS = {"max_neighbors": 10, "neighbor_dist": 10.0, "samples": 50, "safety": 5.0}
 
 
@@ -369,7 +372,8 @@ class Simulator(LiveObstacles):
         self._exact: np.ndarray | None = None  # the exact distances, while _fields holds the weighted ones
         self._router: CongestionRouter | None = None
         self._weights = None  # the router's cell and edge weights for this replan period
-        self._replanning = None  # (fields re-solving this period, their searches, cells a step settles)
+        self._replanning = None  # (fields re-solving this period, the crowd they answer, cells a step settles,
+        # the searches begun, the fields solved)
         self._partial: set[int] = set()  # congestion-aware fields solved only near their agents
         self._partial_weights = None  # the graph weights they were solved with
         self._solved_round = None  # per field and cell: the window round it all solved (True off those fields)
@@ -1122,15 +1126,18 @@ class Simulator(LiveObstacles):
         """Re-solve the congestion-aware fields every ``replan_s``, from the crowd as it is
         at the period's first step. With steps shorter than ``REPLAN_SPREAD_S`` (a game's
         frames), the Dijkstras are cut into slices spread over the steps of that first
-        ``REPLAN_SPREAD_S`` (the same share of cells settled each step, one field or
-        many), so that no frame pays for them all, and the new fields are taken all at
-        once when the last is done, so that every group's field answers the same crowd
-        (taken one by one, the roadmap crowd of RVO2's example gridlocked). At the default
-        step they are all solved and taken in the period's first step. A field nobody walks
-        goes back to its exact distances."""
+        ``REPLAN_SPREAD_S``, or over more steps (up to the period) where the fields hold
+        more than ``REPLAN_CELLS_PER_STEP`` cells a step: the same share of cells settled
+        each step, one field or many, and each field's cells near its agents found and its
+        solved round marked as its search begins and ends, so that no frame pays for them
+        all (200 wanderers, each with a goal of its own, stuttered for 5 frames of 35-60 ms
+        every 2 s at 30 frames a second). The new fields are taken all at once when the
+        last is done, so that every group's field answers the same crowd (taken one by
+        one, the roadmap crowd of RVO2's example gridlocked). At the default step they are
+        all solved and taken in the period's first step. A field nobody walks goes back to
+        its exact distances."""
         if self._router is None or not self._router.enabled:
             return
-        spread = min(self.replan_steps, max(1, int(round(REPLAN_SPREAD_S / self.dt))))
         if self.steps % self.replan_steps == 0:
             if not self.active.any():
                 self._replanning = None
@@ -1139,36 +1146,60 @@ class Simulator(LiveObstacles):
                 return
             self._weights = self._router.weights(self.positions[self.active], self.velocities[self.active])
             todo = np.unique(self.field_of[self.active])
+            cells = len(todo) * len(self._router.graph.cell_index)  # what the searches settle at most
+            spread = min(self.replan_steps, max(1, int(round(REPLAN_SPREAD_S / self.dt))))
+            if spread > 1:
+                spread = min(self.replan_steps, max(spread, -(-cells // REPLAN_CELLS_PER_STEP)))
             # each field solved as far as its agents (in or waiting) walk or look before the
             # next fields are taken (_complete_partial catches any that go farther)
-            reach = self.params["max_speed"].max() * (self.replan_steps * self.dt + REPLAN_SPREAD_S + self.dt) + \
+            reach = self.params["max_speed"].max() * (self.replan_steps + spread + 1) * self.dt + \
                 (field_window(self._fields.cell) + 2) * self._fields.cell
             present = self.active | self.waiting
-            near = [self._router.near(self.positions[present & (self.field_of == k)], reach) for k in todo]
+            crowd = (self.positions[present].copy(), self.field_of[present].copy(), reach)
             if spread == 1:
                 self._replanning = None
+                near = [self._near(crowd, k) for k in todo.tolist()]
                 self._take(dict(zip(todo.tolist(), self._router.solve(None, todo, weights=self._weights, near=near))))
                 return
-            searches = self._router.searches(todo, self._weights, near)
-            self._replanning = (todo, searches, -(-sum(f.nodes for f in searches) // spread))
+            self._replanning = (todo, crowd, -(-cells // spread), {}, {})
         if self._replanning is None:
             return
-        todo, searches, share = self._replanning  # this step settles its share of cells
-        for search in searches:
-            if search.done:
+        todo, crowd, share, searches, solved = self._replanning  # this step settles its share of cells
+        for k in todo.tolist():
+            if k in solved:
                 continue
+            search = searches.get(k)
+            if search is None:  # its search begins: the cells near its agents at the period's start
+                search = searches[k] = self._router.searches([k], self._weights, [self._near(crowd, k)])[0]
             before = search.settled
             search.advance(share)
             share -= search.settled - before
+            if search.done:
+                d = search.distances()
+                solved[k] = (d, self._solved_round_of(k, d))
+                del searches[k]
             if share <= 0:
                 break
-        if all(f.done for f in searches):
+        if len(solved) == len(todo):
             self._replanning = None
-            self._take({k: f.distances() for k, f in zip(todo.tolist(), searches)})
+            self._take({k: d for k, (d, _) in solved.items()}, {k: r for k, (_, r) in solved.items()})
 
-    def _take(self, solved: dict) -> None:
+    def _near(self, crowd: tuple, k: int) -> np.ndarray:
+        """The cells field ``k``'s search must settle: within ``reach`` of its agents in
+        ``crowd`` (positions, their fields, reach)."""
+        pos, field_of, reach = crowd
+        return self._router.near(pos[field_of == k], reach)
+
+    def _solved_round_of(self, k: int, dist: np.ndarray) -> np.ndarray:
+        """Where an agent's window along field ``k`` (and a cell more) holds only cells
+        ``dist`` solved, or cells no field reaches: it reads what the whole search gives."""
+        size = 2 * (field_window(self._fields.cell) + 1) + 1
+        return minimum_filter(np.isfinite(dist) | ~np.isfinite(self._exact[k]), size=size, mode="nearest")
+
+    def _take(self, solved: dict, rounds: dict | None = None) -> None:
         """The congestion-aware fields ``solved`` (field -> distances) of this period
-        taken, all at once; the others exact again."""
+        taken, all at once; the others exact again. ``rounds``: each field's
+        :meth:`_solved_round_of`, where already found."""
         dist = self._fields.dist
         if dist is self._exact:
             dist = self._exact.copy()
@@ -1180,13 +1211,9 @@ class Simulator(LiveObstacles):
         self._fields.dist = dist
         self._weighted = set(solved)
         self._partial, self._partial_weights = set(solved), self._weights
-        # where an agent's window (and a cell more) holds only solved cells, or cells
-        # no field reaches: it reads what the whole search would give
         self._solved_round = np.ones(dist.shape, dtype=bool)
-        size = 2 * (field_window(self._fields.cell) + 1) + 1
         for k in solved:
-            self._solved_round[k] = minimum_filter(np.isfinite(dist[k]) | ~np.isfinite(self._exact[k]), size=size,
-                                                   mode="nearest")
+            self._solved_round[k] = rounds[k] if rounds else self._solved_round_of(k, dist[k])
 
     def _complete_partial(self) -> None:
         """Solve to the end the congestion-aware fields, solved only near their agents, that
