@@ -12,10 +12,11 @@ has settled every cell the field's agents can reach or look at before the next r
 cells solved hold the same distances as a search of the whole grid. With steps
 shorter than a quarter second (a game's frames), the costs are taken
 from the crowd at the period's first step and the fields' Dijkstras cut into slices
-(:class:`FieldSearch`) spread over the steps of its first quarter second, the new fields
-taken together (the simulator's ``_replan``): the stand's 2000 walkers at 60 frames a
-second step in 9.1 ms in the frame that starts a re-solve, against 14.4 ms with the
-search whole in it (``benchmarks/bench_rvo_live.py``).
+(:class:`FieldSearch`) spread over the steps of its first quarter second (over more,
+up to the period, where the fields hold more than ``REPLAN_CELLS_PER_STEP`` cells a
+step), the new fields taken together (the simulator's ``_replan``): the stand's 2000
+walkers at 60 frames a second step in 9.5 ms in the frame that starts a re-solve,
+against 14.7 ms with the search whole in it (``benchmarks/bench_rvo_live.py``).
 With ``congestion = 0`` and ``counterflow = 0`` the field is the exact distance,
 unchanged.
 
