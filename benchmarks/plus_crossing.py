@@ -103,7 +103,8 @@ def run_orca(scene, groups, start: np.ndarray, seed: int):
         sim.add_agent((float(p[0]), float(p[1])))
     for o in scene.obstacles:  # the corner blocks, counterclockwise
         (x0, y0), (x1, y1) = o.lower, o.upper
-        sim.add_obstacle([(float(x0), float(y0)), (float(x1), float(y0)), (float(x1), float(y1)), (float(x0), float(y1))])
+        corners = [(x0, y0), (x1, y0), (x1, y1), (x0, y1)]
+        sim.add_obstacle([(float(x), float(y)) for x, y in corners])
     sim.process_obstacles()
     n = len(start)
     act = np.ones(n, dtype=bool)
@@ -171,7 +172,8 @@ def main(argv: list[str] | None = None) -> None:
             if jt.metadata.get("frozen"):
                 m["overlaps"] += "; frozen"
             rows.append((f"JuPedSim {EJ.MODEL_NAMES[model]}", seed, m))
-    print("| model | seed | last out, s (left) | east > 3 m up the north arm | north > 3 m into the east arm | overlaps |")
+    print("| model | seed | last out, s (left) | east > 3 m up the north arm | north > 3 m into the east arm "
+          "| overlaps |")
     print("|---|---|---|---|---|---|")
     for name, seed, m in rows:
         last = f"{m['last']:.1f}" if m["last"] is not None else f"— ({m['left']} left)"
