@@ -1,9 +1,10 @@
 """Two dense streams crossing at right angles: crowdmotion's RVO beside ORCA and JuPedSim.
 
-docs/rvo.md's junction, written as a new user would: a 40 x 40 m area with four corner
-blocks, so two 6 m corridors cross (x 17-23 and y 17-23); 100 people walk east from
-[0.5, 17.5]-[14, 22.5] to [37, 17]-[40, 23] and 100 north from [17.5, 0.5]-[22.5, 14] to
-[17, 37]-[23, 40], all from t = 0. crowdmotion runs it with its defaults. Beside it, on the
+docs/rvo.md's junction, written as a new user would (``crowdmotion.verify.junction_crossing``):
+a 40 x 40 m area with four corner blocks, so two 6 m corridors cross (x 17-23 and y
+17-23); 100 people walk east from [0.5, 17.5]-[14, 22.5] to [37, 17]-[40, 23] and 100
+north from [17.5, 0.5]-[22.5, 14] to [17, 37]-[23, 40], all from t = 0. crowdmotion runs
+it with its defaults. Beside it, on the
 same start positions:
 
 - ``orca``: RVO2 (pyrvo) at dt 0.25 s, neighbour distance 10 m, 10 neighbours, time
@@ -30,37 +31,9 @@ from pathlib import Path
 
 import numpy as np
 
-from crowdmotion.scenario import parse_scenario, run_scenario
+from crowdmotion.cases import simulate
+from crowdmotion.verify import junction_crossing
 
-JUNCTION = """
-name = "plus_crossing"
-method = "rvo"
-seed = {seed}
-
-[scene]
-bounds = [[0.0, 0.0], [40.0, 40.0]]
-obstacles = [
-  {{ shape = "box", lower = [0.0, 0.0],   upper = [17.0, 17.0] }},
-  {{ shape = "box", lower = [23.0, 0.0],  upper = [40.0, 17.0] }},
-  {{ shape = "box", lower = [0.0, 23.0],  upper = [17.0, 40.0] }},
-  {{ shape = "box", lower = [23.0, 23.0], upper = [40.0, 40.0] }},
-]
-
-[[groups]]
-name = "eastbound"
-count = 100
-spawn = {{ shape = "rect", lower = [0.5, 17.5], upper = [14.0, 22.5] }}
-goal = {{ shape = "rect", lower = [37.0, 17.0], upper = [40.0, 23.0] }}
-
-[[groups]]
-name = "northbound"
-count = 100
-spawn = {{ shape = "rect", lower = [17.5, 0.5], upper = [22.5, 14.0] }}
-goal = {{ shape = "rect", lower = [17.0, 37.0], upper = [23.0, 40.0] }}
-
-[rvo]
-max_steps = 800
-"""
 CARRIED_M = 26.0  # 3 m past the junction's far side (23 m)
 ORCA_DT = 0.25
 ORCA_MAX_S = 200.0
@@ -145,26 +118,26 @@ def main(argv: list[str] | None = None) -> None:
     args = ap.parse_args(argv)
     rows = []
     for seed in args.seeds:
-        sc = parse_scenario(JUNCTION.format(seed=seed))
-        res = run_scenario(sc, progress=False)
-        tr = res.trajectories
+        setup = junction_crossing("rvo")["junction"]
+        out = simulate("rvo", setup, seed)
+        tr = out.traj
         east = np.char.startswith(tr.group.astype(str), "east")
         # crowdmotion's last frame still holds the last walker, removed on arriving there
         m = measures(tr.positions, tr.active_mask, east, tr.dt,
-                     left=int(round(tr.n_agents * (1.0 - res.summary["arrival_rate"]))))
-        m["overlaps"] = f"{res.summary['agent_agent_overlaps']} (continuous audit)"
+                     left=int(round(tr.n_agents * (1.0 - out.summary["arrival_rate"]))))
+        m["overlaps"] = f"{out.summary['agent_agent_overlaps']} (continuous audit)"
         rows.append(("crowdmotion rvo (defaults)", seed, m))
         for model in args.models:
             if model == "orca":
-                p, a = run_orca(sc.scene, sc.groups, tr.positions[0], seed)
+                p, a = run_orca(setup.scene, setup.groups, tr.positions[0], seed)
                 m = measures(p, a, east, ORCA_DT)
-                m["overlaps"] = f"{overlap_frames(p, a, sc.groups[0].radius)} of {len(p)} frames"
+                m["overlaps"] = f"{overlap_frames(p, a, setup.groups[0].radius)} of {len(p)} frames"
                 rows.append(("RVO2 ORCA (pyrvo)", seed, m))
                 continue
             sys.path.insert(0, str(Path(__file__).parent))
             import empirical_jupedsim as EJ
 
-            jt = EJ.run_jupedsim(model, sc.scene, sc.groups, seed, ORCA_MAX_S)
+            jt = EJ.run_jupedsim(model, setup.scene, setup.groups, seed, ORCA_MAX_S)
             je = np.char.startswith(jt.group.astype(str), "east")
             dt = EJ.RECORD_EVERY * EJ.DT
             m = measures(jt.positions, jt.active_mask, je, dt)

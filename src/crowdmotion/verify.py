@@ -429,6 +429,20 @@ def _crossing(method: str) -> dict[str, Setup]:
     return {"crossing": Setup(scene, [a, b], _params(method, goal_assignment="shift"))}
 
 
+def junction_crossing(method: str = "rvo", count: int = 100, **params) -> dict[str, Setup]:
+    """Two dense streams crossing at right angles, as a new user writes it (docs/rvo.md,
+    benchmarks/plus_crossing.py; not a case of the suite: no source gives its timing):
+    a 40 x 40 m area with four corner blocks, so two 6 m corridors cross (x 17-23, y
+    17-23); ``count`` walk east from [0.5, 17.5]-[14, 22.5] to [37, 17]-[40, 23] and as
+    many north from [17.5, 0.5]-[22.5, 14] to [17, 37]-[23, 40], all from t = 0, at the
+    defaults (``params``: the method's parameters changed)."""
+    blocks = [Box([0, 0], [17, 17]), Box([23, 0], [40, 17]), Box([0, 23], [17, 40]), Box([23, 23], [40, 40])]
+    scene = Scene(bounds=([0, 0], [40, 40]), obstacles=blocks)
+    east = Group("eastbound", count, spawn=Rect([0.5, 17.5], [14, 22.5]), goal=Rect([37, 17], [40, 23]))
+    north = Group("northbound", count, spawn=Rect([17.5, 0.5], [22.5, 14]), goal=Rect([17, 37], [23, 40]))
+    return {"junction": Setup(scene, [east, north], _params(method, **params))}
+
+
 # ---- the RVO2 library's own examples --------------------------------------------------------
 # RVO2's Blocks (examples/Blocks.cpp): 4 x 25 agents of radius 2 m at up to 2 m/s, each
 # going to its start mirrored through the origin past four 30 m square blocks. RVO2 itself

@@ -127,36 +127,6 @@ def test_a_stream_crossing_our_way_eases_w_one_converging_on_our_goal_does_not(t
     assert sensing.safety_factors(0.15)[0] == pytest.approx(0.15 if crossing else 1.0)
 
 
-JUNCTION = """
-name = "plus_crossing"
-method = "rvo"
-seed = {seed}
-
-[scene]
-bounds = [[0.0, 0.0], [40.0, 40.0]]
-obstacles = [
-  {{ shape = "box", lower = [0.0, 0.0],   upper = [17.0, 17.0] }},
-  {{ shape = "box", lower = [23.0, 0.0],  upper = [40.0, 17.0] }},
-  {{ shape = "box", lower = [0.0, 23.0],  upper = [17.0, 40.0] }},
-  {{ shape = "box", lower = [23.0, 23.0], upper = [40.0, 40.0] }},
-]
-
-[[groups]]
-name = "eastbound"
-count = 50
-spawn = {{ shape = "rect", lower = [0.5, 17.5], upper = [14.0, 22.5] }}
-goal = {{ shape = "rect", lower = [37.0, 17.0], upper = [40.0, 23.0] }}
-
-[[groups]]
-name = "northbound"
-count = 50
-spawn = {{ shape = "rect", lower = [17.5, 0.5], upper = [22.5, 14.0] }}
-goal = {{ shape = "rect", lower = [17.0, 37.0], upper = [23.0, 40.0] }}
-
-[rvo]
-{extra}
-"""
-
 
 @pytest.mark.parametrize("seed", range(4))
 def test_two_streams_crossing_at_right_angles_pass_sooner_with_w_eased_among_crossers(seed):
@@ -164,10 +134,11 @@ def test_two_streams_crossing_at_right_angles_pass_sooner_with_w_eased_among_cro
     # those crossing our way (as among those coming the other way) shortens the block
     # where the streams meet; counterflow_safety = 1 keeps the full w (nobody here walks
     # against anyone, so it switches off only the crossing's share)
-    from crowdmotion.scenario import parse_scenario, run_scenario
+    from crowdmotion.cases import simulate
+    from crowdmotion.verify import junction_crossing
 
-    eased, full = (run_scenario(parse_scenario(JUNCTION.format(seed=seed, extra=extra)), progress=False).summary
-                   for extra in ("", "counterflow_safety = 1.0"))
+    eased, full = (simulate("rvo", junction_crossing("rvo", 50, **params)["junction"], seed).summary
+                   for params in ({}, {"counterflow_safety": 1.0}))
     for s in (eased, full):
         assert s["arrival_rate"] == 1.0 and s["agent_agent_overlaps"] == 0
     assert eased["mean_time_to_goal_s"] < full["mean_time_to_goal_s"] - 0.3, (eased, full)
