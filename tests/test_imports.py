@@ -123,3 +123,13 @@ def test_the_import_check_sees_lazy_imports_and_circles():
     assert "crowdmotion.scenario" in _imports("crowdmotion.demo", MODULES["crowdmotion.demo"])  # inside a function
     assert "crowdmotion.scenario" not in _imports("crowdmotion.demo", MODULES["crowdmotion.demo"], top_only=True)
     assert _cycles({"a": {"b"}, "b": {"c"}, "c": {"a"}, "d": {"a"}}) == [["a", "b", "c"]]
+
+
+def test_a_methods_names_show_in_dir_before_their_module_loads():
+    # the methods' packages load their public names on first use; dir() (an editor's
+    # completion, a user looking round) lists them all the same, and loads nothing
+    script = ("import sys, crowdmotion.rvo as r, crowdmotion.mdp as m\n"
+              "print('Simulator' in dir(r), 'warm_up' in dir(r), set(m.__all__) <= set(dir(m)),\n"
+              "      'crowdmotion.rvo.simulator' in sys.modules)")
+    done = subprocess.run([sys.executable, "-c", script], capture_output=True, text=True, timeout=120)
+    assert done.stdout.split() == ["True", "True", "True", "False"], done.stderr

@@ -22,4 +22,4 @@ _EXPORTS = {
     "attraction_force": "guidance", "attraction_magnitude": "guidance",
     "Simulator": "simulator", "FormationRun": "simulation", "run": "simulation", "simulate": "simulation",
 }
-__getattr__, __all__ = lazy_exports(__name__, _EXPORTS)
+__getattr__, __dir__, __all__ = lazy_exports(__name__, _EXPORTS)

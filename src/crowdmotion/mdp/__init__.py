@@ -18,4 +18,4 @@ _EXPORTS = {
     "value_iteration": "solvers",
     "RAW_GRID_RADIUS": "trajectory", "generate_trajectories": "trajectory",
 }
-__getattr__, __all__ = lazy_exports(__name__, _EXPORTS)
+__getattr__, __dir__, __all__ = lazy_exports(__name__, _EXPORTS)

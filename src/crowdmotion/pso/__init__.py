@@ -18,4 +18,4 @@ _EXPORTS = {
     "COUNTER_NAMES": "swarm", "Swarm": "swarm", "SwarmRun": "swarm", "follow": "swarm",
     "follow_schedule": "swarm", "gather": "swarm",
 }
-__getattr__, __all__ = lazy_exports(__name__, _EXPORTS)
+__getattr__, __dir__, __all__ = lazy_exports(__name__, _EXPORTS)

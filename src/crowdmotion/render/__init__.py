@@ -5,7 +5,7 @@ The names load on first use, so that importing a light submodule (the picture pr
 
 from crowdmotion._lazy import lazy_exports
 
-__getattr__, __all__ = lazy_exports(__name__, {
+__getattr__, __dir__, __all__ = lazy_exports(__name__, {
     **{name: "plots" for name in ("animate_formation_snapshots", "plot_formation_snapshots", "plot_group_report",
                                   "plot_journeys", "plot_paths", "plot_potential_field", "plot_values")},
     "animate": "animation", "plot_density": "animation"})

@@ -17,4 +17,4 @@ _EXPORTS = {
     "Simulator": "simulator", "warm_up": "simulator", "RVOParams": "params", "Params": "params",
     "RVORun": "simulation", "run": "simulation", "simulate": "simulation", "Recorder": "recorder",
 }
-__getattr__, __all__ = lazy_exports(__name__, _EXPORTS)
+__getattr__, __dir__, __all__ = lazy_exports(__name__, _EXPORTS)
