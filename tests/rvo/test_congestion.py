@@ -252,11 +252,11 @@ def test_at_a_games_frame_rate_the_fields_are_re_solved_over_several_frames_and_
         per_step = {}
         for step, n in settled:
             per_step[step] = per_step.get(step, 0) + n
-        frames = max(round(rvo_simulator.REPLAN_SPREAD_S * 60), -(-len(regions) * nodes // budget))
+        quarter = round(rvo_simulator.REPLAN_SPREAD_S * 60)  # the frames of a quarter second
+        frames = max(quarter, -(-len(regions) * nodes // budget))
         assert frames <= sim.replan_steps
         assert len(per_step) > frames // 2, f"the searches ran in {len(per_step)} frames"
         assert max(per_step.values()) <= -(-len(regions) * nodes // frames), "no frame settles more than its share"
-        quarter = round(rvo_simulator.REPLAN_SPREAD_S * 60)  # the frames of a quarter second
         assert max(per_step.values()) <= max(budget, -(-len(regions) * nodes // quarter))
         changed = [k for k in range(1, len(fields)) if fields[k] is not fields[k - 1]]
         assert len(changed) == 1, "the new fields are taken in one frame, together"

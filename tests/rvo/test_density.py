@@ -127,7 +127,6 @@ def test_a_stream_crossing_our_way_eases_w_one_converging_on_our_goal_does_not(t
     assert sensing.safety_factors(0.15)[0] == pytest.approx(0.15 if crossing else 1.0)
 
 
-
 @pytest.mark.parametrize("seed", range(4))
 def test_two_streams_crossing_at_right_angles_pass_sooner_with_w_eased_among_crossers(seed):
     # 50 walking east and 50 north through a junction of 6 m corridors: easing w among

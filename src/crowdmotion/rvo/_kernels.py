@@ -218,6 +218,7 @@ def choose_velocities(pos, vel, vpref, aim_dist, radius, vmax, max_nb, nb_dist, 
         scap = max(scap, samples[i])
     n_circ = circ_c.shape[0]
     n_seg = seg_a.shape[0]
+    comfort_w = COMFORT_WEIGHT * max(1.0, COMFORT_REF_S / dt)  # per m/s of change beyond the comfortable one
     block = 256
     for blk in prange((n + block - 1) // block):
         # scratch space once per block of agents, not once per agent
@@ -343,7 +344,6 @@ def choose_velocities(pos, vel, vpref, aim_dist, radius, vmax, max_nb, nb_dist, 
             phi = 2.0 * np.pi * _uniform(key, i, 1)
             ca, sa = np.cos(phi), np.sin(phi)
             reach_i = comfort[i]  # the change of velocity this step can make comfortably (0: no limit)
-            comfort_w = COMFORT_WEIGHT * max(1.0, COMFORT_REF_S / dt)  # per m/s of change beyond it
             ex, ey = wx - vix, wy - viy
             en = np.sqrt(ex * ex + ey * ey)
             gx, gy = wx, wy  # v_pref, or as near it as a comfortable change gets

@@ -362,11 +362,6 @@ class FieldSearch:
         _search_start(graph.node[goals[:, 0], goals[:, 1]], self._needed, self._dist, self._slot, self._key,
                       self._node, self._state)
 
-    @property
-    def nodes(self) -> int:
-        """The graph's node count: no search settles more."""
-        return len(self._dist)
-
     def advance(self, pops: int) -> bool:
         """Settle up to ``pops`` more cells; whether the search is over."""
         if not self.done:

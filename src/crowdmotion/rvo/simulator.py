@@ -247,9 +247,9 @@ class Simulator(LiveObstacles):
         Metres per second² of velocity change a walker makes at ease: a change beyond
         ``comfort_accel × time_step`` in one step costs ``COMFORT_WEIGHT`` per m/s beyond
         it in eq. (3)'s penalty (times 0.25 s / ``time_step`` at shorter steps: priced by
-        the acceleration, as at the default step), and near its goal a walker slows enough to turn in at this
-        acceleration instead of circling the goal (``_turned_in``); walkers (radius up
-        to 0.4 m) only. 0 = eq. (3)'s free choice. See
+        the acceleration, as at the default step), and near its goal a walker slows enough
+        to turn in at this acceleration instead of circling the goal (``_turned_in``);
+        walkers (radius up to 0.4 m) only. 0 = eq. (3)'s free choice. See
         :func:`crowdmotion.rvo._kernels.choose_velocities`.
     squeeze_past : bool
         A walker meeting an oncoming one in its way, bound the other way, counts a wall
